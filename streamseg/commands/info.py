@@ -1,0 +1,47 @@
+"""``streamseg info``: what a recording holds, and the range of each feature."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from streamseg.io import read
+from streamseg.skeleton import ANGLE_NAMES, bone_angles, quaternion_features
+from streamseg.skeleton.quaternions import ACA_SEGMENTS
+
+
+def _table(title, names, values, unit) -> list[str]:
+    lines = [f"{title}:", f"  {'feature':<22}{'min':>9}{'median':>9}{'max':>9}  ({unit})"]
+    with np.errstate(invalid="ignore"):
+        lo, med, hi = np.nanmin(values, 0), np.nanmedian(values, 0), np.nanmax(values, 0)
+    for i, name in enumerate(names):
+        lines.append(f"  {name:<22}{lo[i]:9.3f}{med[i]:9.3f}{hi[i]:9.3f}")
+    return lines
+
+
+def info(path, skeleton=None, fps=None) -> str:
+    """A readable summary of recording ``path``: size, rate, joints and feature ranges."""
+    rec = read(path, skeleton, fps=fps, lenient=True)
+    n_nan = int(np.isnan(rec.positions).any(axis=(1, 2)).sum())
+    out = [
+        f"file:      {rec.source}",
+        f"format:    {rec.metadata.get('format')}",
+        f"frames:    {rec.n_frames}",
+        f"fps:       {rec.fps:g}",
+        f"duration:  {rec.duration:.2f} s",
+        f"joints:    {rec.skeleton.n_joints} ({', '.join(rec.skeleton.names)})",
+        f"units:     {rec.skeleton.units}",
+        f"NaN frames: {n_nan}",
+    ]
+    out += [f"warning:   {w}" for w in rec.metadata.get("warnings", [])]
+    out += _table(
+        "bone angles (Xing et al. Table 2)",
+        ANGLE_NAMES,
+        bone_angles(rec.positions, rec.skeleton),
+        "rad",
+    )
+    if rec.rotations is not None:
+        q = quaternion_features(rec).reshape(rec.n_frames, -1, 4)
+        # Rotation angle of each joint away from its rest pose: 2 acos |w|.
+        angle = 2 * np.arccos(np.clip(np.abs(q[..., 0]), 0, 1))
+        out += _table("joint rotation from rest (ACA joints)", ACA_SEGMENTS, angle, "rad")
+    return "\n".join(out)

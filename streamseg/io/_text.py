@@ -1,0 +1,41 @@
+"""Reading motion-capture text files as people have them: gzip or plain, CRLF/LF/mixed, Latin-1."""
+
+from __future__ import annotations
+
+import gzip
+from pathlib import Path
+
+from streamseg.exceptions import RecordingError
+
+
+def read_text(path) -> str:
+    """Whole file as text with ``\\n`` line ends.
+
+    Latin-1 maps every byte to a character, so header comments with non-UTF-8 bytes (HDM05)
+    never fail; the numeric body is ASCII either way. A ``.gz`` suffix is decompressed.
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise RecordingError(path, None, "no such file", "an existing recording file") from None
+    except IsADirectoryError:
+        raise RecordingError(path, None, "a directory", "a recording file") from None
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError) as err:
+            raise RecordingError(
+                path, None, f"a broken gzip stream ({err})", "a complete gzip file"
+            ) from None
+    if b"\x00" in raw[:4096]:
+        raise RecordingError(path, 1, "binary data (NUL bytes)", "a text file")
+    return raw.decode("latin-1").replace("\r\n", "\n").replace("\r", "\n")
+
+
+def base_suffix(path) -> str:
+    """Format suffix ignoring a trailing ``.gz`` (``86_01.amc.gz`` -> ``.amc``)."""
+    suffixes = [s.lower() for s in Path(path).suffixes]
+    if suffixes and suffixes[-1] == ".gz":
+        suffixes = suffixes[:-1]
+    return suffixes[-1] if suffixes else ""

@@ -1,0 +1,149 @@
+"""Features from joint positions and rotations, across skeleton naming conventions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from streamseg.exceptions import SkeletonError
+from streamseg.io import read
+from streamseg.recording import Recording, Skeleton
+from streamseg.skeleton import body_features, bone_angles, quaternion_features
+from streamseg.skeleton.rotations import (
+    continuous_hemisphere,
+    euler_to_matrix,
+    matrix_to_quaternion,
+)
+
+KINECT = (
+    "SpineBase",
+    "SpineMid",
+    "Neck",
+    "Head",
+    "ShoulderLeft",
+    "ElbowLeft",
+    "WristLeft",
+    "HandLeft",
+    "ShoulderRight",
+    "ElbowRight",
+    "WristRight",
+    "HandRight",
+    "HipLeft",
+    "KneeLeft",
+    "AnkleLeft",
+    "FootLeft",
+    "HipRight",
+    "KneeRight",
+    "AnkleRight",
+    "FootRight",
+    "SpineShoulder",
+    "HandTipLeft",
+    "ThumbLeft",
+    "HandTipRight",
+    "ThumbRight",
+)
+
+
+@pytest.fixture(scope="module")
+def cmu86(data_dir):
+    return read(data_dir / "cmu86/86_01.amc.gz", skeleton=data_dir / "cmu86/86.asf")
+
+
+def test_kinect_names_reach_the_same_angles(cmu86):
+    """Copy the CMU points the features use into a Kinect v2 layout: same angles."""
+    src = {
+        "SpineBase": "root",
+        "SpineMid": "lowerback",
+        "Neck": "lowerneck",
+        "ShoulderLeft": "lclavicle",
+        "ElbowLeft": "lhumerus",
+        "WristLeft": "lradius",
+        "ShoulderRight": "rclavicle",
+        "ElbowRight": "rhumerus",
+        "WristRight": "rradius",
+        "HipLeft": "lhipjoint",
+        "KneeLeft": "lfemur",
+        "AnkleLeft": "ltibia",
+        "HipRight": "rhipjoint",
+        "KneeRight": "rfemur",
+        "AnkleRight": "rtibia",
+    }
+    names = cmu86.skeleton.names
+    pos = np.zeros((200, len(KINECT), 3))
+    for k, joint in enumerate(KINECT):
+        if joint in src:
+            pos[:, k] = cmu86.positions[:200, names.index(src[joint])]
+    skel = Skeleton(KINECT, np.full(len(KINECT), -1), np.zeros((len(KINECT), 3)), "m")
+    np.testing.assert_allclose(
+        bone_angles(pos, skel), bone_angles(cmu86.positions[:200], cmu86.skeleton)
+    )
+    np.testing.assert_allclose(
+        body_features(pos, skel), body_features(cmu86.positions[:200], cmu86.skeleton)
+    )
+
+
+def test_unknown_skeleton_lists_missing_joints():
+    skel = Skeleton(("pelvis", "spine", "head"), np.array([-1, 0, 1]), np.zeros((3, 3)))
+    with pytest.raises(SkeletonError) as info:
+        bone_angles(np.zeros((2, 3, 3)), skel)
+    msg = str(info.value)
+    for joint in ("l_shoulder", "l_elbow", "r_knee", "r_ankle"):
+        assert joint in msg
+    assert "Its joints: pelvis, spine, head" in msg
+
+
+def test_bone_angle_range_and_nan_dropout(cmu86):
+    pos = cmu86.positions[:300].copy()
+    pos[100, 5] = np.nan  # a marker dropout on one joint (rfemur = knee)
+    a = bone_angles(pos, cmu86.skeleton)
+    finite = a[np.isfinite(a)]
+    assert finite.min() >= 0 and finite.max() <= np.pi
+    assert np.isnan(a[100]).any() and np.isfinite(a[99]).all() and np.isfinite(a[101]).all()
+
+
+def test_quaternions_continuous_on_real_data(cmu86):
+    q = quaternion_features(cmu86).reshape(cmu86.n_frames, 14, 4)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=2), 1.0, atol=1e-12)
+    assert (np.sum(q[1:] * q[:-1], axis=2) >= 0).all()
+
+
+def test_positions_only_stream_has_no_quaternions(cmu86):
+    rec = Recording(cmu86.fps, cmu86.skeleton, cmu86.positions[:10], None, "live")
+    with pytest.raises(SkeletonError, match="positions only"):
+        quaternion_features(rec)
+
+
+angles3 = arrays(np.float64, (20, 3), elements=st.floats(-np.pi, np.pi))
+
+
+@settings(max_examples=50, deadline=None)
+@given(angles3)
+def test_quaternion_matches_matrix(angles):
+    m = euler_to_matrix(angles, "zyx")
+    q = matrix_to_quaternion(m)
+    w, x, y, z = q.T
+    # rebuild the matrix from the quaternion (textbook formula)
+    back = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=1,
+    )
+    np.testing.assert_allclose(back, m, atol=1e-10)
+
+
+@settings(max_examples=50, deadline=None)
+@given(arrays(np.float64, (30, 2, 4), elements=st.floats(-1, 1)), arrays(np.bool_, (30, 2)))
+def test_hemisphere_alignment_removes_flips(q, flip):
+    q = q / np.maximum(np.linalg.norm(q, axis=2, keepdims=True), 1e-9)
+    q[np.linalg.norm(q, axis=2) < 0.5] = [1, 0, 0, 0]
+    signed = np.where(flip[..., None], -q, q)
+    out = continuous_hemisphere(signed)
+    assert (np.sum(out[1:] * out[:-1], axis=2) >= -1e-12).all()
+    # only signs changed: each output is +/- its input
+    assert np.allclose(np.abs(np.sum(out * signed, axis=2)), np.sum(signed * signed, axis=2))
