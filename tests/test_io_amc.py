@@ -167,3 +167,12 @@ def test_npz_round_trip_is_exact(tmp_path, cmu86):
 def test_explicit_fps(data_dir):
     rec = read_amc(data_dir / "cmu86/86_01.amc.gz", data_dir / "cmu86/86.asf", fps=60)
     assert rec.fps == 60 and rec.duration == pytest.approx(4579 / 60)
+
+
+def test_compressed_npz_reads_eagerly(tmp_path, cmu86):
+    f = tmp_path / "small.npz"
+    write_npz(f, cmu86.slice(0, 50), compress=True)
+    back = read(f)
+    assert not isinstance(back.rotations, np.memmap)
+    np.testing.assert_array_equal(back.rotations, cmu86.rotations[:50])
+    np.testing.assert_array_equal(back.positions, cmu86.positions[:50])

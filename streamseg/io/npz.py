@@ -1,5 +1,9 @@
 """streamseg's native recording format: one ``.npz`` that loads in milliseconds.
 
+Positions are read eagerly; rotations, four times their size and needed only by rotation
+features, are memory-mapped straight out of the (uncompressed) archive, so they cost nothing
+until used. A compressed archive (``write_npz(..., compress=True)``) is read eagerly.
+
 Arrays: ``positions`` (n_frames, n_joints, 3) float64, optional ``rotations``
 (n_frames, n_joints, 3, 3), ``parents`` (n_joints,), ``offsets`` (n_joints, 3), ``names``
 (n_joints,) str, ``fps`` scalar, ``units`` str, ``metadata`` a JSON string, ``version`` int.
@@ -39,6 +43,26 @@ def write_npz(path, recording: Recording, *, compress: bool = False) -> None:
     (np.savez_compressed if compress else np.savez)(path, **arrays)
 
 
+def _mapped(path: Path, member: str) -> np.ndarray | None:
+    """Read-only memory map of an uncompressed ``.npy`` member of a zip archive, else None."""
+    with zipfile.ZipFile(path) as zf:
+        info = zf.getinfo(member)
+    if info.compress_type != zipfile.ZIP_STORED:
+        return None
+    with open(path, "rb") as fh:
+        fh.seek(info.header_offset)
+        local = fh.read(30)  # zip local file header: name and extra lengths at bytes 26-29
+        fh.seek(info.header_offset + 30 + int.from_bytes(local[26:28], "little")
+                + int.from_bytes(local[28:30], "little"))
+        version = np.lib.format.read_magic(fh)
+        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                       else np.lib.format.read_array_header_2_0)
+        shape, fortran, dtype = read_header(fh)
+        offset = fh.tell()
+    return np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape,
+                     order="F" if fortran else "C")
+
+
 def read_npz(path, skeleton=None, *, lenient: bool = False, fps: float | None = None) -> Recording:
     """Load a recording written by :func:`write_npz` (``skeleton`` and ``lenient`` unused)."""
     path = Path(path)
@@ -69,7 +93,9 @@ def read_npz(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
                     f"positions of shape {positions.shape}",
                     f"(n_frames, {len(names)}, 3)",
                 )
-            rotations = z["rotations"] if "rotations" in z.files else None
+            rotations = _mapped(path, "rotations.npy") if "rotations" in z.files else None
+            if rotations is None and "rotations" in z.files:
+                rotations = z["rotations"]
             meta = json.loads(str(z["metadata"])) if "metadata" in z.files else {}
             skel = Skeleton(
                 names,
