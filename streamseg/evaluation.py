@@ -1,0 +1,217 @@
+"""Scoring segmenters on labelled recordings: discovery, one row per (recording, method), a table.
+
+Used by ``streamseg eval --all DIR`` and by ``benchmarks/peers.py``, so both print the same
+measures computed the same way.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import statistics
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from streamseg.exceptions import RecordingError
+from streamseg.labels import LabelSegment, cut_windows, frame_labels, read_labels, true_cuts
+from streamseg.metrics import covering, cut_scores, latency_stats, matched_frame_accuracy
+
+LABEL_HEADER = ["sequence", "start_frame", "end_frame", "action_label"]
+RECORDING_SUFFIXES = (".amc.gz", ".amc", ".bvh", ".npz")
+
+
+@dataclass
+class LabelledRecording:
+    """A recording with human segments.
+
+    Attributes
+    ----------
+    name : str
+    recording : Recording
+    segments : list of LabelSegment
+        0-based, end exclusive; ``lo``/``hi`` are each cut's acceptance window.
+    note : str
+        How the sequence was made (e.g. "concatenated clips: joins are abrupt").
+    """
+
+    name: str
+    recording: object
+    segments: list
+    note: str = ""
+
+    @property
+    def cuts(self) -> list[int]:
+        return true_cuts(self.segments, self.recording.n_frames)
+
+    @property
+    def windows(self) -> list[tuple[int, int]]:
+        return cut_windows(self.segments)[: len(self.cuts)]
+
+    @property
+    def frame_labels(self) -> np.ndarray:
+        return frame_labels(self.segments, self.recording.n_frames)
+
+    @property
+    def n_actions(self) -> int:
+        return len({s.label for s in self.segments})
+
+
+def segments_from_cuts(cuts, n_frames: int, label: str = "part") -> list[LabelSegment]:
+    """Label segments for a sequence whose only truth is its cut frames (e.g. joined clips)."""
+    bounds = [0, *sorted(int(c) for c in cuts), n_frames]
+    return [LabelSegment(a, b, f"{label}{i}", b, b) for i, (a, b) in
+            enumerate(zip(bounds[:-1], bounds[1:]))]
+
+
+def discover(folder, skeleton=None) -> list[LabelledRecording]:
+    """Every recording under ``folder`` named by a label CSV beside it.
+
+    A CSV counts as labels when its header starts ``sequence,start_frame,end_frame,
+    action_label``; each of its sequences must have a recording ``<sequence>.amc[.gz]``,
+    ``.bvh`` or ``.npz`` in the same folder. An AMC uses the one ``.asf`` in its folder, else
+    ``skeleton``.
+
+    Raises
+    ------
+    RecordingError
+        When a labelled sequence has no recording or an AMC has no skeleton.
+    """
+    from streamseg.io import read
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise RecordingError(folder, None, "not a folder", "a folder holding label CSVs")
+    out = []
+    for csv_path in sorted(folder.rglob("*.csv")):
+        with csv_path.open(newline="", encoding="utf-8") as fh:
+            header = next(csv.reader(fh), [])
+            if header[:4] != LABEL_HEADER:
+                continue
+            sequences = list(dict.fromkeys(row[0] for row in csv.reader(fh) if row))
+        asfs = sorted(csv_path.parent.glob("*.asf"))
+        for seq in sequences:
+            path = next((csv_path.parent / f"{seq}{s}" for s in RECORDING_SUFFIXES
+                         if (csv_path.parent / f"{seq}{s}").exists()), None)
+            if path is None:
+                raise RecordingError(csv_path, None, f"sequence {seq!r} without a recording",
+                                     f"{seq}.amc[.gz], .bvh or .npz beside the labels")
+            skel = asfs[0] if len(asfs) == 1 else skeleton
+            rec = read(path, skeleton=skel)
+            out.append(LabelledRecording(seq, rec, read_labels(csv_path, seq),
+                                         f"labels: {csv_path.name}"))
+    return out
+
+
+@dataclass
+class Prediction:
+    """What a method says about one recording.
+
+    Attributes
+    ----------
+    cuts : list of int
+    labels : ndarray of int, shape (n_frames,), or None
+        Per-frame cluster ids, for methods that label.
+    latencies : list of int or None
+        Frames between each cut and the frame at which it was emitted (streaming methods).
+    seconds : float
+        Median wall time.
+    error : str
+        Why the method could not run (then the other fields are empty).
+    """
+
+    cuts: list = field(default_factory=list)
+    labels: np.ndarray | None = None
+    latencies: list | None = None
+    seconds: float = float("nan")
+    error: str = ""
+
+
+def timed(fn, runs: int = 3) -> tuple:
+    """``(result of the last run, median seconds over runs)``."""
+    times, result = [], None
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - t0)
+    return result, statistics.median(times)
+
+
+def score(item: LabelledRecording, pred: Prediction, fps: float) -> dict:
+    """One table row: P/R/F1 (label window widened by 0.5 s, and a flat 1 s), covering,
+    Hungarian frame accuracy (labelling methods), latency (streaming methods), time."""
+    n = item.recording.n_frames
+    if pred.error:
+        return {"error": pred.error}
+    win = cut_scores(pred.cuts, item.cuts, windows=item.windows, margin=round(0.5 * fps))
+    flat = cut_scores(pred.cuts, item.cuts, tolerance=round(1.0 * fps))
+    row = {"P": win["precision"], "R": win["recall"], "F1": win["f1"], "F1@1s": flat["f1"],
+           "cover": covering(pred.cuts, item.cuts, n), "n_cuts": len(pred.cuts),
+           "acc": float("nan"), "lat_med": float("nan"), "lat_max": float("nan"),
+           "time_s": pred.seconds}
+    if pred.labels is not None:
+        row["acc"] = matched_frame_accuracy(pred.labels, item.frame_labels)
+    if pred.latencies is not None:
+        lat = latency_stats(pred.latencies)
+        row["lat_med"], row["lat_max"] = lat["median"], lat["max"]
+    return row
+
+
+COLUMNS = ("P", "R", "F1", "F1@1s", "cover", "acc", "lat_med", "lat_max", "time_s", "n_cuts")
+
+
+def format_table(rows: list[tuple[str, str, dict]], means: bool = True) -> str:
+    """Markdown table of ``(recording, method, row)``; with ``means``, a per-method mean block."""
+
+    def cell(v):
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.3f}" if abs(v) < 100 else f"{v:.0f}"
+        return str(v)
+
+    head = "| recording | method | " + " | ".join(COLUMNS) + " |"
+    lines = [head, "|" + "---|" * (len(COLUMNS) + 2)]
+    for rec, method, row in rows:
+        if "error" in row:
+            lines.append(f"| {rec} | {method} | could not run: {row['error']} |")
+        else:
+            lines.append(f"| {rec} | {method} | " + " | ".join(cell(row[c]) for c in COLUMNS)
+                         + " |")
+    if means:
+        methods = list(dict.fromkeys(m for _, m, _ in rows))
+        for m in methods:
+            ok = [r for _, mm, r in rows if mm == m and "error" not in r]
+            if not ok:
+                continue
+            avg = {}
+            for c in COLUMNS:
+                vals = [r[c] for r in ok if not (isinstance(r[c], float) and math.isnan(r[c]))]
+                avg[c] = float(np.mean(vals)) if vals else float("nan")
+            lines.append(f"| **mean ({len(ok)})** | {m} | "
+                         + " | ".join(cell(avg[c]) for c in COLUMNS) + " |")
+    return "\n".join(lines)
+
+
+class Progress:
+    """A progress bar on stderr: redrawn in place on a terminal, one line per step in a log."""
+
+    def __init__(self, total: int, width: int = 30, stream=None):
+        self.total, self.done, self.width = max(total, 1), 0, width
+        self.stream = stream or sys.stderr
+        self.tty = getattr(self.stream, "isatty", lambda: False)()
+        self.t0 = time.perf_counter()
+
+    def step(self, what: str = "") -> None:
+        self.done += 1
+        filled = int(self.width * self.done / self.total)
+        elapsed = time.perf_counter() - self.t0
+        line = (f"[{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} "
+                f"{elapsed:5.0f}s {what[:40]}")
+        if self.tty:
+            end = "\n" if self.done >= self.total else ""
+            self.stream.write(f"\r{line:<{self.width + 60}}{end}")
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
