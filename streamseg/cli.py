@@ -75,11 +75,7 @@ def _run_info(args) -> int:
 
 
 def _run_segment(args) -> int:
-    result = args.methods[args.method].segment(args)
-    if args.json:
-        print(json.dumps(result))
-    else:
-        _print_human(result)
+    _emit(args, args.methods[args.method].segment(args))
     return 0
 
 
@@ -88,12 +84,15 @@ def _run_eval(args) -> int:
         raise StreamsegError(
             "eval needs --labels CSV (sequence,start_frame,end_frame,action_label)"
         )
-    result = args.methods[args.method].evaluate(args)
+    _emit(args, args.methods[args.method].evaluate(args))
+    return 0
+
+
+def _emit(args, result: dict) -> None:
     if args.json:
         print(json.dumps(result))
     else:
         _print_human(result)
-    return 0
 
 
 def _print_human(result: dict) -> None:
