@@ -23,8 +23,12 @@ def _available(table: dict) -> dict:
     return found
 
 
-def _add_input_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("file", help="recording (.amc[.gz], .bvh, .npz) or feature matrix (.npy, .csv)")
+def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> None:
+    p.add_argument(
+        "file",
+        nargs="?" if optional else None,
+        help="recording (.amc[.gz], .bvh, .npz) or feature matrix (.npy, .csv)",
+    )
     p.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
     p.add_argument(
         "--fps",
@@ -48,7 +52,17 @@ def build_parser() -> argparse.ArgumentParser:
         ("eval", "score a segmentation against human labels"),
     ):
         p = sub.add_parser(name, help=helptext)
-        _add_input_arguments(p)
+        _add_input_arguments(p, optional=name == "eval")
+        if name == "eval":
+            p.add_argument(
+                "--all",
+                metavar="DIR",
+                help="score all of streamseg's methods on every recording with a label CSV "
+                "under DIR and print one table (--skeleton: ASF for AMCs whose folder has none)",
+            )
+            p.add_argument(
+                "--runs", type=int, default=1, help="with --all: timed runs (median), default 1"
+            )
         p.add_argument("--method", choices=sorted(methods), default="lof")
         p.add_argument("--json", action="store_true", help="print one JSON object")
         p.add_argument("--plot", metavar="PNG", help="write a picture of the result")
@@ -80,11 +94,29 @@ def _run_segment(args) -> int:
 
 
 def _run_eval(args) -> int:
+    if args.all:
+        return _run_eval_all(args)
+    if not args.file:
+        raise StreamsegError("eval needs FILE --labels CSV, or --all DIR")
     if not args.labels:
         raise StreamsegError(
             "eval needs --labels CSV (sequence,start_frame,end_frame,action_label)"
         )
     _emit(args, args.methods[args.method].evaluate(args))
+    return 0
+
+
+def _run_eval_all(args) -> int:
+    from streamseg.evaluation import STREAMSEG_METHODS, discover, evaluate_all, format_table
+
+    items = discover(args.all, skeleton=args.skeleton)
+    if not items:
+        raise StreamsegError(f"no label CSVs with recordings under {args.all}")
+    rows, _ = evaluate_all(items, STREAMSEG_METHODS, runs=args.runs)
+    if args.json:
+        print(json.dumps([{"recording": r, "method": m, **row} for r, m, row in rows]))
+    else:
+        print(format_table(rows))
     return 0
 
 

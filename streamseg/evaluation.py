@@ -153,7 +153,7 @@ def score(item: LabelledRecording, pred: Prediction, fps: float) -> dict:
            "acc": float("nan"), "lat_med": float("nan"), "lat_max": float("nan"),
            "time_s": pred.seconds}
     if pred.labels is not None:
-        row["acc"] = matched_frame_accuracy(pred.labels, item.frame_labels)
+        row["acc"] = matched_frame_accuracy(pred.labels, item.frame_labels)[0]
     if pred.latencies is not None:
         lat = latency_stats(pred.latencies)
         row["lat_med"], row["lat_max"] = lat["median"], lat["max"]
@@ -215,3 +215,92 @@ class Progress:
         else:
             self.stream.write(line + "\n")
         self.stream.flush()
+
+
+# --- streamseg's own methods, as `eval --all` and the peers benchmark run them ---------------
+
+
+def _angles(item: LabelledRecording) -> np.ndarray:
+    from streamseg.skeleton import bone_angles
+
+    return bone_angles(item.recording.positions, item.recording.skeleton)
+
+
+def lof_prediction(angles: np.ndarray, fps: float, online: bool) -> Prediction:
+    """Default-config LOF cuts of a bone-angle matrix, offline or streamed in 120-frame packets."""
+    from streamseg.commands.lof import run
+    from streamseg.config import LOFConfig
+
+    res = run(angles, fps, LOFConfig(), online)
+    return Prediction(cuts=list(res["cuts"]), latencies=res["latency"] if online else None)
+
+
+def label_cuts(labels: np.ndarray) -> list[int]:
+    """Frames where a per-frame labelling changes: the cuts of a clustering."""
+    labels = np.asarray(labels)
+    return [int(i) for i in np.flatnonzero(labels[1:] != labels[:-1]) + 1]
+
+
+def aca_prediction(features: np.ndarray, n_clusters: int, fps: float,
+                   hierarchical: bool) -> Prediction:
+    """Default-config (H)ACA with ``n_clusters`` actions: frame labels and their cuts."""
+    from dataclasses import replace
+
+    from streamseg.config import ACAConfig
+    from streamseg.offline.relabel import model_from_config
+
+    config = replace(ACAConfig(), n_clusters=n_clusters, hierarchical=hierarchical)
+    labels = np.asarray(model_from_config(config, fps).fit(features).labels_)
+    return Prediction(cuts=label_cuts(labels), labels=labels)
+
+
+def aca_features(item: LabelledRecording) -> np.ndarray:
+    """The relabeller's features: joint quaternions where the recording has rotations, else
+    body-frame limb directions (what a live, position-only stream provides)."""
+    from streamseg.skeleton import body_features, quaternion_features
+
+    rec = item.recording
+    if rec.rotations is not None:
+        return quaternion_features(rec)
+    return body_features(rec.positions, rec.skeleton)
+
+
+STREAMSEG_METHODS = {
+    "LOF offline": lambda item, fps: lof_prediction(_angles(item), fps, False),
+    "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),
+    "ACA (K=true)": lambda item, fps: aca_prediction(aca_features(item), item.n_actions, fps,
+                                                     False),
+    "HACA (K=true)": lambda item, fps: aca_prediction(aca_features(item), item.n_actions, fps,
+                                                      True),
+}
+
+
+def evaluate_all(items, methods: dict, runs: int = 3) -> tuple[list, dict]:
+    """Run every method on every item; a method that fails is reported, not hidden.
+
+    Parameters
+    ----------
+    items : list of LabelledRecording
+    methods : dict of name -> callable(item, fps) -> Prediction
+    runs : int
+        Timed runs per method and item (median wall time).
+
+    Returns
+    -------
+    rows : list of (recording name, method name, row dict) for :func:`format_table`
+    predictions : dict of (recording name, method name) -> Prediction
+    """
+    rows, preds = [], {}
+    bar = Progress(len(items) * len(methods))
+    for item in items:
+        fps = item.recording.fps
+        for name, run in methods.items():
+            try:
+                pred, sec = timed(lambda run=run, item=item, fps=fps: run(item, fps), runs)
+                pred.seconds = sec
+            except Exception as err:  # reported in the table with its error
+                pred = Prediction(error=f"{type(err).__name__}: {err}"[:160])
+            rows.append((item.name, name, score(item, pred, fps)))
+            preds[(item.name, name)] = pred
+            bar.step(f"{item.name} {name}")
+    return rows, preds
