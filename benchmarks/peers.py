@@ -183,10 +183,13 @@ def main() -> None:
     if args.markdown:
         Path(args.markdown).write_text(table + "\n")
     if args.plot:
-        from streamseg.plot import timeline_comparison
+        from streamseg.plot_timeline import timeline
 
-        cuts = {m: preds[(TRAIN, m)].cuts for m in methods if not preds[(TRAIN, m)].error}
-        timeline_comparison(train, cuts, args.plot)
+        shown = [(m, preds[(TRAIN, m)].cuts, preds[(TRAIN, m)].labels) for m in methods
+                 if not preds[(TRAIN, m)].error]
+        timeline(args.plot, train.recording.n_frames, fps,
+                 [(s.start, s.end, s.label) for s in train.segments], shown,
+                 title=f"CMU {TRAIN}: human labels and each method's cuts")
 
 
 if __name__ == "__main__":

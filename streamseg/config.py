@@ -39,7 +39,23 @@ class LOFConfig:
     Times are in seconds and converted to frames with the stream's rate, so one configuration
     serves 30, 100 and 120 Hz streams. The defaults were chosen on two recordings only (CMU 86_01
     and 14_14, see ``benchmarks/lof_accuracy.py``) and are held fixed for every other one;
-    :meth:`paper` gives the settings of Xing et al. (2015).
+    :meth:`paper` gives the settings of Xing et al. (2015). Why they differ from the paper's:
+    a 2.25 s window holds one or two cycles of a cyclic action yet is shorter than the
+    shortest action in those recordings (3.8 s), so an action spans 15-50 windows at a 0.2 s
+    step; ``k = 10 ~ window / step`` makes a transition window's neighbourhood about as long
+    as the run of windows that straddle the transition, so it reaches into the clusters on
+    either side; the threshold adapts to the curve (median + 1 MAD-sigma, floor 1.3). The
+    delay is the price of causality: a transition window becomes a density outlier only once
+    about k windows of the next action exist (k * step = 2 s); streaming F1 on the two
+    recordings was 0.22, 0.58, 0.90 with delays of 1, 2, 2.5 s (2 s windows, 10 bins).
+
+    Selection (streaming F1 on 86_01 + 14_14, label window + 0.5 s): the train scores of
+    neighbouring settings differ by one or two of the 11 true cuts, so each value is the one
+    whose score averaged with its grid neighbours is highest, not an isolated best. Over bins
+    5-10 x window 2-3 s x k 8-12 that is 6 bins, 2.25 s, k 10 (train F1 0.92, neighbourhood
+    0.85; 10 bins, 2 s, k 10 had 0.85 and 0.78); then over delay 2-3 s x floor 1.2-1.5 x
+    threshold 1-2 MADs: 2.5 s, 1.3, 1.0 (train F1 0.96). Six bins of 30 degrees are coarse
+    enough that a window's histogram barely moves within one action.
 
     Attributes
     ----------
@@ -72,20 +88,31 @@ class LOFConfig:
         ``exclusion * window`` are not each other's LOF neighbours. Overlapping windows are
         trivially similar, so without it (0, the paper and scikit-learn) the neighbourhoods
         follow the time axis instead of the action clusters.
+    refine_s : float
+        Cut localisation: the cut moves from the peak window's centre (the paper's rule,
+        ``refine_s = 0``) to the frame within ``refine_s`` seconds of it where the histograms
+        of the ``window_s`` before and the ``window_s`` after differ most (cosine distance),
+        using only frames seen when the cut is decided, and ``min_gap_s`` after the previous
+        cut. Chosen on 86_01 and 14_14 (``benchmarks/lof_variants.py``): streaming F1 0.88
+        with the centre rule, 0.96 with 0.4 s; radii of 0.2, 0.8 and 1 s gave 0.88. Shorter
+        sub-windows (1 or 1.5 s at 0.4 s) scored the same F1 with localisation errors within
+        3 frames of it, 0.5 s scored worse, so the sub-window is the LOF window (no extra
+        parameter).
     """
 
-    window_s: float = 1.0
-    step_s: float = 0.125
-    bins: int = 10
+    window_s: float = 2.25
+    step_s: float = 0.2
+    bins: int = 6
     k: int = 10
     buffer_s: float = 75.0
-    delay_s: float = 1.0
-    threshold_mads: float = 3.0
-    min_score: float = 1.2
+    delay_s: float = 2.5
+    threshold_mads: float = 1.0
+    min_score: float = 1.3
     dp_tolerance: float = 0.1
     min_gap_s: float = 1.0
     min_valid: float = 0.5
-    exclusion: float = 1.0
+    exclusion: float = 0.0
+    refine_s: float = 0.4
 
     def __post_init__(self):
         _check("window_s", self.window_s, self.window_s > 0, "a window length > 0 seconds")
@@ -119,14 +146,17 @@ class LOFConfig:
         _check("min_gap_s", self.min_gap_s, self.min_gap_s >= 0, "a gap >= 0 seconds")
         _check("min_valid", self.min_valid, 0 < self.min_valid <= 1, "a fraction in (0, 1]")
         _check("exclusion", self.exclusion, self.exclusion >= 0, "a number of windows >= 0")
+        _check("refine_s", self.refine_s, self.refine_s >= 0, "a search radius >= 0 seconds")
 
     @classmethod
     def paper(cls, **overrides) -> LOFConfig:
         """Xing et al. (2015): 500-frame windows, step 45 at 120 Hz, L = 10 bins, k = 20.
 
-        The paper states no peak threshold; the adaptive rule is kept with its defaults.
+        The paper states no peak threshold; the adaptive rule is kept with its defaults. The
+        cut is the peak window's centre (``refine_s = 0``), as in the paper.
         """
-        values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0)
+        values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0,
+                      refine_s=0.0)
         values.update(overrides)
         return cls(**values)
 
@@ -137,7 +167,8 @@ class LOFConfig:
         -------
         dict
             ``window``, ``step`` (frames), ``capacity``, ``delay``, ``min_gap`` (windows),
-            ``min_valid`` and ``exclusion`` (frames).
+            ``min_valid``, ``exclusion``, ``refine`` (frames) and ``history`` (frames the
+            streaming detector keeps: the last window plus what cut localisation may look at).
         """
         import math
 
@@ -147,6 +178,10 @@ class LOFConfig:
         delay = max(1, int(round(self.delay_s * fps / step)))
         # the peak rule needs delay windows on both sides of the window it decides
         capacity = max(self.k + 2, 2 * delay + 1, int(round(self.buffer_s * fps / step)))
+        refine = int(round(self.refine_s * fps))
+        # a cut is decided delay * step + window - 1 - window // 2 frames after its window's
+        # centre; localisation looks refine + window frames before that centre
+        history = window if refine == 0 else delay * step + 2 * window + refine + 1
         return dict(
             window=window,
             step=step,
@@ -155,10 +190,109 @@ class LOFConfig:
             min_gap=int(round(self.min_gap_s * fps / step)),
             exclusion=int(round(self.exclusion * window)),
             min_valid=max(1, math.ceil(self.min_valid * window - 1e-9)),
+            refine=refine,
+            history=history,
         )
 
 
 # --- ACA (issue 4) ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ACAConfig:
+    """Aligned Cluster Analysis relabelling (issue 4); lengths in seconds.
+
+    Defaults were chosen on one recording, CMU 86_01 (``benchmarks/aca_mocap.py``), among a
+    handful of round settings, and are held fixed for every other one.
+
+    Attributes
+    ----------
+    n_clusters : int
+        Number of actions k.
+    min_len, max_len : float
+        Segment lengths in seconds (a segment is one or a few cycles of an action; a run of
+        one action is several consecutive segments with one label).
+    kernel : {"gaussian", "equality"}
+        Frame kernel; "equality" is the paper's sigma -> 0 limit for discrete data.
+    sigma : float or None
+        Gaussian bandwidth in feature units; None = rule from the data
+        (``streamseg.offline.dtak.default_sigma``).
+    n_init : int
+        Random restarts; the lowest objective wins.
+    max_iter : int
+        Cap on coordinate-descent steps per restart.
+    init : {"random", "propagated"}
+        Initialization of the first restart (section 4.2); the others are random.
+    k_reduce : int or None
+        Temporal reduction into this many k-means frame classes (section 4.1); None = off.
+    reduce_cap : float
+        At most this many seconds of consecutive same-class frames become one reduced frame.
+    hierarchical : bool
+        Two-level HACA instead of ACA.
+    fine_clusters : int
+        HACA fine level: number of primitives.
+    fine_min_len, fine_max_len : float
+        HACA fine level: primitive lengths in seconds.
+    coarse_kernel : {"labels", "dtak"}
+        HACA coarse level: kernel between primitives, their DTAK or the equality of their
+        cluster labels (see ``streamseg.offline.haca``).
+    random_state : int or None
+        Seed (fixed by default so a window gives the same answer twice).
+    """
+
+    n_clusters: int = 4
+    min_len: float = 0.5
+    max_len: float = 2.0
+    kernel: str = "gaussian"
+    sigma: float | None = None
+    n_init: int = 10
+    max_iter: int = 50
+    init: str = "random"
+    k_reduce: int | None = 20
+    reduce_cap: float = 1 / 6
+    hierarchical: bool = False
+    fine_clusters: int = 10
+    fine_min_len: float = 1 / 12
+    fine_max_len: float = 0.25
+    coarse_kernel: str = "dtak"
+    random_state: int | None = 0
+
+    def __post_init__(self):
+        def is_int(v):
+            return isinstance(v, int) and not isinstance(v, bool)
+
+        _check("n_clusters", self.n_clusters, is_int(self.n_clusters) and self.n_clusters >= 1,
+               "an integer >= 1")
+        _check("min_len", self.min_len, isinstance(self.min_len, (int, float))
+               and self.min_len > 0, "a length > 0 seconds")
+        _check("max_len", self.max_len, isinstance(self.max_len, (int, float))
+               and self.max_len >= self.min_len, f"a length >= min_len={self.min_len} seconds")
+        _check("kernel", self.kernel, self.kernel in ("gaussian", "equality"),
+               "'gaussian' or 'equality'")
+        _check("sigma", self.sigma, self.sigma is None or (
+            isinstance(self.sigma, (int, float)) and self.sigma > 0), "None or a number > 0")
+        _check("n_init", self.n_init, is_int(self.n_init) and self.n_init >= 1, "an integer >= 1")
+        _check("max_iter", self.max_iter, is_int(self.max_iter) and self.max_iter >= 1,
+               "an integer >= 1")
+        _check("init", self.init, self.init in ("random", "propagated"),
+               "'random' or 'propagated'")
+        _check("k_reduce", self.k_reduce, self.k_reduce is None or (
+            is_int(self.k_reduce) and self.k_reduce >= 2), "None or an integer >= 2")
+        _check("reduce_cap", self.reduce_cap, isinstance(self.reduce_cap, (int, float))
+               and self.reduce_cap > 0, "a duration > 0 seconds")
+        _check("hierarchical", self.hierarchical, isinstance(self.hierarchical, bool),
+               "True or False")
+        _check("fine_clusters", self.fine_clusters,
+               is_int(self.fine_clusters) and self.fine_clusters >= 1, "an integer >= 1")
+        _check("fine_min_len", self.fine_min_len, isinstance(self.fine_min_len, (int, float))
+               and self.fine_min_len > 0, "a length > 0 seconds")
+        _check("fine_max_len", self.fine_max_len, isinstance(self.fine_max_len, (int, float))
+               and self.fine_max_len >= self.fine_min_len,
+               f"a length >= fine_min_len={self.fine_min_len} seconds")
+        _check("coarse_kernel", self.coarse_kernel, self.coarse_kernel in ("labels", "dtak"),
+               "'labels' or 'dtak'")
+        _check("random_state", self.random_state, self.random_state is None
+               or is_int(self.random_state), "None or an integer seed")
 
 
 # --- daemon (issue 5) ------------------------------------------------------------------------
@@ -184,16 +318,28 @@ class DaemonConfig:
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int
         Largest frame count accepted in one packet (bounds memory per message).
-    drain : int
-        Most packets taken from the socket before the per-stream computation runs once on
-        all of them (the vectorised path; larger is faster, smaller has lower latency).
-    hwm : int
-        ZeroMQ high-water marks (messages) of ingest and publish sockets.
+    drain, drain_frames : int
+        Most packets, and frames, taken from the socket before the per-stream computation
+        runs once on all of them (the vectorised path; larger is faster, smaller has lower
+        latency).
+    ingest_hwm, hwm : int
+        ZeroMQ high-water marks (messages) of the ingest and the publish socket. The ingest
+        queue is what bounds the daemon's memory under overload (senders then wait): at most
+        ``ingest_hwm`` packets are buffered, e.g. 2000 x 60 frames x 31 joints = 90 MB.
     default_skeleton, default_fps : str, float
         An ASF file whose skeleton (and this rate) serves streams that send frames without
         an announcement; ``""`` requires announcements.
     shutdown_relabel : float
         Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
+    repetitions : bool
+        Count repetitions live (``rep`` events, issue 6's RepetitionCounter). Off by default:
+        it takes 0.5-1 ms of CPU per frame (6-12% of a core per 120 Hz stream).
+    relabel_processes : int
+        0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
+        N > 0: the worker thread hands each job to a pool of N processes.
+    receive_thread : bool
+        Receive and decode packets in a thread of their own, overlapping the detector's
+        GIL-free kernels (False: one thread does both).
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
@@ -206,10 +352,15 @@ class DaemonConfig:
     heartbeat: float = 1.0
     max_packet_frames: int = 12000
     drain: int = 2000
-    hwm: int = 200000
+    drain_frames: int = 8192
+    ingest_hwm: int = 2000
+    hwm: int = 100000
     default_skeleton: str = ""
     default_fps: float = 120.0
     shutdown_relabel: float = 5.0
+    repetitions: bool = False
+    relabel_processes: int = 0
+    receive_thread: bool = True
 
     def __post_init__(self):
         for name in ("ingest", "publish"):
@@ -226,7 +377,13 @@ class DaemonConfig:
             isinstance(self.control, str) and (self.control == "" or "://" in self.control),
             'an endpoint or "" (off)',
         )
-        for name in ("max_streams", "max_packet_frames", "drain", "hwm"):
+        _check("receive_thread", self.receive_thread, isinstance(self.receive_thread, bool),
+               "true or false")
+        _check("relabel_processes", self.relabel_processes,
+               type(self.relabel_processes) is int and self.relabel_processes >= 0,
+               "an integer >= 0")
+        for name in ("max_streams", "max_packet_frames", "drain", "drain_frames", "hwm",
+                     "ingest_hwm"):
             v = getattr(self, name)
             _check(
                 name,
@@ -256,6 +413,8 @@ class DaemonConfig:
             isinstance(self.default_skeleton, str),
             'a path to an ASF file or ""',
         )
+        _check("repetitions", self.repetitions, isinstance(self.repetitions, bool),
+               "true or false")
 
 
 # --- repetitions (issue 6) -------------------------------------------------------------------
@@ -272,6 +431,9 @@ class RepetitionConfig:
         0.05 is about 1.5 cm on an adult: between optical mocap and Kinect.
     angle_speed : float
         UKF random-walk std of each joint angle, rad per second.
+    estimate_noise : bool
+        Offline: raise ``position_noise`` to the noise estimated from the recording's
+        frame-to-frame jitter (:func:`streamseg.ukf_model.estimate_noise`) when larger.
     length_speed : float
         UKF random-walk std of log bone lengths per second (passes 1-2).
     ukf_passes : int
@@ -301,6 +463,15 @@ class RepetitionConfig:
     edge_fraction : float
         A stretch before the first / after the last boundary is a repetition when at least this
         many periods long.
+    merge_phase : float
+        k-means clusters whose mean cos(phase) vectors are closer than this (RMS; opposite
+        phases are ~2 apart) are merged into one group before eq. 14 (0 = never merge).
+    refine_fraction : float
+        Each chosen boundary moves to the nearest velocity minimum of the selected parameters
+        low-passed at ``refine_band`` x the primary frequency, within this many periods
+        (0 = off: the paper's boundaries).
+    refine_band : float
+        Low-pass cut-off of that refinement, in multiples of the primary frequency.
     buffer_seconds : float
         Live: analysed history.
     hop_seconds : float
@@ -311,7 +482,8 @@ class RepetitionConfig:
     """
 
     position_noise: float = 0.05
-    angle_speed: float = 4.0
+    angle_speed: float = 8.0
+    estimate_noise: bool = True
     length_speed: float = 0.02
     ukf_passes: int = 4
     torso_cutoff_hz: float = 2.0
@@ -327,6 +499,9 @@ class RepetitionConfig:
     seed: int = 0
     tie_tolerance: float = 0.05
     edge_fraction: float = 0.5
+    merge_phase: float = 0.6
+    refine_fraction: float = 0.2
+    refine_band: float = 4.0
     buffer_seconds: float = 12.0
     hop_seconds: float = 0.5
     repetitive_ratio: float = 0.5
@@ -380,6 +555,24 @@ class RepetitionConfig:
             self.edge_fraction,
             isinstance(self.edge_fraction, (int, float)) and 0 < self.edge_fraction <= 1.5,
             "a number in (0, 1.5]",
+        )
+        _check(
+            "merge_phase",
+            self.merge_phase,
+            isinstance(self.merge_phase, (int, float)) and 0 <= self.merge_phase <= 2,
+            "a number in [0, 2]",
+        )
+        _check(
+            "refine_fraction",
+            self.refine_fraction,
+            isinstance(self.refine_fraction, (int, float)) and 0 <= self.refine_fraction < 0.5,
+            "a number in [0, 0.5)",
+        )
+        _check(
+            "refine_band",
+            self.refine_band,
+            isinstance(self.refine_band, (int, float)) and self.refine_band >= 1,
+            "a number >= 1",
         )
         _check(
             "hop_seconds",

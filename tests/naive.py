@@ -5,12 +5,132 @@ Nothing here is fast or clever on purpose; each function follows the paper's def
 
 from __future__ import annotations
 
-import numpy as np  # noqa: F401
+import numpy as np
 
 # --- skeleton features (issue 2) -------------------------------------------------------------
 
 
 # --- LOF, sliding histograms, peaks (issue 3) ------------------------------------------------
+
+
+def naive_window_counts(angles, window, step, bins):
+    """Per-window, per-angle ``np.histogram`` counts of the frames without NaN.
+
+    Returns counts (m, n_angles * bins) and valid-frame counts (m,) for every complete window
+    ``[w * step, w * step + window)``.
+    """
+    angles = np.asarray(angles, dtype=float)
+    n, a = angles.shape
+    edges = np.linspace(0.0, np.pi, bins + 1)
+    out, nv = [], []
+    w = 0
+    while w * step + window <= n:
+        block = angles[w * step:w * step + window]
+        block = block[np.isfinite(block).all(axis=1)]
+        row = []
+        for j in range(a):
+            # np.histogram's last bin is closed, so pi lands in the last bin; clip like the kernel
+            h, _ = np.histogram(np.clip(block[:, j], 0.0, np.pi), bins=edges)
+            row.extend(h)
+        out.append(row)
+        nv.append(len(block))
+        w += 1
+    return np.array(out, dtype=float).reshape(-1, a * bins), np.array(nv, dtype=np.int64)
+
+
+def naive_cosine_lof(x, k, times=None, exclusion=0):
+    """LOF by the definitions, neighbours sorted by (distance, index), scikit-learn's 1e-10.
+
+    Rows whose ``times`` differ by less than ``exclusion`` are not neighbours.
+    """
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    times = np.arange(n) if times is None else np.asarray(times)
+    nrm = (x * x).sum(axis=1)
+    d = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            den = np.sqrt(nrm[i] * nrm[j])
+            d[i, j] = 1.0 if den == 0 else max(0.0, 1.0 - float(x[i] @ x[j]) / den)
+    kk = k if exclusion > 0 else min(k, n - 1)
+    nbrs = []
+    for i in range(n):
+        cand = [j for j in range(n) if j != i and abs(times[i] - times[j]) >= exclusion]
+        cand.sort(key=lambda j: (d[i, j], j))
+        nbrs.append(cand[:kk])
+    kdist = np.array([d[i, nb[-1]] if nb else 0.0 for i, nb in enumerate(nbrs)])
+    lrd = np.array([1.0 / (np.mean([max(d[i, o], kdist[o]) for o in nb]) + 1e-10) if nb
+                    else 1e10 for i, nb in enumerate(nbrs)])
+    return np.array([np.mean([lrd[o] / lrd[i] for o in nb]) if nb else 1.0
+                     for i, nb in enumerate(nbrs)])
+
+
+def naive_douglas_peucker(y, eps):
+    """Indices kept by recursive Douglas-Peucker on (i, y[i]) with vertical deviation."""
+    y = np.asarray(y, dtype=float)
+
+    def rec(a, b):
+        if b - a < 2:
+            return []
+        i = np.arange(a + 1, b)
+        dev = np.abs(y[i] - (y[a] + (y[b] - y[a]) / (b - a) * (i - a)))
+        at = int(i[np.argmax(dev)])
+        if dev.max() <= eps:
+            return []
+        return rec(a, at) + [at] + rec(at, b)
+
+    return [0] + rec(0, len(y) - 1) + [len(y) - 1]
+
+
+def naive_peak_windows(y, delay, tol, n_mads, min_score, min_gap):
+    """The peak rule written out: local DP peak, highest within the gap, robust threshold,
+    first-wins min gap."""
+    y = np.asarray(y, dtype=float)
+    med = np.median(y)
+    thr = max(min_score, med + n_mads * 1.4826 * np.median(np.abs(y - med)))
+    out = []
+    for w in range(len(y)):
+        if y[w] < thr or (out and w - out[-1] < min_gap):
+            continue
+        lo, hi = max(0, w - delay), min(len(y) - 1, w + delay)
+        seg = y[lo:hi + 1]
+        if w in (lo, hi) or seg.max() <= seg.min():
+            continue
+        if y[max(lo, w - min_gap):min(hi, w + min_gap) + 1].max() > y[w]:
+            continue  # a higher value within the gap wins
+        keep = naive_douglas_peucker(seg, tol * (seg.max() - seg.min()))
+        c = w - lo
+        if c not in keep:
+            continue
+        pos = keep.index(c)
+        if seg[keep[pos - 1]] < seg[c] and seg[keep[pos + 1]] < seg[c]:
+            out.append(w)
+    return out
+
+
+def naive_refine_cut(angles, bins, centre, radius, window, n_avail, first=0):
+    """Frame in ``centre +- radius`` (and ``>= first``) maximizing ``1 - cos`` between the
+    per-angle histogram counts of the ``window`` frames before and after it (frames without
+    NaN, frames before ``n_avail`` only); the earliest maximum, or ``centre`` when no frame
+    qualifies."""
+    angles = np.asarray(angles, dtype=float)
+    lo = max(centre - radius, window, first)
+    hi = min(centre + radius, n_avail - window)
+    if hi < lo:
+        return centre
+
+    def hist(block):
+        return naive_window_counts(block, len(block), 1, bins)[0][0]
+
+    best, at = -1.0, centre
+    for g in range(lo, hi + 1):
+        a, b = hist(angles[g - window:g]), hist(angles[g:g + window])
+        den = np.sqrt(float(a @ a) * float(b @ b))
+        dist = 1.0 if den == 0 else 1.0 - float(a @ b) / den
+        if dist > best:
+            best, at = dist, g
+    return at
+
 
 
 # --- ACA: DTAK, DP segmentation, kernel k-means (issue 4) ------------------------------------

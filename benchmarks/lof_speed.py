@@ -1,0 +1,163 @@
+"""Speed of LOF cut detection, median of 5 runs, each beside the scikit-learn equivalent.
+
+* offline: a 10,000-frame recording (CMU 86_01 + 14_14 + the start of 14_20 joined, real
+  data, 120 Hz), joint positions -> bone angles -> histograms -> LOF -> cuts. The paper
+  reports about 1.2 s for 8,000-10,000 frames; target here < 50 ms after compilation.
+  Baseline: the same pipeline with ``sklearn.neighbors.LocalOutlierFactor(metric="cosine")``
+  in place of the numba LOF.
+* streaming: joint positions -> bone angles -> StreamingLOFSegmenter -> events, through
+  ``learn_many`` on 120-frame packets (target >= 100,000 frames/s) and ``learn_one`` frame
+  by frame (bone angles per frame included, and without them). Baseline: the same stream
+  with a scikit-learn LOF refit on the buffered windows each time a window completes.
+
+Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from streamseg._kernels.peaks import peak_windows  # noqa: E402
+from streamseg.config import LOFConfig  # noqa: E402
+from streamseg.datasets import concatenate  # noqa: E402
+from streamseg.io import read  # noqa: E402
+from streamseg.offline.lof import LOFSegmenter, window_histograms  # noqa: E402
+from streamseg.online.lof import StreamingLOFSegmenter, warmup  # noqa: E402
+from streamseg.skeleton import bone_angles  # noqa: E402
+
+DATA = ROOT / "data"
+N = 10_000
+RUNS = 5
+PACKET = 120
+
+
+def recording():
+    asf = DATA / "cmu86" / "86.asf"
+    parts = [read(DATA / "cmu86" / "86_01.amc.gz", skeleton=asf),
+             read(DATA / "cmu_exercise" / "14_14.amc.gz", skeleton=asf),
+             read(DATA / "cmu_exercise" / "14_20.amc.gz", skeleton=asf)]
+    rec, _ = concatenate(parts)
+    return rec.slice(0, N)
+
+
+def median_time(fn, runs=RUNS):
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return float(np.median(times))
+
+
+def offline_ours(rec, cfg):
+    return LOFSegmenter(cfg, rec.fps).fit(rec).predict()
+
+
+def offline_sklearn(rec, cfg):
+    from sklearn.neighbors import LocalOutlierFactor
+
+    g = cfg.frames(rec.fps)
+    a = bone_angles(rec.positions, rec.skeleton)
+    counts, centres, _ = window_histograms(a, g["window"], g["step"], cfg.bins, g["min_valid"])
+    lof = -LocalOutlierFactor(n_neighbors=cfg.k, metric="cosine").fit(
+        counts).negative_outlier_factor_
+    w = peak_windows(lof, g["delay"], cfg.dp_tolerance, cfg.threshold_mads, cfg.min_score,
+                     g["min_gap"])
+    return centres[w]
+
+
+def stream_many(rec, cfg):
+    det = StreamingLOFSegmenter(cfg, rec.fps)
+    ev = []
+    for i in range(0, rec.n_frames, PACKET):
+        ev += det.learn_many(bone_angles(rec.positions[i:i + PACKET], rec.skeleton))
+    return ev + det.finish()
+
+
+def stream_one(rec, cfg, angles=None):
+    det = StreamingLOFSegmenter(cfg, rec.fps)
+    ev = []
+    if angles is None:
+        for i in range(rec.n_frames):
+            ev += det.learn_one(bone_angles(rec.positions[i:i + 1], rec.skeleton)[0])
+    else:
+        for row in angles:
+            ev += det.learn_one(row)
+    return ev + det.finish()
+
+
+def stream_sklearn(rec, cfg):
+    """Same stream, scikit-learn LOF refit on the buffer at every completed window."""
+    from sklearn.neighbors import LocalOutlierFactor
+
+    g = cfg.frames(rec.fps)
+    win, step, cap, delay = g["window"], g["step"], g["capacity"], g["delay"]
+    edges_scale = cfg.bins / np.pi
+    ring = np.zeros((win, 8), dtype=np.int64)
+    cur = np.zeros(8 * cfg.bins)
+    buf, n_cuts, f = [], 0, 0
+    offs = np.arange(8) * cfg.bins
+    for i in range(0, rec.n_frames, PACKET):
+        for row in bone_angles(rec.positions[i:i + PACKET], rec.skeleton):
+            b = np.minimum((row * edges_scale).astype(np.int64), cfg.bins - 1) + offs
+            if f >= win:
+                np.subtract.at(cur, ring[f % win], 1)
+            ring[f % win] = b
+            np.add.at(cur, b, 1)
+            if f >= win - 1 and (f - win + 1) % step == 0:
+                buf.append(cur.copy())
+                buf = buf[-cap:]
+                if len(buf) > delay + 1:
+                    lof = -LocalOutlierFactor(n_neighbors=min(cfg.k, len(buf) - 1),
+                                              metric="cosine").fit(
+                        np.array(buf)).negative_outlier_factor_
+                    n_cuts += int(len(peak_windows(lof[-2 * delay - 1:], delay,
+                                                   cfg.dp_tolerance, cfg.threshold_mads,
+                                                   cfg.min_score, g["min_gap"])) > 0)
+            f += 1
+    return n_cuts
+
+
+def main():
+    import warnings
+
+    warnings.filterwarnings("ignore")
+    cfg = LOFConfig()
+    rec = recording()
+    angles = bone_angles(rec.positions, rec.skeleton)
+    t = time.perf_counter()
+    warmup()
+    print(f"warmup (compile or load cache): {time.perf_counter() - t:.2f} s")
+    offline_ours(rec, cfg)
+    offline_sklearn(rec, cfg)
+    print(f"{N} frames at {rec.fps:g} Hz, defaults {cfg}\n")
+    rows = []
+    t_off = median_time(lambda: offline_ours(rec, cfg))
+    t_off_sk = median_time(lambda: offline_sklearn(rec, cfg))
+    t_feat = median_time(lambda: bone_angles(rec.positions, rec.skeleton))
+    rows.append(("offline, features included", t_off, t_off_sk))
+    t_many = median_time(lambda: stream_many(rec, cfg))
+    t_sk = median_time(lambda: stream_sklearn(rec, cfg))
+    rows.append(("stream learn_many(120), from positions", t_many, t_sk))
+    t_one = median_time(lambda: stream_one(rec, cfg))
+    rows.append(("stream learn_one, from positions", t_one, t_sk))
+    t_one_a = median_time(lambda: stream_one(rec, cfg, angles))
+    rows.append(("stream learn_one, angles given", t_one_a, t_sk))
+    print(f"{'computation':42s} {'ours':>10s} {'frames/s':>11s} {'sklearn':>10s} "
+          f"{'frames/s':>11s} {'speed-up':>8s}")
+    for name, ours, sk in rows:
+        print(f"{name:42s} {ours * 1e3:8.1f}ms {N / ours:11,.0f} {sk * 1e3:8.1f}ms "
+              f"{N / sk:11,.0f} {sk / ours:7.1f}x")
+    print(f"\n(bone angles alone for {N} frames: {t_feat * 1e3:.1f} ms; targets: offline < 50 ms, "
+          f"learn_many >= 100,000 frames/s)")
+
+
+if __name__ == "__main__":
+    main()

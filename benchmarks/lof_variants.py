@@ -1,0 +1,297 @@
+"""Variants of the streaming LOF detector that were measured and not adopted (issue 3).
+
+Every choice is made on CMU 86_01 and 14_14 only ("train"); the other recordings of
+``benchmarks/lof_accuracy.py`` (14_20 and the two CMU 02 single-action sequences) are printed
+as "held-out" for information, never for choosing. Scores: F1 with the label window widened
+by 0.5 s (flat +-0.5 s without a window) and with a flat 1 s tolerance, as in lof_accuracy.
+
+1. Novelty LOF (causal): each new window is scored against a reference set of PAST windows
+   whose centres are at least ``exclusion`` frames older (so windows overlapping it are not
+   its neighbours), the reference's own LOF computed within the reference (scikit-learn's
+   ``novelty=True`` semantics). The curve rises as soon as a window holds the new action, so
+   it could cut with about 1 s of latency instead of 3.4 s. Two decision rules on that curve:
+   "onset" (first window above a robust threshold, the cut at the largest before/after
+   histogram contrast in that window, re-armed when the curve falls back) and "peak" (the
+   library's Douglas-Peucker peak rule, the cut at the half-rise point before the peak).
+2. Cut localisation by before/after histogram contrast with sub-windows of L frames and a
+   search radius r around the peak window's centre, applied to the default detector's cuts
+   (centre rule); chosen by train F1, ties broken by the mean absolute error of the matched
+   cuts (1 s tolerance) on train. The library implements L = window (``LOFConfig.refine_s`` is
+   r) and also keeps cut frames ``min_gap`` apart, which this table does not.
+3. Re-tuning the symmetric detector (with localisation): bins x window x k, then delay x
+   floor x threshold. The train F1 of neighbouring grid points differs by one or two of the
+   11 true cuts, so the chosen point maximizes its train F1 averaged with its grid neighbours
+   (one step along each axis), not the isolated best.
+
+This is a research script in numpy (slow, obvious code, no kernels); about two minutes.
+Run: .venv/bin/python benchmarks/lof_variants.py
+"""
+
+from __future__ import annotations
+
+import itertools
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from lof_accuracy import FPS, lof_cuts, recordings  # noqa: E402
+
+from streamseg._kernels.peaks import peak_windows  # noqa: E402
+from streamseg.config import LOFConfig  # noqa: E402
+from streamseg.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
+from streamseg.metrics import cut_scores, match_cuts  # noqa: E402
+from streamseg.offline.lof import window_histograms  # noqa: E402
+
+TRAIN = ("86_01", "14_14")
+BINS = LOFConfig().bins  # the histograms the default detector uses
+
+
+def f1s(cuts, truth, windows):
+    half = int(0.5 * FPS)
+    win = cut_scores(cuts, truth, windows=windows, tolerance=None if windows else half,
+                     margin=half if windows else 0)
+    return win["f1"], cut_scores(cuts, truth, tolerance=int(FPS))["f1"]
+
+
+def cosine_distances(a, b):
+    na, nb = np.sqrt((a * a).sum(1)), np.sqrt((b * b).sum(1))
+    return np.clip(1 - (a @ b.T) / np.maximum(np.outer(na, nb), 1e-300), 0, 2)
+
+
+def contrast_curve(angles, length):
+    """1 - cos between the count histograms of [f - L, f) and [f, f + L), NaN where undefined."""
+    n = len(angles)
+    valid = np.isfinite(angles).all(1)
+    b = np.clip(np.floor(np.nan_to_num(angles) * BINS / np.pi).astype(int), 0, BINS - 1)
+    onehot = np.zeros((n, 8 * BINS))
+    for a in range(8):
+        onehot[np.arange(n), a * BINS + b[:, a]] = valid
+    p = np.vstack([np.zeros(8 * BINS), np.cumsum(onehot, 0)])
+    out = np.full(n + 1, np.nan)
+    f = np.arange(length, n - length + 1)
+    left, right = p[f] - p[f - length], p[f + length] - p[f]
+    den = np.sqrt((left * left).sum(1) * (right * right).sum(1))
+    out[f] = 1 - (left * right).sum(1) / np.maximum(den, 1e-300)
+    return out
+
+
+def argmax_near(curve, centre, radius, length, n):
+    lo, hi = max(length, centre - radius), min(n - length, centre + radius)
+    seg = curve[lo:hi + 1] if hi >= lo else np.array([])
+    return lo + int(np.nanargmax(seg)) if np.isfinite(seg).any() else centre
+
+
+# --- 1. novelty LOF ------------------------------------------------------------------------
+
+
+def _reference_stats(d, k):
+    """k-distance and lrd of every point of a reference set, within the set."""
+    kk = min(k, d.shape[0] - 1)
+    dm = d.copy()
+    np.fill_diagonal(dm, np.inf)
+    idx = np.argpartition(dm, kk - 1, axis=1)[:, :kk]
+    nd = np.take_along_axis(dm, idx, 1)
+    kd = nd.max(1)
+    return kd, 1.0 / (np.maximum(nd, kd[idx]).mean(1) + 1e-10)
+
+
+def novelty_curve(counts, centres, k, exclusion, min_ref=3):
+    """LOF of each window against the earlier windows at least ``exclusion`` frames older."""
+    d = cosine_distances(counts, counts)
+    y = np.full(len(counts), np.nan)
+    cache = {}
+    for i in range(len(counts)):
+        r = min(i, int(np.searchsorted(centres, centres[i] - exclusion, side="right")))
+        if r < min_ref:
+            continue
+        if r not in cache:
+            cache[r] = _reference_stats(d[:r, :r], k)
+        kd, lrd = cache[r]
+        kk = min(k, r - 1)
+        o = np.argsort(d[i, :r], kind="stable")[:kk]
+        lrd_q = 1.0 / (np.maximum(d[i, o], kd[o]).mean() + 1e-10)
+        y[i] = (lrd[o] / lrd_q).mean()
+    return y
+
+
+def onset_cuts(angles, centres, y, window, contrast, n_mads, floor):
+    cuts, lats, armed, hist = [], [], True, []
+    for i in np.flatnonzero(np.isfinite(y)):
+        hist.append(y[i])
+        h = np.array(hist)
+        med = np.median(h)
+        thr = max(floor, med + n_mads * 1.4826 * np.median(np.abs(h - med)))
+        if not armed:
+            armed = y[i] < thr
+            continue
+        if y[i] >= thr:
+            end = int(centres[i]) - window // 2 + window
+            lo = max(end - window, (cuts[-1] + int(FPS)) if cuts else 0)
+            f = argmax_near(contrast, (lo + end) // 2, (end - lo) // 2, window // 2, len(angles))
+            cuts.append(f)
+            lats.append(max(end - 1, f + window // 2 - 1) - f)
+            armed = False
+    return cuts, lats
+
+
+def peak_cuts(centres, y, step, delay_s, n_mads, floor):
+    ok = np.flatnonzero(np.isfinite(y))
+    yy, cc = y[ok], centres[ok]
+    delay = int(round(delay_s * FPS / step))
+    cuts, lats = [], []
+    for p in peak_windows(yy, delay, 0.1, n_mads, floor, int(round(FPS / step))):
+        j = p
+        while j > 0 and yy[j - 1] < yy[j]:
+            j -= 1
+        q = p
+        while q > j and yy[q - 1] >= yy[j] + 0.5 * (yy[p] - yy[j]):
+            q -= 1
+        cuts.append(int(cc[q]))
+        lats.append(int(cc[min(p + delay, len(cc) - 1)]) - int(cc[q]))
+    return cuts, lats
+
+
+def novelty_table(recs):
+    rows = []
+    for window_s, k, excl in itertools.product((1.5, 2.0), (5, 10), (0.5, 1.0)):
+        w = int(window_s * FPS)
+        step = w // 10
+        curves = {}
+        for name, (a, _, _) in recs.items():
+            counts, centres, _ = window_histograms(a, w, step, BINS, w // 2)
+            curves[name] = (centres, novelty_curve(counts, centres, k, int(excl * w)))
+        contrast = {name: contrast_curve(a, w // 2) for name, (a, _, _) in recs.items()}
+        for n_mads, floor in itertools.product((0.0, 1.5, 3.0), (1.5, 2.0, 3.0)):
+            res = {}
+            for name, (a, truth, windows) in recs.items():
+                centres, y = curves[name]
+                cuts, lats = onset_cuts(a, centres, y, w, contrast[name], n_mads, floor)
+                res[name] = f1s(cuts, truth, windows) + (np.median(lats) if lats else np.nan,)
+            rows.append(("onset", f"W={window_s} k={k} excl={excl}W mads={n_mads} "
+                                  f"floor={floor}", res))
+        for delay_s, n_mads, floor in itertools.product((0.5, 1.0, 1.5), (0.0, 1.5),
+                                                        (1.3, 2.0)):
+            res = {}
+            for name, (_, truth, windows) in recs.items():
+                centres, y = curves[name]
+                cuts, lats = peak_cuts(centres, y, step, delay_s, n_mads, floor)
+                res[name] = f1s(cuts, truth, windows) + (np.median(lats) if lats else np.nan,)
+            rows.append(("peak", f"W={window_s} k={k} excl={excl}W delay={delay_s} "
+                                 f"mads={n_mads} floor={floor}", res))
+    return rows
+
+
+# --- 2. localisation -------------------------------------------------------------------------
+
+
+def localisation_table(recs):
+    base = {name: lof_cuts(a, LOFConfig(refine_s=0.0), True)[0]
+            for name, (a, _, _) in recs.items()}
+    rows = []
+    window = LOFConfig().frames(FPS)["window"]
+    for length, radius in [(None, 0)] + list(itertools.product((60, 120, 180, window),
+                                                               (24, 48, 96, 120))):
+        res, errors = {}, []
+        for name, (a, truth, windows) in recs.items():
+            cuts = base[name]
+            if length is not None:
+                c = contrast_curve(a, length)
+                cuts = [argmax_near(c, f, radius, length, len(a)) for f in cuts]
+            res[name] = f1s(cuts, truth, windows)
+            if name in TRAIN:
+                srt = np.sort(cuts)
+                errors += [abs(int(srt[i]) - int(truth[j]))
+                           for i, j in match_cuts(cuts, truth, tolerance=int(FPS))]
+        label = "centre rule" if length is None else f"L={length} r={radius}"
+        rows.append((label, float(np.mean(errors)), res))
+    return rows
+
+
+def smoothed_grid(recs, axes, make):
+    """Train F1 of every grid point and its average with its one-step grid neighbours."""
+    keys = list(axes)
+    score = {}
+    for point in itertools.product(*axes.values()):
+        cfg = make(dict(zip(keys, point)))
+        score[point] = {name: f1s(lof_cuts(a, cfg, True)[0], truth, windows)
+                        for name, (a, truth, windows) in recs.items()}
+    train = {p: np.mean([r[n][0] for n in TRAIN]) for p, r in score.items()}
+    smooth = {}
+    for p in score:
+        idx = [list(axes[k]).index(v) for k, v in zip(keys, p)]
+        vals = [train[p]]
+        for ax in range(len(keys)):
+            for d in (-1, 1):
+                j = list(idx)
+                j[ax] += d
+                if 0 <= j[ax] < len(axes[keys[ax]]):
+                    vals.append(train[tuple(axes[keys[i]][j[i]] for i in range(len(keys)))])
+        smooth[p] = float(np.mean(vals))
+    return score, train, smooth
+
+
+def _fmt(res, names):
+    return " ".join(f"{res[n][0]:4.2f}/{res[n][1]:4.2f}" for n in names)
+
+
+def main():
+    t0 = time.perf_counter()
+    recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
+    names = list(recs)
+    held = [n for n in names if n not in TRAIN]
+    print("F1 0.5 s / 1 s per recording: " + ", ".join(names))
+    print("train = mean F1 (0.5 s) on " + " + ".join(TRAIN) + "; held = mean on the others\n")
+
+    default = {name: f1s(lof_cuts(a, LOFConfig(), True)[0], truth, windows)
+               for name, (a, truth, windows) in recs.items()}
+    tr, he = np.mean([default[n][0] for n in TRAIN]), np.mean([default[n][0] for n in held])
+    print(f"{'adopted: symmetric LOF, defaults':58s} train {tr:.2f} held {he:.2f}  "
+          f"{_fmt(default, names)}  latency ~3.5-3.9 s")
+
+    print("\n1. novelty LOF (causal reference of past non-overlapping windows), best 3 of each "
+          "rule by train F1:")
+    rows = novelty_table(recs)
+    for rule in ("onset", "peak"):
+        sel = sorted((r for r in rows if r[0] == rule),
+                     key=lambda r: -np.mean([r[2][n][0] for n in TRAIN]))[:3]
+        for _, label, res in sel:
+            lat = np.nanmedian([res[n][2] for n in names])
+            print(f"  {rule:5s} {label:50s} train {np.mean([res[n][0] for n in TRAIN]):.2f} "
+                  f"held {np.mean([res[n][0] for n in held]):.2f}  {_fmt(res, names)}  "
+                  f"median latency {lat:.0f} frames")
+
+    print("\n2. cut localisation on the default detector's streaming cuts (train MAE: mean "
+          "|cut - true cut| of matched cuts, frames):")
+    for label, mae, res in localisation_table(recs):
+        print(f"  {label:14s} train MAE {mae:5.1f}  train {np.mean([res[n][0] for n in TRAIN]):.2f}"
+              f" held {np.mean([res[n][0] for n in held]):.2f}  {_fmt(res, names)}")
+    print("\n3. re-tuning (streaming, localisation on), chosen by train F1 averaged with the "
+          "grid neighbours:")
+    d = LOFConfig()
+    stages = [
+        ({"bins": (5, 6, 7, 8, 10), "window_s": (2.0, 2.25, 2.5, 2.75, 3.0), "k": (8, 10, 12)},
+         lambda v: LOFConfig(**v)),
+        ({"delay_s": (2.0, 2.5, 3.0), "min_score": (1.2, 1.3, 1.5),
+          "threshold_mads": (1.0, 1.5, 2.0)},
+         lambda v: LOFConfig(bins=d.bins, window_s=d.window_s, k=d.k, **v)),
+    ]
+    for axes, make in stages:
+        score, train, smooth = smoothed_grid(recs, axes, make)
+        best = sorted(score, key=lambda p: -smooth[p])[:4]
+        now = tuple(getattr(d, k) for k in axes)
+        for p in best + ([now] if now not in best else []):
+            res = score[p]
+            tag = " <- defaults" if p == now else ""
+            print(f"  {dict(zip(axes, p))!s:58s} smoothed {smooth[p]:.2f} train {train[p]:.2f} "
+                  f"held {np.mean([res[n][0] for n in held]):.2f}  {_fmt(res, names)}{tag}")
+    print(f"\n[{time.perf_counter() - t0:.0f} s]")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,161 @@
+"""Per-angle histograms over sliding windows (numba). Private: arrays in, arrays out.
+
+Frames are binned once (``bin_frames``); a window's histogram is the integer count vector of
+its valid frames, laid out angle-major: entry ``a * bins + b`` counts angle ``a`` in bin ``b``.
+Counts stay integers so cosine distances between windows are exact for identical windows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def bin_frames(angles, bins, out_bins, out_valid):
+    """Bin index of each angle (bin j holds [j pi/L, (j+1) pi/L); pi goes to the last bin).
+
+    Parameters
+    ----------
+    angles : float64 (n, n_angles)
+    bins : int
+    out_bins : int8 (n, n_angles), written
+    out_valid : uint8 (n,), written: 0 where any angle of the frame is NaN
+    """
+    n, a = angles.shape
+    scale = bins / np.pi
+    for i in range(n):
+        ok = 1
+        for j in range(a):
+            v = angles[i, j]
+            if not np.isfinite(v):
+                ok = 0
+                out_bins[i, j] = 0
+                continue
+            b = int(np.floor(v * scale))
+            if b < 0:
+                b = 0
+            elif b >= bins:
+                b = bins - 1
+            out_bins[i, j] = b
+        out_valid[i] = ok
+
+
+@njit(cache=True, nogil=True)
+def window_counts(frame_bins, valid, bins, window, step):
+    """Count vectors of windows ``[w*step, w*step + window)`` by a sliding add/remove.
+
+    Parameters
+    ----------
+    frame_bins : int8 (n, n_angles)
+    valid : uint8 (n,)
+    bins, window, step : int
+
+    Returns
+    -------
+    counts : float64 (m, n_angles * bins)
+        Integer counts of the valid frames of each of the ``m = (n - window) // step + 1``
+        complete windows (m = 0 when n < window).
+    n_valid : int64 (m,)
+        Valid frames per window.
+    """
+    n, a = frame_bins.shape
+    m = 0
+    if n >= window:
+        m = (n - window) // step + 1
+    counts = np.zeros((m, a * bins))
+    n_valid = np.zeros(m, dtype=np.int64)
+    cur = np.zeros(a * bins, dtype=np.int64)
+    nv = 0
+    w = 0
+    for f in range(n):
+        if w >= m:
+            break
+        if valid[f]:
+            nv += 1
+            for j in range(a):
+                cur[j * bins + frame_bins[f, j]] += 1
+        old = f - window
+        if old >= 0 and valid[old]:
+            nv -= 1
+            for j in range(a):
+                cur[j * bins + frame_bins[old, j]] -= 1
+        if f == w * step + window - 1:
+            for d in range(a * bins):
+                counts[w, d] = cur[d]
+            n_valid[w] = nv
+            w += 1
+    return counts, n_valid
+
+
+@njit(cache=True, nogil=True)
+def _add_frame(counts, ring, valid, size, g, bins, sign):
+    """Add (``sign=1``) or remove (``-1``) frame ``g`` of a ring to a count vector."""
+    pos = g % size
+    if valid[pos]:
+        for a in range(ring.shape[1]):
+            counts[a * bins + ring[pos, a]] += sign
+
+
+@njit(cache=True, nogil=True)
+def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest, first, left,
+               right):
+    """Frame near ``centre`` where the histograms just before and just after differ most.
+
+    Candidate ``g`` is scored by the cosine distance ``1 - cos`` between the count vectors of
+    frames ``[g - window, g)`` and ``[g, g + window)`` (valid frames only); the candidates are
+    ``centre - radius .. centre + radius`` restricted to those whose two sub-windows lie in
+    ``[oldest, n_avail)`` and to ``g >= first`` (keeps the minimum gap to the previous cut).
+    The earliest maximum wins; ``centre`` is returned when no candidate qualifies.
+
+    Parameters
+    ----------
+    ring : int8 (size, n_angles)
+        Bin index of frame ``g`` at row ``g % size`` (the whole recording with ``size = n``).
+    valid : uint8 (size,)
+        0 for frames skipped for NaN.
+    size, centre, radius, window, bins : int
+    n_avail : int
+        Frames known (exclusive end).
+    oldest : int
+        Oldest frame still held in the ring.
+    first : int
+        Earliest allowed cut frame.
+    left, right : int64 (n_angles * bins,), scratch
+
+    Returns
+    -------
+    int
+    """
+    lo = max(centre - radius, oldest + window, first)
+    hi = min(centre + radius, n_avail - window)
+    if hi < lo:
+        return centre
+    for d in range(left.shape[0]):
+        left[d] = 0
+        right[d] = 0
+    for g in range(lo - window, lo):
+        _add_frame(left, ring, valid, size, g, bins, 1)
+    for g in range(lo, lo + window):
+        _add_frame(right, ring, valid, size, g, bins, 1)
+    best = -1.0
+    at = centre
+    for g in range(lo, hi + 1):
+        dot = 0.0
+        nl = 0.0
+        nr = 0.0
+        for d in range(left.shape[0]):
+            dot += float(left[d]) * float(right[d])
+            nl += float(left[d]) * float(left[d])
+            nr += float(right[d]) * float(right[d])
+        den = np.sqrt(nl * nr)
+        dist = 1.0 if den == 0.0 else 1.0 - dot / den
+        if dist > best:
+            best = dist
+            at = g
+        if g < hi:
+            _add_frame(left, ring, valid, size, g, bins, 1)
+            _add_frame(left, ring, valid, size, g - window, bins, -1)
+            _add_frame(right, ring, valid, size, g, bins, -1)
+            _add_frame(right, ring, valid, size, g + window, bins, 1)
+    return at

@@ -1,0 +1,149 @@
+"""Peaks of a LOF curve: Douglas-Peucker simplification + robust threshold (numba). Private."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+MAD_TO_SIGMA = 1.4826  # MAD of a normal sample times this estimates its standard deviation
+
+
+@njit(cache=True, nogil=True)
+def dp_keep(y, lo, hi, eps, keep, stack):
+    """Douglas-Peucker on the points ``(i, y[i])``, ``lo <= i <= hi``; vertical deviation.
+
+    Sets ``keep[i - lo] = 1`` for the vertices of the simplified polyline: a point is kept when
+    it deviates most from the chord of its span and by more than ``eps``.
+
+    Parameters
+    ----------
+    y : float64 (n,)
+    lo, hi : int, inclusive range
+    eps : float
+    keep : uint8 (>= hi - lo + 1,), written
+    stack : int64 (>= 2 * (hi - lo + 1),) scratch
+    """
+    m = hi - lo + 1
+    for i in range(m):
+        keep[i] = 0
+    keep[0] = 1
+    keep[m - 1] = 1
+    top = 0
+    stack[0] = lo
+    stack[1] = hi
+    top = 2
+    while top > 0:
+        b = stack[top - 1]
+        a = stack[top - 2]
+        top -= 2
+        if b - a < 2:
+            continue
+        best = -1.0
+        at = -1
+        slope = (y[b] - y[a]) / (b - a)
+        for i in range(a + 1, b):
+            dev = abs(y[i] - (y[a] + slope * (i - a)))
+            if dev > best:
+                best = dev
+                at = i
+        if best > eps:
+            keep[at - lo] = 1
+            stack[top] = a
+            stack[top + 1] = at
+            stack[top + 2] = at
+            stack[top + 3] = b
+            top += 4
+
+
+@njit(cache=True, nogil=True)
+def is_peak(y, lo, hi, c, tol, keep, stack):
+    """Whether ``c`` is a peak vertex of the simplified curve ``y[lo..hi]``.
+
+    The tolerance is ``tol`` times the range of ``y[lo..hi]``; ``c`` must be a vertex whose
+    neighbouring vertices on both sides are strictly lower.
+    """
+    if c <= lo or c >= hi:
+        return False
+    ymin = y[lo]
+    ymax = y[lo]
+    for i in range(lo, hi + 1):
+        if y[i] < ymin:
+            ymin = y[i]
+        if y[i] > ymax:
+            ymax = y[i]
+    if ymax <= ymin:
+        return False
+    dp_keep(y, lo, hi, tol * (ymax - ymin), keep, stack)
+    if keep[c - lo] == 0:
+        return False
+    p = c - 1
+    while keep[p - lo] == 0:
+        p -= 1
+    q = c + 1
+    while keep[q - lo] == 0:
+        q += 1
+    return y[p] < y[c] and y[q] < y[c]
+
+
+@njit(cache=True, nogil=True)
+def dominates(y, lo, hi, c, gap):
+    """Whether no value of ``y`` within ``gap`` of ``c`` (inside ``lo..hi``) exceeds ``y[c]``."""
+    for i in range(max(lo, c - gap), min(hi, c + gap) + 1):
+        if y[i] > y[c]:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def robust_threshold(values, n, n_mads, work):
+    """``median + n_mads * 1.4826 * MAD`` of ``values[:n]`` (``work``: float64 scratch >= n)."""
+    if n == 0:
+        return np.inf
+    for i in range(n):
+        work[i] = values[i]
+    w = np.sort(work[:n])
+    if n % 2 == 1:
+        med = w[n // 2]
+    else:
+        med = 0.5 * (w[n // 2 - 1] + w[n // 2])
+    for i in range(n):
+        work[i] = abs(values[i] - med)
+    w = np.sort(work[:n])
+    if n % 2 == 1:
+        mad = w[n // 2]
+    else:
+        mad = 0.5 * (w[n // 2 - 1] + w[n // 2])
+    return med + n_mads * MAD_TO_SIGMA * mad
+
+
+@njit(cache=True, nogil=True)
+def peak_windows(y, delay, tol, n_mads, min_score, min_gap):
+    """Offline peak rule on a whole curve; the same rule the streaming detector applies.
+
+    Window ``w`` is a cut when it is a peak vertex of the simplified curve ``y[w-delay ..
+    w+delay]``, no value within ``min_gap`` windows of it is higher, it reaches
+    ``max(min_score, median + n_mads * 1.4826 * MAD)`` of the whole curve, and it is at least
+    ``min_gap`` windows after the previous cut (on ties the earlier cut wins).
+
+    Returns
+    -------
+    int64 (n_cuts,) window indices
+    """
+    m = y.shape[0]
+    work = np.empty(max(m, 1))
+    thr = max(min_score, robust_threshold(y, m, n_mads, work))
+    keep = np.zeros(2 * delay + 1, dtype=np.uint8)
+    stack = np.zeros(4 * (2 * delay + 1) + 4, dtype=np.int64)
+    out = np.empty(m, dtype=np.int64)
+    n_out = 0
+    last = -(1 << 40)
+    for w in range(m):
+        if y[w] < thr or w - last < min_gap:
+            continue
+        lo = max(0, w - delay)
+        hi = min(m - 1, w + delay)
+        if dominates(y, lo, hi, w, min_gap) and is_peak(y, lo, hi, w, tol, keep, stack):
+            out[n_out] = w
+            n_out += 1
+            last = w
+    return out[:n_out]

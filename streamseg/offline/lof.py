@@ -1,0 +1,243 @@
+"""Offline LOF segmentation (Xing, Sun, Wei 2015), one small function per step.
+
+Pipeline: 8 bone angles per frame -> sliding windows -> per-angle histograms of ``bins`` equal
+bins over [0, pi] (normalized by the window's valid frames) -> 80-vector per window -> cosine
+distance ``1 - cos`` -> LOF with ``k`` neighbours -> peaks of the LOF curve by Douglas-Peucker
+simplification and a robust threshold -> cut at the centre of each peak window.
+
+Peaks: the paper simplifies the whole curve with Douglas-Peucker and takes its peaks, with
+no stated threshold. Here each window is judged by the rule the streaming detector applies
+(``streamseg._kernels.peaks.peak_windows``): a peak vertex of the simplification of the
+``+-delay`` windows around it, the highest value within ``min_gap``, and above the robust
+threshold ``max(min_score, median + threshold_mads * 1.4826 * MAD)`` of the curve.
+
+Cut frame: the paper takes the peak window's centre (``refine_s = 0``). By default the cut
+moves to the frame within ``refine_s`` of that centre where the histograms of the ``window``
+frames before and after it differ most (:func:`refine_cuts`), using only the frames the
+streaming detector has when it decides that window (up to the end of window ``w + delay``),
+so offline and streaming cuts agree.
+
+NaN policy (marker dropout): a frame with any NaN angle is skipped (counted in
+``n_nan_frames_``) and contributes to no histogram; a window with fewer than
+``config.min_valid * window`` valid frames is dropped from the LOF curve.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from streamseg._kernels.histogram import bin_frames, refine_cut, window_counts
+from streamseg._kernels.lof import lof_batch
+from streamseg._kernels.peaks import peak_windows, robust_threshold
+from streamseg.config import LOFConfig
+from streamseg.exceptions import ParameterError
+
+N_ANGLES = 8
+
+
+def bone_angle_features(recording_or_angles) -> np.ndarray:
+    """Return the (n_frames, 8) bone angles of a Recording, or validate a given angle array.
+
+    Parameters
+    ----------
+    recording_or_angles : Recording or array_like, shape (n_frames, 8)
+
+    Returns
+    -------
+    ndarray of float64, shape (n_frames, 8), angles in [0, pi] (NaN rows allowed)
+    """
+    if hasattr(recording_or_angles, "positions") and hasattr(recording_or_angles, "skeleton"):
+        from streamseg.skeleton import bone_angles
+
+        return np.asarray(bone_angles(recording_or_angles.positions,
+                                      recording_or_angles.skeleton), dtype=np.float64)
+    angles = np.asarray(recording_or_angles, dtype=np.float64)
+    if angles.ndim != 2 or angles.shape[1] != N_ANGLES:
+        raise ParameterError(
+            f"angles have shape {angles.shape}; expected (n_frames, {N_ANGLES}) bone angles "
+            "(pass a Recording or streamseg.skeleton.bone_angles output)")
+    return angles
+
+
+def frame_bins(angles: np.ndarray, bins: int):
+    """Bin index of every angle and the validity (no NaN) of every frame.
+
+    Returns
+    -------
+    fb : ndarray of int8, shape (n_frames, n_angles)
+    valid : ndarray of uint8, shape (n_frames,)
+    """
+    angles = np.ascontiguousarray(angles, dtype=np.float64)
+    n, a = angles.shape
+    fb = np.empty((n, a), dtype=np.int8)
+    valid = np.empty(n, dtype=np.uint8)
+    bin_frames(angles, bins, fb, valid)
+    return fb, valid
+
+
+def window_histograms(angles: np.ndarray, window: int, step: int, bins: int,
+                      min_valid: int = 1):
+    """Histogram count vectors of the sliding windows ``[w*step, w*step + window)``.
+
+    Parameters
+    ----------
+    angles : ndarray, shape (n_frames, n_angles)
+    window, step, bins, min_valid : int
+
+    Returns
+    -------
+    counts : ndarray of float64, shape (m, n_angles * bins)
+        Integer counts of the kept windows (angle-major: ``a * bins + b``).
+    centres : ndarray of int64, shape (m,)
+        Centre frame ``start + window // 2`` of each kept window.
+    n_valid : ndarray of int64, shape (m,)
+        Valid (non-NaN) frames of each kept window; ``counts / n_valid`` are the normalized
+        histograms, each angle's summing to 1.
+    """
+    fb, valid = frame_bins(angles, bins)
+    counts, n_valid = window_counts(fb, valid, bins, window, step)
+    keep = n_valid >= min_valid
+    centres = np.arange(counts.shape[0], dtype=np.int64) * step + window // 2
+    return counts[keep], centres[keep], n_valid[keep]
+
+
+def normalized(counts: np.ndarray, n_valid: np.ndarray) -> np.ndarray:
+    """Histograms normalized by the window's valid frames, shape as ``counts``."""
+    return counts / np.maximum(n_valid, 1)[:, None]
+
+
+def lof_scores(vectors: np.ndarray, k: int, centres=None, exclusion: int = 0) -> np.ndarray:
+    """LOF of each window vector with cosine distance.
+
+    With ``exclusion == 0`` this equals scikit-learn's
+    ``-LocalOutlierFactor(n_neighbors=k, metric="cosine").fit(vectors).negative_outlier_factor_``.
+
+    Parameters
+    ----------
+    vectors : ndarray, shape (m, d)
+    k : int
+    centres : ndarray of int, shape (m,), optional
+        Window times (frames); needed when ``exclusion > 0``.
+    exclusion : int
+        Windows whose centres are closer than this many frames are not neighbours.
+
+    Returns
+    -------
+    ndarray of float64, shape (m,)
+    """
+    x = np.ascontiguousarray(vectors, dtype=np.float64)
+    if centres is None:
+        if exclusion > 0:
+            raise ParameterError("lof_scores(exclusion > 0) needs the window centres")
+        centres = np.arange(x.shape[0], dtype=np.int64)
+    return lof_batch(x, int(k), np.ascontiguousarray(centres, dtype=np.int64),
+                     int(exclusion))[0]
+
+
+def select_peaks(curve: np.ndarray, delay: int, config: LOFConfig, min_gap: int) -> np.ndarray:
+    """Window indices of the cut peaks of a LOF curve (see :func:`peak_windows`)."""
+    return peak_windows(np.ascontiguousarray(curve, dtype=np.float64), int(delay),
+                        config.dp_tolerance, config.threshold_mads, config.min_score,
+                        int(min_gap))
+
+
+def refine_cuts(fb, valid, centres, cut_windows, window: int, delay: int, radius: int,
+                bins: int, gap: int = 0) -> np.ndarray:
+    """Move each cut from its peak window's centre to the largest before/after contrast.
+
+    Window ``w`` is decided by the streaming detector on the last frame of window ``w +
+    delay`` (or at the end of the stream), so only the frames up to there are used; each cut
+    stays at least ``gap`` frames after the previous one.
+
+    Parameters
+    ----------
+    fb : ndarray of int8, shape (n_frames, n_angles), see :func:`frame_bins`
+    valid : ndarray of uint8, shape (n_frames,)
+    centres : ndarray of int64, shape (m,), window centres
+    cut_windows : ndarray of int64, shape (n_cuts,), indices into ``centres``
+    window, delay, radius, bins : int
+        Sub-window length (frames), decision delay (windows), search radius (frames), bins.
+    gap : int
+        Minimum distance between cut frames (frames).
+
+    Returns
+    -------
+    ndarray of int64, shape (n_cuts,), cut frames
+    """
+    n, m = fb.shape[0], centres.shape[0]
+    out = np.asarray(centres, dtype=np.int64)[np.asarray(cut_windows, dtype=np.int64)]
+    if radius <= 0:
+        return out
+    left = np.zeros(fb.shape[1] * bins, dtype=np.int64)
+    right = np.zeros_like(left)
+    prev = -(1 << 40)
+    for i, w in enumerate(cut_windows):
+        last = int(w) + delay
+        n_avail = n if last > m - 1 else int(centres[last]) - window // 2 + window
+        out[i] = prev = refine_cut(fb, valid, n, int(out[i]), radius, window, bins, n_avail, 0,
+                                   prev + gap, left, right)
+    return out
+
+
+class LOFSegmenter:
+    """Offline cut detection: LOF over sliding-window histograms of bone angles.
+
+    Parameters
+    ----------
+    config : LOFConfig
+    fps : float
+        Frame rate, converting the config's seconds to frames.
+
+    Attributes
+    ----------
+    n_frames_ : int
+    n_nan_frames_ : int
+    counts_ : ndarray, shape (m, 8 * bins), window count vectors
+    vectors_ : ndarray, shape (m, 8 * bins), normalized histograms
+    centres_ : ndarray of int64, shape (m,), window centre frames
+    lof_ : ndarray, shape (m,), the LOF curve
+    threshold_ : float, the adaptive threshold used on the curve
+    cut_windows_ : ndarray of int64, window indices of the cuts
+    cuts_ : ndarray of int64, cut frames (see :func:`refine_cuts`)
+    """
+
+    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0):
+        self.config = LOFConfig() if config is None else config
+        self.fps = float(fps)
+        self.geometry = self.config.frames(self.fps)
+
+    def fit(self, recording_or_angles) -> LOFSegmenter:
+        """Compute the LOF curve and its peaks.
+
+        Parameters
+        ----------
+        recording_or_angles : Recording or array_like, shape (n_frames, 8)
+        """
+        g, c = self.geometry, self.config
+        angles = bone_angle_features(recording_or_angles)
+        self.n_frames_ = int(angles.shape[0])
+        self.n_nan_frames_ = int((~np.isfinite(angles)).any(axis=1).sum())
+        fb, valid = frame_bins(angles, c.bins)
+        counts, n_valid = window_counts(fb, valid, c.bins, g["window"], g["step"])
+        keep = n_valid >= g["min_valid"]
+        centres = (np.arange(counts.shape[0], dtype=np.int64) * g["step"] + g["window"] // 2)[keep]
+        counts, n_valid = counts[keep], n_valid[keep]
+        self.counts_ = counts
+        self.vectors_ = normalized(counts, n_valid)
+        self.centres_ = centres
+        # counts, not normalized vectors: integer dot products make identical windows exactly
+        # distance 0, and the streaming detector uses the same numbers (online == offline)
+        self.lof_ = lof_scores(counts, c.k, centres, g["exclusion"])
+        m = self.lof_.shape[0]
+        thr = robust_threshold(self.lof_, m, c.threshold_mads, np.empty(max(m, 1)))
+        self.threshold_ = float(max(thr, c.min_score))
+        self.cut_windows_ = select_peaks(self.lof_, g["delay"], c, g["min_gap"])
+        self.cuts_ = refine_cuts(fb, valid, centres, self.cut_windows_, g["window"], g["delay"],
+                                 g["refine"], c.bins, g["min_gap"] * g["step"])
+        return self
+
+    def predict(self) -> np.ndarray:
+        """Cut frames (0-based; a new segment starts at each), shape (n_cuts,), int64."""
+        if not hasattr(self, "lof_"):
+            raise ParameterError("LOFSegmenter.predict() before fit(): call fit(recording) first")
+        return self.cuts_.copy()

@@ -1,0 +1,208 @@
+"""Streaming LOF cut detector: bone-angle frames in, :class:`Cut` events out."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from streamseg._kernels import lof_stream as _ks
+from streamseg.config import LOFConfig
+from streamseg.exceptions import ParameterError
+from streamseg.online.events import Cut
+
+N_ANGLES = 8
+
+
+class StreamingLOFSegmenter:
+    """Online version of :class:`streamseg.offline.LOFSegmenter`, bounded memory.
+
+    Per frame, the window histogram is updated in O(bins) (the entering frame is added, the
+    leaving one removed). Each completed window's count vector enters a ring buffer of
+    ``capacity`` windows (``config.buffer_s`` seconds) whose LOF values are maintained
+    incrementally (Pokrajac et al. 2007): on insert and on evicting the oldest window only the
+    points whose neighbour list, reachability or lrd change are recomputed. Window ``w`` is
+    decided once, when window ``w + delay`` is complete: it is a cut when it is a peak vertex
+    of the Douglas-Peucker simplification of the LOF curve over windows ``w - delay .. w +
+    delay`` and reaches ``max(min_score, median + threshold_mads * 1.4826 * MAD)`` of the
+    buffered curve, at least ``min_gap`` windows after the previous cut. The cut frame is then
+    moved from the window's centre to the frame within ``refine`` frames (``refine_s``) where
+    the count histograms of the ``window`` frames before and after it differ most (cosine
+    distance), among the frames already seen; the offline segmenter applies the same rule.
+    (The frame ring holds ``history`` frames, enough without NaN-dropped windows; after drops
+    the search may be clipped to the frames still held, which the offline rule does not do.)
+
+    Latency: window ``w`` is decided on the last frame of window ``w + delay``, that is
+    ``delay * step + window - 1 - window // 2`` frames after the centre of ``w``; localisation
+    moves the cut by at most ``refine`` frames either way, so the worst-case latency is
+    ``delay * step + window - 1 - window // 2 + refine`` frames (:meth:`latency_frames`; with
+    the defaults at 120 Hz: 12 * 24 + 269 - 135 + 48 = 470 frames, 3.9 s; the decision itself
+    is 422 frames, 3.5 s, after the peak window's centre). This holds when no window is dropped for
+    NaN frames; every dropped window delays the decision by one more ``step``. :meth:`finish`
+    decides the last ``delay`` windows at the end.
+
+    NaN policy: a frame with any non-finite angle is skipped (counted in ``n_nan_frames_``)
+    and enters no histogram; it still advances the frame clock. A window with fewer than
+    ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
+
+    Memory: fixed at construction, ``capacity * (2 * 8 * bins + 24 * k + 80)`` +
+    ``9 * history`` bytes, ``history = delay * step + 2 * window + refine + 1`` frames
+    (defaults at 120 Hz: 375 windows and 877 frames, about 165 kB per stream).
+
+    Parameters
+    ----------
+    config : LOFConfig
+    fps : float
+    """
+
+    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0):
+        self.config = LOFConfig() if config is None else config
+        if not fps > 0:
+            raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
+        self.fps = float(fps)
+        g = self.geometry = self.config.frames(self.fps)
+        c = self.config
+        n, k, d, w = g["capacity"], c.k, N_ANGLES * c.bins, g["window"]
+        self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
+                              g["refine"]], dtype=np.int64)
+        self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
+                            g["min_gap"]], dtype=np.float64)
+        # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
+        self._st = _ks.new_state()
+        # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
+        # cut localisation reads back to refine + w frames before a peak window's centre
+        self._rb = np.zeros((g["history"], N_ANGLES), dtype=np.int8)
+        self._rv = np.zeros(g["history"], dtype=np.uint8)
+        self._cur = np.zeros(d, dtype=np.int64)
+        self._left = np.zeros(d, dtype=np.int64)
+        self._right = np.zeros(d, dtype=np.int64)
+        if w > np.iinfo(np.uint16).max:
+            raise ParameterError(f"window of {w} frames is too long: at most 65535 frames "
+                                 "(lower window_s)")
+        self._vecs = np.zeros((n, d), dtype=np.uint16)  # integer counts <= window frames
+        self._norms = np.zeros(n)
+        self._seqs = np.full(n, -1, dtype=np.int64)
+        self._nn_idx = np.zeros((n, k), dtype=np.int64)
+        self._nn_d = np.zeros((n, k))
+        self._nn_key = np.zeros((n, k), dtype=np.int64)
+        self._nn_cnt = np.zeros(n, dtype=np.int64)
+        self._lrd = np.zeros(n)
+        self._lof = np.zeros(n)
+        self._mark = np.zeros(n, dtype=np.int64)
+        self._centres = np.zeros(n, dtype=np.int64)
+        self._work = np.zeros(n)
+        self._curve = np.zeros(n)
+        self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
+        self._stack = np.zeros(4 * (2 * g["delay"] + 1) + 4, dtype=np.int64)
+
+    # ---- feeding ---------------------------------------------------------------------------
+    def learn_one(self, angles_row) -> list[Cut]:
+        """Feed one frame of 8 bone angles (radians); return the cuts decided on it."""
+        row = np.asarray(angles_row, dtype=np.float64)
+        if row.shape != (N_ANGLES,):
+            raise ParameterError(f"angles_row has shape {row.shape}; expected ({N_ANGLES},)")
+        return self._run(row.reshape(1, N_ANGLES))
+
+    def learn_many(self, angles) -> list[Cut]:
+        """Feed frames of bone angles, shape (n, 8); same cuts as ``learn_one`` per row."""
+        a = np.asarray(angles, dtype=np.float64)
+        if a.ndim != 2 or a.shape[1] != N_ANGLES:
+            raise ParameterError(f"angles have shape {a.shape}; expected (n_frames, {N_ANGLES})")
+        return self._run(np.ascontiguousarray(a))
+
+    def finish(self) -> list[Cut]:
+        """End of stream: decide the windows still waiting for ``delay`` future windows."""
+        m = self.geometry["delay"] + 1
+        ev_f = np.empty(m, dtype=np.int64)
+        ev_s = np.empty(m)
+        ev_e = np.empty(m, dtype=np.int64)
+        n = _ks.stream_finish(self._st, self._p, self._geo, self._rb, self._rv, self._left,
+                              self._right, self._seqs, self._lof, self._centres, self._work,
+                              self._curve, self._keep, self._stack, ev_f, ev_s, ev_e)
+        return self._events(n, ev_f, ev_s, ev_e)
+
+    def _run(self, a: np.ndarray) -> list[Cut]:
+        m = a.shape[0] // self.geometry["step"] + 2
+        ev_f = np.empty(m, dtype=np.int64)
+        ev_s = np.empty(m)
+        ev_e = np.empty(m, dtype=np.int64)
+        n = _ks.stream_block(a, self._st, self._geo, self._p, self._rb, self._rv, self._cur,
+                             self._left, self._right, self._vecs, self._norms, self._seqs,
+                             self._nn_idx, self._nn_d,
+                             self._nn_key, self._nn_cnt, self._lrd, self._lof, self._mark,
+                             self._centres, self._work, self._curve, self._keep, self._stack,
+                             ev_f, ev_s, ev_e)
+        return self._events(n, ev_f, ev_s, ev_e)
+
+    @staticmethod
+    def _events(n, ev_f, ev_s, ev_e) -> list[Cut]:
+        return [Cut(int(ev_f[i]), float(ev_s[i]), int(ev_e[i])) for i in range(n)]
+
+    # ---- read-only views (never mutate state) ----------------------------------------------
+    @property
+    def n_frames_(self) -> int:
+        """Frames fed so far (NaN frames included)."""
+        return int(self._st[0])
+
+    @property
+    def n_nan_frames_(self) -> int:
+        """Frames skipped because an angle was NaN or infinite."""
+        return int(self._st[5])
+
+    @property
+    def n_dropped_windows_(self) -> int:
+        """Windows not inserted because fewer than ``min_valid`` of their frames were valid."""
+        return int(self._st[6])
+
+    @property
+    def n_windows_(self) -> int:
+        """Windows inserted into the LOF buffer so far (including evicted ones)."""
+        return int(self._st[3])
+
+    @property
+    def n_lof_updates_(self) -> int:
+        """Total LOF recomputations done by the incremental updates (work statistic)."""
+        return int(self._st[7])
+
+    def _order(self) -> np.ndarray:
+        size, nxt = int(self._st[2]), int(self._st[3])
+        return np.arange(nxt - size, nxt) % self._seqs.shape[0]
+
+    def buffer_vectors(self) -> np.ndarray:
+        """Count vectors of the buffered windows, oldest first, shape (size, 8 * bins)."""
+        return self._vecs[self._order()].astype(np.float64)
+
+    def buffer_lof(self) -> np.ndarray:
+        """Current LOF values of the buffered windows, oldest first, shape (size,)."""
+        return self._lof[self._order()].copy()
+
+    def buffer_centres(self) -> np.ndarray:
+        """Centre frames of the buffered windows, oldest first, shape (size,)."""
+        return self._centres[self._order()].copy()
+
+    def decision_lag_frames(self) -> int:
+        """Frames from a peak window's centre to the decision on it, without NaN drops."""
+        g = self.geometry
+        return g["delay"] * g["step"] + g["window"] - 1 - g["window"] // 2
+
+    def latency_frames(self) -> int:
+        """Worst-case latency (frames) from a cut frame to its emission, without NaN drops."""
+        return self.decision_lag_frames() + self.geometry["refine"]
+
+
+def warmup() -> None:
+    """Compile (or load from cache) every LOF kernel, e.g. at daemon start."""
+    from streamseg.offline.lof import LOFSegmenter
+
+    cfg = LOFConfig(window_s=0.1, step_s=0.05, k=2, buffer_s=0.5, delay_s=0.05)
+    rng = np.random.default_rng(0)
+    angles = rng.uniform(0, np.pi, (40, N_ANGLES))
+    angles[5] = np.nan
+    s = StreamingLOFSegmenter(cfg, fps=100.0)
+    s.learn_many(angles)
+    s.learn_one(angles[0])
+    s.finish()
+    LOFSegmenter(cfg, fps=100.0).fit(angles).predict()
+    # the offline localisation kernel, whether or not the random stream had a cut
+    from streamseg.offline.lof import frame_bins, refine_cuts
+
+    fb, valid = frame_bins(angles, cfg.bins)
+    refine_cuts(fb, valid, np.array([10, 20]), np.array([0]), 10, 1, 4, cfg.bins, 2)

@@ -1,0 +1,76 @@
+"""``streamseg segment|eval --method lof`` on real data."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+cli = pytest.importorskip("streamseg.cli")
+
+
+def _run(capsys, *argv):
+    assert cli.main([str(a) for a in argv]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.fixture(scope="module")
+def files(data_dir):
+    pytest.importorskip("streamseg.io")
+    return (data_dir / "cmu86" / "86_01.amc.gz", data_dir / "cmu86" / "86.asf",
+            data_dir / "cmu86" / "labels_86_01.csv")
+
+
+def test_segment_json_online(capsys, files):
+    amc, asf, _ = files
+    out = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", "--online",
+               "--json")
+    assert out["method"] == "lof" and out["n_frames"] == 4579 and out["fps"] == 120.0
+    cuts = out["cuts"]
+    assert len(cuts) == len(out["cut_latency_frames"]) >= 1
+    seg = out["segments"]
+    assert [s["start"] for s in seg[1:]] == cuts and seg[0]["start"] == 0
+    assert seg[-1]["end"] == 4579 and all(s["label"] is None for s in seg)
+    assert all(a["end"] == b["start"] for a, b in zip(seg, seg[1:]))
+    assert out["params"]["online"] and out["params"]["k"] == 10
+
+
+def test_segment_options_and_paper_preset(capsys, files):
+    amc, asf, _ = files
+    out = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", "--preset", "paper",
+               "--json")
+    assert "cut_latency_frames" not in out
+    assert out["params"]["frames"]["window"] == 500 and out["params"]["k"] == 20
+    out = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", "--window", "1.5",
+               "--k", "7", "--bins", "12", "--json")
+    assert out["params"]["window_s"] == 1.5 and out["params"]["k"] == 7
+    assert out["params"]["bins"] == 12
+    assert out["params"]["refine_s"] == 0.4  # the default localisation; the paper: 0
+    centre = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", "--refine", "0",
+                  "--json")
+    assert centre["params"]["refine_s"] == 0.0
+    # the centre rule puts every cut at a window centre: window // 2 + a multiple of the step
+    g = centre["params"]["frames"]
+    assert centre["cuts"] and all((c - g["window"] // 2) % g["step"] == 0 for c in centre["cuts"])
+
+
+def test_eval_prints_scores_and_plot(capsys, files, tmp_path):
+    amc, asf, labels = files
+    png = tmp_path / "lof.png"
+    out = _run(capsys, "eval", amc, "--skeleton", asf, "--method", "lof", "--labels", labels,
+               "--online", "--plot", png, "--json")
+    for key in ("precision", "recall", "f1", "covering", "latency_median", "latency_max",
+                "f1_1s"):
+        assert 0 <= out[key] <= (1 if key[:3] != "lat" else 10_000)
+    assert out["n_true"] == 6
+    assert png.stat().st_size > 10_000
+
+
+def test_matrix_needs_fps(capsys, tmp_path):
+    m = tmp_path / "angles.npy"
+    np.save(m, np.random.default_rng(0).uniform(0, np.pi, (600, 8)))
+    assert cli.main(["segment", str(m), "--method", "lof", "--json"]) == 2
+    assert "--fps" in capsys.readouterr().err
+    out = _run(capsys, "segment", m, "--method", "lof", "--fps", "100", "--json")
+    assert out["n_frames"] == 600 and out["fps"] == 100.0

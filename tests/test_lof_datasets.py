@@ -1,0 +1,61 @@
+"""Concatenated evaluation sequences and the Recording path of the offline segmenter."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from streamseg.config import LOFConfig
+from streamseg.exceptions import ParameterError
+from streamseg.offline.lof import LOFSegmenter
+
+io = pytest.importorskip("streamseg.io")
+skeleton = pytest.importorskip("streamseg.skeleton")
+
+
+def test_cmu02_sequence_joins_clips_at_the_true_cuts(data_dir):
+    from streamseg.datasets import CMU02_SEQUENCES, cmu02_sequence, concatenate
+
+    trials = CMU02_SEQUENCES["02_walk_punch_sword_wash"]
+    rec, cuts = cmu02_sequence(data_dir, trials)
+    parts = [io.read(data_dir / "cmu02" / f"02_{t}.amc.gz", skeleton=data_dir / "cmu02" / "02.asf")
+             for t in trials]
+    lengths = [p.n_frames for p in parts]
+    assert cuts == list(np.cumsum(lengths)[:-1]) and rec.n_frames == sum(lengths)
+    np.testing.assert_array_equal(rec.positions[cuts[1]:cuts[2]], parts[2].positions)
+    assert rec.metadata["cuts"] == cuts
+    with pytest.raises(ParameterError, match="fps"):
+        concatenate([parts[0], parts[1].__class__(60.0, parts[1].skeleton, parts[1].positions)])
+
+
+def test_cmu02_sequences_follow_the_single_action_rule(data_dir):
+    from streamseg.datasets import (
+        CMU02_MIN_SECONDS,
+        CMU02_MULTI_ACTION_SEQUENCES,
+        CMU02_SEQUENCES,
+        CMU02_TRIAL_ACTIONS,
+    )
+
+    asf = data_dir / "cmu02" / "02.asf"
+    seconds = {t: io.read(data_dir / "cmu02" / f"02_{t}.amc.gz", skeleton=asf).n_frames / 120
+               for t in CMU02_TRIAL_ACTIONS}
+    ok = {t for t, acts in CMU02_TRIAL_ACTIONS.items()
+          if len(acts) == 1 and seconds[t] >= CMU02_MIN_SECONDS}
+    assert ok == {"01", "05", "07", "08", "09", "10"}
+    orders = []
+    for trials in CMU02_SEQUENCES.values():
+        assert set(trials) <= ok
+        actions = [CMU02_TRIAL_ACTIONS[t] for t in trials]
+        assert len(set(actions)) == len(actions)  # each action once: every join is a change
+        orders.append(tuple(actions))
+    assert len(set(orders)) == len(orders) == 2
+    assert all(not set(t) <= ok for t in CMU02_MULTI_ACTION_SEQUENCES.values())
+
+
+def test_fit_recording_equals_fit_bone_angles(data_dir):
+    rec = io.read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    a = LOFSegmenter(LOFConfig(), rec.fps).fit(rec)
+    b = LOFSegmenter(LOFConfig(), rec.fps).fit(skeleton.bone_angles(rec.positions, rec.skeleton))
+    np.testing.assert_array_equal(a.lof_, b.lof_)
+    np.testing.assert_array_equal(a.predict(), b.predict())
+    assert a.n_frames_ == rec.n_frames
