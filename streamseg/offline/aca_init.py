@@ -1,0 +1,154 @@
+"""Initial segmentations for ACA (Zhou et al. 2008, section 4.2) and the small clustering
+tools they need (k-means, spectral clustering). Plain numpy/scipy: none of this is hot.
+
+Segmentations are triples of int64 arrays ``(starts, ends, labels)`` with
+``starts[0] = 0``, ``ends[i] = starts[i + 1]``, ``ends[-1] = n``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import eigh
+
+from streamseg._kernels.dtak import segment_kernel
+
+
+def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray:
+    """Lloyd's k-means with k-means++ seeding. ``X``: (n, d). Returns (n,) labels in 0..k-1.
+
+    An emptied cluster is re-seeded with the point farthest from its centre, so every label in
+    ``0..min(k, distinct rows)-1`` is used.
+    """
+    X = np.asarray(X, dtype=np.float64)
+    n = X.shape[0]
+    k = int(min(k, n))
+    centres = np.empty((k, X.shape[1]))
+    centres[0] = X[rng.integers(n)]
+    d2 = ((X - centres[0]) ** 2).sum(1)
+    for c in range(1, k):
+        total = d2.sum()
+        i = rng.choice(n, p=d2 / total) if total > 0 else rng.integers(n)
+        centres[c] = X[i]
+        d2 = np.minimum(d2, ((X - centres[c]) ** 2).sum(1))
+    labels = np.full(n, -1)
+    for _ in range(n_iter):
+        dist = (X * X).sum(1)[:, None] - 2 * X @ centres.T + (centres * centres).sum(1)[None, :]
+        new = np.argmin(dist, axis=1)
+        for c in range(k):
+            if not np.any(new == c):
+                far = int(np.argmax(dist[np.arange(n), new]))
+                new[far] = c
+                dist[far, :] = 0.0
+        if np.array_equal(new, labels):
+            break
+        labels = new
+        for c in range(k):
+            centres[c] = X[labels == c].mean(0)
+    return labels
+
+
+def spectral_labels(A, k: int, rng: np.random.Generator) -> np.ndarray:
+    """Spectral clustering of Ng, Jordan & Weiss on affinity ``A`` (m, m). Returns (m,) labels.
+
+    Embedding: the ``k`` leading eigenvectors of ``D^-1/2 A D^-1/2`` (zero diagonal), rows
+    normalized to unit length, then k-means. With ``m <= k`` every item is its own cluster.
+    """
+    A = np.array(A, dtype=np.float64)
+    m = A.shape[0]
+    if m <= k:
+        return np.arange(m)
+    np.fill_diagonal(A, 0.0)
+    A = 0.5 * (A + A.T)
+    deg = A.sum(1)
+    inv = np.where(deg > 0, 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0)), 0.0)
+    M = inv[:, None] * A * inv[None, :]
+    _, vecs = eigh(M, subset_by_index=[m - k, m - 1])
+    norms = np.linalg.norm(vecs, axis=1, keepdims=True)
+    emb = vecs / np.where(norms > 0, norms, 1.0)
+    return kmeans(emb, k, rng)
+
+
+def random_tiling(n: int, wmin: int, wmax: int, rng: np.random.Generator):
+    """Random (starts, ends) covering ``0..n`` with lengths uniform in [wmin, wmax].
+
+    Keeps every length in range whenever ``n`` can be tiled that way; otherwise the last piece
+    takes the remainder.
+    """
+    bounds = [0]
+    pos = 0
+    while n - pos > wmax:
+        rest = n - pos
+        hi = min(wmax, rest - wmin)
+        w = int(rng.integers(wmin, hi + 1)) if hi >= wmin else min(wmax, rest - 1)
+        pos += w
+        bounds.append(pos)
+    bounds.append(n)
+    b = np.asarray(bounds, dtype=np.int64)
+    return b[:-1].copy(), b[1:].copy()
+
+
+def random_init(K, k: int, wmin: int, wmax: int, rng: np.random.Generator):
+    """Random tiling labelled by spectral clustering of its segment DTAK matrix."""
+    starts, ends = random_tiling(K.shape[0], wmin, wmax, rng)
+    T = segment_kernel(K, starts, ends)
+    return starts, ends, spectral_labels(T, k, rng).astype(np.int64)
+
+
+def propagated_similarity(frame_classes, wmax: int) -> np.ndarray:
+    """Eq. 10: (n, n) 0/1 frame similarity from per-frame classes, propagated along time.
+
+    ``kappa[i, j] = 1`` for frames of one class; then for every pair ``(i1, i2)`` of the same
+    class whose frames ``d`` steps earlier (``1 <= d <= wmax``) also share a class, the
+    pairs ``(i1, i1-d)``, ``(i2, i2-d)``, ``(i1, i2-d)``, ``(i1-d, i2)`` become 1 (both orders).
+    """
+    c = np.asarray(frame_classes)
+    n = c.shape[0]
+    S = c[:, None] == c[None, :]
+    out = S.copy()
+    idx = np.arange(n)
+    for d in range(1, min(wmax, n - 1) + 1):
+        M = S[d:, d:] & S[:-d, :-d]  # M[a, b]: i1 = a + d, i2 = b + d
+        out[d:, :-d] |= M  # (i1, i2 - d)
+        out[:-d, d:] |= M  # (i1 - d, i2)
+        has = M.any(axis=1)  # i1 (and i1 itself as i2) matched: link (i1, i1 - d)
+        ii = idx[d:][has]
+        out[ii, ii - d] = True
+    out |= out.T
+    return out.astype(np.float64)
+
+
+def runs_to_segments(frame_labels, wmin: int, wmax: int):
+    """Turn per-frame labels into segments within [wmin, wmax] (section 4.2).
+
+    Runs of one label longer than ``wmax`` are divided into equal pieces; runs shorter than
+    ``wmin`` are merged into the preceding segment (the first into the next). Each segment takes
+    its most frequent frame label.
+    """
+    lab = np.asarray(frame_labels)
+    n = lab.shape[0]
+    cuts = np.flatnonzero(np.diff(lab) != 0) + 1
+    b = np.concatenate([[0], cuts, [n]])
+    pieces = []
+    for s, e in zip(b[:-1], b[1:], strict=True):
+        parts = int(np.ceil((e - s) / wmax))
+        edges = np.linspace(s, e, parts + 1).round().astype(np.int64)
+        pieces.extend(zip(edges[:-1], edges[1:], strict=True))
+    merged: list[list[int]] = []
+    for s, e in pieces:
+        if merged and (e - s < wmin or merged[-1][1] - merged[-1][0] < wmin):
+            merged[-1][1] = e  # may exceed wmax: the first DP step re-cuts it
+        else:
+            merged.append([s, e])
+    starts = np.asarray([s for s, _ in merged], dtype=np.int64)
+    ends = np.asarray([e for _, e in merged], dtype=np.int64)
+    labels = np.asarray([np.bincount(lab[s:e]).argmax() for s, e in merged], dtype=np.int64)
+    return starts, ends, labels
+
+
+def propagated_init(frame_classes, k: int, wmin: int, wmax: int, rng: np.random.Generator):
+    """Section 4.2 initialization: spectral clustering of the eq. 10 similarity, then lengths
+    forced into [wmin, wmax]. ``frame_classes``: (n,) k-means class of each frame."""
+    S = propagated_similarity(frame_classes, wmax)
+    labels = spectral_labels(S, k, rng)
+    starts, ends, seg_labels = runs_to_segments(labels, wmin, wmax)
+    return starts, ends, seg_labels

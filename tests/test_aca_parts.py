@@ -1,0 +1,176 @@
+"""ACA pieces: initializations (section 4.2), temporal reduction (4.1), HACA, windowed relabel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from streamseg.config import ACAConfig
+from streamseg.exceptions import ParameterError
+from streamseg.metrics import matched_frame_accuracy
+from streamseg.offline import HACA, WindowSegmentation, relabel_window, warmup
+from streamseg.offline.aca import ACA
+from streamseg.offline.aca_init import (
+    kmeans,
+    propagated_similarity,
+    random_tiling,
+    runs_to_segments,
+    spectral_labels,
+)
+from streamseg.offline.reduction import expand_labels, reduce_frames
+from streamseg.offline.relabel import match_labels
+
+
+def test_random_tiling_respects_lengths():
+    rng = np.random.default_rng(0)
+    for n in (10, 37, 100):
+        s, e = random_tiling(n, 4, 7, rng)
+        assert s[0] == 0 and e[-1] == n and np.array_equal(s[1:], e[:-1])
+        assert np.all((e - s >= 4) & (e - s <= 7))
+
+
+def test_propagated_similarity_hand_example():
+    # classes a b a b (n = 4), wmax = 1. kappa: same class -> (0,2), (1,3) and the diagonal.
+    # d = 1: pairs (i1, i2) with c[i1] == c[i2] and c[i1-1] == c[i2-1]: (1, 3), (3, 1), (2, 2),
+    # (1, 1), (3, 3) ... adds (i1, i1-1) for every i1 >= 1 (band) and (1, 3-1) = (1, 2),
+    # (3, 0) from (i1, i2 - d), and (0, 3), (2, 1) from (i1 - d, i2); symmetric closure.
+    S = propagated_similarity(np.array([0, 1, 0, 1]), 1)
+    expected = np.array([[1, 1, 1, 1], [1, 1, 1, 1], [1, 1, 1, 1], [1, 1, 1, 1]])
+    np.testing.assert_array_equal(S, expected)
+    # two unrelated classes far apart stay unlinked beyond the band
+    S = propagated_similarity(np.array([0, 0, 0, 1, 1, 1]), 1)
+    assert S[0, 5] == 0 and S[0, 3] == 0 and S[2, 3] == 1 and S[3, 5] == 1
+
+
+def test_runs_to_segments_splits_and_merges():
+    lab = np.array([0] * 10 + [1] * 2 + [2] * 5)
+    s, e, c = runs_to_segments(lab, 3, 5)
+    # run of 10 -> 5 + 5; run of 2 (< 3) merged into the previous piece; run of 5 kept
+    assert list(zip(s, e, c)) == [(0, 5, 0), (5, 12, 0), (12, 17, 2)]
+
+
+def test_spectral_and_kmeans_separate_blocks():
+    rng = np.random.default_rng(1)
+    A = np.kron(np.eye(3), np.ones((5, 5))) + 0.01
+    lab = spectral_labels(A, 3, rng)
+    assert matched_frame_accuracy(lab, np.repeat([0, 1, 2], 5))[0] == 1.0
+    X = np.concatenate([rng.normal(0, 0.1, (20, 2)), rng.normal(5, 0.1, (20, 2))])
+    assert matched_frame_accuracy(kmeans(X, 2, rng), np.repeat([0, 1], 20))[0] == 1.0
+
+
+def test_reduction_merges_runs_with_cap_and_maps_back():
+    X = np.concatenate([np.zeros((7, 2)), np.ones((3, 2)), np.zeros((2, 2))])
+    Xr, (s, e), classes = reduce_frames(X, 2, 4, np.random.default_rng(0))
+    # runs 7 (cut at cap 4 -> 4 + 3), 3, 2
+    assert s.tolist() == [0, 4, 7, 10] and e.tolist() == [4, 7, 10, 12]
+    np.testing.assert_array_equal(Xr, [[0, 0], [0, 0], [1, 1], [0, 0]])
+    assert classes[0] == classes[1] == classes[3] != classes[2]
+    np.testing.assert_array_equal(expand_labels([5, 6, 7, 8], (s, e), 12),
+                                  [5] * 4 + [6] * 3 + [7] * 3 + [8] * 2)
+
+
+def _blocks(rng, pattern, reps):
+    """Sequence of actions, each a noisy repetition of a 2-D cyclic pattern."""
+    shapes = {0: lambda t: np.c_[np.sin(t), np.cos(t)],
+              1: lambda t: np.c_[3 + np.sin(2 * t), t * 0],
+              2: lambda t: np.c_[t * 0 - 3, np.cos(3 * t)]}
+    xs, ys = [], []
+    for c in pattern:
+        t = np.linspace(0, 2 * np.pi * reps, 40 * reps, endpoint=False)
+        xs.append(shapes[c](t) + rng.normal(0, 0.05, (t.size, 2)))
+        ys.append(np.full(t.size, c))
+    return np.concatenate(xs), np.concatenate(ys)
+
+
+def test_aca_with_reduction_and_propagated_init_on_blocks():
+    X, y = _blocks(np.random.default_rng(0), [0, 1, 2, 0, 1], 3)
+    full = ACA(3, 30, 80, n_init=5, init="propagated", random_state=0).fit(X)
+    assert matched_frame_accuracy(full.labels_, y)[0] == 1.0
+    # reduction squeezes actions unevenly (a run of one k-means class is one unit whatever its
+    # duration), so it costs some accuracy here; chance level is about 0.4
+    model = ACA(3, 30, 80, n_init=5, k_reduce=20, reduce_cap=3, init="propagated",
+                random_state=0).fit(X)
+    assert model.labels_.shape == y.shape
+    assert matched_frame_accuracy(model.labels_, y)[0] > 0.85
+    segs = model.segments_
+    assert segs[0][0] == 0 and segs[-1][1] == len(y)
+    assert all(a[1] == b[0] for a, b in zip(segs[:-1], segs[1:], strict=True))
+    for s, e, lab in segs:  # segments mapped back to frames carry their frames' label
+        assert np.all(model.labels_[s:e] == lab)
+
+
+def test_explicit_init_with_reduction_and_errors():
+    X, y = _blocks(np.random.default_rng(3), [0, 1, 2], 2)
+    truth_segments = [(0, 80, 0), (80, 160, 1), (160, 240, 2)]
+    model = ACA(3, 30, 80, n_init=1, k_reduce=12, reduce_cap=3, init=truth_segments,
+                random_state=0).fit(X)
+    assert model.labels_.shape == (240,)
+    with pytest.raises(ParameterError, match="distinct labels"):
+        ACA(2, 30, 80, n_init=1, init=truth_segments).fit(X)
+    with pytest.raises(ParameterError, match="tile"):
+        ACA(3, 30, 80, n_init=1, init=[(0, 100, 0)]).fit(X)
+
+
+def test_haca_on_blocks():
+    X, y = _blocks(np.random.default_rng(1), [0, 1, 2, 1, 0], 3)
+    accs = []
+    for seed in range(3):
+        model = HACA(3, 40, 120, fine_clusters=6, fine_min_len=8, fine_max_len=20, n_init=5,
+                     random_state=seed).fit(X)
+        accs.append(matched_frame_accuracy(model.labels_, y)[0])
+    # a single run can stop in a local minimum of the fine level; most runs are near perfect
+    assert np.median(accs) > 0.95 and min(accs) > 0.8
+    fine = model.fine_segments_
+    assert fine[0][0] == 0 and fine[-1][1] == len(y)
+    assert all(a[1] == b[0] for a, b in zip(fine[:-1], fine[1:], strict=True))
+
+
+def test_match_labels_hungarian_and_fresh_ids():
+    new = np.array([0, 0, 0, 1, 1, 2])
+    old = np.array([5, 5, 5, 3, 3, 3])
+    m = match_labels(new, old, used={3, 5, 9})
+    assert m[0] == 5 and m[1] == 3
+    assert m[2] not in {3, 5, 9}  # unmatched: a fresh id, not one the listener already saw
+
+
+def test_relabel_window_keeps_ids_consistent_and_absolute():
+    X, _ = _blocks(np.random.default_rng(2), [0, 1, 2, 0, 1, 2], 2)
+    cfg = ACAConfig(n_clusters=3, min_len=0.3, max_len=0.8, k_reduce=None, n_init=3)
+    fps = 100.0
+    first = relabel_window(X[:320], start_frame=1000, fps=fps, config=cfg)
+    assert first.start == 1000 and first.end == 1320
+    assert first.segments[0][0] == 1000 and first.segments[-1][1] == 1320
+    second = relabel_window(X[160:480], start_frame=1160, fps=fps, config=cfg, previous=first)
+    a = first.frame_labels()[160:]
+    b = second.frame_labels()[:160]
+    # the ids agree on the overlap as well as the best one-to-one renaming could make them
+    assert np.mean(a == b) == pytest.approx(matched_frame_accuracy(b, a)[0])
+    assert np.mean(a == b) > 0.5
+    with pytest.raises(ParameterError, match="fps"):
+        relabel_window(X, start_frame=0, fps=0, config=cfg)
+
+
+def test_relabel_window_runs_in_a_worker_thread():
+    from concurrent.futures import ThreadPoolExecutor
+
+    X, _ = _blocks(np.random.default_rng(4), [0, 1, 2], 2)
+    cfg = ACAConfig(n_clusters=3, min_len=0.3, max_len=0.8, k_reduce=None, n_init=2)
+    direct = relabel_window(X, start_frame=0, fps=100.0, config=cfg)
+    with ThreadPoolExecutor(1) as pool:
+        threaded = pool.submit(relabel_window, X, start_frame=0, fps=100.0, config=cfg).result()
+    assert threaded == direct  # same seed, same answer, whichever thread runs it
+
+
+def test_window_segmentation_is_frozen_and_warmup_runs():
+    w = WindowSegmentation(0, 4, [(0, 2, 1), (2, 4, 0)])
+    np.testing.assert_array_equal(w.frame_labels(), [1, 1, 0, 0])
+    with pytest.raises(AttributeError):
+        w.start = 3
+    warmup()
+
+
+def test_aca_config_validation():
+    with pytest.raises(ParameterError, match="max_len"):
+        ACAConfig(min_len=2.0, max_len=1.0)
+    with pytest.raises(ParameterError, match="kernel"):
+        ACAConfig(kernel="rbf")
