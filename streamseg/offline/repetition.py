@@ -1,0 +1,256 @@
+"""Offline repetition segmentation (Wang et al. 2015): UKF angles -> frequency -> boundaries."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import hilbert
+
+from streamseg.config import RepetitionConfig
+from streamseg.exceptions import ParameterError
+from streamseg.offline import repetition_steps as steps
+from streamseg.ukf_model import (
+    BONE_NAMES,
+    bone_directions,
+    estimate_noise,
+    fit_angles,
+    limb_points,
+    observations,
+)
+
+__all__ = ["RepetitionAnalysis", "RepetitionSegmenter", "angles_from_positions", "analyse"]
+
+
+def angles_from_positions(positions, names, fps, config: RepetitionConfig | None = None):
+    """The 20 model joint angles per frame by the four-pass UKF (section 3).
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n_frames, n_joints, 3)
+    names : sequence of str
+        Joint names (Acclaim bone names, positions at bone ends).
+    fps : float
+    config : RepetitionConfig, optional
+
+    Returns
+    -------
+    ndarray, shape (n_frames, 20)
+        In :data:`streamseg.ukf_model.ANGLE_NAMES` order, radians.
+    """
+    cfg = config or RepetitionConfig()
+    pts = limb_points(np.asarray(positions, dtype=np.float64), names)
+    Y, scale, pdir, l0 = observations(pts, fps, cfg.torso_cutoff_hz)
+    noise = cfg.position_noise
+    if cfg.estimate_noise:  # noisier sensors (Kinect) get a proportionally larger R
+        noise = max(noise, estimate_noise(np.asarray(positions), scale))
+    angles, _ = fit_angles(Y, fps, pdir, l0, position_noise=noise,
+                           angle_speed=cfg.angle_speed, length_speed=cfg.length_speed,
+                           passes=cfg.ukf_passes)
+    return angles
+
+
+@dataclass(frozen=True)
+class RepetitionAnalysis:
+    """Everything section 4 computes on one sequence (for plots and the live counter).
+
+    Attributes
+    ----------
+    primary_cycles : float
+        Primary frequency in cycles per sequence.
+    primary_hz : float
+    period : float
+        Frames per cycle.
+    selected : ndarray of int, shape (M,)
+        Selected parameter columns.
+    filtered : ndarray, shape (n_frames, M)
+        Band-passed selected parameters.
+    speed2 : ndarray, shape (n_frames,)
+        Sum of squared velocities of ``filtered`` (eq. 10's curve).
+    candidates : ndarray of int, shape (N,)
+    labels : ndarray of int, shape (N,)
+        Group of each candidate: adaptive k-means clusters, same-phase clusters merged.
+    k_star : int
+    group : int
+        The chosen group (eq. 14), or -1 when there were no candidates.
+    boundaries : ndarray of int
+        Candidates of the chosen group.
+    concentration : float
+        Share of the summed spectral power (above ``min_cycles``) inside the band.
+    subharmonic : float
+        Summed power at half the primary frequency over that at the primary frequency (large
+        when the "primary" is really a harmonic of a longer period).
+    """
+
+    primary_cycles: float
+    primary_hz: float
+    period: float
+    selected: np.ndarray
+    filtered: np.ndarray
+    speed2: np.ndarray
+    candidates: np.ndarray
+    labels: np.ndarray
+    k_star: int
+    group: int
+    boundaries: np.ndarray
+    concentration: float
+    subharmonic: float
+
+
+def analyse(X, fps, config: RepetitionConfig | None = None) -> RepetitionAnalysis:
+    """Section 4 on parameter trajectories.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n_frames, n_params)
+        Kinematic parameters (e.g. UKF joint angles), radians.
+    fps : float
+    config : RepetitionConfig, optional
+
+    Returns
+    -------
+    RepetitionAnalysis
+    """
+    cfg = config or RepetitionConfig()
+    X = np.asarray(X, dtype=np.float64)
+    n = X.shape[0]
+    cycles, power = steps.power_spectrum(X, cfg.fft_pad)
+    max_cycles = cfg.max_frequency_hz * n / fps
+    ip = steps.primary_frequency(cycles, power, min_cycles=cfg.min_cycles, max_cycles=max_cycles)
+    fc = float(cycles[ip])
+    selected = steps.select_parameters(power[ip], cfg.power_ratio)
+    half = 0.5 * cfg.band_width_cycles
+    band = (cycles >= fc - half) & (cycles <= fc + half)
+    above = cycles >= cfg.min_cycles
+    total = power[above].sum()
+    concentration = float(power[band & above].sum() / total) if total > 0 else 0.0
+    summed = power.sum(axis=1)
+    sub = float(summed[int(np.argmin(np.abs(cycles - fc / 2)))] / max(summed[ip], 1e-300))
+    to_hz = fps / n
+    filtered = steps.bandpass(X[:, selected], fps, (fc - half) * to_hz, (fc + half) * to_hz,
+                              cfg.filter_order)
+    vel = np.gradient(filtered, axis=0)
+    speed2 = np.sum(vel**2, axis=1)
+    period = n / fc
+    window = max(3, int(round(cfg.window_fraction * period)))
+    cand = steps.candidate_points(speed2, window)
+    # Clustered: each selected parameter's phase, cos(phase) = x' / envelope (analytic
+    # signal). The paper clusters the parameter values; amplitudes drift over a set (the
+    # first circles smaller than the later ones) and k-means then groups by time, not phase.
+    phase = filtered / np.maximum(np.abs(hilbert(filtered, axis=0)), 1e-12)
+    labels, k_star = steps.adaptive_kmeans(phase[cand], cfg.k_max, cfg.kmeans_restarts,
+                                           cfg.seed)
+    labels = steps.merge_same_phase(phase[cand], labels, cfg.merge_phase)
+    if cand.size == 0:
+        group, bounds = -1, cand
+    else:
+        # The rest pose: the raw parameters at the sequence's ends (see select_group).
+        ends = max(1, int(round(0.05 * period)))
+        rest = 0.5 * (X[:ends, selected].mean(axis=0) + X[-ends:, selected].mean(axis=0))
+        raw = X[cand][:, selected]
+        dist = np.full(int(labels.max()) + 1, np.inf)
+        for k in np.unique(labels):
+            dist[k] = float(np.linalg.norm(raw[labels == k].mean(axis=0) - rest))
+        group = steps.select_group(cand, labels, n, period, dist, cfg.tie_tolerance)
+        bounds = cand[labels == group]
+        if cfg.refine_fraction > 0:
+            bounds = _refine(bounds, X[:, selected], fps, fc * to_hz, period, cfg)
+    return RepetitionAnalysis(fc, fc * to_hz, period, selected, filtered, speed2, cand, labels,
+                              k_star, group, bounds, concentration, sub)
+
+
+def _refine(bounds, Xs, fps, f_hz, period, cfg):
+    """Move each boundary to the nearest velocity minimum of a wider-band signal.
+
+    The narrow band-pass around the primary frequency makes every parameter nearly a sinusoid,
+    so its velocity minima come almost evenly spaced even when repetitions differ in length.
+    Each boundary is moved to the smallest squared-velocity sum of the same parameters
+    low-passed at ``refine_band`` times the primary frequency, within ``refine_fraction``
+    periods of where it was.
+    """
+    wide = steps.bandpass(Xs, fps, 0.0, cfg.refine_band * f_hz, cfg.filter_order)
+    s2 = np.sum(np.gradient(wide, axis=0) ** 2, axis=1)
+    r = max(1, int(round(cfg.refine_fraction * period)))
+    out = []
+    for b in bounds:
+        a, z = max(0, int(b) - r), min(s2.shape[0], int(b) + r + 1)
+        out.append(a + int(np.argmin(s2[a:z])))
+    return np.array(out, dtype=np.int64)
+
+
+class RepetitionSegmenter:
+    """Cut a repetitive exercise into repetitions (offline).
+
+    Parameters
+    ----------
+    config : RepetitionConfig, optional
+
+    Attributes
+    ----------
+    repetitions_ : list of (int, int)
+        0-based (start, end), end exclusive.
+    count_ : int
+    primary_frequency_hz_ : float
+    angles_ : ndarray, shape (n_frames, n_params)
+        The parameters analysed: for a recording, the unit directions of the model's 10
+        bones computed from the UKF joint angles (n_params = 30); for an array, the array.
+    joint_angles_ : ndarray, shape (n_frames, 20)
+        The UKF joint angles (recordings only).
+    param_names_ : tuple of str
+    analysis_ : RepetitionAnalysis
+    n_frames_ : int
+    fps_ : float
+    """
+
+    def __init__(self, config: RepetitionConfig | None = None):
+        self.config = config or RepetitionConfig()
+
+    def fit(self, X, fps: float | None = None) -> RepetitionSegmenter:
+        """Segment a recording or parameter trajectories.
+
+        Parameters
+        ----------
+        X : Recording or ndarray, shape (n_frames, n_params)
+            A recording (joint positions, Acclaim joint names) or angle trajectories.
+        fps : float, optional
+            Frame rate; required for arrays, taken from the recording otherwise.
+
+        Returns
+        -------
+        self
+        """
+        if hasattr(X, "positions") and hasattr(X, "skeleton"):
+            fps = float(X.fps if fps is None else fps)
+            angles = angles_from_positions(X.positions, X.skeleton.names, fps, self.config)
+            # Analysed: the bones' unit directions from the UKF angles. The 3-DoF shoulder's
+            # Euler angles jump between equivalent branches when an arm circles through 360
+            # degrees (and wind by 2 pi per circle); the directions do neither.
+            self.joint_angles_ = angles
+            self.angles_ = bone_directions(angles)
+            self.param_names_ = BONE_NAMES
+        else:
+            if fps is None or not fps > 0:
+                raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) "
+                                     "when fitting on an array")
+            A = np.asarray(X, dtype=np.float64)
+            if A.ndim != 2 or not np.all(np.isfinite(A)):
+                raise ParameterError(f"X must be finite (n_frames, n_params) trajectories; got "
+                                     f"shape {A.shape}")
+            self.angles_ = A
+            self.param_names_ = tuple(f"p{i}" for i in range(A.shape[1]))
+        self.fps_ = float(fps)
+        self.n_frames_ = self.angles_.shape[0]
+        a = analyse(self.angles_, self.fps_, self.config)
+        self.analysis_ = a
+        self.primary_frequency_hz_ = a.primary_hz
+        self.repetitions_ = steps.to_repetitions(a.boundaries, self.n_frames_, a.period,
+                                                 self.config.edge_fraction, a.speed2)
+        self.count_ = len(self.repetitions_)
+        return self
+
+    def predict(self) -> np.ndarray:
+        """Repetition index per frame (-1 outside every repetition), shape (n_frames,)."""
+        out = np.full(self.n_frames_, -1, dtype=np.int64)
+        for i, (a, b) in enumerate(self.repetitions_):
+            out[a:b] = i
+        return out
