@@ -16,6 +16,58 @@ import numpy as np
 from numba import njit
 
 
+@njit(cache=True, nogil=True)
+def _relax(v, L, S, lab, f, n_c, const_c, wmin, top, k):
+    """Best last segment ending at frame ``v`` (eq. 9): length in [wmin, top], nearest centre.
+
+    ``f[w, c]`` holds the DTAK sum of the candidate ``[v - w, v)`` with cluster ``c``'s
+    segments; the distance to centre ``c`` is ``1 - 2 f / n_c + const_c`` (self-DTAK is 1).
+    """
+    for w in range(wmin, top + 1):
+        head = v - w
+        if L[head] == np.inf:
+            continue
+        bestd = np.inf
+        bestc = -1
+        for c in range(k):
+            if n_c[c] == 0.0:
+                continue
+            dist = 1.0 - 2.0 * f[w, c] / n_c[c] + const_c[c]
+            if dist < bestd:
+                bestd = dist
+                bestc = c
+        total = L[head] + bestd
+        if total < L[v]:
+            L[v] = total
+            S[v] = head
+            lab[v] = bestc
+
+
+@njit(cache=True, nogil=True)
+def _backtrack(L, S, lab, n):
+    """Segments ``(starts, ends, labels, cost)`` from the DP's back pointers; empty if none."""
+    if L[n] == np.inf:
+        e = np.zeros(0, np.int64)
+        return e, e.copy(), e.copy(), np.inf
+    cnt = 0
+    v = n
+    while v > 0:
+        cnt += 1
+        v = S[v]
+    ns = np.empty(cnt, np.int64)
+    ne = np.empty(cnt, np.int64)
+    nl = np.empty(cnt, np.int64)
+    v = n
+    i = cnt - 1
+    while v > 0:
+        ns[i] = S[v]
+        ne[i] = v
+        nl[i] = lab[v]
+        i -= 1
+        v = S[v]
+    return ns, ne, nl, L[n]
+
+
 @njit(cache=True, nogil=True, fastmath=False)
 def dp_search(K, starts, ends, labels, n_c, const_c, wmin, wmax):
     """One segmentation step of ACA given the previous segmentation.
@@ -86,47 +138,11 @@ def dp_search(K, starts, ends, labels, n_c, const_c, wmin, wmax):
             for w in range(1, W):
                 f[w, c] += cur[off + lj, w] / (w + lj)
         top = wmax if wmax < v else v
-        for w in range(wmin, top + 1):
-            head = v - w
-            if L[head] == np.inf:
-                continue
-            bestd = np.inf
-            bestc = -1
-            for c in range(k):
-                if n_c[c] == 0.0:
-                    continue
-                dist = 1.0 - 2.0 * f[w, c] / n_c[c] + const_c[c]
-                if dist < bestd:
-                    bestd = dist
-                    bestc = c
-            total = L[head] + bestd
-            if total < L[v]:
-                L[v] = total
-                S[v] = head
-                lab[v] = bestc
+        _relax(v, L, S, lab, f, n_c, const_c, wmin, top, k)
         tmp = prev
         prev = cur
         cur = tmp
-    if L[n] == np.inf:
-        e = np.zeros(0, np.int64)
-        return e, e.copy(), e.copy(), np.inf
-    cnt = 0
-    v = n
-    while v > 0:
-        cnt += 1
-        v = S[v]
-    ns = np.empty(cnt, np.int64)
-    ne = np.empty(cnt, np.int64)
-    nl = np.empty(cnt, np.int64)
-    v = n
-    i = cnt - 1
-    while v > 0:
-        ns[i] = S[v]
-        ne[i] = v
-        nl[i] = lab[v]
-        i -= 1
-        v = S[v]
-    return ns, ne, nl, L[n]
+    return _backtrack(L, S, lab, n)
 
 
 @njit(cache=True, nogil=True)
@@ -263,44 +279,8 @@ def dp_search_padded(K, starts, ends, labels, n_c, const_c, wmin, wmax, prev, cu
                 for j in range(j0, j1):
                     acc += row[j]
                 f[w, c] += acc / (w + lj)
-        for w in range(wmin, top + 1):
-            head = v - w
-            if L[head] == np.inf:
-                continue
-            bestd = np.inf
-            bestc = -1
-            for c in range(k):
-                if n_c[c] == 0.0:
-                    continue
-                dist = 1.0 - 2.0 * f[w, c] / n_c[c] + const_c[c]
-                if dist < bestd:
-                    bestd = dist
-                    bestc = c
-            total = L[head] + bestd
-            if total < L[v]:
-                L[v] = total
-                S[v] = head
-                lab[v] = bestc
+        _relax(v, L, S, lab, f, n_c, const_c, wmin, top, k)
         tmp = prev
         prev = cur
         cur = tmp
-    if L[n] == np.inf:
-        e = np.zeros(0, np.int64)
-        return e, e.copy(), e.copy(), np.inf
-    cnt = 0
-    v = n
-    while v > 0:
-        cnt += 1
-        v = S[v]
-    ns = np.empty(cnt, np.int64)
-    ne = np.empty(cnt, np.int64)
-    nl = np.empty(cnt, np.int64)
-    v = n
-    i = cnt - 1
-    while v > 0:
-        ns[i] = S[v]
-        ne[i] = v
-        nl[i] = lab[v]
-        i -= 1
-        v = S[v]
-    return ns, ne, nl, L[n]
+    return _backtrack(L, S, lab, n)
