@@ -11,8 +11,8 @@ settings hold for any unit and body size.
 Angle layout of the 20 outputs (:data:`ANGLE_NAMES`): left arm, right arm, left leg, right leg.
 3-DoF joints rotate about x, then z (swing), then y (twist about the bone): the Euler
 singularity is then at the bone pointing sideways-horizontally. Elbow and knee use |angle|.
-Joint names: Acclaim (CMU/HDM05) bone names read directly (:data:`ASF_JOINTS`), positions at
-bone ends as :mod:`streamseg.io` poses them.
+Joint names: any skeleton the joint-name map :mod:`streamseg.skeleton.names` knows (CMU/HDM05
+ASF, CMU-to-BVH conversions, Kinect v2) reaches the model's 14 points (:data:`MODEL_POINTS`).
 """
 
 from __future__ import annotations
@@ -21,9 +21,10 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from streamseg.exceptions import ParameterError, SkeletonError
+from streamseg.skeleton.names import POINTS, resolve
 from streamseg.ukf import ukf_pass
 
-__all__ = ["ANGLE_NAMES", "ASF_JOINTS", "fit_angles", "forward_kinematics", "limb_points",
+__all__ = ["ANGLE_NAMES", "MODEL_POINTS", "fit_angles", "forward_kinematics", "limb_points",
            "torso_frames"]
 
 _ARM = ("sca_x", "sca_y", "sho_x", "sho_y", "sho_z", "elb")
@@ -36,14 +37,9 @@ N_ANGLES = 20
 HINGES = [5, 11, 15, 19]  # elbows and knees (1-DoF flexion, >= 0)
 N_LENGTHS = 12  # (clavicle, humerus, radius) x 2 arms, (pelvis, femur, tibia) x 2 legs
 
-# Points of the model by the ASF bone whose END is that point (streamseg.io poses bone ends).
-ASF_JOINTS = {
-    "pelvis": "root", "sternum": "thorax",
-    "l_shoulder": "lclavicle", "l_elbow": "lhumerus", "l_wrist": "lradius",
-    "r_shoulder": "rclavicle", "r_elbow": "rhumerus", "r_wrist": "rradius",
-    "l_hip": "lhipjoint", "l_knee": "lfemur", "l_ankle": "ltibia",
-    "r_hip": "rhipjoint", "r_knee": "rfemur", "r_ankle": "rtibia",
-}
+# The model's points, canonical names of streamseg.skeleton.names.POINTS.
+MODEL_POINTS = ("pelvis", "sternum", "l_shoulder", "l_elbow", "l_wrist", "r_shoulder",
+                "r_elbow", "r_wrist", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle")
 
 
 def limb_points(positions: np.ndarray, names) -> dict:
@@ -53,19 +49,19 @@ def limb_points(positions: np.ndarray, names) -> dict:
     ----------
     positions : ndarray, shape (n_frames, n_joints, 3)
     names : sequence of str, length n_joints
-        Joint names (ASF bone names, positions at bone ends as :mod:`streamseg.io` poses them).
+        Joint names of any skeleton :func:`streamseg.skeleton.names.resolve` maps.
 
     Returns
     -------
     dict of str -> ndarray (n_frames, 3)
+
+    Raises
+    ------
+    SkeletonError
+        Listing the model points the skeleton lacks.
     """
-    names = list(names)
-    missing = [v for v in ASF_JOINTS.values() if v not in names]
-    if missing:
-        raise SkeletonError(
-            f"the repetition model needs joints {', '.join(missing)}; the skeleton has "
-            f"{', '.join(names)}. Use an Acclaim (CMU/HDM05) skeleton or rename the joints.")
-    return {k: positions[:, names.index(v)] for k, v in ASF_JOINTS.items()}
+    idx = resolve(list(names), MODEL_POINTS, POINTS)
+    return {k: positions[:, i] for k, i in zip(MODEL_POINTS, idx)}
 
 
 def _unit(v):

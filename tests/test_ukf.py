@@ -10,12 +10,20 @@ from streamseg.exceptions import ParameterError, SkeletonError
 from streamseg.offline.repetition import angles_from_positions
 from streamseg.ukf import ukf_pass, ukf_update
 from streamseg.ukf_model import (
-    ASF_JOINTS,
     N_ANGLES,
     bone_directions,
     fit_angles,
     forward_kinematics,
 )
+
+# ASF bone whose END is each model point: the synthetic skeletons below use Acclaim names.
+ASF_JOINTS = {
+    "pelvis": "root", "sternum": "thorax",
+    "l_shoulder": "lclavicle", "l_elbow": "lhumerus", "l_wrist": "lradius",
+    "r_shoulder": "rclavicle", "r_elbow": "rhumerus", "r_wrist": "rradius",
+    "l_hip": "lhipjoint", "l_knee": "lfemur", "l_ankle": "ltibia",
+    "r_hip": "rhipjoint", "r_knee": "rfemur", "r_ankle": "rtibia",
+}
 
 LENGTHS = np.array([0.45, 1.0, 0.85] * 2 + [0.3, 1.3, 1.2] * 2)
 PDIR = np.array([0.5, -0.7, 0.3]) / np.linalg.norm([0.5, -0.7, 0.3])
@@ -160,3 +168,17 @@ def test_bone_directions_are_unit_vectors_and_ignore_equivalent_euler_triples():
     B[:, 4] = np.pi - B[:, 4]
     B[:, 3] += np.pi
     np.testing.assert_allclose(bone_directions(B), bone_directions(A), atol=1e-12)
+
+
+def test_kinect_named_skeleton_gives_the_same_angles():
+    """The joint-name map lets a Kinect v2 skeleton reach the same model points."""
+    kinect = {"root": "SpineBase", "thorax": "SpineShoulder", "lclavicle": "ShoulderLeft",
+              "lhumerus": "ElbowLeft", "lradius": "WristLeft", "rclavicle": "ShoulderRight",
+              "rhumerus": "ElbowRight", "rradius": "WristRight", "lhipjoint": "HipLeft",
+              "lfemur": "KneeLeft", "ltibia": "AnkleLeft", "rhipjoint": "HipRight",
+              "rfemur": "KneeRight", "rtibia": "AnkleRight", "head": "Head"}
+    fps, n = 60.0, 120
+    P, names = _world_positions(true_angles(n, fps), LENGTHS * 0.3)
+    cfg = RepetitionConfig(angle_speed=4.0)
+    np.testing.assert_array_equal(angles_from_positions(P, names, fps, cfg),
+                                  angles_from_positions(P, [kinect[j] for j in names], fps, cfg))

@@ -30,6 +30,7 @@ POINTS = {
     "r_knee": ("rfemur", "RightLeg", "KneeRight", "r_knee", "RightLowerLeg"),
     "r_ankle": ("rtibia", "RightFoot", "AnkleRight", "r_ankle"),
     "neck": ("lowerneck", "Neck", "SpineShoulder", "neck"),
+    "sternum": ("thorax", "SpineShoulder", "Neck", "sternum"),
 }
 
 # canonical rotating segment -> candidate joint names whose rotation it is (ASF, BVH)
