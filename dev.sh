@@ -22,10 +22,7 @@ case "${1:-}" in
     demo)
         ensure_env plot
         shift
-        if .venv/bin/streamseg demo --help >/dev/null 2>&1; then
-            exec .venv/bin/streamseg demo "$@"
-        fi
-        exec .venv/bin/streamseg info data/cmu86/86_01.amc.gz --skeleton data/cmu86/86.asf
+        exec .venv/bin/streamseg demo "$@"
         ;;
     test)
         ensure_env test,plot,dev

@@ -95,7 +95,7 @@ def floss_trace(signal, fps, window_s=10.0, check_every=12):
     m, w = int(fps), int(window_s * fps)
     if len(signal) <= w:
         return np.zeros((0, 3))
-    stream = stumpy.floss(stumpy.stump(signal[:w], m), signal[:w], m=m, L=m, excl_factor=5)
+    stream = stumpy.floss(stumpy.stump(signal[:w], m), signal[:w], m=m, L=m, excl_factor=1)
     rows, edge = [], m
     for t in range(w, len(signal)):
         stream.update(signal[t])
