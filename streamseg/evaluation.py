@@ -254,24 +254,14 @@ def aca_prediction(features: np.ndarray, n_clusters: int, fps: float,
     return Prediction(cuts=label_cuts(labels), labels=labels)
 
 
-def aca_features(item: LabelledRecording) -> np.ndarray:
-    """The relabeller's features: joint quaternions where the recording has rotations, else
-    body-frame limb directions (what a live, position-only stream provides)."""
-    from streamseg.skeleton import body_features, quaternion_features
-
-    rec = item.recording
-    if rec.rotations is not None:
-        return quaternion_features(rec)
-    return body_features(rec.positions, rec.skeleton)
-
-
+# Every method sees the 8 bone angles, as the daemon does (a live stream carries positions
+# only). For ACA they also did better than joint quaternions on the labelled recordings
+# (mean Hungarian accuracy 0.875 vs 0.839 over 86_01, 14_14, 14_20).
 STREAMSEG_METHODS = {
     "LOF offline": lambda item, fps: lof_prediction(_angles(item), fps, False),
     "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),
-    "ACA (K=true)": lambda item, fps: aca_prediction(aca_features(item), item.n_actions, fps,
-                                                     False),
-    "HACA (K=true)": lambda item, fps: aca_prediction(aca_features(item), item.n_actions, fps,
-                                                      True),
+    "ACA (K=true)": lambda item, fps: aca_prediction(_angles(item), item.n_actions, fps, False),
+    "HACA (K=true)": lambda item, fps: aca_prediction(_angles(item), item.n_actions, fps, True),
 }
 
 
