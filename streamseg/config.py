@@ -339,7 +339,8 @@ class DaemonConfig:
         N > 0: the worker thread hands each job to a pool of N processes.
     receive_thread : bool
         Receive and decode packets in a thread of their own, overlapping the detector's
-        GIL-free kernels (False: one thread does both).
+        GIL-free kernels. Faster for one high-rate stream of small packets, slower with many
+        streams (each GIL hand-back after a kernel call waits for the receiver), hence off.
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
@@ -352,7 +353,7 @@ class DaemonConfig:
     heartbeat: float = 1.0
     max_packet_frames: int = 12000
     drain: int = 2000
-    drain_frames: int = 8192
+    drain_frames: int = 4096
     ingest_hwm: int = 2000
     hwm: int = 100000
     default_skeleton: str = ""
@@ -360,7 +361,7 @@ class DaemonConfig:
     shutdown_relabel: float = 5.0
     repetitions: bool = False
     relabel_processes: int = 0
-    receive_thread: bool = True
+    receive_thread: bool = False
 
     def __post_init__(self):
         for name in ("ingest", "publish"):

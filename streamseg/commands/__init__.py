@@ -30,4 +30,5 @@ TOOLS = {
     "serve": "streamseg.commands.serve",
     "replay": "streamseg.commands.replay",
     "listen": "streamseg.commands.listen",
+    "demo": "streamseg.commands.demo",
 }

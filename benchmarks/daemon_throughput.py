@@ -1,0 +1,276 @@
+"""Daemon throughput, latency and capacity, beside the raw ZeroMQ + msgpack limit.
+
+Run: ``.venv/bin/python benchmarks/daemon_throughput.py [--frames 60000] [--repeats 3]
+[--streams 250,500,1000] [--stream-batch 4] [--seconds 6]``
+
+1. Frames per second, one stream sent as fast as possible by a separate sender process, with
+   1 and with 120 frames per packet: (a) the raw limit, a bare ``recv_multipart`` +
+   ``msgpack.unpackb`` loop on the same packets from the same sender; (b) the pipeline alone
+   (bone angles + streaming LOF on the same frames, no sockets), the algorithm's own limit;
+   (c) the daemon (LOF cuts; relabelling off, then on). Median of ``--repeats`` runs.
+   Latency is the daemon's own measure: a packet's arrival (``recv`` returned) to the
+   publication of its events (its pipeline step done), p50/p99 over all packets of a run.
+2. Capacity: S streams of CMU 86_01 at real time (120 Hz, ``--stream-batch`` frames per
+   packet, starts staggered over 1 s), relabelling on; for each S the received and offered
+   frame rates, packet latency p50/p99, relabels per second. A count is "sustained" when the
+   daemon takes >= 98% of the offered frames and p99 latency stays < 100 ms.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import statistics
+import threading
+import time
+from pathlib import Path
+
+import msgpack
+import numpy as np
+import zmq
+
+from streamseg import protocol as P
+from streamseg.commands.replay import announce_of
+from streamseg.config import DaemonConfig
+from streamseg.daemon import Daemon
+from streamseg.io import read
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "cmu86"
+ID = b"sXXXXXXX"  # placeholder stream id replaced per stream in pre-encoded bodies
+
+
+def load():
+    return read(DATA / "86_01.amc.gz", skeleton=DATA / "86.asf")
+
+
+def encoded_stream(rec, n_frames: int, batch: int, stream: str = "bench"):
+    """Announce, frame packets covering ``n_frames`` (recording cycled), end: [topic, body]s."""
+    pos = rec.positions
+    idx = np.arange(n_frames) % rec.n_frames
+    msgs = [P.encode(announce_of(rec, stream))]
+    for a in range(0, n_frames, batch):
+        msgs.append(P.encode(P.Frames(stream, a, 0.0, pos[idx[a:a + batch]])))
+    msgs.append(P.encode(P.End(stream)))
+    return msgs
+
+
+def sender(endpoint, msgs, go, hwm):
+    ctx = zmq.Context()
+    s = ctx.socket(zmq.PUSH)
+    s.setsockopt(zmq.SNDHWM, hwm)
+    s.setsockopt(zmq.LINGER, -1)
+    s.connect(endpoint)
+    go.wait()
+    for m in msgs:
+        s.send_multipart(m, copy=False)
+    s.close()
+    ctx.term()
+
+
+def start_sender(endpoint, msgs, hwm=200000):
+    ctx = mp.get_context("spawn")
+    go = ctx.Event()
+    p = ctx.Process(target=sender, args=(endpoint, msgs, go, hwm))
+    p.start()
+    time.sleep(1.5)  # interpreter start and connect, before the clock starts
+    return p, go
+
+
+def raw_limit(msgs) -> float:
+    """Seconds for a bare PULL + unpackb loop to take ``msgs``."""
+    ctx = zmq.Context()
+    pull = ctx.socket(zmq.PULL)
+    pull.setsockopt(zmq.RCVHWM, DaemonConfig().ingest_hwm)  # as the daemon's ingest
+    port = pull.bind_to_random_port("tcp://127.0.0.1")
+    p, go = start_sender(f"tcp://127.0.0.1:{port}", msgs)
+    go.set()
+    t0 = time.perf_counter()
+    for _ in range(len(msgs)):
+        parts = pull.recv_multipart()
+        msgpack.unpackb(parts[1], raw=False)
+    dt = time.perf_counter() - t0
+    p.join()
+    pull.close()
+    ctx.term()
+    return dt
+
+
+RELABEL_PROCESSES = 0
+RECEIVE_THREAD = DaemonConfig().receive_thread
+
+
+def start_daemon(**overrides):
+    loop = "tcp://127.0.0.1:0"
+    cfg = dict(ingest=loop, publish=loop, control="", heartbeat=0,
+               relabel_processes=RELABEL_PROCESSES, receive_thread=RECEIVE_THREAD)
+    cfg.update(overrides)
+    d = Daemon(DaemonConfig(**cfg))
+    ep = d.bind()
+    t = threading.Thread(target=d.run, daemon=True)
+    t.start()
+    d.ready.wait()
+    return d, ep, t
+
+
+def daemon_run(msgs, n_frames, relabel=True) -> tuple:
+    """(seconds until the last frame was processed, p50, p99 latency) for one stream."""
+    d, ep, t = start_daemon(relabel_interval=5.0 if relabel else 0.0)
+    p, go = start_sender(ep["ingest"], msgs)
+    d.latency.reset()
+    go.set()
+    t0 = time.perf_counter()
+    limit = time.perf_counter() + 300
+    while (d.n_frames < n_frames or d.streams) and time.perf_counter() < limit:
+        time.sleep(0.002)
+    if d.n_frames < n_frames:
+        raise RuntimeError(f"daemon took {d.n_frames} of {n_frames} frames: {d._totals()}")
+    dt = time.perf_counter() - t0
+    p50, p99 = d.latency.percentiles()
+    p.join()
+    d.stop()
+    t.join()
+    return dt, p50, p99
+
+
+def algorithm_only(rec, n_frames) -> float:
+    """Seconds for the pipeline alone (angles + LOF, no sockets) on the same frames."""
+    from streamseg.pipeline import Algorithms, StreamPipeline
+
+    idx = np.arange(n_frames) % rec.n_frames
+    pos = rec.positions[idx]
+    p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), 20.0)
+    t0 = time.perf_counter()
+    for a in range(0, n_frames, 2000):
+        p.push(pos[a:a + 2000], a)
+    return time.perf_counter() - t0
+
+
+def throughput(rec, n_frames, repeats, relabel):
+    rows = []
+    algo = n_frames / statistics.median(algorithm_only(rec, n_frames) for _ in range(repeats))
+    for batch in (1, 120):
+        msgs = encoded_stream(rec, n_frames, batch)
+        raw = [raw_limit(msgs) for _ in range(repeats)]
+        runs = [daemon_run(msgs, n_frames, relabel) for _ in range(repeats)]
+        raw_fps = n_frames / statistics.median(raw)
+        d_fps = n_frames / statistics.median(r[0] for r in runs)
+        rows.append((batch, raw_fps, d_fps, statistics.median(r[1] for r in runs),
+                     statistics.median(r[2] for r in runs)))
+    print(f"\n1 stream, {n_frames} frames (86_01 cycled), median of {repeats} runs, relabel "
+          f"{'every 5 s over 20 s' if relabel else 'off'}")
+    print(f"pipeline alone (angles + streaming LOF, 2000-frame chunks, no sockets): "
+          f"{algo:,.0f} frames/s")
+    print(f"{'frames/packet':>13} {'raw frames/s':>13} {'daemon frames/s':>16} {'/raw':>6} "
+          f"{'/min(raw,pipeline)':>19} {'p50 ms':>8} {'p99 ms':>8}")
+    for batch, raw_fps, d_fps, p50, p99 in rows:
+        print(f"{batch:>13} {raw_fps:>13,.0f} {d_fps:>16,.0f} {d_fps / raw_fps:>6.2f} "
+              f"{d_fps / min(raw_fps, algo):>19.2f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f}")
+
+
+def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, go, stats):
+    """S real-time streams: each sends the recording's packets on its own 120 Hz clock."""
+    ctx = zmq.Context()
+    s = ctx.socket(zmq.PUSH)
+    s.setsockopt(zmq.SNDHWM, 1_000_000)
+    s.setsockopt(zmq.LINGER, 2000)
+    s.connect(endpoint)
+    ids = [f"s{k:07d}".encode() for k in range(n_streams)]
+    go.wait()
+    for sid in ids:
+        s.send_multipart([b"announce/" + sid + b"/", announce.replace(ID, sid)])
+    t0 = time.perf_counter()
+    offset = np.linspace(0, 1.0, n_streams, endpoint=False)  # staggered starts
+    sent = np.zeros(n_streams, dtype=np.int64)  # packets sent per stream
+    period = batch / fps
+    total = 0
+    while True:
+        now = time.perf_counter() - t0
+        if now > seconds:
+            break
+        due = np.maximum(((now - offset) // period).astype(np.int64) + 1, 0)
+        due = np.minimum(due, len(templates))
+        for k in np.flatnonzero(due > sent):
+            sid = ids[k]
+            for i in range(sent[k], due[k]):
+                s.send_multipart([b"frames/" + sid + b"/", templates[i].replace(ID, sid)])
+                total += 1
+            sent[k] = due[k]
+        time.sleep(0.002)
+    for sid in ids:
+        s.send_multipart([b"end/" + sid + b"/", P.encode(P.End(sid.decode()))[1]])
+    stats.value = total
+    s.close()
+    ctx.term()
+
+
+def capacity(rec, counts, batch, seconds):
+    print(f"\n{seconds:g} s per row (the last {seconds - 2.5:g} s measured); 120 Hz streams of "
+          f"CMU 86_01, {batch} frames/packet, relabel every 5 s over 20 s (defaults)")
+    print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
+          f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
+    placeholder = ID.decode()
+    tmpl = [P.encode(P.Frames(placeholder, a, 0.0, rec.positions[a:a + batch]))[1]
+            for a in range(0, rec.n_frames, batch)]
+    announce = P.encode(announce_of(rec, placeholder))[1]
+    for n in counts:
+        d, ep, t = start_daemon(max_streams=max(counts) + 10)
+        ctx = mp.get_context("spawn")
+        go, total = ctx.Event(), ctx.Value("q", 0)
+        p = ctx.Process(target=live_sender, args=(ep["ingest"], tmpl, announce, n, batch,
+                                                  rec.fps, seconds, go, total))
+        p.start()
+        time.sleep(1.5)
+        go.set()
+        time.sleep(2.0)  # all streams started and the buffers filling
+        f0, r0 = d.n_frames, d.totals["relabels"]
+        d.latency.reset()
+        t0 = time.perf_counter()
+        time.sleep(seconds - 2.5)
+        dt = time.perf_counter() - t0
+        f1, r1 = d.n_frames, d.totals["relabels"]
+        p50, p99 = d.latency.percentiles()
+        p.join()
+        d.stop()
+        t.join()
+        offered = n * rec.fps
+        taken = (f1 - f0) / dt
+        rel = (r1 - r0) / dt
+        ok = taken >= 0.98 * offered and p99 is not None and p99 < 0.1
+        print(f"{n:>8} {offered:>12,.0f} {taken:>10,.0f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f} "
+              f"{rel:>10.1f} {n / rel if rel else float('inf'):>26.1f} {'yes' if ok else 'NO':>9}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, default=60000)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--streams", default="250,500,1000")
+    ap.add_argument("--stream-batch", type=int, default=4)
+    ap.add_argument("--seconds", type=float, default=6.0)
+    ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument("--relabel-processes", type=int, default=0,
+                    help="DaemonConfig.relabel_processes (0: relabel in a thread)")
+    ap.add_argument("--receive-thread", type=int, choices=(0, 1), default=None,
+                    help="DaemonConfig.receive_thread (default: the config's default)")
+    ap.add_argument("--switch-interval", type=float, default=0.0,
+                    help="sys.setswitchinterval for this process (0: leave Python's 5 ms)")
+    args = ap.parse_args()
+    global RELABEL_PROCESSES, RECEIVE_THREAD
+    RELABEL_PROCESSES = args.relabel_processes
+    if args.receive_thread is not None:
+        RECEIVE_THREAD = bool(args.receive_thread)
+    if args.switch_interval:
+        import sys
+
+        sys.setswitchinterval(args.switch_interval)
+    print(f"relabel_processes = {RELABEL_PROCESSES}, receive_thread = {RECEIVE_THREAD}")
+    rec = load()
+    if not args.skip_throughput:
+        for relabel in (False, True):
+            throughput(rec, args.frames, args.repeats, relabel)
+    if args.streams:
+        capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch, args.seconds)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""Standalone client scripts (thin wrappers of the ``streamseg`` subcommands)."""

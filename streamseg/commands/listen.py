@@ -1,0 +1,168 @@
+"""Subscribe to a daemon's events and print them (one JSON object per line with --jsonl).
+
+With ``--control`` it first asks for the stream's current state (late-joiner catch-up) and
+then prints only newer events; ``--count N`` or ``--until-end`` make it stop, for scripts.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import msgpack
+import zmq
+
+from streamseg import protocol
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--from", dest="source", required=True, metavar="ENDPOINT",
+                        help="daemon publish endpoint")
+    parser.add_argument("--stream", help="only this stream")
+    parser.add_argument("--type", dest="kind", choices=protocol.EVENT_TYPES,
+                        help="only this event type")
+    parser.add_argument("--jsonl", action="store_true", help="one JSON object per line")
+    parser.add_argument("--control", metavar="ENDPOINT", help="ask for current state first")
+    stop = parser.add_mutually_exclusive_group()
+    stop.add_argument("--count", type=int, metavar="N", help="stop after N events")
+    stop.add_argument("--until-end", action="store_true",
+                      help="stop when the stream (any stream without --stream) is closed")
+    parser.add_argument("--timeout", type=float, default=None,
+                        help="give up after this many seconds without an event (exit 1)")
+
+
+def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, **fields) -> dict:
+    """One control request (``ping``, ``streams``, ``state``, ``stats``, ``shutdown``)."""
+    ctx = ctx or zmq.Context.instance()
+    sock = ctx.socket(zmq.REQ)
+    sock.setsockopt(zmq.LINGER, 0)
+    sock.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
+    sock.connect(endpoint)
+    try:
+        sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
+        return msgpack.unpackb(sock.recv(), raw=False)
+    except zmq.Again:
+        raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s") from None
+    finally:
+        sock.close()
+
+
+def subscriber(endpoint: str, stream=None, kind=None, ctx=None):
+    """A SUB socket connected to ``endpoint`` with the prefixes selecting stream/type."""
+    ctx = ctx or zmq.Context.instance()
+    sock = ctx.socket(zmq.SUB)
+    sock.setsockopt(zmq.LINGER, 0)
+    sock.setsockopt(zmq.RCVHWM, 0)  # a listener should not lose events to its own slowness
+    for prefix in protocol.subscriptions(stream, kind):
+        sock.setsockopt(zmq.SUBSCRIBE, prefix)
+    sock.connect(endpoint)
+    return sock
+
+
+def format_event(ev) -> str:
+    """One readable line per event."""
+    t = ev.type
+    if t == "cut":
+        ms = f".{int(ev.time * 1000) % 1000:03d}"
+        when = (time.strftime("%H:%M:%S", time.gmtime(ev.time)) + ms + "Z"
+                if ev.time > 1e8 else f"{ev.time:9.3f}s")  # a sender clock, or stream seconds
+        return (f"[{ev.stream}] cut      frame {ev.frame:7d}  t={when}  score "
+                f"{ev.score:6.2f}  (emitted at frame {ev.emitted_at}, provisional)")
+    if t == "segments":
+        segs = " ".join(f"{a}-{b}:{lab}" for a, b, lab in ev.segments[:12])
+        more = f" +{len(ev.segments) - 12}" if len(ev.segments) > 12 else ""
+        return (f"[{ev.stream}] relabel  rev {ev.revision:3d}  frames {ev.start}-{ev.end}  "
+                f"{len(ev.segments)} segments{' FINAL' if ev.final else ''} "
+                f"({ev.elapsed * 1000:.0f} ms): {segs}{more}")
+    if t == "error":
+        return f"[{ev.stream or '-'}] error    {ev.reason} x{ev.count}: {ev.message}"
+    if t == "gap":
+        return f"[{ev.stream}] gap      frames {ev.expected}..{ev.got - 1} missing"
+    if t == "rep":
+        return f"[{ev.stream}] rep      #{ev.count} frames {ev.start}-{ev.end}"
+    if t == "closed":
+        return f"[{ev.stream}] closed   ({ev.reason}) after {ev.frames} frames"
+    if t == "stats":
+        tot = ev.totals
+        return (f"[*] stats    up {ev.uptime:.1f}s  streams {tot.get('streams', 0)}  frames "
+                f"{tot.get('frames', 0)}  events {tot.get('events', 0)}  errors "
+                f"{tot.get('errors', 0)}")
+    return repr(ev)
+
+
+def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None):
+    """Yield decoded events from a SUB socket until a stop condition.
+
+    ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
+    or before its newest cut are skipped (they are in the state already), until the stream
+    is closed (a snapshot of an already closed stream filters nothing).
+    """
+    if since and since.get("closed"):
+        since = None  # the snapshot is of a closed stream: later events are a new one
+    rev = since.get("revision", 0) if since else 0
+    last_cut = max((c["frame"] for c in since.get("cuts", [])), default=-1) if since else -1
+    seen = 0
+    poller = zmq.Poller()
+    poller.register(sock, zmq.POLLIN)
+    while count is None or seen < count:
+        if not poller.poll(None if timeout is None else int(timeout * 1000)):
+            raise TimeoutError(f"no event for {timeout} s")
+        try:
+            ev = protocol.decode(sock.recv_multipart())
+        except protocol.WireError:
+            continue
+        if since is not None and getattr(ev, "stream", None) == since.get("stream"):
+            if (ev.type == "segments" and ev.revision <= rev) or \
+                    (ev.type == "cut" and ev.frame <= last_cut):
+                continue
+            if ev.type == "closed":
+                since = None  # a re-announced stream starts its revisions and frames over
+        seen += 1
+        yield ev
+        if until_end and ev.type == "closed" and (stream is None or ev.stream == stream):
+            return
+
+
+def run(args) -> int:
+    ctx = zmq.Context.instance()
+    sock = subscriber(args.source, args.stream, args.kind, ctx)
+    out = sys.stdout
+    since = None
+    try:
+        if args.control:
+            time.sleep(0.2)  # let the subscription reach the daemon before the snapshot
+            if args.stream:
+                since = request(args.control, "state", ctx, stream=args.stream)
+                if since.get("ok"):
+                    state = {"type": "state", **{k: v for k, v in since.items()
+                                                 if k not in ("ok", "v")}}
+                    out.write((json.dumps(state) if args.jsonl else _state_line(state)) + "\n")
+                else:
+                    print(f"streamseg listen: {since.get('error')}", file=sys.stderr)
+                    since = None
+            else:
+                streams = request(args.control, "streams", ctx)
+                line = {"type": "streams", "streams": streams.get("streams", [])}
+                out.write((json.dumps(line) if args.jsonl else
+                           f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
+            out.flush()
+        for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
+                         timeout=args.timeout, since=since):
+            out.write((json.dumps(protocol.to_json(ev)) if args.jsonl else format_event(ev))
+                      + "\n")
+            out.flush()
+    except TimeoutError as err:
+        print(f"streamseg listen: {err}", file=sys.stderr)
+        return 1
+    finally:
+        sock.close()
+    return 0
+
+
+def _state_line(state: dict) -> str:
+    seg = state.get("segments")
+    segs = ("none" if seg is None
+            else f"{len(seg['segments'])} segments over {seg['start']}-{seg['end']}")
+    return (f"[{state['stream']}] state    frame {state['frame']}  revision {state['revision']}  "
+            f"{segs}  + {len(state['cuts'])} newer cuts")

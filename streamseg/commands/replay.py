@@ -1,0 +1,100 @@
+"""Replay a recording as a live stream to a daemon's ingest endpoint.
+
+Announces the stream, sends N frames per packet at real time times ``--speed`` (``0``: as fast
+as the daemon takes them; a PUSH socket waits when the daemon's queue is full), then ends it.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import zmq
+
+from streamseg import protocol
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("file", help="recording (.amc[.gz], .bvh, .npz)")
+    parser.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
+    parser.add_argument("--to", required=True, metavar="ENDPOINT", help="daemon ingest endpoint")
+    parser.add_argument("--speed", type=float, default=1.0, help="times real time; 0 = max")
+    parser.add_argument("--stream", help="stream id (default: the file's stem)")
+    parser.add_argument("--batch", type=int, default=1, metavar="N", help="frames per packet")
+    parser.add_argument("--loop", action="store_true", help="start over at the end, forever")
+    parser.add_argument("--float32", action="store_true", help="send float32 positions")
+
+
+def stream_id(path) -> str:
+    name = Path(path).name.split(".")[0]
+    return "".join(c if c.isalnum() or c in "_.:@+=-" else "_" for c in name)[:128] or "stream"
+
+
+def announce_of(recording, stream: str) -> protocol.Announce:
+    sk = recording.skeleton
+    return protocol.Announce(stream, float(recording.fps), tuple(sk.names),
+                             tuple(int(p) for p in sk.parents), str(sk.units)[:64])
+
+
+def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: int = 1,
+           dtype=np.float64, ctx: zmq.Context | None = None, end: bool = True,
+           sock=None) -> int:
+    """Send one pass of ``recording`` to ``endpoint``; returns the number of frames sent.
+
+    Parameters
+    ----------
+    recording : Recording
+    endpoint : str
+        The daemon's ingest endpoint (PULL; this side connects a PUSH socket).
+    speed : float
+        Real time times ``speed``; 0 sends as fast as the daemon accepts.
+    batch : int
+        Frames per packet.
+    sock : zmq.Socket, optional
+        An already connected PUSH socket (to interleave several streams on one).
+    """
+    if batch < 1 or speed < 0:
+        raise ValueError(f"batch={batch} must be >= 1 and speed={speed} >= 0")
+    own = sock is None
+    if own:
+        ctx = ctx or zmq.Context.instance()
+        sock = ctx.socket(zmq.PUSH)
+        sock.setsockopt(zmq.LINGER, 30000)  # deliver what is queued before closing
+        sock.connect(endpoint)
+    positions = np.ascontiguousarray(recording.positions, dtype=dtype)
+    n, fps = positions.shape[0], float(recording.fps)
+    try:
+        sock.send_multipart(protocol.encode(announce_of(recording, stream)))
+        t0 = time.perf_counter()
+        for a in range(0, n, batch):
+            if speed > 0:
+                wait = t0 + a / (fps * speed) - time.perf_counter()
+                if wait > 0:
+                    time.sleep(wait)
+            sock.send_multipart(protocol.encode(
+                protocol.Frames(stream, a, time.time(), positions[a:a + batch])))
+        if end:
+            sock.send_multipart(protocol.encode(protocol.End(stream)))
+    finally:
+        if own:
+            sock.close()
+    return n
+
+
+def run(args) -> int:
+    from streamseg.io import read
+
+    rec = read(args.file, skeleton=args.skeleton)
+    stream = args.stream or stream_id(args.file)
+    dtype = np.float32 if args.float32 else np.float64
+    ctx = zmq.Context.instance()
+    passes = 0
+    while True:
+        sent = replay(rec, args.to, stream=stream, speed=args.speed, batch=args.batch,
+                      dtype=dtype, ctx=ctx)
+        passes += 1
+        print(f"streamseg replay: {stream}: sent {sent} frames ({passes} pass"
+              f"{'es' if passes > 1 else ''}) to {args.to}", flush=True)
+        if not args.loop:
+            return 0

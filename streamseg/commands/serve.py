@@ -1,0 +1,59 @@
+"""Run the live segmentation daemon (ZeroMQ ingest, events, control; see docs/protocol.md).
+
+Options come from the defaults, then ``--config FILE.toml`` (tables ``[daemon]``, ``[lof]``,
+``[aca]``), then the command line. SIGINT and SIGTERM shut down cleanly (exit code 0).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import signal
+
+from streamseg.config import DaemonConfig
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--config", metavar="FILE.toml",
+                        help="TOML file with tables [daemon], [lof], [aca]")
+    parser.add_argument("--log-level", default="INFO",
+                        choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    for f in dataclasses.fields(DaemonConfig):
+        kind = type(f.default)
+        if kind is bool:
+            parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
+                                action=argparse.BooleanOptionalAction,
+                                help=f"(default {f.default!r})")
+            continue
+        parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
+                            type=kind, metavar=kind.__name__.upper(),
+                            help=f"(default {f.default!r})")
+
+
+def build(args):
+    """``(DaemonConfig, Algorithms)`` from parsed arguments."""
+    from streamseg.daemon import load_config
+    from streamseg.pipeline import Algorithms
+
+    config, lof, aca, rep = DaemonConfig(), None, None, None
+    if args.config:
+        config, lof, aca, rep = load_config(args.config)
+    overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DaemonConfig)
+                 if getattr(args, f.name, None) is not None}
+    config = dataclasses.replace(config, **overrides)
+    return config, Algorithms(lof, aca, repetitions=config.repetitions, rep_config=rep)
+
+
+def run(args) -> int:
+    from streamseg.daemon import Daemon
+
+    logging.basicConfig(level=args.log_level,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    config, algorithms = build(args)
+    daemon = Daemon(config, algorithms)
+    endpoints = daemon.bind()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: daemon.stop())
+    print("streamseg serve: " + " ".join(f"{k}={v}" for k, v in endpoints.items()), flush=True)
+    return daemon.run()

@@ -1,0 +1,10 @@
+"""The streamseg daemon: sockets and lifecycle only (algorithms live in :mod:`streamseg.pipeline`).
+
+Start one with :class:`Daemon` (``bind()`` then ``run()`` until ``stop()``), or from the command
+line with ``streamseg serve``. See ``docs/architecture.md`` and ``docs/protocol.md``.
+"""
+
+from streamseg.daemon.options import load_config
+from streamseg.daemon.server import Daemon
+
+__all__ = ["Daemon", "load_config"]

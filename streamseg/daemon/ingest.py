@@ -1,0 +1,86 @@
+"""Ingest decoding, optionally in its own thread so it overlaps the detector's nogil kernels.
+
+:func:`decode_ingest` turns one received multipart message into a small tuple the ingest loop
+dispatches; :class:`Receiver` runs recv + decode in a thread and hands the tuples over in
+order through a bounded deque (when it is full the thread stops reading, the socket's queue
+fills and PUSH senders wait: backpressure, bounded memory).
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+
+import zmq
+
+from streamseg import protocol
+
+
+def decode_ingest(parts, arrival: float) -> tuple:
+    """``("f", stream, seq, timestamp, positions, arrival)`` for a frames packet,
+    ``("o", body)`` for another valid message, ``("e", stream, reason, message)`` for garbage.
+    """
+    if len(parts) != 2:
+        return ("e", None, "decode", f"expected 2 message parts [topic, body], got {len(parts)}")
+    try:
+        obj = protocol.unpack_body(parts[1])
+        stream = obj.get("stream")
+        if obj["type"] == "frames" and type(stream) is str:
+            return ("f", stream, *protocol.frames_fields(obj, stream), arrival)
+        return ("o", obj)
+    except protocol.WireError as err:
+        return ("e", err.stream, err.kind, str(err))
+
+
+class Receiver(threading.Thread):
+    """Reads the ingest socket (used by this thread only) and queues decoded messages.
+
+    Parameters
+    ----------
+    sock : zmq.Socket
+        The bound PULL socket.
+    wake : zmq.Socket
+        PAIR socket connected to the loop's wake-up socket; one byte per batch received.
+    limit, frame_limit : int
+        Decoded messages, and frames, queued at most (the latter bounds the latency).
+    """
+
+    def __init__(self, sock, wake, limit: int, frame_limit: int):
+        super().__init__(name="streamseg-ingest", daemon=True)
+        self.sock, self.wake, self.limit, self.frame_limit = sock, wake, limit, frame_limit
+        self.items: collections.deque = collections.deque()
+        # frames queued = pushed - taken; each counter is written by one thread only
+        self.pushed = 0
+        self.taken = 0
+        self._stopping = threading.Event()
+
+    def stop(self) -> None:
+        self._stopping.set()
+        if self.is_alive():
+            self.join(5)
+
+    def run(self) -> None:
+        poller = zmq.Poller()
+        poller.register(self.sock, zmq.POLLIN)
+        recv, clock, items = self.sock.recv_multipart, time.perf_counter, self.items
+        while not self._stopping.is_set():
+            if len(items) >= self.limit or self.pushed - self.taken >= self.frame_limit:
+                time.sleep(0.0005)  # the loop is behind: stop reading, let senders wait
+                continue
+            if not poller.poll(50):
+                continue
+            for _ in range(256):
+                try:
+                    parts = recv(zmq.NOBLOCK)
+                except zmq.Again:
+                    break
+                it = decode_ingest(parts, clock())
+                if it[0] == "f":
+                    self.pushed += it[4].shape[0]
+                items.append(it)
+            try:
+                self.wake.send(b"", zmq.NOBLOCK)
+            except zmq.Again:  # the loop has wake-ups pending already
+                pass
+        self.wake.close()

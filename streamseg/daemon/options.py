@@ -1,0 +1,54 @@
+"""Daemon options from TOML, and the skeleton of an announced stream."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from streamseg.config import DaemonConfig, config_from_dict
+from streamseg.exceptions import ParameterError
+from streamseg.recording import Skeleton
+
+
+def load_config(path) -> tuple:
+    """``(DaemonConfig, LOFConfig, ACAConfig, RepetitionConfig)`` (None: defaults) from TOML.
+
+    Tables ``[daemon]``, ``[lof]``, ``[aca]``, ``[repetitions]``; keys are the dataclass
+    fields.
+    """
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10: the same parser, installed as a dependency
+        import tomli as tomllib
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ParameterError(f"{path}: no such config file") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ParameterError(f"{path}: not valid TOML ({err})") from None
+    unknown = sorted(set(doc) - {"daemon", "lof", "aca", "repetitions"})
+    if unknown:
+        raise ParameterError(f"{path}: unknown table(s) {', '.join(unknown)}; "
+                             "expected [daemon], [lof], [aca], [repetitions]")
+    daemon = config_from_dict(DaemonConfig, doc.get("daemon", {}))
+    lof = aca = None
+    if "lof" in doc:
+        from streamseg.config import LOFConfig
+
+        lof = config_from_dict(LOFConfig, doc["lof"])
+    if "aca" in doc:
+        from streamseg.config import ACAConfig
+
+        aca = config_from_dict(ACAConfig, doc["aca"])
+    rep = None
+    if "repetitions" in doc:
+        from streamseg.config import RepetitionConfig
+
+        rep = config_from_dict(RepetitionConfig, doc["repetitions"])
+    return daemon, lof, aca, rep
+
+
+def skeleton_from(names, parents, units="unknown") -> Skeleton:
+    """A Skeleton from announced joint names and parents (offsets unknown on the wire)."""
+    n = len(names)
+    return Skeleton(tuple(names), np.asarray(parents, dtype=np.int64), np.zeros((n, 3)), units)

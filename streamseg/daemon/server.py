@@ -1,0 +1,501 @@
+"""The daemon's sockets and main loop.
+
+One thread owns every socket: it drains up to ``drain`` packets from the PULL ingest socket,
+groups them per stream, runs each stream's pipeline once on the concatenated frames (the
+vectorised path), publishes events on PUB, answers control requests on REP, and hands relabel
+snapshots to :class:`~streamseg.daemon.worker.RelabelWorker`, whose results it publishes.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import time
+
+import numpy as np
+import zmq
+
+from streamseg import protocol
+from streamseg.config import DaemonConfig
+from streamseg.daemon.control import serve_control
+from streamseg.daemon.ingest import Receiver
+from streamseg.daemon.options import skeleton_from
+from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
+from streamseg.daemon.worker import RelabelJob, RelabelWorker
+from streamseg.pipeline import Algorithms, StreamPipeline, relabel
+
+log = logging.getLogger("streamseg.daemon")
+CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
+
+
+def _bindable(endpoint: str) -> str:
+    # port 0 means "any free port", which ZeroMQ spells "*"
+    return endpoint[:-2] + ":*" if endpoint.startswith("tcp://") and endpoint.endswith(":0") \
+        else endpoint
+
+
+class Daemon:
+    """A live segmentation daemon.
+
+    Parameters
+    ----------
+    config : DaemonConfig
+        Endpoints, limits, relabel cadence.
+    algorithms : Algorithms, optional
+        The per-stream algorithms (default: LOF cuts + ACA relabel with default configs).
+
+    Examples
+    --------
+    >>> d = Daemon(DaemonConfig(ingest="tcp://127.0.0.1:0", publish="tcp://127.0.0.1:0",
+    ...                         control="tcp://127.0.0.1:0"))          # doctest: +SKIP
+    >>> endpoints = d.bind(); threading.Thread(target=d.run).start()  # doctest: +SKIP
+    """
+
+    def __init__(self, config: DaemonConfig | None = None, algorithms: Algorithms | None = None):
+        self.config = config or DaemonConfig()
+        self.algorithms = algorithms or Algorithms(repetitions=self.config.repetitions)
+        self.ctx = zmq.Context()
+        self.streams: dict[str, StreamState] = {}
+        self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
+        self.closed_states: collections.OrderedDict = collections.OrderedDict()
+        self.errors = ErrorBook()
+        self.latency = LatencyRing()
+        self.n_packets = self.n_frames = 0  # plain ints: updated per packet
+        self.totals = collections.Counter()
+        self.endpoints: dict = {}
+        self.ready = threading.Event()
+        self._stop = threading.Event()
+        self._gen = 0
+        self._dirty: dict = {}  # streams with frames received in this drain
+        self._started = time.monotonic()
+        self._next_beat = 0.0
+        self._next_sweep = 0.0
+        self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes)
+        self.default_skeleton = None
+        if self.config.default_skeleton:
+            from streamseg.io.asf import read_asf
+
+            asf = read_asf(self.config.default_skeleton)
+            self.default_skeleton = skeleton_from(asf.names, asf.parents)
+
+    # --- lifecycle ---------------------------------------------------------------------------
+
+    def bind(self) -> dict:
+        """Create and bind the sockets; returns the bound endpoints (ports resolved)."""
+        c = self.config
+        self.ingest = self.ctx.socket(zmq.PULL)
+        self.ingest.setsockopt(zmq.RCVHWM, c.ingest_hwm)
+        self.ingest.setsockopt(zmq.LINGER, 0)
+        self.ingest.bind(_bindable(c.ingest))
+        self.pub = self.ctx.socket(zmq.PUB)
+        self.pub.setsockopt(zmq.SNDHWM, c.hwm)
+        self.pub.setsockopt(zmq.LINGER, 2000)  # final events get out at shutdown
+        self.pub.bind(_bindable(c.publish))
+        self.control = None
+        self.poller = zmq.Poller()
+        self.receiver = None
+        if c.receive_thread:
+            self._wake = self.ctx.socket(zmq.PAIR)
+            self._wake.bind(f"inproc://streamseg-wake-{id(self)}")
+            wake_tx = self.ctx.socket(zmq.PAIR)
+            wake_tx.connect(f"inproc://streamseg-wake-{id(self)}")
+            self.receiver = Receiver(self.ingest, wake_tx, c.ingest_hwm, c.drain_frames)
+            self.poller.register(self._wake, zmq.POLLIN)
+        else:
+            self.poller.register(self.ingest, zmq.POLLIN)
+        self.endpoints = {
+            "ingest": self.ingest.getsockopt_string(zmq.LAST_ENDPOINT),
+            "publish": self.pub.getsockopt_string(zmq.LAST_ENDPOINT),
+        }
+        if c.control:
+            self.control = self.ctx.socket(zmq.REP)
+            self.control.setsockopt(zmq.LINGER, 0)
+            self.control.bind(_bindable(c.control))
+            self.poller.register(self.control, zmq.POLLIN)
+            self.endpoints["control"] = self.control.getsockopt_string(zmq.LAST_ENDPOINT)
+        return self.endpoints
+
+    def stop(self) -> None:
+        """Ask the loop to finish (thread- and signal-safe); :meth:`run` then shuts down."""
+        self._stop.set()
+
+    def run(self) -> int:
+        """Warm the kernels, serve until :meth:`stop`, shut down cleanly; returns 0."""
+        if not self.endpoints:
+            self.bind()
+        try:
+            spent = self.algorithms.warmup(relabel=self.config.relabel_interval > 0)
+            if self.config.relabel_interval > 0:
+                self.worker.warm()
+            log.info("kernels warmed in %.2f s; ingest %s publish %s control %s", spent,
+                     self.endpoints["ingest"], self.endpoints["publish"],
+                     self.endpoints.get("control", "off"))
+            self.worker.start()
+            if self.receiver is not None:
+                self.receiver.start()
+            self._started = time.monotonic()
+            self.ready.set()
+            while not self._stop.is_set():
+                busy = self.worker.busy_key is not None or self.worker.queued()
+                timeout = 0 if self.receiver is not None and self.receiver.items else \
+                    (10 if busy else 100)
+                events = dict(self.poller.poll(timeout))
+                now = time.monotonic()
+                if self.receiver is not None:
+                    if self._wake in events:
+                        while self._wake.poll(0):
+                            self._wake.recv()
+                    self._take(now)
+                elif self.ingest in events:
+                    self._drain(now)
+                if self.control is not None and self.control in events:
+                    self._serve_control()
+                self._collect()
+                if now >= self._next_sweep:
+                    self._sweep(now)
+                if self.config.heartbeat and now >= self._next_beat:
+                    self._beat(now)
+        finally:
+            self._shutdown()
+        return 0
+
+    # --- ingest ------------------------------------------------------------------------------
+
+    def _drain(self, now: float) -> None:
+        recv, clock = self.ingest.recv_multipart, time.perf_counter
+        stop_at = self.n_frames + self.config.drain_frames
+        for _ in range(self.config.drain):
+            try:
+                parts = recv(zmq.NOBLOCK)
+            except zmq.Again:
+                break
+            self._on_message(parts, now, clock())
+            if self.n_frames >= stop_at:  # bounds the latency of big packets
+                break
+        for st in self._dirty:
+            self._flush(st)
+        self._dirty.clear()
+
+    def _take(self, now: float) -> None:
+        """Like :meth:`_drain`, from the receiver thread's queue of decoded messages."""
+        items = self.receiver.items
+        stop_at = self.n_frames + self.config.drain_frames
+        for _ in range(self.config.drain):
+            if not items:
+                break
+            it = items.popleft()
+            self.n_packets += 1
+            try:
+                if it[0] == "f":
+                    self.receiver.taken += it[4].shape[0]
+                    st = self.streams.get(it[1])
+                    if st is None:
+                        st = self._unannounced(it[1], now)
+                        if st is None:
+                            continue
+                    self._on_frames(st, it[2], it[3], it[4], now, it[5])
+                elif it[0] == "o":
+                    self._on_body(it[1], now, 0.0)
+                else:
+                    self._error(it[1], it[2], it[3])
+            except protocol.WireError as err:
+                self._error(err.stream, err.kind, str(err))
+            if self.n_frames >= stop_at:
+                break
+        for st in self._dirty:
+            self._flush(st)
+        self._dirty.clear()
+
+    def _on_message(self, parts, now: float, arrival: float = 0.0) -> None:
+        self.n_packets += 1
+        if len(parts) != 2:
+            self._error(None, "decode", f"expected 2 message parts [topic, body], got "
+                        f"{len(parts)}")
+            return
+        try:
+            self._on_body(protocol.unpack_body(parts[1]), now, arrival)
+        except protocol.WireError as err:
+            self._error(err.stream, err.kind, str(err))
+
+    def _on_body(self, obj: dict, now: float, arrival: float) -> None:
+        """Dispatch one unpacked ingest body (envelope checked); raises WireError."""
+        kind = obj["type"]
+        stream = obj.get("stream")
+        if kind == "frames":
+            st = self.streams.get(stream) if type(stream) is str else None
+            if st is None:
+                st = self._unannounced(stream, now)
+                if st is None:
+                    return
+            self._on_frames(st, *protocol.frames_fields(obj, stream), now, arrival)
+        elif kind == "announce":
+            self._on_announce(protocol.from_body(obj), now)
+        elif kind == "end":
+            msg = protocol.from_body(obj)
+            st = self.streams.get(msg.stream)
+            if st is None:
+                self._error(msg.stream, "unknown_stream", "end of a stream that is not open")
+            else:
+                self._close(st, "end")
+        else:
+            self._error(stream if isinstance(stream, str) else None, "type",
+                        f"{kind} is an event type; the ingest socket takes "
+                        f"{', '.join(protocol.INGEST_TYPES)}")
+
+    def _unannounced(self, stream, now):
+        if not protocol.valid_stream_id(stream):
+            self._error(None, "field", f"frames.stream={stream!r} is not a valid stream id")
+        elif self.default_skeleton is not None:
+            return self._open(stream, self.config.default_fps, self.default_skeleton, now)
+        else:
+            self._error(stream, "unknown_stream", "frames for a stream that was not announced "
+                        "(send an announce message first, or configure default_skeleton)")
+        return None
+
+    def _on_announce(self, msg: protocol.Announce, now: float) -> None:
+        old = self.streams.get(msg.stream)
+        if old is not None:
+            self._close(old, "reannounced")
+        self._open(msg.stream, msg.fps, skeleton_from(msg.joints, msg.parents, msg.units), now)
+
+    def _open(self, stream, fps, skeleton, now):
+        if len(self.streams) >= self.config.max_streams:
+            self._error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
+                        f"configured maximum (max_streams); close one or raise the limit")
+            return None
+        try:
+            pipeline = StreamPipeline(skeleton, fps, self.algorithms, self.config.relabel_history)
+        except Exception as err:  # e.g. a skeleton without the joints the features need
+            self._error(stream, "skeleton", f"cannot segment this stream: {err}")
+            return None
+        self._gen += 1
+        st = StreamState(stream, self._gen, fps, pipeline, now)
+        st.next_relabel = int(round(self.config.relabel_interval * fps))
+        self.streams[stream] = st
+        self.totals["streams_opened"] += 1
+        log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
+        return st
+
+    def _on_frames(self, st: StreamState, seq: int, timestamp: float, pos: np.ndarray,
+                   now: float, arrival: float) -> None:
+        n, n_joints = pos.shape[0], pos.shape[1]
+        st.last_seen = now
+        if n_joints != st.pipeline.skeleton.n_joints or n > self.config.max_packet_frames:
+            st.dropped += n
+            self._error(st.stream, "array", f"packet of shape {list(pos.shape)}: expected "
+                        f"(n <= {self.config.max_packet_frames}, "
+                        f"{st.pipeline.skeleton.n_joints}, 3) as announced")
+            return
+        if st.t0 is None:
+            st.t0 = timestamp - seq / st.fps
+        if seq != st.next_seq:
+            if seq > st.next_seq:
+                self._flush(st)  # the segmenter learns contiguous runs
+                st.lost += seq - st.next_seq
+                self.errors.add(st.stream, "gap", f"frames {st.next_seq}..{seq - 1} missing")
+                self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
+            else:
+                overlap = st.next_seq - seq
+                st.dropped += min(overlap, n)
+                self._error(st.stream, "duplicate", f"packet at frame {seq} repeats frames "
+                            f"already received (next expected {st.next_seq})", min(overlap, n))
+                if overlap >= n:
+                    return
+                pos = pos[overlap:]
+                n -= overlap
+        st.pending.append(pos)
+        st.arrivals.append(arrival)
+        st.next_seq = st.next_seq + n if seq < st.next_seq else seq + n
+        st.frames_in += n
+        self.n_frames += n
+        self._dirty[st] = None
+
+    def _flush(self, st: StreamState) -> None:
+        if not st.pending:
+            return
+        arrays, arrivals = st.pending, st.arrivals
+        st.pending, st.arrivals = [], []
+        pos = arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+        first = st.next_seq - pos.shape[0]
+        try:
+            cuts, reps, bad = st.pipeline.push(pos, first)
+        except Exception as err:  # never die on input: report and drop these frames
+            st.dropped += pos.shape[0]
+            self._error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
+                        f"processed: {type(err).__name__}: {err}", pos.shape[0])
+            return
+        if st.pipeline.rep_error is not None:
+            self._error(st.stream, "rep", f"repetition counting stopped: "
+                        f"{st.pipeline.rep_error}")
+            st.pipeline.rep_error = None
+        if bad:
+            st.dropped += bad
+            self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
+        for frame, score, emitted in cuts:
+            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
+            st.cuts.append(ev)
+            self._publish(st, ev)
+        for a, b, count, emitted in reps:
+            st.reps = count
+            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted))
+        self.latency.add(time.perf_counter() - np.array(arrivals))
+        if (self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel
+                and not self.worker.pending((st.stream, st.gen))):
+            self._submit(st, final=False)
+
+    def _submit(self, st: StreamState, final: bool) -> bool:
+        feats, frames = st.pipeline.snapshot()
+        if feats.shape[0] < 2:
+            return False
+        st.next_relabel = st.pipeline.learned + int(round(self.config.relabel_interval * st.fps))
+        self.worker.submit(RelabelJob((st.stream, st.gen), feats, frames, st.fps,
+                                      st.pipeline.previous, final))
+        return True
+
+    # --- events ------------------------------------------------------------------------------
+
+    def _publish(self, st: StreamState | None, ev) -> None:
+        self.pub.send_multipart(protocol.encode(ev))
+        self.totals["events"] += 1
+        if st is not None:
+            st.events_out += 1
+
+    def _error(self, stream, reason: str, message: str, n: int = 1) -> None:
+        ev = self.errors.add(stream, reason, message, n)
+        if ev is not None:
+            self._publish(self.streams.get(stream) if stream else None, ev)
+
+    def _close(self, st: StreamState, reason: str) -> None:
+        """Final cuts now; the final relabel in the worker; then ``closed``."""
+        self._flush(st)
+        self._dirty.pop(st, None)
+        try:
+            final = st.pipeline.finish()
+        except Exception as err:  # never die: report, close without the final cuts
+            final = []
+            self._error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
+        for frame, score, emitted in final:
+            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
+            st.cuts.append(ev)
+            self._publish(st, ev)
+        del self.streams[st.stream]
+        if self.config.relabel_interval > 0 and self._submit(st, final=True):
+            self.closing[(st.stream, st.gen)] = (st, reason)
+        else:
+            self._closed(st, reason)
+
+    def _closed(self, st: StreamState, reason: str) -> None:
+        self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
+        state = st.state()
+        state["closed"] = reason
+        self.closed_states[st.stream] = state
+        self.closed_states.move_to_end(st.stream)
+        while len(self.closed_states) > CLOSED_KEPT:
+            self.closed_states.popitem(last=False)
+        log.info("stream %s closed (%s) after %d frames", st.stream, reason, st.next_seq)
+
+    def _collect(self) -> None:
+        for job, result in self.worker.results():
+            self._relabelled(job, result)
+
+    def _relabelled(self, job, result) -> None:
+        stream, gen = job.key
+        st = self.streams.get(stream)
+        reason = None
+        if st is None or st.gen != gen:
+            st, reason = self.closing.get(job.key, (None, None))
+            if st is None:
+                return  # the stream was re-announced since; the result is stale
+        if isinstance(result, Exception):
+            self._error(stream, "relabel", f"relabel failed: {type(result).__name__}: {result}")
+        else:
+            st.revision += 1
+            st.relabel_time = result.elapsed
+            st.pipeline.previous = result.window
+            ev = protocol.Segments(stream, st.revision, result.start, result.end,
+                                   result.segments, job.final, result.elapsed)
+            st.segments = ev
+            self.totals["relabels"] += 1
+            self._publish(st, ev)
+        if job.final and reason is not None:
+            self.closing.pop(job.key, None)
+            self._closed(st, reason)
+        elif reason is None and st.pipeline.learned >= st.next_relabel:
+            self._submit(st, final=False)  # became due while this one ran: catch up now
+
+    def _sweep(self, now: float) -> None:
+        self._next_sweep = now + 0.5
+        limit = now - self.config.idle_timeout
+        for st in [s for s in self.streams.values() if s.last_seen < limit]:
+            self._close(st, "idle")
+
+    def _beat(self, now: float) -> None:
+        self._next_beat = now + self.config.heartbeat
+        for ev in self.errors.due():
+            self._publish(self.streams.get(ev.stream) if ev.stream else None, ev)
+        self._publish(None, protocol.Stats(round(now - self._started, 3), self._totals(),
+                                           {s: st.stats() for s, st in self.streams.items()}))
+
+    def _totals(self) -> dict:
+        out = dict(self.totals, packets=self.n_packets, frames=self.n_frames)
+        p50, p99 = self.latency.percentiles()
+        out.update(streams=len(self.streams), errors=self.errors.total,
+                   latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
+                   latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
+                   relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason())
+        return out
+
+    # --- control ------------------------------------------------------------------------------
+
+    def _serve_control(self) -> None:
+        serve_control(self)
+
+    # --- shutdown ----------------------------------------------------------------------------
+
+    def _shutdown(self) -> None:
+        """Final events for every stream, then close the sockets."""
+        try:
+            if self.endpoints:
+                self._final_events()
+        finally:
+            self.worker.stop(timeout=self.config.shutdown_relabel)
+            if self.receiver is not None:
+                self.receiver.stop()
+            for sock in (getattr(self, "ingest", None), getattr(self, "control", None),
+                         getattr(self, "pub", None), getattr(self, "_wake", None)):
+                if sock is not None:
+                    sock.close()
+            self.ctx.term()
+            log.info("daemon stopped")
+
+    def _final_events(self) -> None:
+        if self.receiver is not None:  # every packet already received is still processed
+            self.receiver.stop()
+            while self.receiver.items:
+                self._take(time.monotonic())
+        deadline = time.monotonic() + self.config.shutdown_relabel
+        for st in list(self.streams.values()):
+            self._close(st, "shutdown")
+        # let the worker finish what it has (bounded), then do the rest here if time allows
+        while self.closing and time.monotonic() < deadline:
+            self._collect()
+            if not self.worker.is_alive():
+                break
+            time.sleep(0.005)
+        self._collect()
+        for key, (st, reason) in list(self.closing.items()):
+            feats, frames = st.pipeline.snapshot()
+            if (time.monotonic() < deadline and self.worker.busy_key != key
+                    and feats.shape[0] >= 2):
+                try:
+                    res = relabel(self.algorithms, feats, frames, st.fps, st.pipeline.previous)
+                except Exception as err:
+                    res = err
+                job = RelabelJob(key, None, None, st.fps, None, final=True)
+                self._relabelled(job, res)
+            else:
+                self.closing.pop(key, None)
+                self._closed(st, reason)
+        if self.config.heartbeat:
+            self._beat(time.monotonic())

@@ -1,0 +1,111 @@
+"""The relabel worker thread: one job per stream at a time, newest snapshot wins."""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+
+from streamseg.pipeline import relabel
+
+
+class RelabelJob:
+    """A snapshot of one stream's features to relabel (taken by the ingest thread)."""
+
+    __slots__ = ("key", "features", "frames", "fps", "previous", "final", "queued")
+
+    def __init__(self, key, features, frames, fps, previous, final=False):
+        self.key = key  # (stream, generation): a re-announced stream is a new key
+        self.features = features
+        self.frames = frames
+        self.fps = fps
+        self.previous = previous
+        self.final = final
+        self.queued = time.monotonic()
+
+
+class RelabelWorker(threading.Thread):
+    """Runs relabel jobs off the ingest thread; results are collected with :meth:`results`.
+
+    The ingest thread never waits on it: :meth:`submit` only takes a lock held for a few
+    dictionary operations, and a stream with a job still queued has that job's snapshot
+    replaced by the newer one (so a slow worker skips stale work instead of piling it up).
+    """
+
+    def __init__(self, algorithms, on_result=None, processes: int = 0):
+        super().__init__(name="streamseg-relabel", daemon=True)
+        self.algorithms = algorithms
+        self.pool = None
+        if processes > 0:
+            # ACA's Python parts then run outside this process's GIL; this thread only waits
+            import concurrent.futures
+            import multiprocessing
+
+            self.pool = concurrent.futures.ProcessPoolExecutor(
+                processes, mp_context=multiprocessing.get_context("spawn"))
+        self._cond = threading.Condition()
+        self._queue = collections.OrderedDict()
+        self._done = collections.deque()
+        self._stopping = False
+        self.busy_key = None
+        self.on_result = on_result  # called from the worker thread (e.g. to wake a poller)
+
+    def submit(self, job: RelabelJob) -> None:
+        with self._cond:
+            self._queue[job.key] = job  # replaces a queued older snapshot of the same stream
+            self._cond.notify()
+
+    def pending(self, key) -> bool:
+        """True while a job of ``key`` is queued or running."""
+        with self._cond:
+            return key in self._queue or self.busy_key == key
+
+    def queued(self) -> int:
+        with self._cond:
+            return len(self._queue)
+
+    def results(self) -> list:
+        """Finished ``(job, Relabelled or Exception)`` pairs, oldest first."""
+        out = []
+        while self._done:
+            out.append(self._done.popleft())
+        return out
+
+    def warm(self) -> None:
+        """Load the kernels in the worker processes too (before the first packet)."""
+        if self.pool is not None:
+            self.pool.submit(self.algorithms.warmup).result()
+
+    def stop(self, timeout: float | None = None) -> None:
+        with self._cond:
+            self._stopping = True
+            self._queue.clear()
+            self._cond.notify()
+        if self.is_alive():
+            self.join(timeout)
+        if self.pool is not None:
+            self.pool.shutdown(wait=False, cancel_futures=True)
+
+    def run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._queue and not self._stopping:
+                    self._cond.wait()
+                if self._stopping:
+                    return
+                key, job = self._queue.popitem(last=False)
+                self.busy_key = key
+            try:
+                if self.pool is not None:
+                    result = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
+                                              job.fps, job.previous).result()
+                else:
+                    result = relabel(self.algorithms, job.features, job.frames, job.fps,
+                                     job.previous)
+            except Exception as err:  # reported as an error event; the worker lives on
+                result = err
+            self._done.append((job, result))
+            with self._cond:
+                self.busy_key = None
+            if self.on_result is not None:
+                self.on_result()

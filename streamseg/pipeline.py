@@ -1,0 +1,351 @@
+"""The per-stream algorithm side of the daemon (the daemon itself only moves bytes).
+
+For each packet of joint positions ``(n, J, 3)`` a :class:`StreamPipeline` computes the 8 bone
+angles (:func:`streamseg.skeleton.bone_angles`), feeds them in one call to the streaming LOF
+segmenter (``learn_many``), and keeps the last H seconds of features in a ring buffer that a
+worker thread relabels with windowed ACA (:func:`streamseg.offline.relabel_window`).
+
+The segmenter sees every stream frame (non-finite ones it skips itself), so its cuts are in
+stream frames; the ring keeps only finite feature rows with their stream frame numbers.
+
+Repetition counting (issue 6, :class:`streamseg.online.RepetitionCounter`, off by default
+because it costs ~0.5-1 ms per frame) runs in :meth:`StreamPipeline.push` on the positions.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from streamseg.recording import Skeleton
+
+
+def _optional(module: str, name: str):
+    """``module.name`` if that exists yet, else None (helpers land during development)."""
+    try:
+        return getattr(importlib.import_module(module), name, None)
+    except ImportError:
+        return None
+
+
+@dataclass(frozen=True)
+class Relabelled:
+    """A relabel mapped to stream frames: ``segments`` are ``(start, end, label)``."""
+
+    start: int
+    end: int
+    segments: tuple
+    window: object  # the algorithm's own result in learned-frame coordinates (for ``previous``)
+    elapsed: float
+
+
+class Algorithms:
+    """The algorithms one daemon runs, with their configurations.
+
+    Parameters
+    ----------
+    lof_config : LOFConfig or None
+        Streaming cut detector configuration (None: the library default).
+    aca_config : ACAConfig or None
+        Windowed relabelling configuration (None: the library default).
+    relabel : callable or None
+        Replaces :func:`streamseg.offline.relabel_window` (same signature); tests use it to
+        make a relabel slow.
+    """
+
+    def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
+                 rep_config=None):
+        self.lof_config = lof_config
+        self.aca_config = aca_config
+        self._relabel = relabel
+        self.repetitions = repetitions
+        self.rep_config = rep_config
+
+    def prepare(self, skeleton: Skeleton):
+        """Per-stream feature plan: bone end-point indices, resolved once (raises
+        SkeletonError when the skeleton lacks a joint the 8 angles need)."""
+        from streamseg.skeleton.bones import ANGLES, bone_point_indices
+
+        pairs = bone_point_indices(skeleton)
+        return (pairs, np.array([i for i, _ in ANGLES]), np.array([j for _, j in ANGLES]))
+
+    def angles(self, positions: np.ndarray, plan) -> np.ndarray:
+        """Bone angles ``(n, 8)`` of positions ``(n, J, 3)``.
+
+        The arithmetic of :func:`streamseg.skeleton.bone_angles` (bit-identical, tested) with
+        the joint-name resolution done once per stream in :meth:`prepare`: that lookup costs
+        more than the maths for a packet of a few frames.
+        """
+        pairs, a, b = plan
+        positions = np.asarray(positions, dtype=np.float64)
+        vec = positions[:, pairs[:, 1]] - positions[:, pairs[:, 0]]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            unit = vec / np.linalg.norm(vec, axis=2, keepdims=True)
+            cos = np.einsum("nkd,nkd->nk", unit[:, a], unit[:, b])
+        return np.arccos(np.clip(cos, -1.0, 1.0))
+
+    def segmenter(self, fps: float):
+        """A fresh streaming cut detector for one stream."""
+        StreamingLOFSegmenter = _optional("streamseg.online", "StreamingLOFSegmenter") or \
+            importlib.import_module("streamseg.online.lof").StreamingLOFSegmenter
+        if self.lof_config is None:
+            from streamseg.config import LOFConfig
+
+            return StreamingLOFSegmenter(LOFConfig(), fps)
+        return StreamingLOFSegmenter(self.lof_config, fps)
+
+    def relabel(self, features: np.ndarray, start_frame: int, fps: float, previous):
+        """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
+
+        Labels are made consistent with ``previous`` here (:func:`stable_labels`), so the
+        window is computed without ``previous``.
+        """
+        if self._relabel is not None:
+            window = self._relabel(features, start_frame=start_frame, fps=fps,
+                                   config=self.aca_config, previous=None)
+        else:
+            from streamseg.config import ACAConfig
+            from streamseg.offline import relabel_window
+
+            window = relabel_window(features, start_frame=start_frame, fps=fps,
+                                    config=self.aca_config or ACAConfig(), previous=None)
+        return stable_labels(window, previous)
+
+    def rep_counter(self, fps: float, skeleton: Skeleton):
+        """A live repetition counter (issue 6) for one stream, or None when turned off."""
+        if not self.repetitions:
+            return None
+        cls = _optional("streamseg.online", "RepetitionCounter")
+        if cls is None:
+            raise ImportError("repetitions=true needs streamseg.online.RepetitionCounter")
+        return cls(self.rep_config, fps, skeleton)
+
+    def warmup(self, relabel: bool = True) -> float:
+        """Compile and run every kernel once on synthetic data; returns seconds spent."""
+        t = time.perf_counter()
+        for module in ("streamseg.skeleton", "streamseg.online", "streamseg.online.lof",
+                       "streamseg.offline"):
+            fn = _optional(module, "warmup")
+            if fn is not None:
+                fn()
+        rng = np.random.default_rng(0)
+        # a random walk of angles: enough frames for the LOF windows to fill and cut
+        fps = 120.0
+        walk = np.clip(1.5 + np.cumsum(rng.normal(0, 0.01, (6 * int(fps), 8)), axis=0), 0, 3)
+        seg = self.segmenter(fps)
+        seg.learn_many(walk)
+        seg.finish()
+        if relabel:
+            self.relabel(walk[-int(4 * fps):], 0, fps, None)
+        return time.perf_counter() - t
+
+
+def stable_labels(window, previous):
+    """``window`` with cluster ids matched to ``previous``'s over the frames both cover.
+
+    Hungarian matching of the overlap (:func:`streamseg.offline.relabel.match_labels`); a
+    cluster absent from the overlap gets an id unused by ``previous`` and by the matches.
+    """
+    from streamseg.offline.relabel import WindowSegmentation, match_labels
+
+    segs = _segment_triplets(window)
+    if previous is None or not segs:
+        return WindowSegmentation(window.start, window.end, segs)
+    new = _frame_labels(window.start, window.end, segs)
+    old = _frame_labels(previous.start, previous.end, _segment_triplets(previous))
+    lo, hi = max(window.start, previous.start), min(window.end, previous.end)
+    used = {lab for _, _, lab in _segment_triplets(previous)}
+    overlap = slice(lo - window.start, max(hi, lo) - window.start)
+    mapping = match_labels(new[overlap], old[lo - previous.start:max(hi, lo) - previous.start],
+                           used, new_ids={lab for _, _, lab in segs})
+    return WindowSegmentation(window.start, window.end,
+                              [(a, b, mapping[lab]) for a, b, lab in segs])
+
+
+def _frame_labels(start, end, segs) -> np.ndarray:
+    out = np.full(end - start, -1, dtype=np.int64)
+    for a, b, lab in segs:
+        out[max(a, start) - start:min(b, end) - start] = lab
+    return out
+
+
+def _segment_triplets(window) -> list:
+    """``(start, end, label)`` of the algorithm's segments (objects or tuples)."""
+    out = []
+    for s in window.segments:
+        if hasattr(s, "start"):
+            out.append((int(s.start), int(s.end), int(s.label)))
+        else:
+            out.append((int(s[0]), int(s[1]), int(s[2])))
+    return out
+
+
+GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
+
+
+class StreamPipeline:
+    """One stream's algorithm state: segmenter, feature ring, frame clock.
+
+    The segmenter sees stream frames one for one: a frame with non-finite features is fed
+    as is (the segmenter skips it but its clock advances), and a gap of up to
+    :data:`GAP_FILL_S` seconds is fed as NaN frames, so cut frames are stream frames and match
+    an offline run. A longer gap restarts the segmenter at the frame after it.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The stream's joints (names select the bones of the angles).
+    fps : float
+        Frame rate.
+    algorithms : Algorithms
+        Shared algorithm factory.
+    history : float
+        Seconds of features kept for relabelling (the ring's size).
+    """
+
+    __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
+                 "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
+                 "rep_error")
+
+    def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
+        self.skeleton = skeleton
+        self.plan = algorithms.prepare(skeleton)
+        self.fps = float(fps)
+        self.algorithms = algorithms
+        self.segmenter = algorithms.segmenter(fps)
+        self.reps = algorithms.rep_counter(fps, skeleton)
+        self.rep_offset = None  # stream frame of the counter's frame 0
+        self.rep_error = None
+        cap = max(int(round(history * fps)), 2)
+        self._feat = None  # allocated on the first packet, when the feature width is known
+        self._frames = np.zeros(cap, dtype=np.int64)
+        self._width = 8
+        self.learned = 0  # finite feature rows stored so far
+        self.previous = None  # the last relabel result (algorithm's own object)
+        self.offset = 0  # stream frame of the segmenter's frame 0
+        self.next_frame = 0  # stream frame expected next
+
+    @property
+    def capacity(self) -> int:
+        return self._frames.shape[0]
+
+    @property
+    def fill(self) -> float:
+        """Fraction of the feature ring in use."""
+        return min(self.learned, self.capacity) / self.capacity
+
+    def _cuts(self, cuts) -> list:
+        o = self.offset
+        return [(c.frame + o, float(c.score), c.emitted_at + o) for c in cuts]
+
+    def push(self, positions: np.ndarray, first_frame: int):
+        """Learn stream frames ``first_frame ...`` of ``positions`` (n, J, 3).
+
+        Returns
+        -------
+        cuts : list of (frame, score, emitted_at)
+            New cuts, in stream frames.
+        reps : list of (start, end, count, emitted_at)
+            Completed repetitions (empty without a repetition counter).
+        n_bad : int
+            Frames whose features are not finite (skipped by the segmenter and the ring).
+        """
+        angles = self.algorithms.angles(positions, self.plan)
+        self._width = angles.shape[1]
+        out = []
+        gap = first_frame - self.next_frame
+        if gap > 0:
+            if gap <= GAP_FILL_S * self.fps:
+                out += self._cuts(self.segmenter.learn_many(np.full((gap, self._width), np.nan)))
+            else:
+                out += self._cuts(self.segmenter.finish())
+                self.segmenter = self.algorithms.segmenter(self.fps)
+                self.offset = first_frame
+        n = angles.shape[0]
+        self.next_frame = first_frame + n
+        out += self._cuts(self.segmenter.learn_many(angles))
+        ok = np.isfinite(angles).all(axis=1)
+        n_bad = n - int(np.count_nonzero(ok))
+        frames = first_frame + np.arange(n, dtype=np.int64)
+        if n_bad:
+            angles, frames = angles[ok], frames[ok]
+        self._remember(angles, frames)
+        reps = self._repetitions(positions, first_frame, ok) if self.reps is not None else []
+        return out, reps, n_bad
+
+    def _repetitions(self, positions, first_frame, ok) -> list:
+        """``(start, end, count, emitted_at)`` of completed repetitions, in stream frames.
+
+        The counter sees the frames with finite features only, so its frame numbers are
+        stream frames offset by the first one; exact unless frames were lost or NaN.
+        """
+        if self.rep_offset is None:
+            self.rep_offset = first_frame
+        try:
+            reps = self.reps.learn_many(positions[ok] if not ok.all() else positions)
+        except Exception as err:  # the counter is optional: turn it off for this stream
+            self.reps, self.rep_error = None, f"{type(err).__name__}: {err}"
+            return []
+        o = self.rep_offset
+        return [(r.start + o, r.end + o, int(r.count), r.emitted_at + o) for r in reps]
+
+    def finish(self) -> list:
+        """Cuts the segmenter still holds at the end of the stream, in stream frames."""
+        return self._cuts(self.segmenter.finish())
+
+    def _remember(self, angles: np.ndarray, frames: np.ndarray) -> None:
+        cap = self.capacity
+        if self._feat is None:
+            # float32 halves the per-stream memory; ACA gets float64 copies
+            self._feat = np.zeros((cap, angles.shape[1]), dtype=np.float32)
+        m = angles.shape[0]
+        first = self.learned
+        if m > cap:  # only the newest ``cap`` rows fit
+            angles, frames = angles[-cap:], frames[-cap:]
+            first += m - cap
+        idx = (first + np.arange(angles.shape[0])) % cap
+        self._feat[idx] = angles
+        self._frames[idx] = frames
+        self.learned += m
+
+    def snapshot(self, seconds: float | None = None):
+        """Copy of the last ``seconds`` of stored features for a relabel job.
+
+        Returns
+        -------
+        features : ndarray of float64, shape (m, d)
+        frames : ndarray of int64, shape (m,)
+            Stream frame number of each row (increasing; consecutive without drops).
+        """
+        cap = self.capacity
+        m = min(self.learned, cap)
+        if seconds is not None:
+            m = min(m, int(round(seconds * self.fps)))
+        if m == 0 or self._feat is None:
+            return np.zeros((0, self._width)), np.zeros(0, dtype=np.int64)
+        idx = (self.learned - m + np.arange(m)) % cap
+        return self._feat[idx].astype(np.float64), self._frames[idx].copy()
+
+
+def relabel(algorithms: Algorithms, features, frames, fps, previous) -> Relabelled:
+    """Run one relabel job and map its segments to stream frames (runs in the worker).
+
+    The algorithm sees ``start_frame = frames[0]``; a segment bound ``b`` is row
+    ``b - frames[0]``, mapped back through ``frames`` (the identity without dropped frames).
+    """
+    t = time.perf_counter()
+    start = int(frames[0])
+    window = algorithms.relabel(features, start, fps, previous)
+    elapsed = time.perf_counter() - t
+    m = frames.shape[0]
+    segs = []
+    for a, b, label in _segment_triplets(window):
+        a_i, b_i = a - start, b - start
+        if b_i <= 0 or a_i >= m:
+            continue
+        a_i, b_i = max(a_i, 0), min(b_i, m)
+        segs.append((int(frames[a_i]), int(frames[b_i - 1]) + 1, int(label)))
+    return Relabelled(start, int(frames[-1]) + 1, tuple(segs), window, elapsed)

@@ -1,0 +1,116 @@
+"""``streamseg replay`` / ``listen`` / ``serve`` options / ``demo`` through the real CLI."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import pytest
+
+from streamseg.cli import main
+from streamseg.commands import serve
+from streamseg.config import DaemonConfig
+from streamseg.daemon import Daemon
+from streamseg.exceptions import ParameterError
+from streamseg.io import read
+from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.skeleton import bone_angles
+
+pytestmark = pytest.mark.daemon
+LOOP = "tcp://127.0.0.1:0"
+
+
+@pytest.fixture
+def daemon():
+    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
+                            heartbeat=0))
+    ep = d.bind()
+    t = threading.Thread(target=d.run, daemon=True)
+    t.start()
+    assert d.ready.wait(30)
+    yield ep
+    d.stop()
+    t.join(10)
+
+
+def files(data_dir):
+    return [str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
+            str(data_dir / "cmu86" / "86.asf")]
+
+
+def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
+    out = {}
+    lis = threading.Thread(target=lambda: out.setdefault("rc", main(
+        ["listen", "--from", daemon["publish"], "--stream", "x", "--jsonl", "--until-end",
+         "--timeout", "30"])))
+    lis.start()
+    time.sleep(0.4)
+    assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
+                 "--batch", "50", "--stream", "x"]) == 0
+    lis.join(60)
+    assert out["rc"] == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("streamseg replay: x: sent 4579 frames")
+    events = [json.loads(x) for x in lines[1:]]
+    rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    seg = StreamingLOFSegmenter(fps=rec.fps)
+    want = [c.frame for c in seg.learn_many(bone_angles(rec.positions, rec.skeleton))
+            + seg.finish()]
+    cuts = [e for e in events if e["type"] == "cut"]
+    assert [e["frame"] for e in cuts] == want
+    # the same as `streamseg segment --online` on the file, latencies included
+    assert main(["segment", *files(data_dir), "--online", "--json"]) == 0
+    offline = json.loads(capsys.readouterr().out.splitlines()[-1])
+    assert offline["cuts"] == [e["frame"] for e in cuts]
+    assert offline["cut_latency_frames"] == [e["emitted_at"] - e["frame"] for e in cuts]
+    assert events[-1] == {"type": "closed", "stream": "x", "reason": "end", "frames": 4579}
+    cut = next(e for e in events if e["type"] == "cut")
+    assert set(cut) == {"type", "stream", "frame", "time", "score", "emitted_at", "provisional"}
+
+
+def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
+    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
+          "y"])
+    capsys.readouterr()
+    time.sleep(0.3)
+    # the stream is closed: the control endpoint still has its final state
+    out = {}
+    lis = threading.Thread(target=lambda: out.setdefault("rc", main(
+        ["listen", "--from", daemon["publish"], "--stream", "y", "--control",
+         daemon["control"], "--type", "cut", "--count", "2", "--timeout", "20"])))
+    lis.start()
+    time.sleep(0.5)
+    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
+          "y"])
+    lis.join(30)
+    assert out["rc"] == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("[y] state    frame 4579  revision 0")
+    cuts = [x for x in lines if "] cut " in x]
+    assert len(cuts) == 2
+
+
+def test_serve_options_toml_then_flags(tmp_path):
+    toml = tmp_path / "d.toml"
+    toml.write_text('[daemon]\nmax_streams = 7\nrelabel_interval = 2.5\n[aca]\nn_clusters = 3\n')
+    parser = __import__("argparse").ArgumentParser()
+    serve.add_arguments(parser)
+    args = parser.parse_args(["--config", str(toml), "--relabel-interval", "1",
+                              "--repetitions"])
+    config, algorithms = serve.build(args)
+    assert config.max_streams == 7 and config.relabel_interval == 1.0 and config.repetitions
+    assert algorithms.aca_config.n_clusters == 3 and algorithms.repetitions
+    toml.write_text("[daemon]\nmax_stream = 7\n")
+    with pytest.raises(ParameterError, match="unknown DaemonConfig option.*max_stream"):
+        serve.build(parser.parse_args(["--config", str(toml)]))
+    with pytest.raises(ParameterError, match="max_streams=0 is invalid"):
+        DaemonConfig(max_streams=0)
+
+
+def test_demo_runs_and_draws(tmp_path, capsys):
+    png = tmp_path / "t.png"
+    assert main(["demo", "--speed", "0", "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "] cut " in out and "] relabel " in out and "closed   (end)" in out
+    assert png.stat().st_size > 10_000

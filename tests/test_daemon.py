@@ -1,0 +1,315 @@
+"""The daemon over real ZeroMQ sockets on loopback (in-process; SIGTERM in test_daemon_signal)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import msgpack
+import numpy as np
+import pytest
+import zmq
+
+from streamseg import protocol as P
+from streamseg.commands.listen import listen, request, subscriber
+from streamseg.commands.replay import announce_of, replay
+from streamseg.config import DaemonConfig
+from streamseg.daemon import Daemon
+from streamseg.io import read
+from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.pipeline import Algorithms
+from streamseg.skeleton import bone_angles
+
+pytestmark = pytest.mark.daemon
+LOOP = "tcp://127.0.0.1:0"
+
+
+@pytest.fixture(scope="module")
+def rec(data_dir):
+    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+
+
+def offline_cuts(rec, positions=None):
+    """Cut frames of the streaming segmenter run over the whole file in one call."""
+    seg = StreamingLOFSegmenter(fps=rec.fps)
+    ang = bone_angles(rec.positions if positions is None else positions, rec.skeleton)
+    return [c.frame for c in seg.learn_many(ang) + seg.finish()]
+
+
+@pytest.fixture
+def start_daemon():
+    running = []
+
+    def start(algorithms=None, **overrides):
+        cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0.2)
+        cfg.update(overrides)
+        d = Daemon(DaemonConfig(**cfg), algorithms)
+        ep = d.bind()
+        t = threading.Thread(target=d.run, daemon=True)
+        t.start()
+        assert d.ready.wait(30)
+        running.append((d, t))
+        return d, ep
+
+    yield start
+    for d, t in running:
+        d.stop()
+        t.join(10)
+        assert not t.is_alive()
+
+
+def sub(ep, **kw):
+    s = subscriber(ep["publish"], **kw)
+    time.sleep(0.2)  # subscriptions reach the PUB socket before events are sent
+    return s
+
+
+def push(ep):
+    ctx = zmq.Context.instance()
+    s = ctx.socket(zmq.PUSH)
+    s.setsockopt(zmq.LINGER, 5000)
+    s.connect(ep["ingest"])
+    return s
+
+
+def cuts_of(events, stream):
+    return [e.frame for e in events if e.type == "cut" and e.stream == stream]
+
+
+def test_replay_gives_offline_cuts_and_relabels(start_daemon, rec):
+    d, ep = start_daemon(relabel_interval=5.0, relabel_history=10.0)
+    s = sub(ep, stream="r1")
+    replay(rec, ep["ingest"], stream="r1", speed=0, batch=7)
+    events = list(listen(s, stream="r1", until_end=True, timeout=30))
+    want = offline_cuts(rec)
+    assert len(want) >= 3
+    assert cuts_of(events, "r1") == want
+    segs = [e for e in events if e.type == "segments"]
+    assert segs and segs[-1].final and events[-1].type == "closed"
+    assert [e.revision for e in segs] == list(range(1, len(segs) + 1))
+    for e in segs:  # each relabel tiles its window exactly, inside the recording
+        assert e.segments[0][0] == e.start and e.segments[-1][1] == e.end <= rec.n_frames
+        assert all(a[1] == b[0] for a, b in zip(e.segments, e.segments[1:], strict=False))
+        assert e.end - e.start <= 10 * 120
+    assert segs[-1].end == rec.n_frames
+
+
+@pytest.mark.parametrize("receive_thread", [True, False])
+def test_two_interleaved_streams(start_daemon, rec, receive_thread):
+    d, ep = start_daemon(receive_thread=receive_thread)
+    s = sub(ep)
+    sock = push(ep)
+    half = rec.slice(1000, rec.n_frames)
+    for r, name in ((rec, "a"), (half, "b")):
+        sock.send_multipart(P.encode(announce_of(r, name)))
+    # packets of both streams alternate on one socket, with different packet sizes
+    pa = [(a, rec.positions[a:a + 5]) for a in range(0, rec.n_frames, 5)]
+    pb = [(a, half.positions[a:a + 12]) for a in range(0, half.n_frames, 12)]
+    for i in range(max(len(pa), len(pb))):
+        for name, packets in (("a", pa), ("b", pb)):
+            if i < len(packets):
+                sock.send_multipart(P.encode(P.Frames(name, packets[i][0], 0.0, packets[i][1])))
+    for name in "ab":
+        sock.send_multipart(P.encode(P.End(name)))
+    sock.close()
+    events, closed = [], set()
+    for e in listen(s, timeout=30):
+        events.append(e)
+        closed |= {e.stream} if e.type == "closed" else set()
+        if closed == {"a", "b"}:
+            break
+    assert cuts_of(events, "a") == offline_cuts(rec)
+    assert cuts_of(events, "b") == offline_cuts(half)
+
+
+@pytest.mark.parametrize("receive_thread", [True, False])
+def test_garbage_between_good_packets(start_daemon, rec, receive_thread):
+    d, ep = start_daemon(receive_thread=receive_thread)
+    s = sub(ep)
+    sock = push(ep)
+    pos = rec.positions.copy()
+    sock.send_multipart(P.encode(announce_of(rec, "g")))
+    garbage = {
+        "decode": [b"frames/g/", b"\xc1\xc1 not msgpack"],
+        "version": [b"frames/g/", msgpack.packb({"v": 0, "type": "frames", "stream": "g"})],
+        "field": [b"frames/g/", msgpack.packb({"v": 1, "type": "frames", "stream": "g"})],
+        "unknown_stream": P.encode(P.Frames("nobody", 0, 0.0, pos[:2])),
+    }
+    nan_rows = np.arange(2010, 2016)
+    pos[nan_rows] = np.nan
+    step, n_garbage, n_bad_arrays, n_dups = 10, 0, 0, 0
+    for a in range(0, rec.n_frames, step):
+        if a == 3000:
+            continue  # a lost packet: frames 3000..3009 never arrive (a gap)
+        sock.send_multipart(P.encode(P.Frames("g", a, 0.0, pos[a:a + step])))
+        if a % 500 == 0:
+            for parts in garbage.values():
+                sock.send_multipart(parts)
+            n_garbage += 1
+            wrong = P.Frames("g", a + step, 0.0, pos[a:a + step, :5])  # 5 joints, not 31
+            sock.send_multipart(P.encode(wrong))
+            n_bad_arrays += 1
+        if a % 700 == 0 and a:
+            sock.send_multipart(P.encode(P.Frames("g", a, 0.0, pos[a:a + step])))  # duplicate
+            n_dups += 1
+    sock.send_multipart(P.encode(P.End("g")))
+    sock.close()
+    events = list(listen(s, stream="g", until_end=True, timeout=30))
+    ref = pos.copy()
+    ref[3000:3010] = np.nan  # the offline run sees the lost frames as missing
+    assert cuts_of(events, "g") == offline_cuts(rec, ref)
+    stats = request(ep["control"], "stats")["totals"]["errors_by_reason"]
+    assert stats == {"decode": n_garbage, "version": n_garbage, "field": n_garbage,
+                     "unknown_stream": n_garbage, "array": n_bad_arrays,
+                     "duplicate": n_dups * step, "nan": len(nan_rows), "gap": 1}
+    gaps = [e for e in events if e.type == "gap"]
+    assert [(e.expected, e.got) for e in gaps] == [(3000, 3010)]
+    errors = [e for e in events if e.type == "error" and e.stream == "g"]
+    assert {e.reason for e in errors} >= {"array", "duplicate", "nan", "version", "field"}
+
+
+def test_late_listener_catches_up_from_control(start_daemon, rec):
+    d, ep = start_daemon(relabel_interval=2.0, relabel_history=6.0, heartbeat=0)
+    early = sub(ep, stream="late")
+    sock = push(ep)
+    sock.send_multipart(P.encode(announce_of(rec, "late")))
+    n1 = 2600
+    for a in range(0, n1, 20):
+        sock.send_multipart(P.encode(P.Frames("late", a, 0.0, rec.positions[a:a + 20])))
+    seen = []
+    for e in listen(early, timeout=20):
+        seen.append(e)
+        if e.type == "segments" and e.end >= n1 - 2 * 120:
+            break
+    deadline = time.time() + 10
+    while time.time() < deadline:  # the relabel of the last packets may still be running
+        state = request(ep["control"], "state", stream="late")
+        if state["frame"] == n1 and state["revision"] >= 1:
+            break
+        time.sleep(0.05)
+    late = sub(ep, stream="late")
+    state = request(ep["control"], "state", stream="late")
+    assert state["ok"] and state["frame"] == n1
+    # the snapshot is the newest relabel with its revision, plus the cuts after it
+    early_segs = [e for e in seen if e.type == "segments"]
+    while (not early_segs or early_segs[-1].revision < state["revision"]):
+        e = next(listen(early, timeout=10))
+        seen.append(e)
+        early_segs = [x for x in seen if x.type == "segments"]
+    same = [e for e in early_segs if e.revision == state["revision"]][0]
+    assert state["segments"] == P.to_json(same)
+    assert [c["frame"] for c in state["cuts"]] == [e.frame for e in seen
+                                                 if e.type == "cut" and e.frame >= same.end]
+    # then it gets the updates: revisions continue from the snapshot's
+    for a in range(n1, rec.n_frames, 20):
+        sock.send_multipart(P.encode(P.Frames("late", a, 0.0, rec.positions[a:a + 20])))
+    sock.send_multipart(P.encode(P.End("late")))
+    sock.close()
+    later = list(listen(late, stream="late", until_end=True, timeout=20, since=state))
+    revs = [e.revision for e in later if e.type == "segments"]
+    assert revs and revs[0] == state["revision"] + 1 and revs == sorted(revs)
+
+
+def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
+    spans = []
+
+    def slow_relabel(features, *, start_frame, fps, config, previous):
+        from streamseg.config import ACAConfig
+        from streamseg.offline import relabel_window
+
+        t0 = time.monotonic()
+        x = 0
+        while time.monotonic() - t0 < 0.8:  # pure Python: holds the GIL between switches
+            x += 1
+        out = relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
+                             previous=previous)
+        spans.append((t0, time.monotonic()))
+        return out
+
+    d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=1.0,
+                         relabel_history=4.0)
+    s = sub(ep, stream="slow")
+    arrivals = []
+
+    def collect():
+        for e in listen(s, stream="slow", until_end=True, timeout=20):
+            if e.type == "cut":
+                arrivals.append((time.monotonic(), e.frame))
+
+    t = threading.Thread(target=collect)
+    t.start()
+    replay(rec, ep["ingest"], stream="slow", speed=20, batch=4)  # ~1.9 s of stream
+    t.join(30)
+    assert spans, "no relabel ran"
+    assert [f for _, f in arrivals] == offline_cuts(rec)
+    during = [f for ts, f in arrivals if any(a < ts < b for a, b in spans)]
+    assert during, f"no cut arrived while a relabel ran: {spans} {arrivals}"
+
+
+def test_limits_max_streams_and_idle(start_daemon, rec):
+    d, ep = start_daemon(max_streams=1, idle_timeout=0.5)
+    s = sub(ep)
+    sock = push(ep)
+    sock.send_multipart(P.encode(announce_of(rec, "one")))
+    sock.send_multipart(P.encode(announce_of(rec, "two")))
+    sock.send_multipart(P.encode(P.Frames("one", 0, 0.0, rec.positions[:10])))
+    events = []
+    for e in listen(s, timeout=5):
+        events.append(e)
+        if e.type == "closed":
+            break
+    err = [e for e in events if e.type == "error"]
+    assert [(e.stream, e.reason) for e in err] == [("two", "max_streams")]
+    assert events[-1] == P.Closed("one", "idle", 10)
+    assert request(ep["control"], "streams")["streams"] == []
+    sock.close()
+
+
+def test_control_requests(start_daemon):
+    d, ep = start_daemon()
+    assert request(ep["control"], "ping")["ok"]
+    bad = request(ep["control"], "dance")
+    assert not bad["ok"] and "unknown op 'dance'" in bad["error"]
+    assert "no stream 'x'" in request(ep["control"], "state", stream="x")["error"]
+    assert request(ep["control"], "shutdown")["ok"]
+    d_thread = [t for t in threading.enumerate() if t.name == "streamseg-relabel"]
+    assert d._stop.is_set() and d_thread is not None
+
+
+def test_live_repetitions_match_the_counter(start_daemon, data_dir):
+    from streamseg.online import RepetitionCounter
+
+    rec = read(data_dir / "cmu_exercise" / "14_14.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    rec = rec.slice(0, 1800)  # 15 s: jumping jacks
+    d, ep = start_daemon(Algorithms(repetitions=True))
+    s = sub(ep, stream="reps")
+    replay(rec, ep["ingest"], stream="reps", speed=0, batch=30)
+    events = list(listen(s, stream="reps", until_end=True, timeout=60))
+    want = RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton).learn_many(rec.positions)
+    got = [(e.start, e.end, e.count, e.emitted_at) for e in events if e.type == "rep"]
+    assert len(want) >= 3
+    assert got == [(r.start, r.end, r.count, r.emitted_at) for r in want]
+
+
+def test_relabel_in_a_process_pool(start_daemon, rec):
+    d, ep = start_daemon(relabel_interval=5.0, relabel_history=10.0, relabel_processes=1)
+    s = sub(ep, stream="pp")
+    replay(rec, ep["ingest"], stream="pp", speed=0, batch=60)
+    events = list(listen(s, stream="pp", until_end=True, timeout=60))
+    assert cuts_of(events, "pp") == offline_cuts(rec)
+    segs = [e for e in events if e.type == "segments"]
+    assert segs and segs[-1].final and segs[-1].end == rec.n_frames
+    assert all(e.segments[0][0] == e.start and e.segments[-1][1] == e.end for e in segs)
+
+
+def test_default_skeleton_opens_streams_on_first_packet(start_daemon, rec, data_dir):
+    d, ep = start_daemon(default_skeleton=str(data_dir / "cmu86" / "86.asf"))
+    s = sub(ep, stream="anon")
+    sock = push(ep)
+    for a in range(0, rec.n_frames, 40):  # no announce message
+        sock.send_multipart(P.encode(P.Frames("anon", a, 0.0, rec.positions[a:a + 40])))
+    sock.send_multipart(P.encode(P.End("anon")))
+    sock.close()
+    events = list(listen(s, stream="anon", until_end=True, timeout=30))
+    assert cuts_of(events, "anon") == offline_cuts(rec)
+    assert not [e for e in events if e.type == "error"]

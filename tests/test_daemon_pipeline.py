@@ -1,0 +1,78 @@
+"""The daemon's per-stream pipeline without sockets: features, frame clock, relabel mapping."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from streamseg.io import read
+from streamseg.offline.relabel import WindowSegmentation
+from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
+from streamseg.skeleton import bone_angles
+
+
+@pytest.fixture(scope="module")
+def rec(data_dir):
+    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+
+
+def test_cached_angles_are_bone_angles(rec):
+    alg = Algorithms()
+    got = alg.angles(rec.positions[:500], alg.prepare(rec.skeleton))
+    assert np.array_equal(got, bone_angles(rec.positions[:500], rec.skeleton), equal_nan=True)
+
+
+def test_chunking_and_gaps_keep_stream_frames(rec):
+    """Any packet sizes give the offline cuts; a short gap acts as NaN frames."""
+    pos = rec.positions
+    ref = bone_angles(pos, rec.skeleton)
+    ref[1500:1530] = np.nan
+    seg = StreamingLOFSegmenter(fps=rec.fps)
+    want = [(c.frame, c.emitted_at) for c in seg.learn_many(ref) + seg.finish()]
+    p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), history=5.0)
+    got, a, rng = [], 0, np.random.default_rng(1)
+    while a < rec.n_frames:
+        if a == 1500:
+            a = 1530  # frames 1500..1529 are lost
+        b = min(a + int(rng.integers(1, 200)), rec.n_frames)
+        if a < 1500 < b:
+            b = 1500
+        cuts, _, _ = p.push(pos[a:b], a)
+        got += [(f, e) for f, _, e in cuts]
+        a = b
+    got += [(f, e) for f, _, e in p.finish()]
+    assert got == want
+    feats, frames = p.snapshot()
+    assert feats.shape == (600, 8) and np.array_equal(frames, np.arange(rec.n_frames - 600,
+                                                                        rec.n_frames))
+    assert np.allclose(feats, ref[-600:], atol=1e-6)  # float32 ring
+
+
+def test_nan_frames_are_skipped_in_the_ring_and_mapped_back(rec):
+    pos = rec.positions[:400].copy()
+    pos[100:110] = np.nan
+    p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), history=10.0)
+    _, _, bad = p.push(pos, 0)
+    assert bad == 10
+    feats, frames = p.snapshot()
+    assert feats.shape[0] == 390 and 100 not in frames and frames[100] == 110
+
+    def fake(features, *, start_frame, fps, config, previous):
+        n = features.shape[0]  # rows, not frames: two segments split at row 100
+        return WindowSegmentation(start_frame, start_frame + n,
+                                  [(start_frame, start_frame + 100, 0),
+                                   (start_frame + 100, start_frame + n, 1)])
+
+    out = relabel(Algorithms(relabel=fake), feats, frames, 120.0, None)
+    assert (out.start, out.end) == (0, 400)
+    assert out.segments == ((0, 100, 0), (110, 400, 1))
+
+
+def test_stable_labels_follow_the_previous_window():
+    prev = WindowSegmentation(0, 100, [(0, 50, 3), (50, 100, 7)])
+    new = WindowSegmentation(50, 150, [(50, 100, 0), (100, 120, 1), (120, 150, 2)])
+    out = stable_labels(new, prev)
+    labels = [lab for _, _, lab in out.segments]
+    assert labels[0] == 7  # same frames as the old cluster 7
+    assert len(set(labels)) == 3 and not {3, 7} & set(labels[1:])
