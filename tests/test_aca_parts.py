@@ -174,3 +174,28 @@ def test_aca_config_validation():
         ACAConfig(min_len=2.0, max_len=1.0)
     with pytest.raises(ParameterError, match="kernel"):
         ACAConfig(kernel="rbf")
+
+
+def test_match_labels_gives_fresh_ids_to_clusters_outside_the_overlap():
+    from streamseg.offline.relabel import match_labels
+
+    # new ids 0 and 1 overlap old 5 and 3; new id 2 only appears after the overlap
+    mapping = match_labels([0, 0, 1, 1], [5, 5, 3, 3], used={3, 5}, new_ids=[0, 1, 2])
+    assert mapping[0] == 5 and mapping[1] == 3
+    assert mapping[2] not in (3, 5)
+
+
+def test_relabel_window_with_a_cluster_born_after_the_overlap():
+    from streamseg.config import ACAConfig
+    from streamseg.offline.relabel import WindowSegmentation, relabel_window
+
+    rng = np.random.default_rng(0)
+    block = [np.full((30, 2), v) for v in ([0, 0], [5, 0], [0, 0], [5, 0], [0, 5], [0, 5])]
+    X = np.concatenate(block) + rng.normal(0, 0.05, (180, 2))
+    previous = WindowSegmentation(0, 120, [(0, 30, 7), (30, 60, 4), (60, 90, 7),
+                                           (90, 120, 4)])
+    config = ACAConfig(n_clusters=3, min_len=10, max_len=30, k_reduce=None, n_init=5)
+    out = relabel_window(X[60:], start_frame=60, fps=1.0, config=config, previous=previous)
+    labels = out.frame_labels()
+    assert labels[0] == 7 and labels[45] == 4          # matched over frames 60-119
+    assert labels[-1] not in (4, 7)                     # the new cluster gets a fresh id

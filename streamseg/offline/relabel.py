@@ -66,7 +66,7 @@ def model_from_config(config: ACAConfig, fps: float):
                init=config.init, **common)
 
 
-def match_labels(new_labels, old_labels, used=()) -> dict:
+def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
     """Map new cluster ids onto old ones by the Hungarian matching of their frame overlap.
 
     Parameters
@@ -76,14 +76,19 @@ def match_labels(new_labels, old_labels, used=()) -> dict:
     used : iterable of int
         Ids the previous window used; new clusters left unmatched get the smallest ids that
         are in neither ``used`` nor the matched ids, so they never collide with old ids.
+    new_ids : iterable of int, optional
+        Every id of the new window, including clusters that occur only outside the overlap
+        (they get fresh ids too); default: the ids in ``new_labels``.
 
     Returns
     -------
-    dict new id -> consistent id, for every id in ``new_labels``.
+    dict new id -> consistent id, for every id in ``new_labels`` and ``new_ids``.
     """
-    new_labels = np.asarray(new_labels)
-    old_labels = np.asarray(old_labels)
-    new_ids = np.unique(new_labels)
+    new_labels = np.asarray(new_labels, dtype=np.int64)
+    old_labels = np.asarray(old_labels, dtype=np.int64)
+    seen = np.unique(new_labels)
+    new_ids = np.union1d(seen, np.asarray(list(new_ids) if new_ids is not None else [],
+                                          dtype=np.int64))
     mapping = {}
     if old_labels.size:
         old_ids = np.unique(old_labels)
@@ -142,8 +147,8 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
         if hi > lo:
             old_part = previous.frame_labels()[lo - previous.start:hi - previous.start]
             new_part = labels[lo - start:hi - start]
-    mapping = match_labels(new_part, old_part, used) if previous is not None else {
-        int(u): int(u) for u in np.unique(labels)}
+    mapping = (match_labels(new_part, old_part, used, new_ids=np.unique(labels))
+               if previous is not None else {int(u): int(u) for u in np.unique(labels)})
     segments = [(s + start, e + start, mapping[lab]) for s, e, lab in model.segments_]
     return WindowSegmentation(start, start + n, segments)
 
