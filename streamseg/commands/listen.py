@@ -60,6 +60,18 @@ def subscriber(endpoint: str, stream=None, kind=None, ctx=None):
     return sock
 
 
+def merged_runs(segments) -> list:
+    """Consecutive segments of one label joined: ACA's segments are cycles of an action, a
+    reader wants the actions."""
+    runs = []
+    for a, b, lab in segments:
+        if runs and runs[-1][2] == lab and runs[-1][1] == a:
+            runs[-1] = (runs[-1][0], b, lab)
+        else:
+            runs.append((a, b, lab))
+    return runs
+
+
 def format_event(ev) -> str:
     """One readable line per event."""
     t = ev.type
@@ -70,11 +82,12 @@ def format_event(ev) -> str:
         return (f"[{ev.stream}] cut      frame {ev.frame:7d}  t={when}  score "
                 f"{ev.score:6.2f}  (emitted at frame {ev.emitted_at}, provisional)")
     if t == "segments":
-        segs = " ".join(f"{a}-{b}:{lab}" for a, b, lab in ev.segments[:12])
-        more = f" +{len(ev.segments) - 12}" if len(ev.segments) > 12 else ""
+        runs = merged_runs(ev.segments)
+        segs = " ".join(f"{a}-{b}:{lab}" for a, b, lab in runs[:12])
+        more = f" +{len(runs) - 12}" if len(runs) > 12 else ""
         return (f"[{ev.stream}] relabel  rev {ev.revision:3d}  frames {ev.start}-{ev.end}  "
-                f"{len(ev.segments)} segments{' FINAL' if ev.final else ''} "
-                f"({ev.elapsed * 1000:.0f} ms): {segs}{more}")
+                f"{len(runs)} runs of {len({r[2] for r in runs})} labels"
+                f"{' FINAL' if ev.final else ''} ({ev.elapsed * 1000:.0f} ms): {segs}{more}")
     if t == "error":
         return f"[{ev.stream or '-'}] error    {ev.reason} x{ev.count}: {ev.message}"
     if t == "gap":
