@@ -67,19 +67,7 @@ def dtak_pair(K, a0, a1, b0, b1, row):
 @njit(cache=True, nogil=True)
 def segment_kernel(K, starts, ends):
     """Symmetric ``(m, m)`` DTAK matrix between the segments ``[starts[i], ends[i])``."""
-    m = starts.shape[0]
-    T = np.empty((m, m))
-    maxlen = 0
-    for i in range(m):
-        if ends[i] - starts[i] > maxlen:
-            maxlen = ends[i] - starts[i]
-    row = np.empty(maxlen + 1)
-    for i in range(m):
-        for j in range(i, m):
-            v = dtak_pair(K, starts[i], ends[i], starts[j], ends[j], row)
-            T[i, j] = v
-            T[j, i] = v
-    return T
+    return segment_kernel_within(K, starts, ends, np.zeros(starts.shape[0], np.int64))
 
 
 @njit(cache=True, nogil=True)

@@ -1,0 +1,127 @@
+"""The daemon's sockets, limits and cadence (issue 5)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from streamseg.config._base import _check
+
+
+@dataclass(frozen=True)
+class DaemonConfig:
+    """Options of ``streamseg serve`` (TOML table ``[daemon]``; flags of the same names).
+
+    Attributes
+    ----------
+    ingest, publish, control : str
+        ZeroMQ endpoints the daemon binds: PULL for frame packets, PUB for events, REP for
+        control requests (``control=""`` disables it). Loopback by default.
+    max_streams : int
+        Streams held at once; a further announcement gets an ``error`` event.
+    idle_timeout : float
+        Seconds without a packet after which a stream is closed (reason ``idle``).
+    relabel_interval, relabel_history : float
+        Relabel each stream every R seconds of its own time over its last H seconds
+        (``relabel_interval=0`` turns relabelling off). H also bounds each stream's buffer.
+    heartbeat : float
+        Seconds between ``stats`` events (0: none).
+    max_packet_frames : int
+        Largest frame count accepted in one packet (bounds memory per message).
+    drain, drain_frames : int
+        Most packets, and frames, taken from the socket before the per-stream computation
+        runs once on all of them (the vectorised path; larger is faster, smaller has lower
+        latency).
+    ingest_hwm, hwm : int
+        ZeroMQ high-water marks (messages) of the ingest and the publish socket. The ingest
+        queue is what bounds the daemon's memory under overload (senders then wait): at most
+        ``ingest_hwm`` packets are buffered, e.g. 2000 x 60 frames x 31 joints = 90 MB.
+    default_skeleton, default_fps : str, float
+        An ASF file whose skeleton (and this rate) serves streams that send frames without
+        an announcement; ``""`` requires announcements.
+    shutdown_relabel : float
+        Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
+    repetitions : bool
+        Count repetitions live (``rep`` events, issue 6's RepetitionCounter). Off by default:
+        it takes 0.5-1 ms of CPU per frame (6-12% of a core per 120 Hz stream).
+    relabel_processes : int
+        0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
+        N > 0: the worker thread hands each job to a pool of N processes.
+    receive_thread : bool
+        Receive and decode packets in a thread of their own, overlapping the detector's
+        GIL-free kernels. Faster for one high-rate stream of small packets, slower with many
+        streams (each GIL hand-back after a kernel call waits for the receiver), hence off.
+    """
+
+    ingest: str = "tcp://127.0.0.1:5560"
+    publish: str = "tcp://127.0.0.1:5561"
+    control: str = "tcp://127.0.0.1:5562"
+    max_streams: int = 2000
+    idle_timeout: float = 60.0
+    relabel_interval: float = 5.0
+    relabel_history: float = 20.0
+    heartbeat: float = 1.0
+    max_packet_frames: int = 12000
+    drain: int = 2000
+    drain_frames: int = 4096
+    ingest_hwm: int = 2000
+    hwm: int = 100000
+    default_skeleton: str = ""
+    default_fps: float = 120.0
+    shutdown_relabel: float = 5.0
+    repetitions: bool = False
+    relabel_processes: int = 0
+    receive_thread: bool = False
+
+    def __post_init__(self):
+        for name in ("ingest", "publish"):
+            v = getattr(self, name)
+            _check(
+                name,
+                v,
+                isinstance(v, str) and "://" in v,
+                "a ZeroMQ endpoint like tcp://127.0.0.1:5560",
+            )
+        _check(
+            "control",
+            self.control,
+            isinstance(self.control, str) and (self.control == "" or "://" in self.control),
+            'an endpoint or "" (off)',
+        )
+        _check("receive_thread", self.receive_thread, isinstance(self.receive_thread, bool),
+               "true or false")
+        _check("relabel_processes", self.relabel_processes,
+               type(self.relabel_processes) is int and self.relabel_processes >= 0,
+               "an integer >= 0")
+        for name in ("max_streams", "max_packet_frames", "drain", "drain_frames", "hwm",
+                     "ingest_hwm"):
+            v = getattr(self, name)
+            _check(
+                name,
+                v,
+                isinstance(v, int) and not isinstance(v, bool) and v >= 1,
+                "an integer >= 1",
+            )
+        for name in ("idle_timeout", "relabel_history", "default_fps"):
+            v = getattr(self, name)
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
+                "a number > 0 (seconds or Hz)",
+            )
+        for name in ("relabel_interval", "heartbeat", "shutdown_relabel"):
+            v = getattr(self, name)
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and v >= 0,
+                "a number >= 0 (seconds; 0 turns it off)",
+            )
+        _check(
+            "default_skeleton",
+            self.default_skeleton,
+            isinstance(self.default_skeleton, str),
+            'a path to an ASF file or ""',
+        )
+        _check("repetitions", self.repetitions, isinstance(self.repetitions, bool),
+               "true or false")

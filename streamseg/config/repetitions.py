@@ -1,0 +1,169 @@
+"""Repetition segmentation (issue 6)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from streamseg.config._base import _check
+
+
+@dataclass(frozen=True)
+class RepetitionConfig:
+    """Repetition segmentation (Wang et al. 2015) offline and live.
+
+    Parameters
+    ----------
+    position_noise : float
+        UKF measurement noise std in body-scale units (1 = the median long-bone length);
+        0.05 is about 1.5 cm on an adult: between optical mocap and Kinect.
+    angle_speed : float
+        UKF random-walk std of each joint angle, rad per second.
+    estimate_noise : bool
+        Offline: raise ``position_noise`` to the noise estimated from the recording's
+        frame-to-frame jitter (:func:`streamseg.ukf_model.estimate_noise`) when larger.
+    length_speed : float
+        UKF random-walk std of log bone lengths per second (passes 1-2).
+    ukf_passes : int
+        4 (paper) or 2 (skip the fixed-length passes).
+    torso_cutoff_hz : float
+        Low-pass applied to the points defining the torso frame.
+    power_ratio : float
+        theta: the selected parameters hold this share of the power at the primary frequency.
+    min_cycles : float
+        Lowest primary frequency, in cycles per sequence.
+    max_frequency_hz : float
+        Highest primary frequency (repetitions per second).
+    fft_pad : int
+        Zero-padding factor of the spectra.
+    band_width_cycles : float
+        Width of the band-pass around the primary frequency, cycles per sequence (paper: 3).
+    filter_order : int
+        Butterworth order.
+    window_fraction : float
+        Candidate-search window (eq. 10) as a fraction of the period; windows overlap by half.
+    k_max : int
+        Largest K tried by the adaptive k-means (paper: 10).
+    kmeans_restarts : int
+    seed : int
+    tie_tolerance : float
+        Groups whose eq. 14 span is within this fraction of the best count as tied.
+    edge_fraction : float
+        A stretch before the first / after the last boundary is a repetition when at least this
+        many periods long.
+    merge_phase : float
+        k-means clusters whose mean cos(phase) vectors are closer than this (RMS; opposite
+        phases are ~2 apart) are merged into one group before eq. 14 (0 = never merge).
+    refine_fraction : float
+        Each chosen boundary moves to the nearest velocity minimum of the selected parameters
+        low-passed at ``refine_band`` x the primary frequency, within this many periods
+        (0 = off: the paper's boundaries).
+    refine_band : float
+        Low-pass cut-off of that refinement, in multiples of the primary frequency.
+    buffer_seconds : float
+        Live: analysed history.
+    hop_seconds : float
+        Live: analysis interval.
+    repetitive_ratio : float
+        Live: the buffer counts as repetitive when the band around the primary frequency holds
+        at least this share of the total (detrended) angle power above ``min_cycles``.
+    """
+
+    position_noise: float = 0.05
+    angle_speed: float = 8.0
+    estimate_noise: bool = True
+    length_speed: float = 0.02
+    ukf_passes: int = 4
+    torso_cutoff_hz: float = 2.0
+    power_ratio: float = 0.9
+    min_cycles: float = 2.0
+    max_frequency_hz: float = 3.0
+    fft_pad: int = 4
+    band_width_cycles: float = 3.0
+    filter_order: int = 2
+    window_fraction: float = 0.5
+    k_max: int = 10
+    kmeans_restarts: int = 5
+    seed: int = 0
+    tie_tolerance: float = 0.05
+    edge_fraction: float = 0.5
+    merge_phase: float = 0.6
+    refine_fraction: float = 0.2
+    refine_band: float = 4.0
+    buffer_seconds: float = 12.0
+    hop_seconds: float = 0.5
+    repetitive_ratio: float = 0.5
+
+    def __post_init__(self):
+        for name in (
+            "position_noise",
+            "angle_speed",
+            "torso_cutoff_hz",
+            "max_frequency_hz",
+            "band_width_cycles",
+            "buffer_seconds",
+            "hop_seconds",
+        ):
+            v = getattr(self, name)
+            _check(name, v, isinstance(v, (int, float)) and v > 0, "a number > 0")
+        _check(
+            "length_speed",
+            self.length_speed,
+            isinstance(self.length_speed, (int, float)) and self.length_speed >= 0,
+            "a number >= 0",
+        )
+        _check("ukf_passes", self.ukf_passes, self.ukf_passes in (2, 4), "2 or 4")
+        for name in ("power_ratio", "repetitive_ratio", "window_fraction"):
+            v = getattr(self, name)
+            _check(name, v, isinstance(v, (int, float)) and 0 < v <= 1, "a number in (0, 1]")
+        _check(
+            "min_cycles",
+            self.min_cycles,
+            isinstance(self.min_cycles, (int, float)) and self.min_cycles >= 1,
+            "a number >= 1 (cycles per sequence)",
+        )
+        for name in ("fft_pad", "filter_order", "kmeans_restarts"):
+            v = getattr(self, name)
+            _check(name, v, isinstance(v, int) and v >= 1, "an integer >= 1")
+        _check(
+            "k_max",
+            self.k_max,
+            isinstance(self.k_max, int) and 2 <= self.k_max <= 50,
+            "an integer in 2..50",
+        )
+        _check("seed", self.seed, isinstance(self.seed, int), "an integer")
+        _check(
+            "tie_tolerance",
+            self.tie_tolerance,
+            isinstance(self.tie_tolerance, (int, float)) and 0 <= self.tie_tolerance < 1,
+            "a number in [0, 1)",
+        )
+        _check(
+            "edge_fraction",
+            self.edge_fraction,
+            isinstance(self.edge_fraction, (int, float)) and 0 < self.edge_fraction <= 1.5,
+            "a number in (0, 1.5]",
+        )
+        _check(
+            "merge_phase",
+            self.merge_phase,
+            isinstance(self.merge_phase, (int, float)) and 0 <= self.merge_phase <= 2,
+            "a number in [0, 2]",
+        )
+        _check(
+            "refine_fraction",
+            self.refine_fraction,
+            isinstance(self.refine_fraction, (int, float)) and 0 <= self.refine_fraction < 0.5,
+            "a number in [0, 0.5)",
+        )
+        _check(
+            "refine_band",
+            self.refine_band,
+            isinstance(self.refine_band, (int, float)) and self.refine_band >= 1,
+            "a number >= 1",
+        )
+        _check(
+            "hop_seconds",
+            self.hop_seconds,
+            self.hop_seconds < self.buffer_seconds,
+            f"less than buffer_seconds={self.buffer_seconds}",
+        )
