@@ -14,21 +14,35 @@ import signal
 from streamseg.config import DaemonConfig
 
 
+def field_help(cls) -> dict:
+    """Field name -> its description, from the numpydoc ``Attributes`` section of ``cls``
+    (one source for the docstring, ``--help`` and the TOML keys)."""
+    lines = (cls.__doc__ or "").split("Attributes\n    ----------\n", 1)[-1].splitlines()
+    out, names = {}, []
+    for line in lines:
+        if line.startswith("    ") and not line.startswith("        ") and " : " in line:
+            names = [n.strip() for n in line.split(" : ")[0].split(",")]
+        elif line.startswith("        ") and names:
+            for n in names:
+                out[n] = (out.get(n, "") + " " + line.strip()).strip()
+    return out
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--config", metavar="FILE.toml",
                         help="TOML file with tables [daemon], [lof], [aca]")
     parser.add_argument("--log-level", default="INFO",
                         choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    described = field_help(DaemonConfig)
     for f in dataclasses.fields(DaemonConfig):
         kind = type(f.default)
+        text = f"{described.get(f.name, '')} (default {f.default!r})".strip().replace("%", "%%")
         if kind is bool:
             parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                                action=argparse.BooleanOptionalAction,
-                                help=f"(default {f.default!r})")
+                                action=argparse.BooleanOptionalAction, help=text)
             continue
         parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                            type=kind, metavar=kind.__name__.upper(),
-                            help=f"(default {f.default!r})")
+                            type=kind, metavar=kind.__name__.upper(), help=text)
 
 
 def build(args):
