@@ -78,7 +78,6 @@ def test_eval_matrix_prints_accuracy_and_confusion(tmp_path, capsys):
 
 
 def test_segment_recording_with_plot(data_dir, tmp_path, capsys):
-    pytest.importorskip("matplotlib")
     png = tmp_path / "aca.png"
     code = main(["segment", str(data_dir / "cmu86/86_01.amc.gz"), "--skeleton",
                  str(data_dir / "cmu86/86.asf"), "--method", "aca", "--clusters", "4",

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-cli = pytest.importorskip("streamseg.cli")
+from streamseg import cli
 
 
 def _run(capsys, *argv):
@@ -17,7 +17,6 @@ def _run(capsys, *argv):
 
 @pytest.fixture(scope="module")
 def files(data_dir):
-    pytest.importorskip("streamseg.io")
     return (data_dir / "cmu86" / "86_01.amc.gz", data_dir / "cmu86" / "86.asf",
             data_dir / "cmu86" / "labels_86_01.csv")
 

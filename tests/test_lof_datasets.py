@@ -5,12 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from streamseg import io, skeleton
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import LOFSegmenter
-
-io = pytest.importorskip("streamseg.io")
-skeleton = pytest.importorskip("streamseg.skeleton")
 
 
 def test_cmu02_sequence_joins_clips_at_the_true_cuts(data_dir):

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from sklearn.neighbors import LocalOutlierFactor as sklearn_lof  # the test oracle
 
 from streamseg._kernels.histogram import refine_cut
 from streamseg._kernels.peaks import dp_keep, peak_windows
@@ -26,8 +27,6 @@ from tests.naive import (
     naive_refine_cut,
     naive_window_counts,
 )
-
-sklearn_lof = pytest.importorskip("sklearn.neighbors").LocalOutlierFactor
 
 
 def _sk(x, k):

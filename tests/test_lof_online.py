@@ -27,8 +27,9 @@ def _actions(seed=0, n=600, levels=(0.6, 1.6, 2.4, 1.1)):
 
 @pytest.fixture(scope="module")
 def angles_86_01(data_dir):
-    io = pytest.importorskip("streamseg.io")
-    skel = pytest.importorskip("streamseg.skeleton")
+    from streamseg import io
+    from streamseg import skeleton as skel
+
     rec = io.read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     return skel.bone_angles(rec.positions, rec.skeleton)
 
