@@ -24,3 +24,17 @@ def test_help(command, capsys):
         main([command, "--help"])
     assert info.value.code == 0
     assert "usage: streamseg " + command in capsys.readouterr().out
+
+
+def test_example_config_is_valid_and_spells_out_the_defaults():
+    from pathlib import Path
+
+    from streamseg.config import ACAConfig, LOFConfig, RepetitionConfig
+    from streamseg.daemon import load_config
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "streamseg.toml"
+    daemon, lof, aca, rep = load_config(path)
+    assert daemon == DaemonConfig()
+    assert lof == LOFConfig()
+    assert aca == ACAConfig()
+    assert rep == RepetitionConfig()
