@@ -10,7 +10,14 @@
   by frame (bone angles per frame included, and without them). Baseline: the same stream
   with a scikit-learn LOF refit on the buffered windows each time a window completes.
 
+* steady state (``--steady``): CMU 86_01's bone angles cycled to 60,000 frames (8.3 min),
+  ``learn_many`` on 120-frame packets; microseconds per frame while the default 75 s buffer
+  fills and after it is full (each window then inserts one point and evicts one), and the
+  same for 15 and 30 s buffers; median of 3 runs. This is the per-stream cost a long-running
+  daemon pays.
+
 Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
+     .venv/bin/python benchmarks/lof_speed.py --steady      (about 20 s)
 """
 
 from __future__ import annotations
@@ -125,8 +132,47 @@ def stream_sklearn(rec, cfg):
     return n_cuts
 
 
+def steady_state(buffers=(15.0, 30.0, 75.0), n=60_000, runs=3):
+    """us/frame while the buffer fills and once it is full, 86_01 angles cycled."""
+    asf = DATA / "cmu86" / "86.asf"
+    rec = read(DATA / "cmu86" / "86_01.amc.gz", skeleton=asf)
+    a = bone_angles(rec.positions, rec.skeleton)
+    angles = np.ascontiguousarray(np.tile(a, (n // len(a) + 1, 1))[:n])
+    warmup()
+    print(f"steady state: 86_01 bone angles cycled to {n} frames at {rec.fps:g} Hz, "
+          f"learn_many({PACKET}), median of {runs} runs")
+    print(f"{'buffer':>8s} {'windows':>8s} {'filling us/frame':>17s} {'full us/frame':>14s} "
+          f"{'full frames/s':>14s} {'LOF updates/window':>19s}")
+    for b in buffers:
+        cfg = LOFConfig(buffer_s=b)
+        fill, full = [], []
+        for _ in range(runs):
+            det = StreamingLOFSegmenter(cfg, rec.fps)
+            g = det.geometry
+            full_at = g["capacity"] * g["step"] + g["window"]  # first frame with a full buffer
+            t_fill = t_full = 0.0
+            n_fill = n_full = 0
+            for i in range(0, n, PACKET):
+                t = time.perf_counter()
+                det.learn_many(angles[i:i + PACKET])
+                dt = time.perf_counter() - t
+                if i + PACKET <= full_at:
+                    t_fill, n_fill = t_fill + dt, n_fill + PACKET
+                elif i > full_at:
+                    t_full, n_full = t_full + dt, n_full + PACKET
+            fill.append(t_fill / n_fill * 1e6)
+            full.append(t_full / n_full * 1e6)
+        per_full = float(np.median(full))
+        print(f"{b:7g}s {g['capacity']:8d} {np.median(fill):17.3f} {per_full:14.3f} "
+              f"{1e6 / per_full:14,.0f} {det.n_lof_updates_ / det.n_windows_:19.1f}")
+
+
 def main():
     import warnings
+
+    if "--steady" in sys.argv[1:]:
+        steady_state()
+        return
 
     warnings.filterwarnings("ignore")
     cfg = LOFConfig()

@@ -132,6 +132,35 @@ def naive_refine_cut(angles, bins, centre, radius, window, n_avail, first=0):
     return at
 
 
+def naive_sorted_neighbours(x, times=None, exclusion=0):
+    """Every row's eligible neighbours (itself and rows closer than ``exclusion`` in time
+    excluded) as ``(distance, index)`` pairs sorted by distance then index."""
+    x = np.asarray(x, dtype=float)
+    n = len(x)
+    times = np.arange(n) if times is None else np.asarray(times)
+    nrm = (x * x).sum(axis=1)
+    out = []
+    for i in range(n):
+        row = []
+        for j in range(n):
+            if j == i or abs(times[i] - times[j]) < exclusion:
+                continue
+            den = np.sqrt(nrm[i] * nrm[j])
+            row.append((1.0 if den == 0 else max(0.0, 1.0 - float(x[i] @ x[j]) / den), j))
+        out.append(sorted(row))
+    return out
+
+
+def naive_robust_threshold(y, n_mads):
+    """``median + n_mads * 1.4826 * MAD`` read off fully sorted copies (NaN sorts last)."""
+    def med(v):
+        w = np.sort(np.asarray(v, dtype=float))
+        n = len(w)
+        return w[n // 2] if n % 2 else 0.5 * (w[n // 2 - 1] + w[n // 2])
+
+    m = med(y)
+    return m + n_mads * 1.4826 * med(np.abs(np.asarray(y, dtype=float) - m))
+
 
 # --- ACA: DTAK, DP segmentation, kernel k-means (issue 4) ------------------------------------
 

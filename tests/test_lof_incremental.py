@@ -6,8 +6,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from streamseg._kernels.lof import inc_delete, inc_insert
-from tests.naive import naive_cosine_lof
+from streamseg._kernels.lof import ext_delete, ext_evict, ext_insert, inc_delete, inc_insert
+from streamseg._kernels.peaks import robust_threshold, select_kth
+from tests.naive import naive_cosine_lof, naive_robust_threshold, naive_sorted_neighbours
 
 
 class Buffer:
@@ -92,3 +93,122 @@ def test_incremental_updates_touch_few_points_on_clustered_stream():
     np.testing.assert_allclose(buf.lof[o], naive_cosine_lof(buf.vecs[o].astype(float), k),
                                rtol=1e-12)
     assert np.median(touched[-600:]) < cap / 4
+
+
+class ExtBuffer(Buffer):
+    """Driver of the extended-candidate kernels: lists of ``kk >= k`` candidates."""
+
+    def __init__(self, cap, k, kk, d, excl=0):
+        super().__init__(cap, k, d, excl)
+        self.nn_idx = np.zeros((cap, kk), dtype=np.int32)
+        self.nn_d = np.zeros((cap, kk))
+        self.nn_key = np.zeros((cap, kk), dtype=np.int64)
+        self.trunc = np.zeros(cap, dtype=np.uint8)
+
+    def _args(self):
+        return (self.vecs, self.norms, self.seqs, self.nn_idx, self.nn_d, self.nn_key,
+                self.nn_cnt, self.trunc, self.lrd, self.lof, self.mark, self.centres)
+
+    def insert(self, vec, t):
+        slot = self.next % self.cap
+        self.centres[slot] = t
+        n = ext_insert(*self._args(), slot, np.asarray(vec, dtype=np.uint16), self.next,
+                       self.k, self.excl)
+        self.next += 1
+        self.size += 1
+        return n
+
+    def evict(self, update=True):
+        kernel = ext_delete if update else ext_evict
+        n = kernel(*self._args(), (self.next - self.size) % self.cap, self.k, self.excl)
+        self.size -= 1
+        return n
+
+
+@settings(max_examples=150, deadline=None)
+@given(data=st.data(), cap=st.integers(2, 14), k=st.integers(1, 5), extra=st.integers(0, 6),
+       d=st.integers(1, 6), alphabet=st.integers(1, 4), excl=st.sampled_from([0, 0, 3]))
+def test_extended_candidate_lists_are_exact_and_change_no_value(data, cap, k, extra, d, alphabet,
+                                                                excl):
+    """Lists of k + extra candidates: each list is the exact (distance, age) prefix of all
+    eligible points, at least k long unless fewer are eligible, complete unless flagged
+    truncated; the LOF equals the naive one and, bit for bit, the plain k-list kernels'. An
+    eviction followed by an insert may update lrd/LOF once for both (``ext_evict``)."""
+    ext = ExtBuffer(cap, k, k + extra, d, excl)
+    plain = Buffer(cap, k, d, excl)
+    ops = data.draw(st.lists(st.sampled_from(["insert", "evict", "replace"]), min_size=1,
+                             max_size=40))
+    t = 0
+    for op in ops:
+        if op == "evict" and ext.size > 0:
+            ext.evict()
+            plain.evict()
+        else:
+            vec = data.draw(st.lists(st.integers(0, alphabet), min_size=d, max_size=d))
+            t += data.draw(st.integers(1, 3))
+            if ext.size == cap:
+                ext.evict(update=op != "replace")
+                plain.evict()
+            ext.insert(vec, t)
+            plain.insert(vec, t)
+        o = ext.order()
+        if len(o) == 0:
+            continue
+        x = ext.vecs[o].astype(float)
+        ref = naive_cosine_lof(x, k, ext.centres[o], excl)
+        np.testing.assert_allclose(ext.lof[o], ref, rtol=1e-12)
+        np.testing.assert_array_equal(ext.lof[o], plain.lof[o])
+        pos = {int(slot): i for i, slot in enumerate(o)}
+        for i, nb in enumerate(naive_sorted_neighbours(x, ext.centres[o], excl)):
+            p, c = o[i], ext.nn_cnt[o[i]]
+            assert min(k, len(nb)) <= c <= min(k + extra, len(nb))
+            assert ext.trunc[p] or c == len(nb)
+            got = [(ext.nn_d[p, t_], pos[int(ext.nn_idx[p, t_])]) for t_ in range(c)]
+            assert got == nb[:c]
+
+
+def test_extended_lists_on_a_clustered_stream_equal_plain_lists():
+    """A longer stream than the hypothesis cases, evicting with the deferred update the
+    streaming detector uses: same LOF as the k-list kernels and the naive one."""
+    rng = np.random.default_rng(1)
+    cap, k = 120, 5
+    ext, plain = ExtBuffer(cap, k, 2 * k, 8), Buffer(cap, k, 8)
+    centres = rng.integers(0, 30, (4, 8))
+    for i in range(500):
+        if ext.size == cap:
+            ext.evict(update=False)
+            plain.evict()
+        vec = centres[(i // 40) % 4] + rng.integers(0, 3, 8)
+        ext.insert(vec, i)
+        plain.insert(vec, i)
+    o = ext.order()
+    np.testing.assert_array_equal(ext.lof[o], plain.lof[o])
+    np.testing.assert_allclose(ext.lof[o], naive_cosine_lof(ext.vecs[o].astype(float), k),
+                               rtol=1e-12)
+    assert (ext.nn_cnt[o] >= k).all()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.sampled_from([0.5, 1.0, 1.0, 1.25, 2.0, 3.0]) | st.floats(0, 10), min_size=1,
+                max_size=60), st.floats(0, 3))
+def test_robust_threshold_by_selection_equals_sorting(values, n_mads):
+    y = np.array(values)
+    assert robust_threshold(y, len(y), n_mads, np.empty(len(y))) == naive_robust_threshold(
+        y, n_mads)
+    y[len(y) // 2] = np.nan  # NaN: the sorting path, NaN last as before
+    got = robust_threshold(y, len(y), n_mads, np.empty(len(y)))
+    want = naive_robust_threshold(y, n_mads)
+    assert got == want or (np.isnan(got) and np.isnan(want))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, 5).map(float) | st.floats(-5, 5), min_size=1, max_size=50),
+       st.data())
+def test_select_kth_partitions_like_a_sort(values, data):
+    a = np.array(values)
+    kth = data.draw(st.integers(0, len(a) - 1))
+    w = a.copy()
+    v = select_kth(w, len(w), kth)
+    assert v == w[kth] == np.sort(a)[kth]
+    assert (w[:kth] <= v).all() and (w[kth + 1:] >= v).all()
+    np.testing.assert_array_equal(np.sort(w), np.sort(a))

@@ -9,7 +9,9 @@ floating-point sum, are identical in the batch and the incremental kernels.
 Incremental updates follow Pokrajac, Lazarevic, Latecki (2007): after inserting or deleting a
 point only the points whose k-neighbour list changed (set A), whose lrd depends on a changed
 k-distance (B = A + points with a neighbour in A) and whose LOF depends on a changed lrd
-(C = B + points with a neighbour in B) are recomputed.
+(C = B + points with a neighbour in B) are recomputed. The streaming detector evicts and
+inserts before one update (:func:`ext_evict` then :func:`ext_insert`): B and C are derived
+from the final lists, so the values are those of two separate updates.
 """
 
 from __future__ import annotations
@@ -133,40 +135,68 @@ def lof_batch(x, k, centres, excl):
 
 
 # ---- incremental LOF over a ring buffer ------------------------------------------------------
-# State (one set per stream), capacity N slots, neighbour lists of length k:
+# State (one set per stream), capacity N slots, candidate lists of length K >= k:
 #   centres int64 (N,) time of each point (frames), for the exclusion zone;
 #   vecs uint16 (N, d) integer counts; norms float64 (N,); seqs int64 (N,) (-1 = empty slot);
-#   nn_idx int64 (N, k) slots; nn_d float64 (N, k); nn_key int64 (N, k) neighbour seqs;
-#   nn_cnt int64 (N,); lrd, lof float64 (N,); mark int64 (N,) scratch.
+#   nn_idx int (N, K) slots; nn_d float64 (N, K); nn_key int64 (N, K) neighbour seqs;
+#   nn_cnt int64 (N,) list lengths; trunc uint8 (N,) 1 if an eligible point is missing from
+#   the list; lrd, lof float64 (N,); mark int64 (N,) scratch.
+# Each list holds the exact nearest nn_cnt[p] points in (distance, seq) order; the first
+# min(k, nn_cnt[p]) are the k-neighbours. The K - k extra candidates let an eviction shorten a
+# list instead of forcing a rescan of the buffer: a rescan is needed only when a truncated list
+# falls below k. A list is never truncated below k, so when it is shorter it is complete.
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _dot_counts(vecs, i, j):
+    """Dot product of two count rows; exact (integers), so equal to the float sum."""
+    dot = 0
+    for d in range(vecs.shape[1]):
+        dot += np.int64(vecs[i, d]) * np.int64(vecs[j, d])
+    return float(dot)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _cosdist_counts(vecs, i, j, ni, nj):
+    """:func:`_cosdist` of two count rows, the same float operations on the same values."""
+    dot = _dot_counts(vecs, i, j)
+    den = np.sqrt(ni * nj)
+    if den == 0.0:
+        return 1.0
+    r = 1.0 - dot / den
+    if r < 0.0:
+        return 0.0
+    return r
 
 
 @njit(cache=True, nogil=True)
-def _kdist(nn_d, nn_cnt, o):
-    c = nn_cnt[o]
+def _kdist(nn_d, nn_cnt, o, k):
+    c = min(nn_cnt[o], k)
     if c == 0:
         return 0.0
     return nn_d[o, c - 1]
 
 
 @njit(cache=True, nogil=True)
-def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark):
+def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k):
     """Recompute lrd for B and LOF for C, given ``mark[p] == 1`` for the changed set A.
 
-    Marks: 1 = A (neighbour list / k-distance changed), 2 = B, 3 = C.
+    Marks: 1 = A (k-neighbour list / k-distance changed), 2 = B, 3 = C.
     """
     n_slots = seqs.shape[0]
     # B: A plus every point with a neighbour in A (its reach-distances changed).
     for p in range(n_slots):
         if seqs[p] < 0 or mark[p] != 0:
             continue
-        for t in range(nn_cnt[p]):
-            if mark[nn_idx[p, t]] == 1:
-                mark[p] = 2
-                break
+        hit = False
+        for t in range(min(nn_cnt[p], k)):  # branch-free: the marks are unpredictable
+            hit |= mark[nn_idx[p, t]] == 1
+        if hit:
+            mark[p] = 2
     for p in range(n_slots):
         if seqs[p] < 0 or mark[p] == 0:
             continue
-        cnt = nn_cnt[p]
+        cnt = min(nn_cnt[p], k)
         if cnt == 0:
             lrd[p] = 1.0 / LRD_EPS
             continue
@@ -174,7 +204,7 @@ def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark):
         for t in range(cnt):
             o = nn_idx[p, t]
             r = nn_d[p, t]
-            ko = _kdist(nn_d, nn_cnt, o)
+            ko = _kdist(nn_d, nn_cnt, o, k)
             if ko > r:
                 r = ko
             s += r
@@ -183,11 +213,12 @@ def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark):
     for p in range(n_slots):
         if seqs[p] < 0 or mark[p] != 0:
             continue
-        for t in range(nn_cnt[p]):
+        hit = False
+        for t in range(min(nn_cnt[p], k)):
             m = mark[nn_idx[p, t]]
-            if m == 1 or m == 2:
-                mark[p] = 3
-                break
+            hit |= (m == 1) | (m == 2)
+        if hit:
+            mark[p] = 3
     n_updated = 0
     for p in range(n_slots):
         if seqs[p] < 0 or mark[p] == 0:
@@ -195,7 +226,7 @@ def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark):
             continue
         mark[p] = 0
         n_updated += 1
-        cnt = nn_cnt[p]
+        cnt = min(nn_cnt[p], k)
         if cnt == 0:
             lof[p] = 1.0
             continue
@@ -207,69 +238,143 @@ def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark):
 
 
 @njit(cache=True, nogil=True)
-def inc_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres,
+def _scan(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, centres, p, excl):
+    """Rebuild the candidate list of ``p`` from the whole buffer (K nearest eligible points)."""
+    n_slots = seqs.shape[0]
+    kk = nn_idx.shape[1]
+    cnt = 0
+    n_elig = 0
+    for j in range(n_slots):
+        if j == p or seqs[j] < 0 or abs(centres[p] - centres[j]) < excl:
+            continue
+        n_elig += 1
+        dj = _cosdist_counts(vecs, p, j, norms[p], norms[j])
+        if cnt < kk or dj < nn_d[p, kk - 1] or (
+                dj == nn_d[p, kk - 1] and seqs[j] < nn_key[p, kk - 1]):
+            cnt = _insert_sorted(nn_idx[p], nn_d[p], nn_key[p], cnt, kk, j, dj, seqs[j])
+    nn_cnt[p] = cnt
+    trunc[p] = 1 if n_elig > kk else 0
+
+
+@njit(cache=True, nogil=True)
+def ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
                slot, vec, seq, k, excl):
     """Insert ``vec`` with sequence number ``seq`` into the empty ``slot``; update LOF.
 
+    Candidate lists have ``K = nn_idx.shape[1] >= k`` entries (see the state notes above);
     ``centres[slot]`` must hold the new point's time; points closer than ``excl`` in time are
     not neighbours.
 
     Returns the number of points whose LOF was recomputed.
     """
     n_slots = seqs.shape[0]
+    kk = nn_idx.shape[1]
     s = 0.0
     for d in range(vec.shape[0]):
         vecs[slot, d] = vec[d]
         s += float(vecs[slot, d]) * float(vecs[slot, d])
     norms[slot] = s
     seqs[slot] = seq
-    nn_cnt[slot] = 0
     mark[slot] = 1
+    cnt_new = 0
+    n_elig = 0
     for j in range(n_slots):
         if j == slot or seqs[j] < 0 or abs(centres[slot] - centres[j]) < excl:
             continue
-        dj = _cosdist(vecs, slot, vecs, j, norms[slot], norms[j])
+        n_elig += 1
+        dj = _cosdist_counts(vecs, slot, j, norms[slot], norms[j])
         # the new point's own list
-        if nn_cnt[slot] < k or dj < nn_d[slot, k - 1] or (
-                dj == nn_d[slot, k - 1] and seqs[j] < nn_key[slot, k - 1]):
-            nn_cnt[slot] = _insert_sorted(nn_idx[slot], nn_d[slot], nn_key[slot], nn_cnt[slot],
-                                          k, j, dj, seqs[j])
-        # the new point is the youngest: it enters j's list only if strictly closer
-        if nn_cnt[j] < k or dj < nn_d[j, k - 1]:
-            nn_cnt[j] = _insert_sorted(nn_idx[j], nn_d[j], nn_key[j], nn_cnt[j], k, slot, dj, seq)
-            mark[j] = 1
-    return _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark)
+        if cnt_new < kk or dj < nn_d[slot, kk - 1] or (
+                dj == nn_d[slot, kk - 1] and seqs[j] < nn_key[slot, kk - 1]):
+            cnt_new = _insert_sorted(nn_idx[slot], nn_d[slot], nn_key[slot], cnt_new, kk, j, dj,
+                                     seqs[j])
+        # the new point is the youngest, last among equal distances: it enters j's list when
+        # strictly closer than its last candidate, or after it when the list is complete
+        c = nn_cnt[j]
+        if c == kk:
+            trunc[j] = 1  # a full list leaves out the new point or its own last candidate
+            if dj >= nn_d[j, kk - 1]:
+                continue
+        elif trunc[j] and dj >= nn_d[j, c - 1]:
+            continue
+        if c < k or dj < nn_d[j, k - 1]:
+            mark[j] = 1  # its k-neighbours changed
+        nn_cnt[j] = _insert_sorted(nn_idx[j], nn_d[j], nn_key[j], c, kk, slot, dj, seq)
+    nn_cnt[slot] = cnt_new
+    trunc[slot] = 1 if n_elig > kk else 0
+    return _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k)
+
+
+@njit(cache=True, nogil=True)
+def ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
+              slot, k, excl):
+    """Remove the point in ``slot`` from every candidate list, marking (``mark = 1``) the
+    points whose k-neighbours changed; lrd and LOF are left to the next update.
+
+    A list that held it among its first ``k`` changed its k-neighbours; it is rescanned only
+    when it was truncated and now has fewer than ``k`` candidates.
+    """
+    n_slots = seqs.shape[0]
+    seqs[slot] = -1
+    nn_cnt[slot] = 0
+    trunc[slot] = 0
+    lof[slot] = 0.0
+    lrd[slot] = 0.0
+    for p in range(n_slots):
+        c = nn_cnt[p]  # 0 for empty slots
+        t = c
+        for u in range(c):  # no early exit: a branch-free search the compiler vectorizes
+            if nn_idx[p, u] == slot:
+                t = u
+        if t == c:
+            continue
+        if t < k:
+            mark[p] = 1
+        for u in range(t, c - 1):
+            nn_idx[p, u] = nn_idx[p, u + 1]
+            nn_d[p, u] = nn_d[p, u + 1]
+            nn_key[p, u] = nn_key[p, u + 1]
+        nn_cnt[p] = c - 1
+        if c - 1 < k and trunc[p]:
+            _scan(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, centres, p, excl)
+
+
+@njit(cache=True, nogil=True)
+def ext_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
+               slot, k, excl):
+    """:func:`ext_evict` followed by the lrd/LOF update.
+
+    Returns the number of points whose LOF was recomputed.
+    """
+    ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
+              slot, k, excl)
+    return _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k)
+
+
+@njit(cache=True, nogil=True)
+def _trunc_of_full(nn_cnt, kk):
+    # lists of exactly k (no extra candidates): a full list may be truncated, a shorter one is
+    # complete (a truncated list that lost a neighbour is rescanned at once)
+    t = np.zeros(nn_cnt.shape[0], dtype=np.uint8)
+    for p in range(nn_cnt.shape[0]):
+        if nn_cnt[p] == kk:
+            t[p] = 1
+    return t
+
+
+@njit(cache=True, nogil=True)
+def inc_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres,
+               slot, vec, seq, k, excl):
+    """:func:`ext_insert` with lists of exactly ``k = nn_idx.shape[1]`` (no extra candidates)."""
+    trunc = _trunc_of_full(nn_cnt, nn_idx.shape[1])
+    return ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
+                      centres, slot, vec, seq, k, excl)
 
 
 @njit(cache=True, nogil=True)
 def inc_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres,
                slot, k, excl):
-    """Remove the point in ``slot``; rebuild the lists that held it; update LOF.
-
-    Returns the number of points whose LOF was recomputed.
-    """
-    n_slots = seqs.shape[0]
-    seqs[slot] = -1
-    nn_cnt[slot] = 0
-    lof[slot] = 0.0
-    lrd[slot] = 0.0
-    for p in range(n_slots):
-        if seqs[p] < 0:
-            continue
-        for t in range(nn_cnt[p]):
-            if nn_idx[p, t] == slot:
-                mark[p] = 1
-                break
-    for p in range(n_slots):
-        if mark[p] != 1:
-            continue
-        cnt = 0
-        for j in range(n_slots):
-            if j == p or seqs[j] < 0 or abs(centres[p] - centres[j]) < excl:
-                continue
-            dj = _cosdist(vecs, p, vecs, j, norms[p], norms[j])
-            if cnt < k or dj < nn_d[p, k - 1] or (
-                    dj == nn_d[p, k - 1] and seqs[j] < nn_key[p, k - 1]):
-                cnt = _insert_sorted(nn_idx[p], nn_d[p], nn_key[p], cnt, k, j, dj, seqs[j])
-        nn_cnt[p] = cnt
-    return _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark)
+    """:func:`ext_delete` with lists of exactly ``k = nn_idx.shape[1]`` (no extra candidates)."""
+    trunc = _trunc_of_full(nn_cnt, nn_idx.shape[1])
+    return ext_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
+                      centres, slot, k, excl)

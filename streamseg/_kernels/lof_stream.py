@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from streamseg._kernels.histogram import refine_cut
-from streamseg._kernels.lof import inc_delete, inc_insert
+from streamseg._kernels.lof import ext_evict, ext_insert
 from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
 
 NO_CUT = -(1 << 40)
@@ -34,8 +34,12 @@ def _curve(seqs, lof, st, curve):
     n_slots = seqs.shape[0]
     size = st[2]
     oldest = st[3] - size
-    for s in range(oldest, st[3]):
-        curve[s - oldest] = lof[s % n_slots]
+    first = oldest % n_slots
+    n1 = min(size, n_slots - first)  # the ring's two contiguous runs, no modulo per value
+    for i in range(n1):
+        curve[i] = lof[first + i]
+    for i in range(n1, size):
+        curve[i] = lof[i - n1]
     return oldest
 
 
@@ -84,16 +88,18 @@ def _decide(w, hi, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, cu
 @njit(cache=True, nogil=True)
 def stream_block(angles, st, geo, p,
                  rb, rv, cur, left, right,
-                 vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres,
-                 work, curve, keep, stack,
+                 vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
+                 centres, work, curve, keep, stack,
                  ev_frame, ev_score, ev_emit):
     """Feed ``angles`` (n, n_angles) frames; return the number of events written.
 
     ``geo`` = (bins, window, step, min_valid, k, exclusion frames, refine radius frames);
     ``p`` = (delay, tol, n_mads, min_score, min_gap) as float64. ``rb``/``rv`` are a ring of
     the last ``len(rb) >= window`` frames' bins and validity (frame ``f`` at ``f % len(rb)``),
-    ``cur`` the current window's counts, ``left``/``right`` scratch counts. Events: cut frame,
-    score (LOF), frame index at emission.
+    ``cur`` the current window's counts, ``left``/``right`` scratch counts. The LOF state
+    (``vecs`` .. ``centres``) is described in :mod:`streamseg._kernels.lof`; its candidate
+    lists may hold more than ``k`` entries. Events: cut frame, score (LOF), frame index at
+    emission.
     """
     bins, window, step, min_valid, k, excl = geo[0], geo[1], geo[2], geo[3], geo[4], geo[5]
     n_slots = seqs.shape[0]
@@ -136,16 +142,18 @@ def stream_block(angles, st, geo, p,
             continue
         if st[2] == n_slots:
             oldest = st[3] - n_slots
-            st[7] += inc_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark,
-                                centres, oldest % n_slots, k, excl)
+            # lrd and LOF are brought up to date once, after the insert below (Pokrajac's
+            # update is exact from the marks of both changes)
+            ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
+                      centres, oldest % n_slots, k, excl)
             st[2] -= 1
         seq = st[3]
         slot = seq % n_slots
         for d in range(vec.shape[0]):
             vec[d] = cur[d]
         centres[slot] = f - window + 1 + window // 2
-        st[7] += inc_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark,
-                            centres, slot, vec, seq, k, excl)
+        st[7] += ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof,
+                            mark, centres, slot, vec, seq, k, excl)
         st[2] += 1
         st[3] = seq + 1
         n_ev = _decide(seq - delay, seq, seqs, lof, centres, st, p, geo, rb, rv, left, right,

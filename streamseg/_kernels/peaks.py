@@ -95,24 +95,83 @@ def dominates(y, lo, hi, c, gap):
 
 
 @njit(cache=True, nogil=True)
+def select_kth(a, n, kth):
+    """Reorder ``a[:n]`` so that ``a[kth]`` is its ``kth`` smallest value (0-based), every
+    value before it ``<=`` and every value after it ``>=``; return ``a[kth]``.
+
+    Quickselect around the median of three, each pass a branch-free partition (the LOF curve
+    changes every window, so a branchy partition mispredicts): first ``< pivot`` to the left,
+    then, if ``kth`` is not there, ``== pivot`` next, so runs of equal values end it at once.
+    O(n) expected, no allocation. ``a[:n]`` must hold no NaN.
+    """
+    lo = 0
+    hi = n - 1
+    while lo < hi:
+        x0 = a[lo]
+        x1 = a[(lo + hi) // 2]
+        x2 = a[hi]
+        if x0 > x1:
+            x0, x1 = x1, x0
+        if x1 > x2:
+            x1 = x2
+            if x0 > x1:
+                x1 = x0
+        j = lo
+        for i in range(lo, hi + 1):  # a[lo:j] < x1 <= a[j:i]
+            v = a[i]
+            a[i] = a[j]
+            a[j] = v
+            j += v < x1
+        if kth < j:
+            hi = j - 1
+            continue
+        e = j
+        for i in range(j, hi + 1):  # a[j:e] == x1 < a[e:i]
+            v = a[i]
+            a[i] = a[e]
+            a[e] = v
+            e += v <= x1
+        if kth < e:
+            return x1
+        lo = e
+    return a[kth]
+
+
+@njit(cache=True, nogil=True)
+def _median(w, n):
+    """Median of ``w[:n]`` (reordered), the value ``np.median`` gives on a NaN-free array."""
+    hi = select_kth(w, n, n // 2)
+    if n % 2 == 1:
+        return hi
+    lo = w[0]
+    for i in range(1, n // 2):  # the lower middle is the largest value left of n // 2
+        if w[i] > lo:
+            lo = w[i]
+    return 0.5 * (lo + hi)
+
+
+@njit(cache=True, nogil=True)
 def robust_threshold(values, n, n_mads, work):
     """``median + n_mads * 1.4826 * MAD`` of ``values[:n]`` (``work``: float64 scratch >= n)."""
     if n == 0:
         return np.inf
+    finite = True
     for i in range(n):
         work[i] = values[i]
-    w = np.sort(work[:n])
-    if n % 2 == 1:
-        med = w[n // 2]
-    else:
-        med = 0.5 * (w[n // 2 - 1] + w[n // 2])
+        if np.isnan(values[i]):
+            finite = False
+    if not finite:  # selection needs an order; sorting puts NaN last, as np.sort always did
+        w = np.sort(work[:n])
+        med = w[n // 2] if n % 2 == 1 else 0.5 * (w[n // 2 - 1] + w[n // 2])
+        for i in range(n):
+            work[i] = abs(values[i] - med)
+        w = np.sort(work[:n])
+        mad = w[n // 2] if n % 2 == 1 else 0.5 * (w[n // 2 - 1] + w[n // 2])
+        return med + n_mads * MAD_TO_SIGMA * mad
+    med = _median(work, n)
     for i in range(n):
         work[i] = abs(values[i] - med)
-    w = np.sort(work[:n])
-    if n % 2 == 1:
-        mad = w[n // 2]
-    else:
-        mad = 0.5 * (w[n // 2 - 1] + w[n // 2])
+    mad = _median(work, n)
     return med + n_mads * MAD_TO_SIGMA * mad
 
 
