@@ -261,4 +261,29 @@ def naive_kernel_kmeans(K, labels, k, max_iter=100):
     return reseed(labels)
 
 
+def naive_lloyd(X, centres, n_iter):
+    """Lloyd's k-means from ``centres`` (copied), written plainly: nearest centre by squared
+    distance (first on ties), an empty cluster (index order) takes the point farthest from its
+    centre, stop when labels repeat. Returns ``(labels, centres)``."""
+    X = np.asarray(X, dtype=np.float64)
+    centres = np.array(centres, dtype=np.float64)
+    n, k = X.shape[0], centres.shape[0]
+    labels = np.full(n, -1)
+    for _ in range(n_iter):
+        dist = np.array([[float(np.sum((X[i] - centres[c]) ** 2)) for c in range(k)]
+                         for i in range(n)])
+        new = np.argmin(dist, axis=1)
+        for c in range(k):
+            if not np.any(new == c):
+                far = int(np.argmax(dist[np.arange(n), new]))
+                new[far] = c
+                dist[far, :] = 0.0
+        if np.array_equal(new, labels):
+            break
+        labels = new
+        for c in range(k):
+            centres[c] = X[labels == c].mean(0)
+    return labels, centres
+
+
 # --- repetitions: UKF, candidates (issue 6) --------------------------------------------------

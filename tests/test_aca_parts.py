@@ -199,3 +199,30 @@ def test_relabel_window_with_a_cluster_born_after_the_overlap():
     labels = out.frame_labels()
     assert labels[0] == 7 and labels[45] == 4          # matched over frames 60-119
     assert labels[-1] not in (4, 7)                     # the new cluster gets a fresh id
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_lloyd_kernel_equals_naive_twin(seed):
+    from streamseg._kernels.kmeans import lloyd
+    from tests.naive import naive_lloyd
+
+    rng = np.random.default_rng(seed)
+    X = np.concatenate([rng.normal(m, 0.5, (40, 3)) for m in (0, 3, 6)])
+    start = X[rng.choice(len(X), 5, replace=False)].copy()
+    want_labels, want_centres = naive_lloyd(X, start, 100)
+    centres = start.copy()
+    got = lloyd(X, centres, 100)
+    np.testing.assert_array_equal(got, want_labels, err_msg=f"seed {seed}")
+    np.testing.assert_allclose(centres, want_centres, rtol=1e-12, atol=1e-12)
+    assert set(got) == set(range(5))  # no empty cluster
+
+
+def test_lloyd_reseeds_an_empty_cluster():
+    from streamseg._kernels.kmeans import lloyd
+    from tests.naive import naive_lloyd
+
+    X = np.array([[0.0], [0.1], [0.2], [10.0]])
+    start = np.array([[0.1], [50.0], [100.0]])  # clusters 1 and 2 start empty
+    got = lloyd(X, start.copy(), 10)
+    np.testing.assert_array_equal(got, naive_lloyd(X, start, 10)[0])
+    assert set(got) == {0, 1, 2}

@@ -28,6 +28,7 @@ kernel it runs in exact int16 arithmetic. Restarts can run in threads (``n_jobs`
 from __future__ import annotations
 
 import contextlib
+import functools
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -41,6 +42,17 @@ from streamseg.offline.dtak import KERNELS, _as_frames, frame_kernel
 INITS = ("random", "propagated")
 
 
+@functools.cache
+def _blas_controller():
+    """threadpoolctl's view of the loaded BLAS libraries, or None; found once per process
+    (finding them scans every loaded library, which cost more than a small fit)."""
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:  # optional: without it BLAS keeps its own thread count
+        return None
+    return ThreadpoolController()
+
+
 def single_threaded_blas():
     """Context limiting BLAS/LAPACK to one thread (threadpoolctl, when installed).
 
@@ -48,11 +60,10 @@ def single_threaded_blas():
     multi-threaded OpenBLAS on a busy machine they were 40x slower than single-threaded, and
     in the daemon the relabel worker must not grab every core.
     """
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # optional: without it BLAS keeps its own thread count
+    controller = _blas_controller()
+    if controller is None:
         return contextlib.nullcontext()
-    return threadpool_limits(1)
+    return controller.limit(limits=1)
 
 
 def feasible_min_len(n: int, wmin: int, wmax: int) -> int:

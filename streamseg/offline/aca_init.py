@@ -1,5 +1,6 @@
 """Initial segmentations for ACA (Zhou et al. 2008, section 4.2) and the small clustering
-tools they need (k-means, spectral clustering). Plain numpy/scipy: none of this is hot.
+tools they need (k-means, spectral clustering). Lloyd's iterations run in a numba kernel
+(``streamseg._kernels.kmeans``, GIL released); the rest is plain numpy/scipy.
 
 Segmentations are triples of int64 arrays ``(starts, ends, labels)`` with
 ``starts[0] = 0``, ``ends[i] = starts[i + 1]``, ``ends[-1] = n``.
@@ -11,6 +12,7 @@ import numpy as np
 from scipy.linalg import eigh
 
 from streamseg._kernels.dtak import segment_kernel
+from streamseg._kernels.kmeans import lloyd
 
 
 def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray:
@@ -19,7 +21,7 @@ def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray
     An emptied cluster is re-seeded with the point farthest from its centre, so every label in
     ``0..min(k, distinct rows)-1`` is used.
     """
-    X = np.asarray(X, dtype=np.float64)
+    X = np.ascontiguousarray(X, dtype=np.float64)
     n = X.shape[0]
     k = int(min(k, n))
     centres = np.empty((k, X.shape[1]))
@@ -30,21 +32,7 @@ def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray
         i = rng.choice(n, p=d2 / total) if total > 0 else rng.integers(n)
         centres[c] = X[i]
         d2 = np.minimum(d2, ((X - centres[c]) ** 2).sum(1))
-    labels = np.full(n, -1)
-    for _ in range(n_iter):
-        dist = (X * X).sum(1)[:, None] - 2 * X @ centres.T + (centres * centres).sum(1)[None, :]
-        new = np.argmin(dist, axis=1)
-        for c in range(k):
-            if not np.any(new == c):
-                far = int(np.argmax(dist[np.arange(n), new]))
-                new[far] = c
-                dist[far, :] = 0.0
-        if np.array_equal(new, labels):
-            break
-        labels = new
-        for c in range(k):
-            centres[c] = X[labels == c].mean(0)
-    return labels
+    return lloyd(X, centres, n_iter)
 
 
 def spectral_labels(A, k: int, rng: np.random.Generator) -> np.ndarray:

@@ -160,3 +160,5 @@ def warmup() -> None:
     x = np.array([0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0])
     ACA(2, 2, 3, n_init=1, kernel="equality", random_state=0).fit(x)
     ACA(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, random_state=0).fit(x)
+    ACA(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, k_reduce=2,  # k-means kernel too
+        random_state=0).fit(np.repeat(x, 3)[:, None])

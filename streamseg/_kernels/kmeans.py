@@ -1,0 +1,73 @@
+"""Lloyd iterations of k-means (temporal reduction and initializations of ACA).
+
+In numba with the GIL released, so the daemon's relabel worker clusters frames on one core
+while ingest runs on the other.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def lloyd(X, centres, n_iter):
+    """Lloyd's algorithm from ``centres`` (updated in place); returns ``(n,)`` int64 labels.
+
+    Squared Euclidean distances; ties go to the lower cluster index. A cluster left empty
+    takes the point farthest from its own centre (clusters checked in index order), so every
+    cluster keeps at least one point when ``n >= k``. Stops when the labels repeat.
+    """
+    n, d = X.shape
+    k = centres.shape[0]
+    labels = np.full(n, -1, np.int64)
+    new = np.empty(n, np.int64)
+    dist = np.empty((n, k))
+    counts = np.zeros(k, np.int64)
+    sums = np.zeros((k, d))
+    for _ in range(n_iter):
+        for i in range(n):
+            best = np.inf
+            bi = 0
+            for c in range(k):
+                s = 0.0
+                for j in range(d):
+                    t = X[i, j] - centres[c, j]
+                    s += t * t
+                dist[i, c] = s
+                if s < best:
+                    best = s
+                    bi = c
+            new[i] = bi
+        counts[:] = 0
+        for i in range(n):
+            counts[new[i]] += 1
+        for c in range(k):
+            if counts[c] == 0:
+                far = 0
+                fd = -1.0
+                for i in range(n):
+                    if dist[i, new[i]] > fd:
+                        fd = dist[i, new[i]]
+                        far = i
+                counts[new[far]] -= 1
+                new[far] = c
+                counts[c] += 1
+                for cc in range(k):
+                    dist[far, cc] = 0.0
+        same = True
+        for i in range(n):
+            if new[i] != labels[i]:
+                same = False
+                break
+        if same:
+            break
+        labels[:] = new
+        sums[:] = 0.0
+        for i in range(n):
+            for j in range(d):
+                sums[labels[i], j] += X[i, j]
+        for c in range(k):
+            for j in range(d):
+                centres[c, j] = sums[c, j] / counts[c]
+    return labels
