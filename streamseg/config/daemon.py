@@ -46,6 +46,10 @@ class DaemonConfig:
     relabel_processes : int
         0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
         N > 0: the worker thread hands each job to a pool of N processes.
+    relabel_share : float
+        With relabelling in a thread and jobs waiting, the worker pauses after each job so
+        relabelling takes at most this share of the time (it shares the GIL with ingest);
+        1 = no pause.
     receive_thread : bool
         Receive and decode packets in a thread of their own, overlapping the detector's
         GIL-free kernels. Faster for one high-rate stream of small packets, slower with many
@@ -70,6 +74,7 @@ class DaemonConfig:
     shutdown_relabel: float = 5.0
     repetitions: bool = False
     relabel_processes: int = 0
+    relabel_share: float = 0.25
     receive_thread: bool = False
 
     def __post_init__(self):
@@ -92,6 +97,9 @@ class DaemonConfig:
         _check("relabel_processes", self.relabel_processes,
                type(self.relabel_processes) is int and self.relabel_processes >= 0,
                "an integer >= 0")
+        _check("relabel_share", self.relabel_share,
+               isinstance(self.relabel_share, (int, float)) and 0 < self.relabel_share <= 1,
+               "a fraction in (0, 1]")
         for name in ("max_streams", "max_packet_frames", "drain", "drain_frames", "hwm",
                      "ingest_hwm"):
             v = getattr(self, name)

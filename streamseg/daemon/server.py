@@ -71,7 +71,8 @@ class Daemon:
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
-        self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes)
+        self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes,
+                                    share=self.config.relabel_share)
         self.default_skeleton = None
         if self.config.default_skeleton:
             from streamseg.io.asf import read_asf

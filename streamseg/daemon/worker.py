@@ -32,8 +32,11 @@ class RelabelWorker(threading.Thread):
     replaced by the newer one (so a slow worker skips stale work instead of piling it up).
     """
 
-    def __init__(self, algorithms, on_result=None, processes: int = 0):
+    def __init__(self, algorithms, on_result=None, processes: int = 0, share: float = 1.0):
         super().__init__(name="streamseg-relabel", daemon=True)
+        # In-thread relabels share the GIL with ingest; when jobs keep coming, pause after each
+        # so relabelling takes at most this share of the time and ingest keeps the rest.
+        self.share = share
         self.algorithms = algorithms
         self.pool = None
         if processes > 0:
@@ -95,6 +98,7 @@ class RelabelWorker(threading.Thread):
                     return
                 key, job = self._queue.popitem(last=False)
                 self.busy_key = key
+            started = time.monotonic()
             try:
                 if self.pool is not None:
                     result = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
@@ -104,8 +108,12 @@ class RelabelWorker(threading.Thread):
                                      job.previous)
             except Exception as err:  # reported as an error event; the worker lives on
                 result = err
+            elapsed = time.monotonic() - started
             self._done.append((job, result))
             with self._cond:
                 self.busy_key = None
+                if self.pool is None and self.share < 1.0 and self._queue:
+                    self._cond.wait_for(lambda: self._stopping,
+                                        elapsed * (1.0 / self.share - 1.0))
             if self.on_result is not None:
                 self.on_result()
