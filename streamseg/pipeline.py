@@ -14,21 +14,12 @@ because it costs ~0.5-1 ms per frame) runs in :meth:`StreamPipeline.push` on the
 
 from __future__ import annotations
 
-import importlib
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from streamseg.recording import Skeleton
-
-
-def _optional(module: str, name: str):
-    """``module.name`` if that exists yet, else None (helpers land during development)."""
-    try:
-        return getattr(importlib.import_module(module), name, None)
-    except ImportError:
-        return None
 
 
 @dataclass(frozen=True)
@@ -67,35 +58,24 @@ class Algorithms:
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
         SkeletonError when the skeleton lacks a joint the 8 angles need)."""
-        from streamseg.skeleton.bones import ANGLES, bone_point_indices
+        from streamseg.skeleton.bones import bone_point_indices
 
-        pairs = bone_point_indices(skeleton)
-        return (pairs, np.array([i for i, _ in ANGLES]), np.array([j for _, j in ANGLES]))
+        return bone_point_indices(skeleton)
 
     def angles(self, positions: np.ndarray, plan) -> np.ndarray:
-        """Bone angles ``(n, 8)`` of positions ``(n, J, 3)``.
+        """Bone angles ``(n, 8)`` of positions ``(n, J, 3)``: :func:`streamseg.skeleton.bones.
+        angles_at` with the joint names resolved once per stream in :meth:`prepare` (that
+        lookup costs more than the maths for a packet of a few frames)."""
+        from streamseg.skeleton.bones import angles_at
 
-        The arithmetic of :func:`streamseg.skeleton.bone_angles` (bit-identical, tested) with
-        the joint-name resolution done once per stream in :meth:`prepare`: that lookup costs
-        more than the maths for a packet of a few frames.
-        """
-        pairs, a, b = plan
-        positions = np.asarray(positions, dtype=np.float64)
-        vec = positions[:, pairs[:, 1]] - positions[:, pairs[:, 0]]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            unit = vec / np.linalg.norm(vec, axis=2, keepdims=True)
-            cos = np.einsum("nkd,nkd->nk", unit[:, a], unit[:, b])
-        return np.arccos(np.clip(cos, -1.0, 1.0))
+        return angles_at(positions, plan)
 
     def segmenter(self, fps: float):
         """A fresh streaming cut detector for one stream."""
-        StreamingLOFSegmenter = _optional("streamseg.online", "StreamingLOFSegmenter") or \
-            importlib.import_module("streamseg.online.lof").StreamingLOFSegmenter
-        if self.lof_config is None:
-            from streamseg.config import LOFConfig
+        from streamseg.config import LOFConfig
+        from streamseg.online.lof import StreamingLOFSegmenter
 
-            return StreamingLOFSegmenter(LOFConfig(), fps)
-        return StreamingLOFSegmenter(self.lof_config, fps)
+        return StreamingLOFSegmenter(self.lof_config or LOFConfig(), fps)
 
     def relabel(self, features: np.ndarray, start_frame: int, fps: float, previous):
         """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
@@ -118,19 +98,21 @@ class Algorithms:
         """A live repetition counter (issue 6) for one stream, or None when turned off."""
         if not self.repetitions:
             return None
-        cls = _optional("streamseg.online", "RepetitionCounter")
-        if cls is None:
-            raise ImportError("repetitions=true needs streamseg.online.RepetitionCounter")
-        return cls(self.rep_config, fps, skeleton)
+        from streamseg.online.repetition import RepetitionCounter
+
+        return RepetitionCounter(self.rep_config, fps, skeleton)
 
     def warmup(self, relabel: bool = True) -> float:
         """Compile and run every kernel once on synthetic data; returns seconds spent."""
+        from streamseg.offline.relabel import warmup as warmup_aca
+        from streamseg.online.lof import warmup as warmup_lof
+        from streamseg.skeleton.bones import angles_at
+
         t = time.perf_counter()
-        for module in ("streamseg.skeleton", "streamseg.online", "streamseg.online.lof",
-                       "streamseg.offline"):
-            fn = _optional(module, "warmup")
-            if fn is not None:
-                fn()
+        warmup_lof()
+        if relabel:
+            warmup_aca()
+        angles_at(np.zeros((2, 9, 3)), np.arange(18).reshape(9, 2) % 9)
         rng = np.random.default_rng(0)
         # a random walk of angles: enough frames for the LOF windows to fill and cut
         fps = 120.0

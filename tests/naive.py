@@ -10,6 +10,24 @@ import numpy as np
 # --- skeleton features (issue 2) -------------------------------------------------------------
 
 
+def naive_bone_angles(positions, points, pairs):
+    """Angle between bones ``pairs[a]`` (indices into ``points``, rows (parent, child)) of
+    every frame, by the textbook formula acos(u.v / |u||v|); NaN where undefined."""
+    import math
+
+    out = np.full((len(positions), len(pairs)), np.nan)
+    for f, frame in enumerate(positions):
+        for a, (i, j) in enumerate(pairs):
+            u = [frame[points[i][1]][d] - frame[points[i][0]][d] for d in range(3)]
+            v = [frame[points[j][1]][d] - frame[points[j][0]][d] for d in range(3)]
+            nu = math.sqrt(sum(x * x for x in u))
+            nv = math.sqrt(sum(x * x for x in v))
+            if nu > 0 and nv > 0 and all(math.isfinite(x) for x in u + v):
+                c = sum(x * y for x, y in zip(u, v)) / (nu * nv)
+                out[f, a] = math.acos(max(-1.0, min(1.0, c)))
+    return out
+
+
 # --- LOF, sliding histograms, peaks (issue 3) ------------------------------------------------
 
 

@@ -147,3 +147,18 @@ def test_hemisphere_alignment_removes_flips(q, flip):
     assert (np.sum(out[1:] * out[:-1], axis=2) >= -1e-12).all()
     # only signs changed: each output is +/- its input
     assert np.allclose(np.abs(np.sum(out * signed, axis=2)), np.sum(signed * signed, axis=2))
+
+
+def test_bone_angle_kernel_equals_naive_twin(cmu86):
+    from streamseg.skeleton.bones import ANGLES, bone_point_indices
+    from tests.naive import naive_bone_angles
+
+    pos = cmu86.positions[:200].copy()
+    pos[50, 4] = np.nan                       # a dropout
+    pos[60, 13] = pos[60, 18]                 # a zero-length upper arm (shoulder on elbow)
+    points = bone_point_indices(cmu86.skeleton)
+    got = bone_angles(pos, cmu86.skeleton)
+    want = naive_bone_angles(pos, points.tolist(), ANGLES)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
+    assert np.isnan(got[60]).any()

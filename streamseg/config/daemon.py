@@ -65,8 +65,8 @@ class DaemonConfig:
     relabel_history: float = 20.0
     heartbeat: float = 1.0
     max_packet_frames: int = 12000
-    drain: int = 2000
-    drain_frames: int = 4096
+    drain: int = 16000
+    drain_frames: int = 32768
     ingest_hwm: int = 2000
     hwm: int = 100000
     default_skeleton: str = ""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from streamseg._kernels.bones import angles_kernel
 from streamseg.skeleton.names import POINTS, resolve
 
 # Table 1: bone = (parent point, child point); vectors point from parent to child.
@@ -59,14 +60,32 @@ def bone_angles(positions: np.ndarray, skeleton) -> np.ndarray:
         Radians in [0, pi]; a frame with a NaN joint (marker dropout) or a zero-length bone
         gives NaN in the angles it touches.
     """
-    positions = np.asarray(positions, dtype=np.float64)
+    return angles_at(positions, bone_point_indices(skeleton))
+
+
+_FIRST = np.array([i for i, _ in ANGLES], dtype=np.int64)
+_SECOND = np.array([j for _, j in ANGLES], dtype=np.int64)
+
+
+def angles_at(positions: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`bone_angles` with the bone end points already resolved (a live stream resolves
+    them once, at announcement).
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n_frames, n_joints, 3)
+    points : ndarray of int, shape (9, 2)
+        From :func:`bone_point_indices`.
+
+    Returns
+    -------
+    ndarray of float64, shape (n_frames, 8)
+    """
+    positions = np.ascontiguousarray(positions, dtype=np.float64)
     if positions.ndim != 3 or positions.shape[2] != 3:
         raise ValueError(f"positions has shape {positions.shape}; expected (n_frames, n_joints, 3)")
-    pairs = bone_point_indices(skeleton)
-    vec = positions[:, pairs[:, 1]] - positions[:, pairs[:, 0]]  # (n, 9, 3)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = vec / np.linalg.norm(vec, axis=2, keepdims=True)
-        a = np.array([i for i, _ in ANGLES])
-        b = np.array([j for _, j in ANGLES])
-        cos = np.einsum("nkd,nkd->nk", unit[:, a], unit[:, b])
-    return np.arccos(np.clip(cos, -1.0, 1.0))
+    points = np.asarray(points, dtype=np.int64)
+    if points.shape != (len(BONES), 2) or points.min() < 0 or points.max() >= positions.shape[1]:
+        raise ValueError(f"points {points.tolist()} do not index the {positions.shape[1]} joints")
+    return angles_kernel(positions, np.ascontiguousarray(points[:, 0]),
+                         np.ascontiguousarray(points[:, 1]), _FIRST, _SECOND)
