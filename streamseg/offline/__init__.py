@@ -1,17 +1,15 @@
-"""Offline segmentation methods (whole sequences or buffered windows)."""
+"""Offline segmentation methods (whole sequences or buffered windows): ``fit`` / ``predict``."""
 
-# --- LOF (issue 3) ---------------------------------------------------------------------------
-from streamseg.offline.lof import LOFSegmenter
+from __future__ import annotations
 
-# isort: split
-
-# --- ACA (issue 4) ---------------------------------------------------------------------------
 from streamseg.offline.aca import ACA
 from streamseg.offline.haca import HACA
-from streamseg.offline.relabel import WindowSegmentation, relabel_window, warmup
-
-# --- repetitions (issue 6) -------------------------------------------------------------------
+from streamseg.offline.lof import LOFSegmenter
+from streamseg.offline.relabel import WindowSegmentation, relabel_window
+from streamseg.offline.relabel import warmup as warmup_aca
 from streamseg.offline.repetition import RepetitionSegmenter
 
-__all__ = ["LOFSegmenter", "ACA", "HACA", "WindowSegmentation", "relabel_window", "warmup",
-           "RepetitionSegmenter"]
+warmup = warmup_aca  # the relabeller's kernels (the daemon warms them at start)
+
+__all__ = ["ACA", "HACA", "LOFSegmenter", "RepetitionSegmenter", "WindowSegmentation",
+           "relabel_window", "warmup", "warmup_aca"]

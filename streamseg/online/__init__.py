@@ -1,11 +1,10 @@
-"""Online (streaming) detectors: ``learn_one`` / ``learn_many`` return events."""
+"""Online (streaming) detectors: ``learn_one`` / ``learn_many`` return the events they decide."""
 
-# --- LOF (issue 3) ---------------------------------------------------------------------------
+from __future__ import annotations
+
 from streamseg.online.events import Cut
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.online.lof import warmup as warmup_lof
-
-# --- repetitions (issue 6) -------------------------------------------------------------------
 from streamseg.online.repetition import Rep, RepetitionCounter
 
-__all__ = ["Cut", "StreamingLOFSegmenter", "warmup_lof", "Rep", "RepetitionCounter"]
+__all__ = ["Cut", "Rep", "RepetitionCounter", "StreamingLOFSegmenter", "warmup_lof"]
