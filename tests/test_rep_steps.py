@@ -162,3 +162,58 @@ def test_config_rejects_bad_values_naming_the_field():
         RepetitionConfig(ukf_passes=3)
     with pytest.raises(ParameterError, match="hop_seconds"):
         RepetitionConfig(hop_seconds=20.0, buffer_seconds=10.0)
+    with pytest.raises(ParameterError, match="bandpass_width_cycles"):
+        RepetitionConfig(bandpass_width_cycles=0.0)
+    with pytest.raises(ParameterError, match="merge_edges"):
+        RepetitionConfig(merge_edges="yes")
+
+
+def test_to_repetitions_merges_short_edge_stretches_into_the_edge_repetitions():
+    # points 0.2 period after the start and 0.3 before the end: with merge_edges those
+    # stretches are the rest of the first / last repetition, which then reach the ends
+    pts = [20, 120, 220, 320]
+    assert steps.to_repetitions(pts, 350, 100, 0.7) == [(20, 120), (120, 220), (220, 320)]
+    assert steps.to_repetitions(pts, 350, 100, 0.7, merge_edges=True) == [
+        (0, 120), (120, 220), (220, 350)]
+    # a merged edge gap holding two cycles (a missed boundary) is still split by the rhythm
+    assert steps.to_repetitions([30, 230, 330], 340, 100, 0.7, merge_edges=True) == [
+        (0, 115), (115, 230), (230, 340)]
+    # a long still lead-in is neither a repetition nor merged: the first one starts at 100
+    activity = np.ones(500)
+    activity[:100] = 0.0
+    reps = steps.to_repetitions([100, 200, 300, 400], 500, 100, 0.7, activity,
+                                merge_edges=True)
+    assert reps == [(100, 200), (200, 300), (300, 400), (400, 500)]
+
+
+def test_select_group_short_sequence_rest_group_missing_an_edge_point():
+    # three cycles of 25 frames: the rest-pose group (26, 50) lacks a point near the start
+    # and spans 75 of 80 frames (94 %) against 80 for the other phase (12, 38, 63)
+    points = np.array([12, 26, 38, 50, 63])
+    labels = np.array([0, 1, 0, 1, 0])
+    rest = np.array([0.5, 0.1])
+    assert steps.group_span([26, 50], 80, 25) == 75
+    assert steps.select_group(points, labels, 80, 25, rest, tie_tolerance=0.05) == 0
+    assert steps.select_group(points, labels, 80, 25, rest, tie_tolerance=0.1) == 1
+    assert RepetitionConfig().tie_tolerance >= 0.1 - 1e-12
+
+
+def test_wider_bandpass_lets_boundaries_follow_uneven_repetitions():
+    fps = 60.0
+    lengths = [60, 100, 70, 110, 60, 95]  # repetitions of quite different lengths
+    phase = np.concatenate([np.linspace(0, 2 * np.pi, L, endpoint=False) for L in lengths])
+    X = np.stack([0.5 * (1 - np.cos(phase)), 0.3 * (1 - np.cos(phase)), 0.2 * np.sin(phase),
+                  0.01 * np.random.default_rng(0).normal(size=phase.size)], axis=1)
+    truth = list(zip(np.cumsum([0] + lengths[:-1]), np.cumsum(lengths)))
+    true_joins = np.cumsum(lengths)[:-1]
+
+    def join_error(width):
+        seg = RepetitionSegmenter(RepetitionConfig(bandpass_width_cycles=width)).fit(X, fps=fps)
+        assert seg.count_ == len(lengths)
+        found = np.array([b for _, b in seg.repetitions_[:-1]])
+        return np.mean(np.abs(found - true_joins)), repetition_accuracy(seg.repetitions_, truth)
+
+    err_default, alpha_default = join_error(RepetitionConfig().bandpass_width_cycles)
+    err_paper, alpha_paper = join_error(3.0)  # the paper's band: near-even spacing
+    assert err_default < 3.0 < err_paper
+    assert alpha_default > 0.94 > alpha_paper

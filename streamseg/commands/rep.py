@@ -21,9 +21,9 @@ def add_arguments(group) -> None:
     group.add_argument("--rep-power-ratio", type=float, default=_D.power_ratio, metavar="R",
                        help=f"share of power at the primary frequency the selected parameters "
                             f"hold (default {_D.power_ratio})")
-    group.add_argument("--rep-band-width", type=float, default=_D.band_width_cycles,
+    group.add_argument("--rep-band-width", type=float, default=_D.bandpass_width_cycles,
                        metavar="C", help="band-pass width around the primary frequency, cycles "
-                                         f"per sequence (default {_D.band_width_cycles:g})")
+                                         f"per sequence (default {_D.bandpass_width_cycles:g})")
     group.add_argument("--rep-min-cycles", type=float, default=_D.min_cycles, metavar="C",
                        help=f"fewest cycles in the sequence (default {_D.min_cycles:g})")
     group.add_argument("--rep-max-hz", type=float, default=_D.max_frequency_hz, metavar="HZ",
@@ -39,7 +39,7 @@ def add_arguments(group) -> None:
 
 def _config(args) -> RepetitionConfig:
     return RepetitionConfig(power_ratio=args.rep_power_ratio,
-                            band_width_cycles=args.rep_band_width,
+                            bandpass_width_cycles=args.rep_band_width,
                             min_cycles=args.rep_min_cycles, max_frequency_hz=args.rep_max_hz,
                             position_noise=args.rep_noise, ukf_passes=args.rep_passes,
                             seed=args.rep_seed)
@@ -85,7 +85,7 @@ def segment(args) -> dict:
             "n_candidates": int(a.candidates.size),
             "concentration": round(float(a.concentration), 4),
             "power_ratio": cfg.power_ratio,
-            "band_width_cycles": cfg.band_width_cycles,
+            "bandpass_width_cycles": cfg.bandpass_width_cycles,
             "ukf_passes": cfg.ukf_passes,
             "seconds": round(seconds, 3),
         },

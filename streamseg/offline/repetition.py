@@ -127,7 +127,11 @@ def analyse(X, fps, config: RepetitionConfig | None = None) -> RepetitionAnalysi
     summed = power.sum(axis=1)
     sub = float(summed[int(np.argmin(np.abs(cycles - fc / 2)))] / max(summed[ip], 1e-300))
     to_hz = fps / n
-    filtered = steps.bandpass(X[:, selected], fps, (fc - half) * to_hz, (fc + half) * to_hz,
+    # The filter's band is wider than the concentration band: a narrow band makes the filtered
+    # parameters near-sinusoids whose velocity minima come evenly spaced, whatever the length
+    # of each repetition; a wider one lets the phase follow slower and faster repetitions.
+    fh = 0.5 * cfg.bandpass_width_cycles
+    filtered = steps.bandpass(X[:, selected], fps, (fc - fh) * to_hz, (fc + fh) * to_hz,
                               cfg.filter_order)
     vel = np.gradient(filtered, axis=0)
     speed2 = np.sum(vel**2, axis=1)
@@ -244,7 +248,8 @@ class RepetitionSegmenter:
         self.analysis_ = a
         self.primary_frequency_hz_ = a.primary_hz
         self.repetitions_ = steps.to_repetitions(a.boundaries, self.n_frames_, a.period,
-                                                 self.config.edge_fraction, a.speed2)
+                                                 self.config.edge_fraction, a.speed2,
+                                                 merge_edges=self.config.merge_edges)
         self.count_ = len(self.repetitions_)
         return self
 

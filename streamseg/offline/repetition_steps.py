@@ -301,7 +301,7 @@ def select_group(points, labels, n_frames, period, rest_distance=None, tie_toler
 
 
 def to_repetitions(points, n_frames, period, edge_fraction=0.5, activity=None,
-                   min_activity=0.1):
+                   min_activity=0.1, merge_edges=False):
     """Repetitions between consecutive boundary points, with missed boundaries inferred.
 
     Points closer than half a period are merged (the first kept). The local period is the
@@ -324,6 +324,11 @@ def to_repetitions(points, n_frames, period, edge_fraction=0.5, activity=None,
     activity : ndarray, shape (n_frames,), optional
         E.g. eq. 10's squared velocity sum.
     min_activity : float
+    merge_edges : bool
+        A point closer than ``edge_fraction`` local periods to the sequence's start (end) is
+        replaced by the start (end): the short stretch is the rest of the first (last)
+        repetition instead of frames outside every repetition. That edge gap is then split
+        by the rhythm like any other.
 
     Returns
     -------
@@ -352,10 +357,17 @@ def to_repetitions(points, n_frames, period, edge_fraction=0.5, activity=None,
     # The sequence is taken to start and end at repetition boundaries: a counted edge
     # stretch reaches the sequence's first (last) frame and is split like any gap below.
     bounds = list(pts)
+    # With ``merge_edges`` a point closer than ``edge_fraction`` periods to the sequence's
+    # start (end) is taken for that end itself, the stretch between them being the rest of
+    # the first (last) repetition, not a repetition of its own nor frames outside every one.
     if pts[0] / local >= edge_fraction and moving(0, pts[0]):
         bounds.insert(0, 0)
+    elif merge_edges and 0 < pts[0] / local < edge_fraction and len(pts) >= 2:
+        bounds[0] = 0
     if (n_frames - pts[-1]) / local >= edge_fraction and moving(pts[-1], n_frames):
         bounds.append(int(n_frames))
+    elif merge_edges and 0 < (n_frames - pts[-1]) / local < edge_fraction and len(pts) >= 2:
+        bounds[-1] = int(n_frames)
     out = []
     for a, b in zip(bounds[:-1], bounds[1:]):
         k = max(1, int(round((b - a) / local)))
