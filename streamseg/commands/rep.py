@@ -7,6 +7,7 @@ trajectories (rows = frames, radians; ``--fps`` required). Method: Wang et al. 2
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -72,11 +73,19 @@ def segment(args) -> dict:
 
         plot_repetitions(args.plot, seg)
     a = seg.analysis_
+    # the live counter's "repetitive" test, applied to the whole input: a multi-exercise
+    # routine or a non-repetitive take gets counted all the same, so say so
+    repetitive = bool(a.concentration >= cfg.repetitive_ratio)
+    if not repetitive:
+        print(f"streamseg segment: warning: {Path(args.file).name} does not look repetitive "
+              f"(power concentration {a.concentration:.2f} < {cfg.repetitive_ratio}); the count "
+              "assumes one repeated action: cut the take into exercises first", file=sys.stderr)
     return {
         "n_frames": int(seg.n_frames_),
         "fps": float(seg.fps_),
         "method": "rep",
         "count": int(seg.count_),
+        "repetitive": repetitive,
         "repetitions": [{"start": int(s), "end": int(e)} for s, e in seg.repetitions_],
         "primary_frequency_hz": float(seg.primary_frequency_hz_),
         "params": {
