@@ -114,3 +114,30 @@ def test_demo_runs_and_draws(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "] cut " in out and "] relabel " in out and "closed   (end)" in out
     assert png.stat().st_size > 10_000
+
+
+def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
+    """The template client in clients/ follows a replay without importing streamseg."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "clients" / "minimal_listener.py"
+    assert "streamseg" not in "".join(
+        line for line in script.read_text().splitlines() if line.startswith(("import", "from")))
+    proc = subprocess.Popen([sys.executable, str(script), daemon["publish"], "m"],
+                            stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("listening on")
+    time.sleep(0.3)  # the subscription travels to the daemon after connect (ZeroMQ slow joiner)
+    assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
+                 "--batch", "60", "--stream", "m"]) == 0
+    out, _ = proc.communicate(timeout=60)
+    lines = out.splitlines()
+    assert lines, "the listener printed nothing"
+    rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    seg = StreamingLOFSegmenter(fps=rec.fps)
+    want = [c.frame for c in seg.learn_many(bone_angles(rec.positions, rec.skeleton))
+            + seg.finish()]
+    got = [int(x.split("cut at frame ")[1].split()[0]) for x in lines if "cut at frame" in x]
+    assert got == want
+    assert lines[-1] == "m: closed (end)"
