@@ -286,8 +286,9 @@ def unpack_body(body: bytes) -> dict:
         raise WireError("version", f"protocol version {v!r} is not supported: this daemon "
                         f"speaks v{PROTOCOL_VERSION} (docs/protocol.md); upgrade the sender",
                         stream)
-    if obj.get("type") not in MESSAGES:
-        raise WireError("type", f"unknown message type {obj.get('type')!r}; expected one of "
+    kind = obj.get("type")
+    if type(kind) is not str or kind not in MESSAGES:
+        raise WireError("type", f"unknown message type {_short(kind)}; expected one of "
                         f"{', '.join(MESSAGES)}", stream)
     return obj
 
@@ -333,9 +334,13 @@ def _stream(obj, kind) -> str:
     return s
 
 
+MAX_INT = 2**53  # frame numbers and counts stay exact as floats and fit msgpack's int64
+
+
 def _int(obj, key, kind, stream, minimum=0) -> int:
     v = obj[key]
-    _need(type(v) is int and v >= minimum, kind, key, v, f"an integer >= {minimum}", stream)
+    _need(type(v) is int and minimum <= v < MAX_INT, kind, key, v,
+          f"an integer in [{minimum}, 2**53)", stream)
     return v
 
 
@@ -374,8 +379,8 @@ def frames_fields(obj: dict, stream: str | None = None) -> tuple:
     except KeyError as err:
         raise WireError("field", f"frames message lacks field {err.args[0]!r} "
                         f"(see docs/protocol.md)", stream) from err
-    if type(seq) is not int or seq < 0:
-        _need(False, "frames", "seq", seq, "an integer >= 0", stream)
+    if type(seq) is not int or not 0 <= seq < MAX_INT:
+        _need(False, "frames", "seq", seq, "an integer in [0, 2**53)", stream)
     if type(ts) is not float and type(ts) is not int:
         _need(False, "frames", "timestamp", ts, "a number", stream)
     try:

@@ -134,6 +134,8 @@ def test_garbage_between_good_packets(start_daemon, rec, receive_thread):
         "version": [b"frames/g/", msgpack.packb({"v": 0, "type": "frames", "stream": "g"})],
         "field": [b"frames/g/", msgpack.packb({"v": 1, "type": "frames", "stream": "g"})],
         "unknown_stream": P.encode(P.Frames("nobody", 0, 0.0, pos[:2])),
+        "type": [b"frames/g/", msgpack.packb({"v": 1, "type": [1], "stream": "g"})],
+        "huge_seq": P.encode(P.Frames("g", 2**60, 0.0, pos[:2])),  # a "field" error
     }
     nan_rows = np.arange(2010, 2016)
     pos[nan_rows] = np.nan
@@ -159,8 +161,8 @@ def test_garbage_between_good_packets(start_daemon, rec, receive_thread):
     ref[3000:3010] = np.nan  # the offline run sees the lost frames as missing
     assert cuts_of(events, "g") == offline_cuts(rec, ref)
     stats = request(ep["control"], "stats")["totals"]["errors_by_reason"]
-    assert stats == {"decode": n_garbage, "version": n_garbage, "field": n_garbage,
-                     "unknown_stream": n_garbage, "array": n_bad_arrays,
+    assert stats == {"decode": n_garbage, "version": n_garbage, "field": 2 * n_garbage,
+                     "type": n_garbage, "unknown_stream": n_garbage, "array": n_bad_arrays,
                      "duplicate": n_dups * step, "nan": len(nan_rows), "gap": 1}
     gaps = [e for e in events if e.type == "gap"]
     assert [(e.expected, e.got) for e in gaps] == [(3000, 3010)]

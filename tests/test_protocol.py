@@ -13,7 +13,7 @@ from streamseg import protocol as P
 
 ids = st.text(alphabet="abcXYZ019_.:-", min_size=1, max_size=20)
 finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
-nat = st.integers(min_value=0, max_value=2**53)
+nat = st.integers(min_value=0, max_value=2**53 - 1)  # the protocol's integer range
 small = st.integers(min_value=0, max_value=10_000)
 
 
@@ -111,7 +111,8 @@ def _frames_body(stream="x", shape=(2, 3, 3), nbytes=None, dtype="<f8", **extra)
     (_frames_body(shape=(2, 3)), "array", "expected (n_frames >= 1, n_joints >= 1, 3)"),
     (_frames_body(dtype="<i4"), "array", "dtype ('<f4' or '<f8')"),
     (_frames_body(stream="a/b"), "field", "frames.stream='a/b' is invalid"),
-    (_frames_body(seq=-1), "field", "frames.seq=-1 is invalid: expected an integer >= 0"),
+    (_frames_body(seq=-1), "field",
+     "frames.seq=-1 is invalid: expected an integer in [0, 2**53)"),
 ])
 def test_validation_names_the_problem(frames, kind, words):
     with pytest.raises(P.WireError) as info:
@@ -141,3 +142,20 @@ def test_json_view_has_type_and_fields():
     j = P.to_json(P.Segments("s", 2, 0, 10, ((0, 4, 1), (4, 10, 0)), True, 0.5))
     assert j == {"type": "segments", "stream": "s", "revision": 2, "start": 0, "end": 10,
                  "segments": [[0, 4, 1], [4, 10, 0]], "final": True, "elapsed": 0.5}
+
+
+@pytest.mark.parametrize("body,reason", [
+    ({"v": 1, "type": [1], "stream": "s"}, "type"),        # unhashable type
+    ({"v": 1, "type": {"a": 1}, "stream": "s"}, "type"),
+    ({"v": 1, "type": 7}, "type"),
+])
+def test_non_string_type_is_a_wire_error(body, reason):
+    with pytest.raises(P.WireError) as info:
+        P.decode([b"frames/s/", msgpack.packb(body)])
+    assert info.value.kind == reason
+
+
+def test_frame_numbers_beyond_2_53_are_rejected():
+    parts = P.encode(P.Frames("s", 2**60, 0.0, np.zeros((1, 2, 3))))
+    with pytest.raises(P.WireError, match=r"seq=.*2\*\*53"):
+        P.decode(parts)

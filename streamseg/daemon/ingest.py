@@ -31,6 +31,8 @@ def decode_ingest(parts, arrival: float) -> tuple:
         return ("o", obj)
     except protocol.WireError as err:
         return ("e", err.stream, err.kind, str(err))
+    except Exception as err:  # a packet validation missed must not stop the receiver
+        return ("e", None, "decode", f"packet could not be handled ({type(err).__name__}: {err})")
 
 
 class Receiver(threading.Thread):

@@ -202,6 +202,9 @@ class Daemon:
                     self._error(it[1], it[2], it[3])
             except protocol.WireError as err:
                 self._error(err.stream, err.kind, str(err))
+            except Exception as err:  # a packet validation missed must not stop the daemon
+                self._error(None, "decode", f"packet could not be handled "
+                            f"({type(err).__name__}: {err})")
             if self.n_frames >= stop_at:
                 break
         for st in self._dirty:
@@ -218,6 +221,9 @@ class Daemon:
             self._on_body(protocol.unpack_body(parts[1]), now, arrival)
         except protocol.WireError as err:
             self._error(err.stream, err.kind, str(err))
+        except Exception as err:  # a packet validation missed must not stop the daemon
+            self._error(None, "decode", f"packet could not be handled "
+                        f"({type(err).__name__}: {err})")
 
     def _on_body(self, obj: dict, now: float, arrival: float) -> None:
         """Dispatch one unpacked ingest body (envelope checked); raises WireError."""
