@@ -136,3 +136,35 @@ def test_asf_hierarchy_names_undefined_bone(tmp_path, asf, data_dir):
     f.write_text(text)
     with pytest.raises(RecordingError, match="unknown bone 'lradiusX'"):
         read(data_dir / "cmu86/86_01.amc.gz", skeleton=f)
+
+
+def test_asf_hierarchy_cycle_is_an_error_not_a_hang(tmp_path, asf, data_dir):
+    text = asf.read_text(encoding="latin-1").replace("    lhumerus lradius",
+                                                     "    lhumerus lradius\n    lradius lhumerus")
+    f = tmp_path / "cycle.asf"
+    f.write_text(text)
+    with pytest.raises(RecordingError, match="reached twice in :hierarchy"):
+        read(data_dir / "cmu86/86_01.amc.gz", skeleton=f)
+
+
+@pytest.mark.parametrize("old,new,match", [
+    ("length 0.45", "length 0", "length scale 0.0"),
+    ("     name lfemur", "     name", "'name' without a value"),
+])
+def test_asf_bad_values(tmp_path, asf, data_dir, old, new, match):
+    f = tmp_path / "bad.asf"
+    f.write_text(asf.read_text(encoding="latin-1").replace(old, new, 1))
+    with pytest.raises(RecordingError, match=match):
+        read(data_dir / "cmu86/86_01.amc.gz", skeleton=f)
+
+
+@pytest.mark.parametrize("old,new", [("Frames: 2", "Frames: nan"),
+                                     ("Frame Time: 0.033333", "Frame Time: nan")])
+def test_bvh_non_finite_header(tmp_path, old, new):
+    from pathlib import Path
+
+    src = Path(__file__).parent / "data" / "cmu_like.bvh"
+    f = tmp_path / "bad.bvh"
+    f.write_text(src.read_text().replace(old, new))
+    with pytest.raises(RecordingError, match="Frame Time"):
+        read(f)

@@ -107,6 +107,9 @@ def read_asf(path) -> AcclaimSkeleton:
         if section == ":units":
             if key == "length":
                 scale = float(_floats(path, lineno, words[1:], 1, "the length scale")[0])
+                if not (np.isfinite(scale) and scale > 0):
+                    raise RecordingError(path, lineno, f"length scale {scale}",
+                                         "a length scale > 0")
             elif key == "angle":
                 unit = words[1].lower() if len(words) > 1 else ""
                 if unit not in ("deg", "rad"):
@@ -145,6 +148,8 @@ def read_asf(path) -> AcclaimSkeleton:
             elif current is None:
                 raise RecordingError(path, lineno, f"{line!r} outside a bone block", "begin")
             elif key == "name":
+                if len(words) < 2:
+                    raise RecordingError(path, lineno, "'name' without a value", "name BONE")
                 current["name"] = words[1]
             elif key == "direction":
                 current["direction"] = _floats(path, lineno, words[1:], 3, "direction")
@@ -187,9 +192,15 @@ def read_asf(path) -> AcclaimSkeleton:
     ]
     parents = [-1]
     queue = [("root", 0)]
+    placed = {"root"}
     while queue:
         name, idx = queue.pop(0)
         for child in children.get(name, []):
+            if child in placed:
+                raise RecordingError(path, None, f"bone {child!r} reached twice in :hierarchy "
+                                     "(a cycle or a bone with two parents)",
+                                     "a tree rooted at 'root'")
+            placed.add(child)
             if child not in bones:
                 raise RecordingError(
                     path,

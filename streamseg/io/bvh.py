@@ -8,6 +8,7 @@ named ``<parent>_End``.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -123,8 +124,11 @@ def read_bvh(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
             header[key.strip().lower()] = float(val)
         except ValueError:
             raise RecordingError(path, i, f"{line!r}", "'Frames: N' and 'Frame Time: T'") from None
-    if "frames" not in header or "frame time" not in header or header["frame time"] <= 0:
-        raise RecordingError(path, i, f"header {header}", "'Frames: N' and 'Frame Time: T > 0'")
+    if ("frames" not in header or "frame time" not in header
+            or not math.isfinite(header["frames"]) or header["frames"] < 0
+            or not math.isfinite(header["frame time"]) or header["frame time"] <= 0):
+        raise RecordingError(path, i, f"header {header}",
+                             "'Frames: N' (N >= 0) and 'Frame Time: T' (finite, > 0)")
     width = sum(len(c) for c in channels)
     rows, warnings = [], []
     for k in range(i, len(lines)):
