@@ -29,7 +29,7 @@ class Relabelled:
     start: int
     end: int
     segments: tuple
-    window: object  # the algorithm's own result in learned-frame coordinates (for ``previous``)
+    window: object  # the same as a WindowSegmentation in stream frames (the next ``previous``)
     elapsed: float
 
 
@@ -77,22 +77,19 @@ class Algorithms:
 
         return StreamingLOFSegmenter(self.lof_config or LOFConfig(), fps)
 
-    def relabel(self, features: np.ndarray, start_frame: int, fps: float, previous):
+    def relabel(self, features: np.ndarray, start_frame: int, fps: float):
         """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
 
-        Labels are made consistent with ``previous`` here (:func:`stable_labels`), so the
-        window is computed without ``previous``.
+        Cluster ids are the window's own; :func:`relabel` maps the rows to stream frames and
+        then makes the ids consistent with the previous relabel (:func:`stable_labels`),
+        because rows and stream frames differ wherever frames were missing.
         """
-        if self._relabel is not None:
-            window = self._relabel(features, start_frame=start_frame, fps=fps,
-                                   config=self.aca_config, previous=None)
-        else:
-            from streamseg.config import ACAConfig
-            from streamseg.offline import relabel_window
+        from streamseg.config import ACAConfig
+        from streamseg.offline import relabel_window
 
-            window = relabel_window(features, start_frame=start_frame, fps=fps,
-                                    config=self.aca_config or ACAConfig(), previous=None)
-        return stable_labels(window, previous)
+        fn = self._relabel or relabel_window
+        return fn(features, start_frame=start_frame, fps=fps,
+                  config=self.aca_config or ACAConfig(), previous=None)
 
     def rep_counter(self, fps: float, skeleton: Skeleton):
         """A live repetition counter (issue 6) for one stream, or None when turned off."""
@@ -121,7 +118,7 @@ class Algorithms:
         seg.learn_many(walk)
         seg.finish()
         if relabel:
-            self.relabel(walk[-int(4 * fps):], 0, fps, None)
+            self.relabel(walk[-int(4 * fps):], 0, fps)
         return time.perf_counter() - t
 
 
@@ -138,11 +135,12 @@ def stable_labels(window, previous):
         return WindowSegmentation(window.start, window.end, segs)
     new = _frame_labels(window.start, window.end, segs)
     old = _frame_labels(previous.start, previous.end, _segment_triplets(previous))
-    lo, hi = max(window.start, previous.start), min(window.end, previous.end)
+    lo, hi = max(window.start, previous.start), max(min(window.end, previous.end), 0)
     used = {lab for _, _, lab in _segment_triplets(previous)}
-    overlap = slice(lo - window.start, max(hi, lo) - window.start)
-    mapping = match_labels(new[overlap], old[lo - previous.start:max(hi, lo) - previous.start],
-                           used, new_ids={lab for _, _, lab in segs})
+    a = new[lo - window.start:max(hi, lo) - window.start]
+    b = old[lo - previous.start:max(hi, lo) - previous.start]
+    both = (a >= 0) & (b >= 0)  # frames neither window skipped (missing frames are -1)
+    mapping = match_labels(a[both], b[both], used, new_ids={lab for _, _, lab in segs})
     return WindowSegmentation(window.start, window.end,
                               [(a, b, mapping[lab]) for a, b, lab in segs])
 
@@ -313,15 +311,16 @@ class StreamPipeline:
 
 
 def relabel(algorithms: Algorithms, features, frames, fps, previous) -> Relabelled:
-    """Run one relabel job and map its segments to stream frames (runs in the worker).
+    """Run one relabel job in stream frames (runs in the worker).
 
-    The algorithm sees ``start_frame = frames[0]``; a segment bound ``b`` is row
-    ``b - frames[0]``, mapped back through ``frames`` (the identity without dropped frames).
+    The algorithm sees ``start_frame = frames[0]`` and contiguous rows; a segment bound ``b``
+    is row ``b - frames[0]``, mapped back through ``frames`` (the identity without dropped
+    frames). Ids are then matched to ``previous`` (a relabel in stream frames) over the stream
+    frames both cover.
     """
     t = time.perf_counter()
     start = int(frames[0])
-    window = algorithms.relabel(features, start, fps, previous)
-    elapsed = time.perf_counter() - t
+    window = algorithms.relabel(features, start, fps)
     m = frames.shape[0]
     segs = []
     for a, b, label in _segment_triplets(window):
@@ -330,4 +329,8 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous) -> Relabell
             continue
         a_i, b_i = max(a_i, 0), min(b_i, m)
         segs.append((int(frames[a_i]), int(frames[b_i - 1]) + 1, int(label)))
-    return Relabelled(start, int(frames[-1]) + 1, tuple(segs), window, elapsed)
+    from streamseg.offline.relabel import WindowSegmentation
+
+    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs), previous)
+    elapsed = time.perf_counter() - t
+    return Relabelled(stable.start, stable.end, tuple(stable.segments), stable, elapsed)

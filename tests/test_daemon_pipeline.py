@@ -76,3 +76,22 @@ def test_stable_labels_follow_the_previous_window():
     labels = [lab for _, _, lab in out.segments]
     assert labels[0] == 7  # same frames as the old cluster 7
     assert len(set(labels)) == 3 and not {3, 7} & set(labels[1:])
+
+
+def test_labels_stay_stable_across_missing_frames():
+    """Rows and stream frames differ where frames were missing (NaN frames, lost packets);
+    ids must be matched in stream frames. Revision 1 covers frames 0-99 and 200-299 (100-199
+    missing), all one cluster; revision 2 covers 200-399 with the same action."""
+
+    def one_cluster(features, *, start_frame, fps, config, previous):
+        n = features.shape[0]
+        return WindowSegmentation(start_frame, start_frame + n, [(start_frame, start_frame + n,
+                                                                  0)])
+
+    algorithms = Algorithms(relabel=one_cluster)
+    frames1 = np.concatenate([np.arange(0, 100), np.arange(200, 300)])
+    first = relabel(algorithms, np.zeros((200, 8)), frames1, 120.0,
+                    WindowSegmentation(0, 300, [(0, 300, 5)]))
+    assert {lab for _, _, lab in first.segments} == {5}
+    second = relabel(algorithms, np.zeros((200, 8)), np.arange(200, 400), 120.0, first.window)
+    assert second.segments == ((200, 400, 5),)
