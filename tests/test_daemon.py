@@ -315,3 +315,29 @@ def test_default_skeleton_opens_streams_on_first_packet(start_daemon, rec, data_
     events = list(listen(s, stream="anon", until_end=True, timeout=30))
     assert cuts_of(events, "anon") == offline_cuts(rec)
     assert not [e for e in events if e.type == "error"]
+
+
+def test_failed_start_with_receive_thread_still_shuts_down():
+    """A daemon whose start fails (here: warmup) must close every socket and return,
+    including the receiver's wake-up socket that its never-started thread would close."""
+
+    class Broken(Algorithms):
+        def warmup(self, relabel: bool = True) -> float:
+            raise RuntimeError("warmup failed")
+
+    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, receive_thread=True,
+                            relabel_interval=0, heartbeat=0), Broken())
+    d.bind()
+    box = {}
+
+    def run():
+        try:
+            box["rc"] = d.run()
+        except Exception as err:  # the failure itself is expected
+            box["err"] = err
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(20)
+    assert not t.is_alive(), "the daemon hung in shutdown"
+    assert "err" in box or "rc" in box

@@ -469,10 +469,12 @@ class Daemon:
             self.worker.stop(timeout=self.config.shutdown_relabel)
             if self.receiver is not None:
                 self.receiver.stop()
+                if not self.receiver.is_alive():
+                    self.receiver.wake.close(linger=0)  # its run() closes it only if started
             for sock in (getattr(self, "ingest", None), getattr(self, "control", None),
                          getattr(self, "pub", None), getattr(self, "_wake", None)):
                 if sock is not None:
-                    sock.close()
+                    sock.close()  # default linger: final events still reach listeners
             self.ctx.term()
             log.info("daemon stopped")
 
