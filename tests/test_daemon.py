@@ -45,7 +45,7 @@ def start_daemon():
         cfg.update(overrides)
         d = Daemon(DaemonConfig(**cfg), algorithms)
         ep = d.bind()
-        t = threading.Thread(target=d.run, daemon=True)
+        t = threading.Thread(target=d.run, daemon=True, name="streamseg-daemon-under-test")
         t.start()
         assert d.ready.wait(30)
         running.append((d, t))
@@ -274,8 +274,10 @@ def test_control_requests(start_daemon):
     assert not bad["ok"] and "unknown op 'dance'" in bad["error"]
     assert "no stream 'x'" in request(ep["control"], "state", stream="x")["error"]
     assert request(ep["control"], "shutdown")["ok"]
-    d_thread = [t for t in threading.enumerate() if t.name == "streamseg-relabel"]
-    assert d._stop.is_set() and d_thread is not None
+    assert d._stop.is_set()
+    for t in [t for t in threading.enumerate() if t.name == "streamseg-daemon-under-test"]:
+        t.join(15)
+        assert not t.is_alive(), "the shutdown request did not stop the daemon"
 
 
 def test_live_repetitions_match_the_counter(start_daemon, data_dir):
