@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np  # noqa: F401
+import numpy as np
 
-# --- cut precision / recall / F1, covering, latency (issue 3) --------------------------------
+# --- cut precision / recall / F1, covering, latency ------------------------------------------
 
 
 def cut_windows_from(true_cuts, tolerance=None, windows=None, margin: int = 0):
@@ -120,7 +120,7 @@ def latency_stats(latencies) -> dict:
                 max=float(x.max()))
 
 
-# --- Hungarian-matched frame accuracy and confusion matrix (issue 4) -------------------------
+# --- Hungarian-matched frame accuracy and confusion matrix -----------------------------------
 
 
 def _frame_label_arrays(predicted, truth):
@@ -177,7 +177,7 @@ def matched_frame_accuracy(predicted, truth):
     return acc, {pl[r].item(): tl[c].item() for r, c in zip(rows, cols, strict=True)}
 
 
-# --- repetition accuracy alpha and count error (issue 6) -------------------------------------
+# --- repetition accuracy alpha and count error -----------------------------------------------
 
 
 def repetition_accuracy(found, truth) -> float:

@@ -8,7 +8,7 @@ worker thread relabels with windowed ACA (:func:`streamseg.offline.relabel_windo
 The segmenter sees every stream frame (non-finite ones it skips itself), so its cuts are in
 stream frames; the ring keeps only finite feature rows with their stream frame numbers.
 
-Repetition counting (issue 6, :class:`streamseg.online.RepetitionCounter`, off by default
+Repetition counting (:class:`streamseg.online.RepetitionCounter`, off by default
 because it costs ~0.5-1 ms per frame) runs in :meth:`StreamPipeline.push` on the positions.
 """
 
@@ -92,7 +92,7 @@ class Algorithms:
                   config=self.aca_config or ACAConfig(), previous=None)
 
     def rep_counter(self, fps: float, skeleton: Skeleton):
-        """A live repetition counter (issue 6) for one stream, or None when turned off."""
+        """A live repetition counter for one stream, or None when turned off."""
         if not self.repetitions:
             return None
         from streamseg.online.repetition import RepetitionCounter

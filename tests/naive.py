@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# --- skeleton features (issue 2) -------------------------------------------------------------
+# --- skeleton features -------------------------------------------------------------
 
 
 def naive_bone_angles(positions, points, pairs):
@@ -28,7 +28,7 @@ def naive_bone_angles(positions, points, pairs):
     return out
 
 
-# --- LOF, sliding histograms, peaks (issue 3) ------------------------------------------------
+# --- LOF, sliding histograms, peaks ------------------------------------------------
 
 
 def naive_window_counts(angles, window, step, bins):
@@ -180,7 +180,7 @@ def naive_robust_threshold(y, n_mads):
     return m + n_mads * 1.4826 * med(np.abs(np.asarray(y, dtype=float) - m))
 
 
-# --- ACA: DTAK, DP segmentation, kernel k-means (issue 4) ------------------------------------
+# --- ACA: DTAK, DP segmentation, kernel k-means ------------------------------------
 
 
 def naive_dtak_p(K, a0, a1, b0, b1):
@@ -302,6 +302,3 @@ def naive_lloyd(X, centres, n_iter):
         for c in range(k):
             centres[c] = X[labels == c].mean(0)
     return labels, centres
-
-
-# --- repetitions: UKF, candidates (issue 6) --------------------------------------------------

@@ -1,4 +1,4 @@
-"""Aligned Cluster Analysis relabelling (issue 4)."""
+"""Aligned Cluster Analysis relabelling."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from streamseg.config._base import _check
 
 @dataclass(frozen=True)
 class ACAConfig:
-    """Aligned Cluster Analysis relabelling (issue 4); lengths in seconds.
+    """Aligned Cluster Analysis relabelling; lengths in seconds.
 
     Defaults were chosen on one recording, CMU 86_01 (``benchmarks/aca_mocap.py``), among a
     handful of round settings, and are held fixed for every other one.

@@ -1,4 +1,4 @@
-"""The daemon's sockets, limits and cadence (issue 5)."""
+"""The daemon's sockets, limits and cadence."""
 
 from __future__ import annotations
 
@@ -41,8 +41,9 @@ class DaemonConfig:
     shutdown_relabel : float
         Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
     repetitions : bool
-        Count repetitions live (``rep`` events, issue 6's RepetitionCounter). Off by default:
-        it takes 0.5-1 ms of CPU per frame (6-12% of a core per 120 Hz stream).
+        Count repetitions live (``rep`` events from
+        :class:`streamseg.online.RepetitionCounter`). Off by default: it takes 0.5-1 ms of
+        CPU per frame (6-12% of a core per 120 Hz stream).
     relabel_processes : int
         0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
         N > 0: the worker thread hands each job to a pool of N processes.

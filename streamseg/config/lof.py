@@ -1,4 +1,4 @@
-"""Streaming and offline LOF cut detection (issue 3)."""
+"""Streaming and offline LOF cut detection."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from streamseg.config._base import _check
 
 @dataclass(frozen=True)
 class LOFConfig:
-    """Sliding-window histogram + Local Outlier Factor cut detection (issue 3).
+    """Sliding-window histogram + Local Outlier Factor cut detection.
 
     Times are in seconds and converted to frames with the stream's rate, so one configuration
     serves 30, 100 and 120 Hz streams. The defaults were chosen on two recordings only (CMU 86_01

@@ -1,4 +1,4 @@
-"""Repetition segmentation (issue 6)."""
+"""Repetition segmentation."""
 
 from __future__ import annotations
 
