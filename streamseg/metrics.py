@@ -200,6 +200,12 @@ def repetition_accuracy(found, truth) -> float:
     """
     f = sorted((int(a), int(b)) for a, b in found)
     t = sorted((int(a), int(b)) for a, b in truth)
+    bad = [(a, b) for a, b in t if b <= a]
+    if bad:
+        from streamseg.exceptions import ParameterError
+
+        raise ParameterError(f"true repetition {bad[0]} is empty: every true segment needs "
+                             "end > start")
     D = min(len(f), len(t))
     if D == 0:
         return 0.0

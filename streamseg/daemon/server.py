@@ -393,6 +393,8 @@ class Daemon:
             self._closed(st, reason)
 
     def _closed(self, st: StreamState, reason: str) -> None:
+        for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
+            self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
         state = st.state()
         state["closed"] = reason

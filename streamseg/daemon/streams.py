@@ -124,6 +124,11 @@ class ErrorBook:
         self.dirty.clear()
         return out
 
+    def due_for(self, stream) -> list:
+        """:meth:`due` for one stream only (published before its ``closed`` event)."""
+        keys = [k for k in self.dirty if k[0] == stream]
+        return [protocol.Error(k[0], k[1], self.dirty.pop(k), self.counts[k]) for k in keys]
+
     def by_reason(self) -> dict:
         out: dict = {}
         for (_, reason), c in self.counts.items():
