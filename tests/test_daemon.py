@@ -273,6 +273,13 @@ def test_control_requests(start_daemon):
     bad = request(ep["control"], "dance")
     assert not bad["ok"] and "unknown op 'dance'" in bad["error"]
     assert "no stream 'x'" in request(ep["control"], "state", stream="x")["error"]
+    ctx = zmq.Context.instance()
+    req = ctx.socket(zmq.REQ)
+    req.connect(ep["control"])
+    req.send(msgpack.packb({"v": 0, "op": "ping"}))
+    old = msgpack.unpackb(req.recv(), raw=False)
+    req.close(linger=0)
+    assert not old["ok"] and "protocol version 0" in old["error"]
     assert request(ep["control"], "shutdown")["ok"]
     assert d._stop.is_set()
     for t in [t for t in threading.enumerate() if t.name == "streamseg-daemon-under-test"]:

@@ -29,6 +29,9 @@ def serve_control(daemon) -> None:
 def answer(daemon, req) -> dict:
     """The reply to one control request (docs/protocol.md, Control)."""
     op = req.get("op") if isinstance(req, dict) else None
+    if isinstance(req, dict) and req.get("v") != protocol.PROTOCOL_VERSION:
+        return {"ok": False, "error": f"protocol version {req.get('v')!r} is not supported: "
+                                      f"send v={protocol.PROTOCOL_VERSION} (docs/protocol.md)"}
     if op == "ping":
         return {"ok": True}
     if op == "streams":
