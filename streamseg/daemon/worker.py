@@ -32,7 +32,7 @@ class RelabelWorker(threading.Thread):
     replaced by the newer one (so a slow worker skips stale work instead of piling it up).
     """
 
-    def __init__(self, algorithms, on_result=None, processes: int = 0, share: float = 1.0):
+    def __init__(self, algorithms, processes: int = 0, share: float = 1.0):
         super().__init__(name="streamseg-relabel", daemon=True)
         # In-thread relabels share the GIL with ingest; when jobs keep coming, pause after each
         # so relabelling takes at most this share of the time and ingest keeps the rest.
@@ -51,7 +51,6 @@ class RelabelWorker(threading.Thread):
         self._done = collections.deque()
         self._stopping = False
         self.busy_key = None
-        self.on_result = on_result  # called from the worker thread (e.g. to wake a poller)
 
     def submit(self, job: RelabelJob) -> None:
         with self._cond:
@@ -115,5 +114,3 @@ class RelabelWorker(threading.Thread):
                 if self.pool is None and self.share < 1.0 and self._queue:
                     self._cond.wait_for(lambda: self._stopping,
                                         elapsed * (1.0 / self.share - 1.0))
-            if self.on_result is not None:
-                self.on_result()
