@@ -1,0 +1,211 @@
+"""Protocol v1 messages: constants, topics, stream ids and the message dataclasses."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from streamseg.exceptions import ProtocolError
+
+PROTOCOL_VERSION = 1
+INGEST_TYPES = ("announce", "frames", "end")
+EVENT_TYPES = ("cut", "segments", "rep", "gap", "error", "stats", "closed")
+DAEMON_WIDE = "*"
+_STREAM_RE = re.compile(r"[A-Za-z0-9_.:@+=-]{1,128}\Z")
+_DTYPES = {"<f4": np.dtype("<f4"), "<f8": np.dtype("<f8")}
+
+
+class WireError(ProtocolError):
+    """A message failed decoding or validation.
+
+    Attributes
+    ----------
+    kind : str
+        Short machine-readable class of the problem (``decode``, ``field``, ``array``,
+        ``version``, ``type``); the daemon counts errors per kind and stream.
+    stream : str or None
+        The stream the message named, when that much could be read.
+    """
+
+    def __init__(self, kind: str, message: str, stream: str | None = None):
+        super().__init__(message)
+        self.kind = kind
+        self.stream = stream
+
+
+def valid_stream_id(stream) -> bool:
+    """True when ``stream`` may be used as a stream id (1-128 of ``A-Za-z0-9_.:@+=-``)."""
+    return isinstance(stream, str) and _STREAM_RE.match(stream) is not None
+
+
+def topic(kind: str, stream: str | None) -> bytes:
+    """The topic frame of a message of type ``kind`` about ``stream`` (None: daemon-wide)."""
+    return f"{kind}/{stream if stream is not None else DAEMON_WIDE}/".encode("ascii")
+
+
+def subscriptions(stream: str | None = None, kind: str | None = None) -> list[bytes]:
+    """SUB prefixes selecting events of ``stream`` and/or type ``kind`` (None: any)."""
+    kinds = [kind] if kind else list(EVENT_TYPES)
+    if stream is None:
+        return [f"{k}/".encode("ascii") for k in kinds] if kind else [b""]
+    return [topic(k, stream) for k in kinds]
+
+
+# --- messages ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Announce:
+    """Ingest: a stream starts. ``parents[j]`` is the index of joint j's parent, -1 for roots."""
+
+    stream: str
+    fps: float
+    joints: tuple[str, ...]
+    parents: tuple[int, ...]
+    units: str = "mm"
+
+    type = "announce"
+
+
+@dataclass(frozen=True, eq=False)
+class Frames:
+    """Ingest: ``positions`` (n, n_joints, 3) float32/float64 starting at frame ``seq``.
+
+    ``seq`` is the 0-based stream frame index of the first frame (so a gap or a duplicate is
+    visible in frames, not packets); ``timestamp`` is the sender's clock (s) at that frame.
+    """
+
+    stream: str
+    seq: int
+    timestamp: float
+    positions: np.ndarray
+
+    type = "frames"
+
+    def __eq__(self, other):
+        if not isinstance(other, Frames):
+            return NotImplemented
+        return (self.stream == other.stream and self.seq == other.seq
+                and _same_float(self.timestamp, other.timestamp)
+                and self.positions.dtype == other.positions.dtype
+                and self.positions.shape == other.positions.shape
+                and np.array_equal(self.positions, other.positions, equal_nan=True))
+
+    __hash__ = None
+
+
+@dataclass(frozen=True)
+class End:
+    """Ingest: the stream is over; the daemon publishes final events and a ``closed`` event."""
+
+    stream: str
+
+    type = "end"
+
+
+@dataclass(frozen=True)
+class Cut:
+    """Event: a provisional cut (a new segment starts at ``frame``), found at ``emitted_at``."""
+
+    stream: str
+    frame: int
+    time: float
+    score: float
+    emitted_at: int
+    provisional: bool = True
+
+    type = "cut"
+
+
+@dataclass(frozen=True)
+class Segments:
+    """Event: relabelled segmentation of frames ``[start, end)`` of a stream.
+
+    ``segments`` holds ``(start, end, label)`` triples (end exclusive) with labels kept stable
+    across revisions; it supersedes every provisional cut inside ``[start, end)``.
+    ``revision`` increases by one per relabel of the stream; ``final`` marks the last one.
+    """
+
+    stream: str
+    revision: int
+    start: int
+    end: int
+    segments: tuple[tuple[int, int, int], ...]
+    final: bool = False
+    elapsed: float = 0.0
+
+    type = "segments"
+
+
+@dataclass(frozen=True)
+class Rep:
+    """Event: a repetition in frames ``[start, end)``, the ``count``-th of the current set,
+    found when frame ``emitted_at`` arrived."""
+
+    stream: str
+    start: int
+    end: int
+    count: int
+    time: float
+    emitted_at: int = 0
+
+    type = "rep"
+
+
+@dataclass(frozen=True)
+class Gap:
+    """Event: frames ``[expected, got)`` of a stream never arrived (``got - expected`` lost)."""
+
+    stream: str
+    expected: int
+    got: int
+
+    type = "gap"
+
+
+@dataclass(frozen=True)
+class Error:
+    """Event: bad input. ``count`` is how many times ``reason`` happened for ``stream``."""
+
+    stream: str | None
+    reason: str
+    message: str
+    count: int = 1
+
+    type = "error"
+
+
+@dataclass(frozen=True)
+class Stats:
+    """Event: heartbeat. ``totals`` daemon-wide counters; ``streams`` per-stream counters."""
+
+    uptime: float
+    totals: dict = field(default_factory=dict)
+    streams: dict = field(default_factory=dict)
+
+    type = "stats"
+
+
+@dataclass(frozen=True)
+class Closed:
+    """Event: a stream's state was dropped (``reason``: end, idle, shutdown) after ``frames``."""
+
+    stream: str
+    reason: str
+    frames: int
+
+    type = "closed"
+
+
+MESSAGES = {cls.type: cls for cls in (Announce, Frames, End, Cut, Segments, Rep, Gap, Error,
+                                      Stats, Closed)}
+
+
+def _same_float(a: float, b: float) -> bool:
+    return a == b or (math.isnan(a) and math.isnan(b))
+
+
+# --- encoding ------------------------------------------------------------------------------
