@@ -21,9 +21,10 @@ from streamseg.config import DaemonConfig
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.ingest import Receiver
 from streamseg.daemon.options import skeleton_from
+from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
 from streamseg.daemon.worker import RelabelJob, RelabelWorker
-from streamseg.pipeline import Algorithms, StreamPipeline, relabel
+from streamseg.pipeline import Algorithms, StreamPipeline
 
 log = logging.getLogger("streamseg.daemon")
 CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
@@ -463,50 +464,4 @@ class Daemon:
     # --- shutdown ----------------------------------------------------------------------------
 
     def _shutdown(self) -> None:
-        """Final events for every stream, then close the sockets."""
-        try:
-            if self.endpoints:
-                self._final_events()
-        finally:
-            self.worker.stop(timeout=self.config.shutdown_relabel)
-            if self.receiver is not None:
-                self.receiver.stop()
-                if not self.receiver.is_alive():
-                    self.receiver.wake.close(linger=0)  # its run() closes it only if started
-            for sock in (getattr(self, "ingest", None), getattr(self, "control", None),
-                         getattr(self, "pub", None), getattr(self, "_wake", None)):
-                if sock is not None:
-                    sock.close()  # default linger: final events still reach listeners
-            self.ctx.term()
-            log.info("daemon stopped")
-
-    def _final_events(self) -> None:
-        if self.receiver is not None:  # every packet already received is still processed
-            self.receiver.stop()
-            while self.receiver.items:
-                self._take(time.monotonic())
-        deadline = time.monotonic() + self.config.shutdown_relabel
-        for st in list(self.streams.values()):
-            self._close(st, "shutdown")
-        # let the worker finish what it has (bounded), then do the rest here if time allows
-        while self.closing and time.monotonic() < deadline:
-            self._collect()
-            if not self.worker.is_alive():
-                break
-            time.sleep(0.005)
-        self._collect()
-        for key, (st, reason) in list(self.closing.items()):
-            feats, frames = st.pipeline.snapshot()
-            if (time.monotonic() < deadline and self.worker.busy_key != key
-                    and feats.shape[0] >= 2):
-                try:
-                    res = relabel(self.algorithms, feats, frames, st.fps, st.pipeline.previous)
-                except Exception as err:
-                    res = err
-                job = RelabelJob(key, None, None, st.fps, None, final=True)
-                self._relabelled(job, res)
-            else:
-                self.closing.pop(key, None)
-                self._closed(st, reason)
-        if self.config.heartbeat:
-            self._beat(time.monotonic())
+        shutdown(self)

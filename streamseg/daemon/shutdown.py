@@ -1,0 +1,64 @@
+"""Shutdown: every stream's final events, then the sockets closed (SIGINT, SIGTERM, control)."""
+
+from __future__ import annotations
+
+import logging
+import time
+
+from streamseg.daemon.worker import RelabelJob
+from streamseg.pipeline import relabel
+
+log = logging.getLogger("streamseg.daemon")
+
+
+def shutdown(daemon) -> None:
+    """Final events for every stream, then close the sockets."""
+    try:
+        if daemon.endpoints:
+            final_events(daemon)
+    finally:
+        daemon.worker.stop(timeout=daemon.config.shutdown_relabel)
+        if daemon.receiver is not None:
+            daemon.receiver.stop()
+            if not daemon.receiver.is_alive():
+                daemon.receiver.wake.close(linger=0)  # its run() closes it only if started
+        for sock in (getattr(daemon, "ingest", None), getattr(daemon, "control", None),
+                     getattr(daemon, "pub", None), getattr(daemon, "_wake", None)):
+            if sock is not None:
+                sock.close()  # default linger: final events still reach listeners
+        daemon.ctx.term()
+        log.info("daemon stopped")
+
+
+def final_events(daemon) -> None:
+    """Close every stream: final cuts, a last relabel (bounded by ``shutdown_relabel``), then
+    ``closed``; packets already received are processed first."""
+    if daemon.receiver is not None:  # every packet already received is still processed
+        daemon.receiver.stop()
+        while daemon.receiver.items:
+            daemon._take(time.monotonic())
+    deadline = time.monotonic() + daemon.config.shutdown_relabel
+    for st in list(daemon.streams.values()):
+        daemon._close(st, "shutdown")
+    # let the worker finish what it has (bounded), then do the rest here if time allows
+    while daemon.closing and time.monotonic() < deadline:
+        daemon._collect()
+        if not daemon.worker.is_alive():
+            break
+        time.sleep(0.005)
+    daemon._collect()
+    for key, (st, reason) in list(daemon.closing.items()):
+        feats, frames = st.pipeline.snapshot()
+        if (time.monotonic() < deadline and daemon.worker.busy_key != key
+                and feats.shape[0] >= 2):
+            try:
+                res = relabel(daemon.algorithms, feats, frames, st.fps, st.pipeline.previous)
+            except Exception as err:
+                res = err
+            job = RelabelJob(key, None, None, st.fps, None, final=True)
+            daemon._relabelled(job, res)
+        else:
+            daemon.closing.pop(key, None)
+            daemon._closed(st, reason)
+    if daemon.config.heartbeat:
+        daemon._beat(time.monotonic())
