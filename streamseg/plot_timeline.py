@@ -20,10 +20,11 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "") -
         For the seconds axis.
     truth : sequence of (start, end, label) or None
         Human segments (0-based, end exclusive); the same label gets the same colour.
-    rows : sequence of (name, cuts, labels)
-        One row per method: ``cuts`` (sequence of int frames) drawn as red ticks, and
-        ``labels`` ((n_frames,) int array or None) drawn as coloured bands for methods that
-        label frames.
+    rows : sequence of (name, cuts, labels) or (name, cuts, labels, marks)
+        One row per method: ``cuts`` (sequence of int frames) drawn as red ticks,
+        ``labels`` ((n_frames,) int array or None; -1 = no label) drawn as coloured bands for
+        methods that label frames, and optional ``marks`` (frames, e.g. when each cut was
+        emitted) drawn as small arrows.
     title : str
     """
     import matplotlib
@@ -49,15 +50,18 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "") -
                     clip_on=True)
         ax.set_ylabel("human", rotation=0, ha="right", va="center", fontsize=8)
         k = 1
-    for ax, (name, cuts, labels) in zip(axes[k:], rows):
+    for ax, (name, cuts, labels, *marks) in zip(axes[k:], rows):
         if labels is not None:
             labels = np.asarray(labels)
             b = np.concatenate([[0], np.flatnonzero(labels[1:] != labels[:-1]) + 1, [n_frames]])
             for s, e in zip(b[:-1], b[1:]):
-                ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1),
-                               facecolors=palette[(2 * int(labels[s])) % len(palette)])
+                if labels[s] >= 0:
+                    ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1),
+                                   facecolors=palette[(2 * int(labels[s])) % len(palette)])
         for c in cuts:
             ax.plot([c / fps, c / fps], [0.05, 0.95], color="#d62728", lw=1.4)
+        for m in marks[0] if marks else ():
+            ax.plot([m / fps], [0.15], marker=">", color="#d62728", ms=4)
         ax.set_ylabel(name, rotation=0, ha="right", va="center", fontsize=8)
     if truth is not None:
         for ax in axes[1:]:

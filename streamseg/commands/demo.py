@@ -81,15 +81,12 @@ def run(args) -> int:
 
 def timeline(events, rec, labels_csv, sequence, path) -> None:
     """Draw human labels, the newest relabel of every frame, and the provisional cuts."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     from streamseg.labels import read_labels
+    from streamseg.plot_timeline import timeline as draw
 
-    fps, n = rec.fps, rec.n_frames
+    n = rec.n_frames
     human = read_labels(labels_csv, sequence)
     relab = np.full(n, -1)
     for ev in events:  # later revisions overwrite what they cover
@@ -97,30 +94,8 @@ def timeline(events, rec, labels_csv, sequence, path) -> None:
             for a, b, lab in ev.segments:
                 relab[a:min(b, n)] = lab
     cuts = [ev for ev in events if ev.type == "cut"]
-    fig, ax = plt.subplots(figsize=(12, 3.2))
-    cmap = plt.get_cmap("tab10")
-    names = sorted({s.label for s in human})
-    for s in human:
-        ax.broken_barh([(s.start / fps, (s.end - s.start) / fps)], (2, 0.8),
-                       color=cmap(names.index(s.label)), alpha=0.8)
-        ax.text((s.start + s.end) / 2 / fps, 2.4, s.label, ha="center", va="center", fontsize=8)
-        if s.end < n:
-            ax.axvspan(s.lo / fps, s.hi / fps, ymin=0.66, ymax=0.92, color="k", alpha=0.12)
-    change = np.flatnonzero(np.diff(relab)) + 1
-    bounds = np.concatenate([[0], change, [n]])
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        if relab[a] >= 0:
-            ax.broken_barh([(a / fps, (b - a) / fps)], (1, 0.8), color=cmap(5 + relab[a] % 5),
-                           alpha=0.8)
-    for c in cuts:
-        ax.plot([c.frame / fps] * 2, [0.05, 0.85], color="crimson", lw=1.5)
-        ax.plot([c.emitted_at / fps], [0.1], marker=">", color="crimson", ms=4)
-    ax.set_yticks([0.45, 1.4, 2.4])
-    ax.set_yticklabels(["provisional cuts\n(> = emitted)", "relabelled (ACA)", "human labels"])
-    ax.set_xlim(0, n / fps)
-    ax.set_ylim(0, 3)
-    ax.set_xlabel("time (s)")
-    ax.set_title(f"streamseg demo: CMU {sequence}, live")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    draw(path, n, rec.fps, [(s.start, s.end, s.label) for s in human],
+         [("relabelled (ACA)", [], relab),
+          ("provisional cuts\n(> = emitted)", [c.frame for c in cuts], None,
+           [c.emitted_at for c in cuts])],
+         title=f"streamseg demo: CMU {sequence}, live")
