@@ -1,7 +1,8 @@
 """Speed of LOF cut detection, median of 5 runs, each beside the scikit-learn equivalent.
 
 * offline: a 10,000-frame recording (CMU 86_01 + 14_14 + the start of 14_20 joined, real
-  data, 120 Hz), joint positions -> bone angles -> histograms -> LOF -> cuts. The paper
+  data, 120 Hz), joint positions -> bone features (the default: 8 angles + 9 inclinations)
+  -> histograms -> LOF -> cuts. The paper
   reports about 1.2 s for 8,000-10,000 frames; target here < 50 ms after compilation.
   Baseline: the same pipeline with ``sklearn.neighbors.LocalOutlierFactor(metric="cosine")``
   in place of the numba LOF.
@@ -40,6 +41,7 @@ from streamseg.online.lof import StreamingLOFSegmenter, warmup  # noqa: E402
 from streamseg.skeleton import bone_angles  # noqa: E402
 
 DATA = ROOT / "data"
+INCL = LOFConfig().inclinations  # the default features: 8 bone angles + 9 inclinations
 N = 10_000
 RUNS = 5
 PACKET = 120
@@ -71,7 +73,7 @@ def offline_sklearn(rec, cfg):
     from sklearn.neighbors import LocalOutlierFactor
 
     g = cfg.frames(rec.fps)
-    a = bone_angles(rec.positions, rec.skeleton)
+    a = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
     counts, centres, _ = window_histograms(a, g["window"], g["step"], cfg.bins, g["min_valid"])
     lof = -LocalOutlierFactor(n_neighbors=cfg.k, metric="cosine").fit(
         counts).negative_outlier_factor_
@@ -84,7 +86,8 @@ def stream_many(rec, cfg):
     det = StreamingLOFSegmenter(cfg, rec.fps)
     ev = []
     for i in range(0, rec.n_frames, PACKET):
-        ev += det.learn_many(bone_angles(rec.positions[i:i + PACKET], rec.skeleton))
+        a = bone_angles(rec.positions[i:i + PACKET], rec.skeleton, inclinations=INCL)
+        ev += det.learn_many(a)
     return ev + det.finish()
 
 
@@ -93,7 +96,8 @@ def stream_one(rec, cfg, angles=None):
     ev = []
     if angles is None:
         for i in range(rec.n_frames):
-            ev += det.learn_one(bone_angles(rec.positions[i:i + 1], rec.skeleton)[0])
+            a = bone_angles(rec.positions[i:i + 1], rec.skeleton, inclinations=INCL)
+            ev += det.learn_one(a[0])
     else:
         for row in angles:
             ev += det.learn_one(row)
@@ -107,12 +111,13 @@ def stream_sklearn(rec, cfg):
     g = cfg.frames(rec.fps)
     win, step, cap, delay = g["window"], g["step"], g["capacity"], g["delay"]
     edges_scale = cfg.bins / np.pi
-    ring = np.zeros((win, 8), dtype=np.int64)
-    cur = np.zeros(8 * cfg.bins)
+    d = cfg.n_features
+    ring = np.zeros((win, d), dtype=np.int64)
+    cur = np.zeros(d * cfg.bins)
     buf, n_cuts, f = [], 0, 0
-    offs = np.arange(8) * cfg.bins
+    offs = np.arange(d) * cfg.bins
     for i in range(0, rec.n_frames, PACKET):
-        for row in bone_angles(rec.positions[i:i + PACKET], rec.skeleton):
+        for row in bone_angles(rec.positions[i:i + PACKET], rec.skeleton, inclinations=INCL):
             b = np.minimum((row * edges_scale).astype(np.int64), cfg.bins - 1) + offs
             if f >= win:
                 np.subtract.at(cur, ring[f % win], 1)
@@ -136,7 +141,7 @@ def steady_state(buffers=(15.0, 30.0, 75.0), n=60_000, runs=3):
     """us/frame while the buffer fills and once it is full, 86_01 angles cycled."""
     asf = DATA / "cmu86" / "86.asf"
     rec = read(DATA / "cmu86" / "86_01.amc.gz", skeleton=asf)
-    a = bone_angles(rec.positions, rec.skeleton)
+    a = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
     angles = np.ascontiguousarray(np.tile(a, (n // len(a) + 1, 1))[:n])
     warmup()
     print(f"steady state: 86_01 bone angles cycled to {n} frames at {rec.fps:g} Hz, "
@@ -177,7 +182,7 @@ def main():
     warnings.filterwarnings("ignore")
     cfg = LOFConfig()
     rec = recording()
-    angles = bone_angles(rec.positions, rec.skeleton)
+    angles = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
     t = time.perf_counter()
     warmup()
     print(f"warmup (compile or load cache): {time.perf_counter() - t:.2f} s")
@@ -187,7 +192,7 @@ def main():
     rows = []
     t_off = median_time(lambda: offline_ours(rec, cfg))
     t_off_sk = median_time(lambda: offline_sklearn(rec, cfg))
-    t_feat = median_time(lambda: bone_angles(rec.positions, rec.skeleton))
+    t_feat = median_time(lambda: bone_angles(rec.positions, rec.skeleton, inclinations=INCL))
     rows.append(("offline, features included", t_off, t_off_sk))
     t_many = median_time(lambda: stream_many(rec, cfg))
     t_sk = median_time(lambda: stream_sklearn(rec, cfg))

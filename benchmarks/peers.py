@@ -34,7 +34,7 @@ from streamseg.evaluation import (
     score,
     segments_from_cuts,
 )
-from streamseg.skeleton import bone_angles
+from streamseg.offline.lof import lof_features
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 TRAIN = "86_01"  # the one recording parameters are chosen on
@@ -145,7 +145,7 @@ def choose(train: LabelledRecording, fps, make, grid):
 
 
 def angles(item):
-    return bone_angles(item.recording.positions, item.recording.skeleton)
+    return lof_features(item.recording)
 
 
 def main() -> None:

@@ -221,9 +221,10 @@ class Progress:
 
 
 def _angles(item: LabelledRecording) -> np.ndarray:
-    from streamseg.skeleton import bone_angles
+    """The default cut detector's features (8 bone angles + 9 inclinations), (n, 17)."""
+    from streamseg.offline.lof import lof_features
 
-    return bone_angles(item.recording.positions, item.recording.skeleton)
+    return lof_features(item.recording)
 
 
 def lof_prediction(angles: np.ndarray, fps: float, online: bool) -> Prediction:
@@ -254,9 +255,10 @@ def aca_prediction(features: np.ndarray, n_clusters: int, fps: float,
     return Prediction(cuts=label_cuts(labels), labels=labels)
 
 
-# Every method sees the 8 bone angles, as the daemon does (a live stream carries positions
-# only). For ACA they also did better than joint quaternions on the labelled recordings
-# (mean Hungarian accuracy 0.875 vs 0.839 over 86_01, 14_14, 14_20).
+# Every method sees the cut detector's features (8 bone angles + 9 inclinations), as the
+# daemon does (a live stream carries positions only). For ACA they also did better than the
+# 8 angles alone and than joint quaternions on the labelled recordings (mean Hungarian
+# accuracy 0.893 vs 0.875 and 0.839 over 86_01, 14_14, 14_20; docs/peers_table.md).
 STREAMSEG_METHODS = {
     "LOF offline": lambda item, fps: lof_prediction(_angles(item), fps, False),
     "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),

@@ -1,7 +1,8 @@
 """The per-stream algorithm side of the daemon (the daemon itself only moves bytes).
 
 For each packet of joint positions ``(n, J, 3)`` a :class:`StreamPipeline` computes the 8 bone
-angles (:func:`streamseg.skeleton.bone_angles`), feeds them in one call to the streaming LOF
+angles and, by default, the 9 bone inclinations from the stream's up axis
+(:func:`streamseg.skeleton.bone_angles`), feeds them in one call to the streaming LOF
 segmenter (``learn_many``), and keeps the last H seconds of features in a ring buffer that a
 worker thread relabels with windowed ACA (:func:`streamseg.offline.relabel_window`).
 
@@ -57,18 +58,22 @@ class Algorithms:
 
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
-        SkeletonError when the skeleton lacks a joint the 8 angles need)."""
-        from streamseg.skeleton.bones import bone_point_indices
+        SkeletonError when the skeleton lacks a joint the 8 angles need), and the skeleton's
+        up vector when the cut detector uses inclinations (else None)."""
+        from streamseg.config import LOFConfig
+        from streamseg.skeleton.bones import bone_point_indices, up_vector
 
-        return bone_point_indices(skeleton)
+        inclinations = (self.lof_config or LOFConfig()).inclinations
+        return bone_point_indices(skeleton), up_vector(skeleton.up) if inclinations else None
 
     def angles(self, positions: np.ndarray, plan) -> np.ndarray:
-        """Bone angles ``(n, 8)`` of positions ``(n, J, 3)``: :func:`streamseg.skeleton.bones.
+        """Features ``(n, d)`` of positions ``(n, J, 3)`` (the 8 bone angles, then the 9
+        inclinations when the plan has an up vector): :func:`streamseg.skeleton.bones.
         angles_at` with the joint names resolved once per stream in :meth:`prepare` (that
         lookup costs more than the maths for a packet of a few frames)."""
         from streamseg.skeleton.bones import angles_at
 
-        return angles_at(positions, plan)
+        return angles_at(positions, *plan)
 
     def segmenter(self, fps: float):
         """A fresh streaming cut detector for one stream."""
@@ -109,12 +114,15 @@ class Algorithms:
         warmup_lof()
         if relabel:
             warmup_aca()
-        angles_at(np.zeros((2, 9, 3)), np.arange(18).reshape(9, 2) % 9)
+        plan = np.arange(18).reshape(9, 2) % 9
+        angles_at(np.zeros((2, 9, 3)), plan)
+        angles_at(np.zeros((2, 9, 3)), plan, np.array([0.0, 1.0, 0.0]))
         rng = np.random.default_rng(0)
         # a random walk of angles: enough frames for the LOF windows to fill and cut
         fps = 120.0
-        walk = np.clip(1.5 + np.cumsum(rng.normal(0, 0.01, (6 * int(fps), 8)), axis=0), 0, 3)
         seg = self.segmenter(fps)
+        walk = np.clip(1.5 + np.cumsum(rng.normal(0, 0.01, (6 * int(fps), seg.n_features)),
+                                       axis=0), 0, 3)
         seg.learn_many(walk)
         seg.finish()
         if relabel:
@@ -202,7 +210,7 @@ class StreamPipeline:
         cap = max(int(round(history * fps)), 2)
         self._feat = None  # allocated on the first packet, when the feature width is known
         self._frames = np.zeros(cap, dtype=np.int64)
-        self._width = 8
+        self._width = self.segmenter.n_features
         self.learned = 0  # finite feature rows stored so far
         self.previous = None  # the last relabel result (algorithm's own object)
         self.offset = 0  # stream frame of the segmenter's frame 0

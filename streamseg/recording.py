@@ -6,6 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+#: World up-axis names a skeleton may declare.
+UP_AXES = ("x", "y", "z", "-x", "-y", "-z")
+
 
 @dataclass(frozen=True)
 class Skeleton:
@@ -21,12 +24,20 @@ class Skeleton:
         Rest-pose offset of each joint from its parent, in the recording's length unit.
     units : str
         Length unit of positions and offsets (free text, e.g. ``"inch*0.45"`` or ``"cm"``).
+    up : str
+        World up axis of the positions, one of ``x y z -x -y -z``: ``"y"`` in Acclaim ASF/AMC,
+        BVH and Kinect camera space (features that use gravity read it).
     """
 
     names: tuple
     parents: np.ndarray
     offsets: np.ndarray
     units: str = "unknown"
+    up: str = "y"
+
+    def __post_init__(self):
+        if self.up not in UP_AXES:
+            raise ValueError(f"up={self.up!r} is invalid: expected one of {', '.join(UP_AXES)}")
 
     @property
     def n_joints(self) -> int:

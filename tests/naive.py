@@ -28,6 +28,23 @@ def naive_bone_angles(positions, points, pairs):
     return out
 
 
+def naive_inclinations(positions, points, up):
+    """Angle of every bone (rows (parent, child) of ``points``) from the vector ``up``, per
+    frame, by acos(u.up / |u||up|); NaN where undefined."""
+    import math
+
+    out = np.full((len(positions), len(points)), np.nan)
+    nup = math.sqrt(sum(x * x for x in up))
+    for f, frame in enumerate(positions):
+        for b, (p, c) in enumerate(points):
+            u = [frame[c][d] - frame[p][d] for d in range(3)]
+            nu = math.sqrt(sum(x * x for x in u))
+            if nu > 0 and all(math.isfinite(x) for x in u):
+                cos = sum(x * y for x, y in zip(u, up)) / (nu * nup)
+                out[f, b] = math.acos(max(-1.0, min(1.0, cos)))
+    return out
+
+
 # --- LOF, sliding histograms, peaks ------------------------------------------------
 
 

@@ -38,3 +38,15 @@ def test_example_config_is_valid_and_spells_out_the_defaults():
     assert lof == LOFConfig()
     assert aca == ACAConfig()
     assert rep == RepetitionConfig()
+    # every key spelled out (an option whose default is unset, as a comment), so the file
+    # documents every option
+    import dataclasses
+    import re
+
+    text = path.read_text()
+    tables = dict(re.findall(r"^\[(\w+)\]\n(.*?)(?=^\[|\Z)", text, re.M | re.S))
+    for name, cls in (("daemon", DaemonConfig), ("lof", LOFConfig), ("aca", ACAConfig),
+                      ("repetitions", RepetitionConfig)):
+        keys = set(re.findall(r"^#? ?(\w+) =", tables[name], re.M))
+        missing = {f.name for f in dataclasses.fields(cls)} - keys
+        assert not missing, f"[{name}] lacks {sorted(missing)}"

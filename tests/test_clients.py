@@ -55,8 +55,8 @@ def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
     events = [json.loads(x) for x in lines[1:]]
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    want = [c.frame for c in seg.learn_many(bone_angles(rec.positions, rec.skeleton))
-            + seg.finish()]
+    feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    want = [c.frame for c in seg.learn_many(feats) + seg.finish()]
     cuts = [e for e in events if e["type"] == "cut"]
     assert [e["frame"] for e in cuts] == want
     # the same as `streamseg segment --online` on the file, latencies included
@@ -136,8 +136,8 @@ def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
     assert lines, "the listener printed nothing"
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    want = [c.frame for c in seg.learn_many(bone_angles(rec.positions, rec.skeleton))
-            + seg.finish()]
+    feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    want = [c.frame for c in seg.learn_many(feats) + seg.finish()]
     got = [int(x.split("cut at frame ")[1].split()[0]) for x in lines if "cut at frame" in x]
     assert got == want
     assert lines[-1] == "m: closed (end)"

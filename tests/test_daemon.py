@@ -32,7 +32,8 @@ def rec(data_dir):
 def offline_cuts(rec, positions=None):
     """Cut frames of the streaming segmenter run over the whole file in one call."""
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = bone_angles(rec.positions if positions is None else positions, rec.skeleton)
+    ang = bone_angles(rec.positions if positions is None else positions, rec.skeleton,
+                      inclinations=True)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 
@@ -92,6 +93,30 @@ def test_replay_gives_offline_cuts_and_relabels(start_daemon, rec):
         assert all(a[1] == b[0] for a, b in zip(e.segments, e.segments[1:], strict=False))
         assert e.end - e.start <= 10 * 120
     assert segs[-1].end == rec.n_frames
+
+
+def test_announced_up_axis_reaches_the_features(start_daemon, rec):
+    """A Z-up copy of 86_01 announced with up="z" is cut exactly like the Y-up original;
+    announced with the default "y" it is not (the inclinations read the declared axis)."""
+    from dataclasses import replace as dc_replace
+
+    x, y, z = (rec.positions[..., i] for i in range(3))
+    z_up = np.stack([x, -z, y], axis=-1)
+    declared = dc_replace(rec, positions=z_up, skeleton=dc_replace(rec.skeleton, up="z"))
+    undeclared = dc_replace(rec, positions=z_up)
+    d, ep = start_daemon()
+    s = sub(ep)
+    replay(declared, ep["ingest"], stream="z", speed=0, batch=60)
+    replay(undeclared, ep["ingest"], stream="wrong", speed=0, batch=60)
+    events, closed = [], set()
+    for e in listen(s, timeout=30):
+        events.append(e)
+        closed |= {e.stream} if e.type == "closed" else set()
+        if closed >= {"z", "wrong"}:
+            break
+    want = offline_cuts(rec)
+    assert cuts_of(events, "z") == want
+    assert cuts_of(events, "wrong") != want
 
 
 @pytest.mark.parametrize("receive_thread", [True, False])

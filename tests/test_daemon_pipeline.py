@@ -20,13 +20,15 @@ def rec(data_dir):
 def test_cached_angles_are_bone_angles(rec):
     alg = Algorithms()
     got = alg.angles(rec.positions[:500], alg.prepare(rec.skeleton))
-    assert np.array_equal(got, bone_angles(rec.positions[:500], rec.skeleton), equal_nan=True)
+    want = bone_angles(rec.positions[:500], rec.skeleton, inclinations=True)
+    assert got.shape == (500, 17)
+    assert np.array_equal(got, want, equal_nan=True)
 
 
 def test_chunking_and_gaps_keep_stream_frames(rec):
     """Any packet sizes give the offline cuts; a short gap acts as NaN frames."""
     pos = rec.positions
-    ref = bone_angles(pos, rec.skeleton)
+    ref = bone_angles(pos, rec.skeleton, inclinations=True)
     ref[1500:1530] = np.nan
     seg = StreamingLOFSegmenter(fps=rec.fps)
     want = [(c.frame, c.emitted_at) for c in seg.learn_many(ref) + seg.finish()]
@@ -44,7 +46,7 @@ def test_chunking_and_gaps_keep_stream_frames(rec):
     got += [(f, e) for f, _, e in p.finish()]
     assert got == want
     feats, frames = p.snapshot()
-    assert feats.shape == (600, 8) and np.array_equal(frames, np.arange(rec.n_frames - 600,
+    assert feats.shape == (600, 17) and np.array_equal(frames, np.arange(rec.n_frames - 600,
                                                                         rec.n_frames))
     assert np.allclose(feats, ref[-600:], atol=1e-6)  # float32 ring
 

@@ -162,6 +162,11 @@ def test_npz_round_trip_is_exact(tmp_path, cmu86):
     np.testing.assert_array_equal(back.skeleton.parents, cmu86.skeleton.parents)
     assert back.fps == cmu86.fps
     assert back.source == cmu86.source
+    assert back.skeleton.up == cmu86.skeleton.up == "y"
+    from dataclasses import replace
+
+    write_npz(f, replace(cmu86, skeleton=replace(cmu86.skeleton, up="-z")))
+    assert read(f).skeleton.up == "-z"
 
 
 def test_explicit_fps(data_dir):

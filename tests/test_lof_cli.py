@@ -54,6 +54,29 @@ def test_segment_options_and_paper_preset(capsys, files):
     assert centre["cuts"] and all((c - g["window"] // 2) % g["step"] == 0 for c in centre["cuts"])
 
 
+def test_features_options_match_the_library(capsys, files):
+    """--inclinations off runs on the paper's 8 angles, --up names the recording's axis; each
+    gives the cuts the library gives on the same features."""
+    from streamseg.config import LOFConfig
+    from streamseg.io import read
+    from streamseg.offline.lof import LOFSegmenter
+    from streamseg.skeleton import bone_angles
+
+    amc, asf, _ = files
+    rec = read(amc, asf)
+    for argv, kw, up in ((("--inclinations", "off"), dict(inclinations=False), None),
+                         ((), {}, None), (("--up", "x"), {}, "x")):
+        out = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", *argv,
+                   "--json")
+        cfg = LOFConfig(**kw)
+        assert out["params"]["inclinations"] == cfg.inclinations
+        feats = bone_angles(rec.positions, rec.skeleton, inclinations=cfg.inclinations, up=up)
+        assert out["cuts"] == LOFSegmenter(cfg, rec.fps).fit(feats).predict().tolist()
+    with pytest.raises(SystemExit) as exc:  # argparse: not one of the axes
+        cli.main(["segment", str(amc), "--skeleton", str(asf), "--method", "lof", "--up", "w"])
+    assert exc.value.code == 2 and "--up" in capsys.readouterr().err
+
+
 def test_eval_prints_scores_and_plot(capsys, files, tmp_path):
     amc, asf, labels = files
     png = tmp_path / "lof.png"
@@ -68,8 +91,12 @@ def test_eval_prints_scores_and_plot(capsys, files, tmp_path):
 
 def test_matrix_needs_fps(capsys, tmp_path):
     m = tmp_path / "angles.npy"
-    np.save(m, np.random.default_rng(0).uniform(0, np.pi, (600, 8)))
+    np.save(m, np.random.default_rng(0).uniform(0, np.pi, (600, 17)))
     assert cli.main(["segment", str(m), "--method", "lof", "--json"]) == 2
     assert "--fps" in capsys.readouterr().err
     out = _run(capsys, "segment", m, "--method", "lof", "--fps", "100", "--json")
     assert out["n_frames"] == 600 and out["fps"] == 100.0
+    # the paper's 8 angles need the paper's features; a width mismatch is a clear error
+    assert cli.main(["segment", str(m), "--method", "lof", "--fps", "100", "--preset",
+                     "paper"]) == 2
+    assert "expected (n_frames, 8)" in capsys.readouterr().err

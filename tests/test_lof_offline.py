@@ -143,7 +143,8 @@ def test_segmenter_finds_cuts_between_synthetic_actions():
     """Three 'actions' with different angle distributions: cuts near the two joins."""
     rng = np.random.default_rng(5)
     t = np.arange(1500)[:, None]
-    parts = [np.clip(mu + 0.25 * np.sin(t / 9.0 + np.arange(8)) + rng.normal(0, 0.05, (1500, 8)),
+    d = LOFConfig().n_features
+    parts = [np.clip(mu + 0.25 * np.sin(t / 9.0 + np.arange(d)) + rng.normal(0, 0.05, (1500, d)),
                      0, np.pi) for mu in (0.6, 1.6, 2.4)]
     seg = LOFSegmenter(LOFConfig(), fps=120).fit(np.concatenate(parts))
     cuts = seg.predict()
@@ -156,6 +157,8 @@ def test_segmenter_finds_cuts_between_synthetic_actions():
 def test_segmenter_validates_input():
     with pytest.raises(ParameterError, match="expected"):
         LOFSegmenter(LOFConfig(), 120).fit(np.zeros((100, 7)))
+    with pytest.raises(ParameterError, match="inclinations=True"):
+        LOFSegmenter(LOFConfig(), 120).fit(np.zeros((100, 8)))  # the paper's angles only
     with pytest.raises(ParameterError, match="fit"):
         LOFSegmenter(LOFConfig(), 120).predict()
 
@@ -167,6 +170,9 @@ def test_config_validates_and_paper_preset():
         LOFConfig(k=0)
     with pytest.raises(ParameterError, match="refine_s"):
         LOFConfig(refine_s=-0.1)
+    with pytest.raises(ParameterError, match="inclinations"):
+        LOFConfig(inclinations=1)
+    assert (LOFConfig().n_features, LOFConfig.paper().n_features) == (17, 8)
     g = LOFConfig.paper().frames(120)
     assert (g["window"], g["step"], LOFConfig.paper().k) == (500, 45, 20)
     # seconds, so a 30 Hz stream keeps the durations (2 s: a whole number of frames at both)
@@ -213,6 +219,6 @@ def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
     assert refine_cut(fb, valid, 600, 280, 0, 60, 10, 600, 0, 0, left, right) == 280
     # the previous cut's gap (first) bounds the search from below
     assert refine_cut(fb, valid, 600, 300, 48, 60, 10, 600, 0, 310, left, right) == 310
-    seg = LOFSegmenter(LOFConfig(refine_s=0.0), fps=120).fit(a)
+    seg = LOFSegmenter(LOFConfig(refine_s=0.0, inclinations=False), fps=120).fit(a)
     np.testing.assert_array_equal(seg.predict(), seg.centres_[seg.cut_windows_])
     assert LOFConfig.paper().refine_s == 0.0

@@ -15,13 +15,14 @@ from streamseg.online.lof import StreamingLOFSegmenter, warmup
 from tests.naive import naive_refine_cut
 
 FAST = LOFConfig(window_s=0.5, step_s=0.1, k=5, buffer_s=6.0, delay_s=0.5)
+D = LOFConfig().n_features  # 8 bone angles + 9 inclinations
 
 
 def _actions(seed=0, n=600, levels=(0.6, 1.6, 2.4, 1.1)):
     rng = np.random.default_rng(seed)
     t = np.arange(n)[:, None]
     return np.concatenate([
-        np.clip(mu + 0.25 * np.sin(t / 7.0 + np.arange(8)) + rng.normal(0, 0.05, (n, 8)), 0,
+        np.clip(mu + 0.25 * np.sin(t / 7.0 + np.arange(D)) + rng.normal(0, 0.05, (n, D)), 0,
                 np.pi) for mu in levels])
 
 
@@ -31,7 +32,7 @@ def angles_86_01(data_dir):
     from streamseg import skeleton as skel
 
     rec = io.read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
-    return skel.bone_angles(rec.positions, rec.skeleton)
+    return skel.bone_angles(rec.positions, rec.skeleton, inclinations=True)
 
 
 def test_learn_one_equals_learn_many():
@@ -82,7 +83,7 @@ def test_nan_frames_are_skipped_and_counted():
     assert s.n_dropped_windows_ == 0 and s.n_windows_ == clean.n_windows_
     assert np.isfinite(s.buffer_lof()).all()
     # histograms hold counts of valid frames only: each angle sums to the valid count
-    v = s.buffer_vectors().reshape(-1, 8, FAST.bins).sum(axis=2)
+    v = s.buffer_vectors().reshape(-1, D, FAST.bins).sum(axis=2)
     assert (v == v[:, :1]).all() and v.max() <= s.geometry["window"]
     # a long dropout drops the windows it covers instead of poisoning them
     b[1000:1200] = np.nan
@@ -92,7 +93,7 @@ def test_nan_frames_are_skipped_and_counted():
 
 
 def test_held_pose_stream_stays_finite_and_quiet():
-    a = np.tile(np.linspace(0.3, 2.8, 8), (1500, 1))  # a statue
+    a = np.tile(np.linspace(0.3, 2.8, D), (1500, 1))  # a statue
     s = StreamingLOFSegmenter(FAST, fps=100)
     assert s.learn_many(a) + s.finish() == []
     np.testing.assert_array_equal(s.buffer_lof(), 1.0)
@@ -117,10 +118,13 @@ def test_memory_bounded_and_views_never_mutate():
 
 def test_bad_input_raises():
     s = StreamingLOFSegmenter(FAST, fps=100)
-    with pytest.raises(ParameterError, match=r"\(8,\)"):
-        s.learn_one(np.zeros(7))
+    with pytest.raises(ParameterError, match=r"\(17,\)"):
+        s.learn_one(np.zeros(8))
+    with pytest.raises(ParameterError, match="n_frames, 17"):
+        s.learn_many(np.zeros((5, 8)))
+    paper = StreamingLOFSegmenter(LOFConfig(inclinations=False), fps=100)
     with pytest.raises(ParameterError, match="n_frames, 8"):
-        s.learn_many(np.zeros((5, 9)))
+        paper.learn_many(np.zeros((5, 17)))
     with pytest.raises(ParameterError, match="fps"):
         StreamingLOFSegmenter(FAST, fps=0)
 
@@ -210,8 +214,8 @@ def test_online_vs_offline_cuts_on_86_01(angles_86_01):
 
 def test_short_and_empty_streams():
     s = StreamingLOFSegmenter(LOFConfig(), fps=120)
-    assert s.learn_many(np.zeros((0, 8))) == []
-    assert s.learn_many(np.full((100, 8), 1.0)) == []  # shorter than one window
+    assert s.learn_many(np.zeros((0, D))) == []
+    assert s.learn_many(np.full((100, D), 1.0)) == []  # shorter than one window
     assert s.finish() == [] and s.n_windows_ == 0 and len(s.buffer_lof()) == 0
 
 

@@ -24,7 +24,8 @@ def announces(draw):
     parents = [-1] + [draw(st.integers(-1, n - 1)) for _ in range(n - 1)]
     fps = draw(st.floats(min_value=1e-3, max_value=1e4))
     return P.Announce(draw(ids), fps, tuple(joints), tuple(parents),
-                      draw(st.sampled_from(["mm", "cm", "inch*0.45", "unknown"])))
+                      draw(st.sampled_from(["mm", "cm", "inch*0.45", "unknown"])),
+                      draw(st.sampled_from(["x", "y", "z", "-x", "-y", "-z"])))
 
 
 @st.composite
@@ -124,9 +125,12 @@ def test_validation_names_the_problem(frames, kind, words):
 def test_announce_validation():
     good = P.Announce("s", 120.0, ("root", "a"), (-1, 0))
     assert P.decode(P.encode(good)) == good
+    assert good.up == "y"  # the Acclaim/BVH/Kinect convention when a sender omits it
     for bad in (P.Announce("s", 0.0, ("root",), (-1,)),
                 P.Announce("s", 120.0, ("root", "a"), (-1, 5)),
-                P.Announce("s", 120.0, ("root", "a"), (-1,))):
+                P.Announce("s", 120.0, ("root", "a"), (-1,)),
+                P.Announce("s", 120.0, ("root", "a"), (-1, 0), "mm", "up"),
+                P.Announce("s", 120.0, ("root", "a"), (-1, 0), "mm", ["y"])):
         with pytest.raises(P.WireError, match="announce"):
             P.decode(P.encode(bad))
 

@@ -162,3 +162,56 @@ def test_bone_angle_kernel_equals_naive_twin(cmu86):
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
     assert np.isnan(got[60]).any()
+
+
+def test_inclinations_equal_naive_twin(cmu86):
+    from streamseg.skeleton.bones import FEATURE_NAMES, bone_point_indices
+    from tests.naive import naive_bone_angles, naive_inclinations
+
+    pos = cmu86.positions[:200].copy()
+    pos[50, 4] = np.nan                       # a dropout
+    pos[60, 13] = pos[60, 18]                 # a zero-length upper arm
+    points = bone_point_indices(cmu86.skeleton).tolist()
+    got = bone_angles(pos, cmu86.skeleton, inclinations=True)
+    assert got.shape == (200, 17) == (200, len(FEATURE_NAMES))
+    from streamseg.skeleton.bones import ANGLES
+
+    want = np.concatenate([naive_bone_angles(pos, points, ANGLES),
+                           naive_inclinations(pos, points, (0.0, 1.0, 0.0))], axis=1)
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
+    np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
+    # the first 8 columns are the paper's angles, unchanged
+    np.testing.assert_array_equal(got[:, :8], bone_angles(pos, cmu86.skeleton))
+    # hand-derived: a horizontal spine is pi/2 from up; a shin pointing down and forward at
+    # 45 degrees is 3 pi / 4; a forearm pointing straight up is 0
+    one = cmu86.positions[:1].copy()
+    (pelvis, spine), (knee, ankle), (elbow, wrist) = points[0], points[6], points[2]
+    one[0, spine] = one[0, pelvis] + (0.2, 0.0, 0.0)
+    one[0, ankle] = one[0, knee] + (0.0, -0.3, 0.3)
+    one[0, wrist] = one[0, elbow] + (0.0, 0.25, 0.0)
+    f = bone_angles(one, cmu86.skeleton, inclinations=True)[0]
+    np.testing.assert_allclose(f[[8, 14, 10]], [np.pi / 2, 3 * np.pi / 4, 0.0], atol=1e-7)
+
+
+def test_inclinations_follow_the_declared_up_axis(cmu86):
+    """A Z-up copy of the recording declared up="z" gives the same features; a turn about
+    the vertical changes nothing (heading invariance); the wrong up axis does change them."""
+    from dataclasses import replace
+
+    pos = cmu86.positions[:300]
+    ref = bone_angles(pos, cmu86.skeleton, inclinations=True)
+    x, y, z = pos[..., 0], pos[..., 1], pos[..., 2]
+    z_up = np.stack([x, -z, y], axis=-1)  # rotation about x: +y -> +z
+    skel_z = replace(cmu86.skeleton, up="z")
+    np.testing.assert_allclose(bone_angles(z_up, skel_z, inclinations=True), ref, atol=1e-9)
+    np.testing.assert_allclose(bone_angles(z_up, cmu86.skeleton, inclinations=True, up="z"),
+                               ref, atol=1e-9)
+    c, s = np.cos(1.1), np.sin(1.1)
+    turned = np.stack([c * x + s * z, y, -s * x + c * z], axis=-1)
+    np.testing.assert_allclose(bone_angles(turned, cmu86.skeleton, inclinations=True), ref,
+                               atol=1e-9)
+    assert not np.allclose(bone_angles(z_up, cmu86.skeleton, inclinations=True), ref)
+    with pytest.raises(ValueError, match="up='w'"):
+        bone_angles(pos, cmu86.skeleton, inclinations=True, up="w")
+    with pytest.raises(ValueError, match="up="):
+        replace(cmu86.skeleton, up="up")

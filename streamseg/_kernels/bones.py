@@ -7,11 +7,13 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def angles_kernel(pos, parent, child, first, second):
+def angles_kernel(pos, parent, child, first, second, up):
     """Angle between bone ``first[a]`` and bone ``second[a]`` for every frame.
 
-    Bone ``b`` points from joint ``parent[b]`` to joint ``child[b]``. A NaN joint or a
-    zero-length bone gives NaN (IEEE arithmetic: ``error_model="numpy"``).
+    Bone ``b`` points from joint ``parent[b]`` to joint ``child[b]``; index ``len(parent)``
+    is the unit vector ``up`` (3,), so a pair ``(b, len(parent))`` is bone ``b``'s inclination
+    from the vertical. A NaN joint or a zero-length bone gives NaN (IEEE arithmetic:
+    ``error_model="numpy"``).
 
     Returns ``(n_frames, len(first))`` float64 radians in [0, pi].
     """
@@ -19,7 +21,10 @@ def angles_kernel(pos, parent, child, first, second):
     nb = parent.shape[0]
     m = first.shape[0]
     out = np.empty((n, m))
-    unit = np.empty((nb, 3))
+    unit = np.empty((nb + 1, 3))
+    unit[nb, 0] = up[0]
+    unit[nb, 1] = up[1]
+    unit[nb, 2] = up[2]
     for f in range(n):
         for b in range(nb):
             x = pos[f, child[b], 0] - pos[f, parent[b], 0]

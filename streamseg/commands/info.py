@@ -6,6 +6,7 @@ import numpy as np
 
 from streamseg.io import read
 from streamseg.skeleton import ANGLE_NAMES, bone_angles, quaternion_features
+from streamseg.skeleton.bones import INCLINATION_NAMES
 from streamseg.skeleton.quaternions import ACA_SEGMENTS
 
 
@@ -33,12 +34,10 @@ def info(path, skeleton=None, fps=None) -> str:
         f"NaN frames: {n_nan}",
     ]
     out += [f"warning:   {w}" for w in rec.metadata.get("warnings", [])]
-    out += _table(
-        "bone angles (Xing et al. Table 2)",
-        ANGLE_NAMES,
-        bone_angles(rec.positions, rec.skeleton),
-        "rad",
-    )
+    feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    out += _table("bone angles (Xing et al. Table 2)", ANGLE_NAMES, feats[:, :8], "rad")
+    out += _table(f"bone inclinations from the up axis ({rec.skeleton.up})", INCLINATION_NAMES,
+                  feats[:, 8:], "rad")
     if rec.rotations is not None:
         q = quaternion_features(rec).reshape(rec.n_frames, -1, 4)
         # Rotation angle of each joint away from its rest pose: 2 acos |w|.

@@ -1,7 +1,9 @@
 """``streamseg segment|eval FILE --method lof``: cuts from LOF over sliding-window histograms.
 
-FILE is a recording (features: ``streamseg.skeleton.bone_angles``, the paper's 8 bone angles)
-or a bone-angle matrix ``.npy``/``.csv`` with 8 columns (then ``--fps`` is required). Offline
+FILE is a recording (features: ``streamseg.skeleton.bone_angles``, the paper's 8 bone angles
+and, unless ``--inclinations off`` or ``--preset paper``, the 9 bone inclinations from the up
+axis) or such a feature matrix ``.npy``/``.csv`` with 17 (or 8) columns (then ``--fps`` is
+required). Offline
 by default; ``--online`` streams the frames through the live detector in 120-frame packets and
 reports each cut's latency.
 """
@@ -16,12 +18,15 @@ import numpy as np
 
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
+from streamseg.offline.lof import lof_features
+from streamseg.recording import UP_AXES
 
 _D = LOFConfig()
 # option -> LOFConfig field
 _FIELDS = {"window": "window_s", "step": "step_s", "bins": "bins", "k": "k",
            "buffer": "buffer_s", "delay": "delay_s", "threshold": "threshold_mads",
-           "min_score": "min_score", "exclusion": "exclusion", "refine": "refine_s"}
+           "min_score": "min_score", "exclusion": "exclusion", "refine": "refine_s",
+           "inclinations": "inclinations"}
 
 
 def add_arguments(group) -> None:
@@ -53,29 +58,38 @@ def add_arguments(group) -> None:
                        help="move each cut to the largest before/after histogram contrast "
                             f"within S seconds of the peak window's centre (default "
                             f"{_D.refine_s:g}; 0: the centre, as in the paper)")
+    group.add_argument("--inclinations", choices=("on", "off"), type=str.lower,
+                       help="add each bone's inclination from the up axis to the 8 bone "
+                            "angles (default on; the paper preset: off)")
+    group.add_argument("--up", choices=UP_AXES,
+                       help="world up axis of the recording's positions (default: the "
+                            "format's, y for AMC/BVH)")
 
 
 def config_from_args(args) -> LOFConfig:
     """The preset with every given option applied."""
     over = {f: getattr(args, o) for o, f in _FIELDS.items() if getattr(args, o, None) is not None}
+    if "inclinations" in over:
+        over["inclinations"] = over["inclinations"] == "on"
     if getattr(args, "preset", "default") == "paper":
         return LOFConfig.paper(**over)
     return LOFConfig(**over)
 
 
-def _angles(args):
-    """(angles (n, 8), fps) of ``args.file``."""
+def _angles(args, config: LOFConfig):
+    """(features (n, config.n_features), fps) of ``args.file``."""
     from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
 
     if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
         if args.fps is None:
             raise ParameterError("a bone-angle matrix has no frame rate: give --fps (e.g. 120)")
-        return read_matrix(args.file), float(args.fps)
+        return lof_features(read_matrix(args.file), config), float(args.fps)
     from streamseg.io import read
     from streamseg.skeleton import bone_angles
 
     rec = read(args.file, args.skeleton, fps=args.fps)
-    return bone_angles(rec.positions, rec.skeleton), float(rec.fps)
+    return bone_angles(rec.positions, rec.skeleton, inclinations=config.inclinations,
+                       up=getattr(args, "up", None)), float(rec.fps)
 
 
 def run(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) -> dict:
@@ -137,8 +151,8 @@ def _plot(args, res, n, fps, title, truth=None):
 
 def segment(args) -> dict:
     """Cut ``args.file``; the JSON of the issue (n_frames, fps, method, cuts, segments, ...)."""
-    angles, fps = _angles(args)
     config = config_from_args(args)
+    angles, fps = _angles(args, config)
     res = run(angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     if args.plot:
@@ -158,8 +172,8 @@ def evaluate(args) -> dict:
     from streamseg.labels import cut_windows, read_labels, true_cuts
     from streamseg.metrics import covering, cut_scores, latency_stats
 
-    angles, fps = _angles(args)
     config = config_from_args(args)
+    angles, fps = _angles(args, config)
     res = run(angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     sequence = args.sequence or Path(args.file).name.split(".")[0]

@@ -34,7 +34,7 @@ def stream_id(path) -> str:
 def announce_of(recording, stream: str) -> protocol.Announce:
     sk = recording.skeleton
     return protocol.Announce(stream, float(recording.fps), tuple(sk.names),
-                             tuple(int(p) for p in sk.parents), str(sk.units)[:64])
+                             tuple(int(p) for p in sk.parents), str(sk.units)[:64], sk.up)
 
 
 def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: int = 1,

@@ -74,6 +74,14 @@ class LOFConfig:
         sub-windows (1 or 1.5 s at 0.4 s) scored the same F1 with localisation errors within
         3 frames of it, 0.5 s scored worse, so the sub-window is the LOF window (no extra
         parameter).
+    inclinations : bool
+        Features: the paper's 8 bone angles (False) or those plus each of its 9 bones' angle
+        from the up axis (True, :data:`streamseg.skeleton.bones.INCLINATIONS`; the
+        skeleton's ``up``). Angles between bones cannot tell a pose from the same pose
+        tilted, e.g. standing from bending over. Chosen on 86_01 and 14_14 with every other
+        default held (``benchmarks/lof_variants.py``, part 4): streaming F1 0.96 with the 8
+        angles, 1.00 with all 9 inclinations; subsets (spine only, spine and proximal limbs)
+        scored lower and the 8 limb bones tied, so the complete set was kept.
     """
 
     window_s: float = 2.25
@@ -89,6 +97,7 @@ class LOFConfig:
     min_valid: float = 0.5
     exclusion: float = 0.0
     refine_s: float = 0.4
+    inclinations: bool = True
 
     def __post_init__(self):
         _check("window_s", self.window_s, self.window_s > 0, "a window length > 0 seconds")
@@ -123,16 +132,24 @@ class LOFConfig:
         _check("min_valid", self.min_valid, 0 < self.min_valid <= 1, "a fraction in (0, 1]")
         _check("exclusion", self.exclusion, self.exclusion >= 0, "a number of windows >= 0")
         _check("refine_s", self.refine_s, self.refine_s >= 0, "a search radius >= 0 seconds")
+        _check("inclinations", self.inclinations, isinstance(self.inclinations, bool),
+               "true or false")
+
+    @property
+    def n_features(self) -> int:
+        """Columns of a feature frame: 8 bone angles, plus 9 inclinations when enabled."""
+        return 17 if self.inclinations else 8
 
     @classmethod
     def paper(cls, **overrides) -> LOFConfig:
         """Xing et al. (2015): 500-frame windows, step 45 at 120 Hz, L = 10 bins, k = 20.
 
         The paper states no peak threshold; the adaptive rule is kept with its defaults. The
-        cut is the peak window's centre (``refine_s = 0``), as in the paper.
+        cut is the peak window's centre (``refine_s = 0``) and the features are the 8 bone
+        angles (no inclinations), as in the paper.
         """
         values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0,
-                      refine_s=0.0)
+                      refine_s=0.0, inclinations=False)
         values.update(overrides)
         return cls(**values)
 

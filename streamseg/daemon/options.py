@@ -48,7 +48,8 @@ def load_config(path) -> tuple:
     return daemon, lof, aca, rep
 
 
-def skeleton_from(names, parents, units="unknown") -> Skeleton:
+def skeleton_from(names, parents, units="unknown", up="y") -> Skeleton:
     """A Skeleton from announced joint names and parents (offsets unknown on the wire)."""
     n = len(names)
-    return Skeleton(tuple(names), np.asarray(parents, dtype=np.int64), np.zeros((n, 3)), units)
+    return Skeleton(tuple(names), np.asarray(parents, dtype=np.int64), np.zeros((n, 3)), units,
+                    up)

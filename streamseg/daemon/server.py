@@ -265,7 +265,8 @@ class Daemon:
         old = self.streams.get(msg.stream)
         if old is not None:
             self._close(old, "reannounced")
-        self._open(msg.stream, msg.fps, skeleton_from(msg.joints, msg.parents, msg.units), now)
+        skeleton = skeleton_from(msg.joints, msg.parents, msg.units, msg.up)
+        self._open(msg.stream, msg.fps, skeleton, now)
 
     def _open(self, stream, fps, skeleton, now):
         if len(self.streams) >= self.config.max_streams:

@@ -6,7 +6,8 @@ until used. A compressed archive (``write_npz(..., compress=True)``) is read eag
 
 Arrays: ``positions`` (n_frames, n_joints, 3) float64, optional ``rotations``
 (n_frames, n_joints, 3, 3), ``parents`` (n_joints,), ``offsets`` (n_joints, 3), ``names``
-(n_joints,) str, ``fps`` scalar, ``units`` str, ``metadata`` a JSON string, ``version`` int.
+(n_joints,) str, ``fps`` scalar, ``units`` str, ``up`` str (optional, default ``"y"``),
+``metadata`` a JSON string, ``version`` int.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ def write_npz(path, recording: Recording, *, compress: bool = False) -> None:
         "names": np.array(recording.skeleton.names, dtype=str),
         "fps": np.float64(recording.fps),
         "units": np.array(recording.skeleton.units),
+        "up": np.array(recording.skeleton.up),
         "metadata": np.array(
             json.dumps({**recording.metadata, "source": recording.source}, default=str)
         ),
@@ -102,6 +104,7 @@ def read_npz(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
                 z["parents"],
                 z["offsets"],
                 str(z["units"]) if "units" in z.files else "unknown",
+                str(z["up"]) if "up" in z.files else "y",
             )
             rate = float(fps or z["fps"])
     except (zipfile.BadZipFile, ValueError, OSError, EOFError) as err:

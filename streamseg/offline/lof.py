@@ -1,9 +1,11 @@
 """Offline LOF segmentation (Xing, Sun, Wei 2015), one small function per step.
 
-Pipeline: 8 bone angles per frame -> sliding windows -> per-angle histograms of ``bins`` equal
-bins over [0, pi] (normalized by the window's valid frames) -> 80-vector per window -> cosine
-distance ``1 - cos`` -> LOF with ``k`` neighbours -> peaks of the LOF curve by Douglas-Peucker
-simplification and a robust threshold -> cut at the centre of each peak window.
+Pipeline: 8 bone angles per frame (the paper; by default followed by the 9 bones' inclinations
+from the up axis, ``LOFConfig.inclinations``) -> sliding windows -> per-angle histograms of
+``bins`` equal bins over [0, pi] (normalized by the window's valid frames) -> one
+``n_features * bins`` vector per window (the paper: 80) -> cosine distance ``1 - cos`` -> LOF
+with ``k`` neighbours -> peaks of the LOF curve by Douglas-Peucker simplification and a robust
+threshold -> cut at the centre of each peak window.
 
 Peaks: the paper simplifies the whole curve with Douglas-Peucker and takes its peaks, with
 no stated threshold. Here each window is judged by the rule the streaming detector applies
@@ -32,30 +34,39 @@ from streamseg._kernels.peaks import peak_windows, robust_threshold
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
 
-N_ANGLES = 8
 
-
-def bone_angle_features(recording_or_angles) -> np.ndarray:
-    """Return the (n_frames, 8) bone angles of a Recording, or validate a given angle array.
+def lof_features(recording_or_angles, config: LOFConfig | None = None,
+                 n_features: int | None = None) -> np.ndarray:
+    """The LOF features of a Recording, or a given feature array validated.
 
     Parameters
     ----------
-    recording_or_angles : Recording or array_like, shape (n_frames, 8)
+    recording_or_angles : Recording or array_like, shape (n_frames, n_features)
+    config : LOFConfig or None
+        ``config.inclinations`` selects the features (None: the default config).
+    n_features : int or None
+        Width an array must have; None: ``config.n_features``.
 
     Returns
     -------
-    ndarray of float64, shape (n_frames, 8), angles in [0, pi] (NaN rows allowed)
+    ndarray of float64, shape (n_frames, config.n_features)
+        :func:`streamseg.skeleton.bone_angles` with ``inclinations=config.inclinations``:
+        angles in [0, pi] (NaN rows allowed).
     """
+    config = LOFConfig() if config is None else config
     if hasattr(recording_or_angles, "positions") and hasattr(recording_or_angles, "skeleton"):
         from streamseg.skeleton import bone_angles
 
         return np.asarray(bone_angles(recording_or_angles.positions,
-                                      recording_or_angles.skeleton), dtype=np.float64)
+                                      recording_or_angles.skeleton,
+                                      inclinations=config.inclinations), dtype=np.float64)
+    d = config.n_features if n_features is None else n_features
     angles = np.asarray(recording_or_angles, dtype=np.float64)
-    if angles.ndim != 2 or angles.shape[1] != N_ANGLES:
+    if angles.ndim != 2 or angles.shape[1] != d:
         raise ParameterError(
-            f"angles have shape {angles.shape}; expected (n_frames, {N_ANGLES}) bone angles "
-            "(pass a Recording or streamseg.skeleton.bone_angles output)")
+            f"angles have shape {angles.shape}; expected (n_frames, {d}) "
+            "features (pass a Recording, or streamseg.skeleton.bone_angles output with "
+            f"inclinations={config.inclinations})")
     return angles
 
 
@@ -187,6 +198,8 @@ class LOFSegmenter:
     config : LOFConfig
     fps : float
         Frame rate, converting the config's seconds to frames.
+    n_features : int or None
+        Columns of a feature array given to :meth:`fit`; None: ``config.n_features``.
 
     Attributes
     ----------
@@ -201,9 +214,11 @@ class LOFSegmenter:
     cuts_ : ndarray of int64, cut frames (see :func:`refine_cuts`)
     """
 
-    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0):
+    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
+                 n_features: int | None = None):
         self.config = LOFConfig() if config is None else config
         self.fps = float(fps)
+        self.n_features = n_features
         self.geometry = self.config.frames(self.fps)
 
     def fit(self, recording_or_angles) -> LOFSegmenter:
@@ -211,10 +226,11 @@ class LOFSegmenter:
 
         Parameters
         ----------
-        recording_or_angles : Recording or array_like, shape (n_frames, 8)
+        recording_or_angles : Recording or array_like, shape (n_frames, config.n_features)
+            See :func:`lof_features`.
         """
         g, c = self.geometry, self.config
-        angles = bone_angle_features(recording_or_angles)
+        angles = lof_features(recording_or_angles, c, self.n_features)
         self.n_frames_ = int(angles.shape[0])
         self.n_nan_frames_ = int((~np.isfinite(angles)).any(axis=1).sum())
         fb, valid = frame_bins(angles, c.bins)

@@ -9,8 +9,6 @@ from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
 from streamseg.online.events import Cut
 
-N_ANGLES = 8
-
 
 class StreamingLOFSegmenter:
     """Online version of :class:`streamseg.offline.LOFSegmenter`, bounded memory.
@@ -46,25 +44,32 @@ class StreamingLOFSegmenter:
     and enters no histogram; it still advances the frame clock. A window with fewer than
     ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
 
-    Memory: fixed at construction, ``capacity * (2 * 8 * bins + 40 * k + 73)`` +
-    ``9 * history`` bytes, ``history = delay * step + 2 * window + refine + 1`` frames
-    (defaults at 120 Hz: 375 windows and 877 frames, about 223 kB per stream, 223 MB for
-    1,000 streams; the ``2 * k`` candidates add 60 kB to the 163 kB with k-lists).
+    Memory: fixed at construction, ``capacity * (2 * d * bins + 40 * k + 73)`` +
+    ``(d + 1) * history`` bytes, ``d = n_features``, ``history = delay * step + 2 * window +
+    refine + 1`` frames (defaults at 120 Hz, d = 17: 375 windows and 877 frames, about 273 kB
+    per stream, 273 MB for 1,000 streams; the ``2 * k`` candidates take 60 kB of that).
 
     Parameters
     ----------
     config : LOFConfig
     fps : float
+    n_features : int or None
+        Columns per frame; None: ``config.n_features`` (the bone features). Any other matrix
+        of angles in [0, pi] works the same way (``benchmarks/lof_variants.py`` feeds subsets).
     """
 
-    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0):
+    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
+                 n_features: int | None = None):
         self.config = LOFConfig() if config is None else config
         if not fps > 0:
             raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
+        if n_features is not None and not (isinstance(n_features, int) and n_features >= 1):
+            raise ParameterError(f"n_features={n_features!r} is invalid: expected an int >= 1")
         self.fps = float(fps)
         g = self.geometry = self.config.frames(self.fps)
         c = self.config
-        n, k, d, w = g["capacity"], c.k, N_ANGLES * c.bins, g["window"]
+        self.n_features = c.n_features if n_features is None else n_features
+        n, k, d, w = g["capacity"], c.k, self.n_features * c.bins, g["window"]
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"]], dtype=np.int64)
         self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
@@ -73,7 +78,7 @@ class StreamingLOFSegmenter:
         self._st = _ks.new_state()
         # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
         # cut localisation reads back to refine + w frames before a peak window's centre
-        self._rb = np.zeros((g["history"], N_ANGLES), dtype=np.int8)
+        self._rb = np.zeros((g["history"], self.n_features), dtype=np.int8)
         self._rv = np.zeros(g["history"], dtype=np.uint8)
         self._cur = np.zeros(d, dtype=np.int64)
         self._left = np.zeros(d, dtype=np.int64)
@@ -104,17 +109,20 @@ class StreamingLOFSegmenter:
 
     # ---- feeding ---------------------------------------------------------------------------
     def learn_one(self, angles_row) -> list[Cut]:
-        """Feed one frame of 8 bone angles (radians); return the cuts decided on it."""
+        """Feed one feature frame, shape (n_features,) radians (8 bone angles, then 9
+        inclinations when ``config.inclinations``); return the cuts decided on it."""
         row = np.asarray(angles_row, dtype=np.float64)
-        if row.shape != (N_ANGLES,):
-            raise ParameterError(f"angles_row has shape {row.shape}; expected ({N_ANGLES},)")
-        return self._run(row.reshape(1, N_ANGLES))
+        d = self.n_features
+        if row.shape != (d,):
+            raise ParameterError(f"angles_row has shape {row.shape}; expected ({d},)")
+        return self._run(row.reshape(1, d))
 
     def learn_many(self, angles) -> list[Cut]:
-        """Feed frames of bone angles, shape (n, 8); same cuts as ``learn_one`` per row."""
+        """Feed feature frames, shape (n, n_features); same cuts as ``learn_one`` per row."""
         a = np.asarray(angles, dtype=np.float64)
-        if a.ndim != 2 or a.shape[1] != N_ANGLES:
-            raise ParameterError(f"angles have shape {a.shape}; expected (n_frames, {N_ANGLES})")
+        if a.ndim != 2 or a.shape[1] != self.n_features:
+            raise ParameterError(f"angles have shape {a.shape}; expected (n_frames, "
+                                 f"{self.n_features})")
         return self._run(np.ascontiguousarray(a))
 
     def finish(self) -> list[Cut]:
@@ -176,7 +184,7 @@ class StreamingLOFSegmenter:
         return np.arange(nxt - size, nxt) % self._seqs.shape[0]
 
     def buffer_vectors(self) -> np.ndarray:
-        """Count vectors of the buffered windows, oldest first, shape (size, 8 * bins)."""
+        """Count vectors of the buffered windows, oldest first, shape (size, n_features * bins)."""
         return self._vecs[self._order()].astype(np.float64)
 
     def buffer_lof(self) -> np.ndarray:
@@ -203,7 +211,7 @@ def warmup() -> None:
 
     cfg = LOFConfig(window_s=0.1, step_s=0.05, k=2, buffer_s=0.5, delay_s=0.05)
     rng = np.random.default_rng(0)
-    angles = rng.uniform(0, np.pi, (40, N_ANGLES))
+    angles = rng.uniform(0, np.pi, (40, cfg.n_features))
     angles[5] = np.nan
     s = StreamingLOFSegmenter(cfg, fps=100.0)
     s.learn_many(angles)

@@ -27,6 +27,7 @@ from streamseg.protocol.messages import (
     topic,
     valid_stream_id,
 )
+from streamseg.recording import UP_AXES
 
 
 def encode_array(a: np.ndarray) -> dict:
@@ -165,7 +166,9 @@ def _announce(obj):
     units = obj.get("units", "mm")
     _need(isinstance(units, str) and len(units) <= 64, "announce", "units", units,
           "a string of at most 64 characters (e.g. mm, cm, inch*0.45)", s)
-    return Announce(s, fps, tuple(joints), tuple(parents), units)
+    up = obj.get("up", "y")
+    _need(up in UP_AXES, "announce", "up", up, f"one of {', '.join(UP_AXES)}", s)
+    return Announce(s, fps, tuple(joints), tuple(parents), units, up)
 
 
 def frames_fields(obj: dict, stream: str | None = None) -> tuple:

@@ -66,6 +66,7 @@ class Announce:
     joints: tuple[str, ...]
     parents: tuple[int, ...]
     units: str = "mm"
+    up: str = "y"
 
     type = "announce"
 

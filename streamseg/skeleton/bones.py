@@ -1,10 +1,12 @@
-"""The LOF paper's 9 bones and 8 bone angles (Xing et al. 2015, Tables 1 and 2)."""
+"""The LOF paper's 9 bones and 8 bone angles (Xing et al. 2015, Tables 1 and 2), and the
+9 bones' inclinations from the vertical that streamseg's LOF adds to them."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from streamseg._kernels.bones import angles_kernel
+from streamseg.recording import UP_AXES
 from streamseg.skeleton.names import POINTS, resolve
 
 # Table 1: bone = (parent point, child point); vectors point from parent to child.
@@ -31,7 +33,32 @@ ANGLE_NAMES = (
     "l_knee",
     "r_knee",
 )
+# Each bone against the vertical (the pseudo-bone len(BONES)): the paper's angles are all
+# between two bones, so they cannot tell a pose from the same pose tilted (standing from
+# bending over or lying, an arm held up from held forward); gravity can, whatever the heading.
+INCLINATIONS = tuple((b, len(BONES)) for b in range(len(BONES)))
+INCLINATION_NAMES = (
+    "spine_incl",
+    "l_upper_arm_incl",
+    "l_forearm_incl",
+    "r_upper_arm_incl",
+    "r_forearm_incl",
+    "l_thigh_incl",
+    "l_shin_incl",
+    "r_thigh_incl",
+    "r_shin_incl",
+)
+FEATURE_NAMES = ANGLE_NAMES + INCLINATION_NAMES
 POINT_NAMES = tuple(dict.fromkeys(p for bone in BONES for p in bone))
+
+
+def up_vector(up: str) -> np.ndarray:
+    """The unit vector of an up-axis name (``"y"``, ``"-z"``, ...), float64 shape (3,)."""
+    if up not in UP_AXES:
+        raise ValueError(f"up={up!r} is invalid: expected one of {', '.join(UP_AXES)}")
+    v = np.zeros(3)
+    v["xyz".index(up[-1])] = -1.0 if up.startswith("-") else 1.0
+    return v
 
 
 def bone_point_indices(skeleton) -> np.ndarray:
@@ -41,8 +68,9 @@ def bone_point_indices(skeleton) -> np.ndarray:
     return np.array([[idx[a], idx[b]] for a, b in BONES])
 
 
-def bone_angles(positions: np.ndarray, skeleton) -> np.ndarray:
-    """The 8 bone angles of every frame.
+def bone_angles(positions: np.ndarray, skeleton, inclinations: bool = False,
+                up: str | None = None) -> np.ndarray:
+    """The 8 bone angles of every frame, optionally followed by the 9 bone inclinations.
 
     Eq. (1) of the paper writes ``Bone1 = P_root - P_lowerback`` while Table 1 and its text say
     bones point from parent to child; we follow the table. (Either way the angle is mirrored
@@ -53,21 +81,30 @@ def bone_angles(positions: np.ndarray, skeleton) -> np.ndarray:
     ----------
     positions : ndarray, shape (n_frames, n_joints, 3)
     skeleton : Skeleton or sequence of joint names
+    inclinations : bool
+        Append each bone's angle from the up axis (:data:`INCLINATION_NAMES`).
+    up : str or None
+        Up axis of the positions (:data:`UP_AXES`); None: the skeleton's ``up`` (``"y"`` for
+        a list of names, the Acclaim/BVH/Kinect convention).
 
     Returns
     -------
-    ndarray of float64, shape (n_frames, 8)
+    ndarray of float64, shape (n_frames, 8) or (n_frames, 17) with inclinations
         Radians in [0, pi]; a frame with a NaN joint (marker dropout) or a zero-length bone
         gives NaN in the angles it touches.
     """
-    return angles_at(positions, bone_point_indices(skeleton))
+    if up is None:
+        up = getattr(skeleton, "up", "y")
+    return angles_at(positions, bone_point_indices(skeleton),
+                     up_vector(up) if inclinations else None)
 
 
-_FIRST = np.array([i for i, _ in ANGLES], dtype=np.int64)
-_SECOND = np.array([j for _, j in ANGLES], dtype=np.int64)
+_FIRST = np.array([i for i, _ in ANGLES + INCLINATIONS], dtype=np.int64)
+_SECOND = np.array([j for _, j in ANGLES + INCLINATIONS], dtype=np.int64)
+_NO_UP = np.zeros(3)
 
 
-def angles_at(positions: np.ndarray, points: np.ndarray) -> np.ndarray:
+def angles_at(positions: np.ndarray, points: np.ndarray, up=None) -> np.ndarray:
     """:func:`bone_angles` with the bone end points already resolved (a live stream resolves
     them once, at announcement).
 
@@ -76,10 +113,12 @@ def angles_at(positions: np.ndarray, points: np.ndarray) -> np.ndarray:
     positions : ndarray, shape (n_frames, n_joints, 3)
     points : ndarray of int, shape (9, 2)
         From :func:`bone_point_indices`.
+    up : ndarray, shape (3,), or None
+        Unit up vector (:func:`up_vector`): append the 9 inclinations; None: the 8 angles only.
 
     Returns
     -------
-    ndarray of float64, shape (n_frames, 8)
+    ndarray of float64, shape (n_frames, 8) or (n_frames, 17)
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     if positions.ndim != 3 or positions.shape[2] != 3:
@@ -87,5 +126,7 @@ def angles_at(positions: np.ndarray, points: np.ndarray) -> np.ndarray:
     points = np.asarray(points, dtype=np.int64)
     if points.shape != (len(BONES), 2) or points.min() < 0 or points.max() >= positions.shape[1]:
         raise ValueError(f"points {points.tolist()} do not index the {positions.shape[1]} joints")
+    m = len(ANGLES) if up is None else len(ANGLES) + len(INCLINATIONS)
     return angles_kernel(positions, np.ascontiguousarray(points[:, 0]),
-                         np.ascontiguousarray(points[:, 1]), _FIRST, _SECOND)
+                         np.ascontiguousarray(points[:, 1]), _FIRST[:m], _SECOND[:m],
+                         _NO_UP if up is None else np.asarray(up, dtype=np.float64))
