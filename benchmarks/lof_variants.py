@@ -31,7 +31,7 @@ by 0.5 s (flat +-0.5 s without a window) and with a flat 1 s tolerance, as in lo
 
 Parts 1 and 2 were measured on the paper's 8 bone angles, before part 4, and are kept so.
 
-This is a research script in numpy (slow, obvious code, no kernels); about two minutes.
+This is a research script in numpy (slow, obvious code, no kernels); about 10 s.
 Run: .venv/bin/python benchmarks/lof_variants.py
 """
 

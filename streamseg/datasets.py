@@ -54,7 +54,7 @@ def concatenate(recordings) -> tuple:
     Parameters
     ----------
     recordings : sequence of Recording
-        Same skeleton (joint names) and frame rate.
+        Same skeleton (joint names and up axis) and frame rate.
 
     Returns
     -------
@@ -68,10 +68,12 @@ def concatenate(recordings) -> tuple:
         raise ParameterError("concatenate() needs at least one recording")
     first = recs[0]
     for r in recs[1:]:
-        if tuple(r.skeleton.names) != tuple(first.skeleton.names) or r.fps != first.fps:
+        if tuple(r.skeleton.names) != tuple(first.skeleton.names) or r.fps != first.fps \
+                or r.skeleton.up != first.skeleton.up:
             raise ParameterError(
                 f"cannot join {r.source or 'a recording'} to {first.source or 'the first'}: "
-                "skeleton joint names and fps must match (read them with the same skeleton)")
+                "skeleton joint names, up axis and fps must match (read them with the same "
+                "skeleton)")
     positions = np.concatenate([r.positions for r in recs], axis=0)
     rotations = None
     if all(r.rotations is not None for r in recs):

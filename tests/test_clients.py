@@ -6,10 +6,12 @@ import json
 import threading
 import time
 
+import numpy as np
 import pytest
 
 from streamseg.cli import main
 from streamseg.commands import serve
+from streamseg.commands.listen import listen, subscriber
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 from streamseg.exceptions import ParameterError
@@ -141,3 +143,26 @@ def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
     got = [int(x.split("cut at frame ")[1].split()[0]) for x in lines if "cut at frame" in x]
     assert got == want
     assert lines[-1] == "m: closed (end)"
+
+
+def test_replay_and_segment_up_option_fix_a_z_up_file(daemon, data_dir, capsys, tmp_path):
+    """A Z-up recording saved without its axis: `--up z` on replay and on segment gives the
+    cuts of the Y-up original."""
+    import dataclasses
+
+    from streamseg.io.npz import write_npz
+
+    rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    x, y, z = (rec.positions[..., i] for i in range(3))
+    f = tmp_path / "z_up.npz"
+    write_npz(f, dataclasses.replace(rec, positions=np.stack([x, -z, y], axis=-1)))
+    assert main(["segment", *files(data_dir), "--online", "--json"]) == 0
+    want = json.loads(capsys.readouterr().out.splitlines()[-1])["cuts"]
+    assert main(["segment", str(f), "--online", "--json", "--up", "z"]) == 0
+    assert json.loads(capsys.readouterr().out.splitlines()[-1])["cuts"] == want
+    s = subscriber(daemon["publish"], "zf")
+    time.sleep(0.3)
+    assert main(["replay", str(f), "--to", daemon["ingest"], "--speed", "0", "--batch", "60",
+                 "--stream", "zf", "--up", "z"]) == 0
+    events = list(listen(s, stream="zf", until_end=True, timeout=30))
+    assert [e.frame for e in events if e.type == "cut"] == want

@@ -15,6 +15,7 @@ from streamseg.commands.listen import listen, request, subscriber
 from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
+from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.pipeline import Algorithms
@@ -349,6 +350,23 @@ def test_default_skeleton_opens_streams_on_first_packet(start_daemon, rec, data_
     events = list(listen(s, stream="anon", until_end=True, timeout=30))
     assert cuts_of(events, "anon") == offline_cuts(rec)
     assert not [e for e in events if e.type == "error"]
+
+
+def test_default_skeleton_takes_the_configured_up_axis(start_daemon, rec, data_dir):
+    """Unannounced Z-up frames are cut like the Y-up original with default_up = "z"."""
+    x, y, z = (rec.positions[..., i] for i in range(3))
+    z_up = np.stack([x, -z, y], axis=-1)
+    d, ep = start_daemon(default_skeleton=str(data_dir / "cmu86" / "86.asf"), default_up="z")
+    s = sub(ep, stream="anon")
+    sock = push(ep)
+    for a in range(0, rec.n_frames, 60):
+        sock.send_multipart(P.encode(P.Frames("anon", a, 0.0, z_up[a:a + 60])))
+    sock.send_multipart(P.encode(P.End("anon")))
+    sock.close()
+    events = list(listen(s, stream="anon", until_end=True, timeout=30))
+    assert cuts_of(events, "anon") == offline_cuts(rec)
+    with pytest.raises(ParameterError, match="default_up"):
+        DaemonConfig(default_up="up")
 
 
 def test_failed_start_with_receive_thread_still_shuts_down():

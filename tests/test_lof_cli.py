@@ -72,6 +72,9 @@ def test_features_options_match_the_library(capsys, files):
         assert out["params"]["inclinations"] == cfg.inclinations
         feats = bone_angles(rec.positions, rec.skeleton, inclinations=cfg.inclinations, up=up)
         assert out["cuts"] == LOFSegmenter(cfg, rec.fps).fit(feats).predict().tolist()
+    assert cli.main(["segment", str(amc), "--skeleton", str(asf), "--method", "lof", "--up", "z",
+                     "--inclinations", "off"]) == 2
+    assert "no effect" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exc:  # argparse: not one of the axes
         cli.main(["segment", str(amc), "--skeleton", str(asf), "--method", "lof", "--up", "w"])
     assert exc.value.code == 2 and "--up" in capsys.readouterr().err
@@ -96,7 +99,17 @@ def test_matrix_needs_fps(capsys, tmp_path):
     assert "--fps" in capsys.readouterr().err
     out = _run(capsys, "segment", m, "--method", "lof", "--fps", "100", "--json")
     assert out["n_frames"] == 600 and out["fps"] == 100.0
-    # the paper's 8 angles need the paper's features; a width mismatch is a clear error
+    # the paper's preset takes the 8 angles; a width mismatch names the option that fits
     assert cli.main(["segment", str(m), "--method", "lof", "--fps", "100", "--preset",
                      "paper"]) == 2
-    assert "expected (n_frames, 8)" in capsys.readouterr().err
+    assert "17 columns" in (err := capsys.readouterr().err) and "--inclinations on" in err
+    m8 = tmp_path / "angles8.npy"
+    np.save(m8, np.random.default_rng(0).uniform(0, np.pi, (600, 8)))
+    assert cli.main(["segment", str(m8), "--method", "lof", "--fps", "100"]) == 2
+    assert "--inclinations off" in capsys.readouterr().err
+    out = _run(capsys, "segment", m8, "--method", "lof", "--fps", "100", "--inclinations", "off",
+               "--json")
+    assert out["n_frames"] == 600 and out["params"]["inclinations"] is False
+    # --up means nothing for a matrix (features already computed) or without inclinations
+    assert cli.main(["segment", str(m), "--method", "lof", "--fps", "100", "--up", "z"]) == 2
+    assert "--up" in capsys.readouterr().err

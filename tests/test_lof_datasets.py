@@ -24,6 +24,11 @@ def test_cmu02_sequence_joins_clips_at_the_true_cuts(data_dir):
     assert rec.metadata["cuts"] == cuts
     with pytest.raises(ParameterError, match="fps"):
         concatenate([parts[0], parts[1].__class__(60.0, parts[1].skeleton, parts[1].positions)])
+    from dataclasses import replace
+
+    z_up = replace(parts[1], skeleton=replace(parts[1].skeleton, up="z"))
+    with pytest.raises(ParameterError, match="up axis"):
+        concatenate([parts[0], z_up])
 
 
 def test_cmu02_sequences_follow_the_single_action_rule(data_dir):

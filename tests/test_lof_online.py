@@ -123,8 +123,15 @@ def test_bad_input_raises():
     with pytest.raises(ParameterError, match="n_frames, 17"):
         s.learn_many(np.zeros((5, 8)))
     paper = StreamingLOFSegmenter(LOFConfig(inclinations=False), fps=100)
-    with pytest.raises(ParameterError, match="n_frames, 8"):
+    with pytest.raises(ParameterError, match=r"n_frames, 8\).*LOFConfig\(inclinations=True\)"):
         paper.learn_many(np.zeros((5, 17)))
+    for bad in (0, "8", 2.0, True):
+        with pytest.raises(ParameterError, match="n_features"):
+            StreamingLOFSegmenter(FAST, fps=100, n_features=bad)
+    own = StreamingLOFSegmenter(FAST, fps=100, n_features=np.int64(3))
+    assert own.learn_many(np.ones((10, 3))) == []
+    with pytest.raises(ParameterError, match=r"expected \(n_frames, 3\)$"):
+        own.learn_many(np.ones((10, 8)))
     with pytest.raises(ParameterError, match="fps"):
         StreamingLOFSegmenter(FAST, fps=0)
 

@@ -213,5 +213,17 @@ def test_inclinations_follow_the_declared_up_axis(cmu86):
     assert not np.allclose(bone_angles(z_up, cmu86.skeleton, inclinations=True), ref)
     with pytest.raises(ValueError, match="up='w'"):
         bone_angles(pos, cmu86.skeleton, inclinations=True, up="w")
+    # angles_at takes a name or any nonzero vector (normalized), nothing else
+    from streamseg.skeleton.bones import angles_at, bone_point_indices
+
+    points = bone_point_indices(cmu86.skeleton)
+    for up in ("y", (0.0, 2.5, 0.0), np.array([0.0, 1.0, 0.0])):
+        np.testing.assert_allclose(angles_at(pos, points, up), ref, atol=1e-12)
+    for bad in ((1.0,), (0.0, 0.0, 0.0), (np.nan, 1.0, 0.0), "w"):
+        with pytest.raises(ValueError, match="up="):
+            angles_at(pos, points, bad)
+    # the body-frame features read the skeleton's up axis too
+    np.testing.assert_allclose(body_features(z_up, skel_z), body_features(pos, cmu86.skeleton),
+                               atol=1e-9)
     with pytest.raises(ValueError, match="up="):
         replace(cmu86.skeleton, up="up")

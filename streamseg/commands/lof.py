@@ -83,7 +83,20 @@ def _angles(args, config: LOFConfig):
     if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
         if args.fps is None:
             raise ParameterError("a bone-angle matrix has no frame rate: give --fps (e.g. 120)")
-        return lof_features(read_matrix(args.file), config), float(args.fps)
+        if getattr(args, "up", None):
+            raise ParameterError("--up applies to recordings: a feature matrix's inclinations "
+                                 "are already computed")
+        m = read_matrix(args.file)
+        if m.ndim == 2 and m.shape[1] != config.n_features:
+            what = "8 bone angles + 9 inclinations" if config.inclinations else "8 bone angles"
+            msg = f"{args.file} has {m.shape[1]} columns; the LOF features are {what}"
+            if m.shape[1] in (8, 17):
+                msg += f": add --inclinations {'off' if m.shape[1] == 8 else 'on'}"
+            raise ParameterError(msg)
+        return lof_features(m, config), float(args.fps)
+    if getattr(args, "up", None) and not config.inclinations:
+        raise ParameterError("--up has no effect without the inclinations (--inclinations off "
+                             "or --preset paper)")
     from streamseg.io import read
     from streamseg.skeleton import bone_angles
 

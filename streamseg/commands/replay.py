@@ -6,6 +6,7 @@ as the daemon takes them; a PUSH socket waits when the daemon's queue is full), 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -13,6 +14,7 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
+from streamseg.recording import UP_AXES
 
 
 def add_arguments(parser) -> None:
@@ -24,6 +26,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--batch", type=int, default=1, metavar="N", help="frames per packet")
     parser.add_argument("--loop", action="store_true", help="start over at the end, forever")
     parser.add_argument("--float32", action="store_true", help="send float32 positions")
+    parser.add_argument("--up", choices=UP_AXES,
+                        help="announce this world up axis (default: the format's, y for "
+                             "AMC/BVH)")
 
 
 def stream_id(path) -> str:
@@ -86,6 +91,8 @@ def run(args) -> int:
     from streamseg.io import read
 
     rec = read(args.file, skeleton=args.skeleton)
+    if args.up:
+        rec = dataclasses.replace(rec, skeleton=dataclasses.replace(rec.skeleton, up=args.up))
     stream = args.stream or stream_id(args.file)
     dtype = np.float32 if args.float32 else np.float64
     ctx = zmq.Context.instance()

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from streamseg.config._base import _check
+from streamseg.recording import UP_AXES
 
 
 @dataclass(frozen=True)
@@ -35,9 +36,10 @@ class DaemonConfig:
         ZeroMQ high-water marks (messages) of the ingest and the publish socket. The ingest
         queue is what bounds the daemon's memory under overload (senders then wait): at most
         ``ingest_hwm`` packets are buffered, e.g. 2000 x 60 frames x 31 joints = 90 MB.
-    default_skeleton, default_fps : str, float
-        An ASF file whose skeleton (and this rate) serves streams that send frames without
-        an announcement; ``""`` requires announcements.
+    default_skeleton, default_fps, default_up : str, float, str
+        An ASF file whose skeleton (and this rate and up axis, one of ``x y z -x -y -z``)
+        serves streams that send frames without an announcement; ``""`` requires
+        announcements.
     shutdown_relabel : float
         Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
     repetitions : bool
@@ -72,6 +74,7 @@ class DaemonConfig:
     hwm: int = 100000
     default_skeleton: str = ""
     default_fps: float = 120.0
+    default_up: str = "y"
     shutdown_relabel: float = 5.0
     repetitions: bool = False
     relabel_processes: int = 0
@@ -132,5 +135,7 @@ class DaemonConfig:
             isinstance(self.default_skeleton, str),
             'a path to an ASF file or ""',
         )
+        _check("default_up", self.default_up, self.default_up in UP_AXES,
+               f"one of {', '.join(UP_AXES)}")
         _check("repetitions", self.repetitions, isinstance(self.repetitions, bool),
                "true or false")

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 from streamseg.config._base import _check
+from streamseg.exceptions import ParameterError
 
 
 @dataclass(frozen=True)
@@ -185,3 +187,28 @@ class LOFConfig:
             refine=refine,
             history=history,
         )
+
+
+def feature_width(config: LOFConfig, n_features) -> int:
+    """Columns per frame a segmenter takes: ``n_features`` (validated) or ``config.n_features``."""
+    if n_features is None:
+        return config.n_features
+    if isinstance(n_features, bool) or not isinstance(n_features, numbers.Integral) \
+            or n_features < 1:
+        raise ParameterError(f"n_features={n_features!r} is invalid: expected an int >= 1")
+    return int(n_features)
+
+
+def width_message(shape, d: int, config: LOFConfig, n_features, row: bool = False) -> str:
+    """The error for features of the wrong width (``row``: one frame), with the fix when the
+    config chose the width."""
+    name, want = ("angles_row", f"({d},)") if row else ("angles", f"(n_frames, {d})")
+    msg = f"{name} has shape {shape}; expected {want}"
+    if n_features is not None:
+        return msg
+    msg += (f": the config's features, streamseg.skeleton.bone_angles(..., "
+            f"inclinations={config.inclinations})")
+    other = not config.inclinations
+    if len(shape) in (1, 2) and shape[-1] == LOFConfig(inclinations=other).n_features:
+        msg += f"; {shape[-1]} columns are for LOFConfig(inclinations={other})"
+    return msg

@@ -79,7 +79,8 @@ class Daemon:
             from streamseg.io.asf import read_asf
 
             asf = read_asf(self.config.default_skeleton)
-            self.default_skeleton = skeleton_from(asf.names, asf.parents)
+            self.default_skeleton = skeleton_from(asf.names, asf.parents,
+                                                  up=self.config.default_up)
 
     # --- lifecycle ---------------------------------------------------------------------------
 

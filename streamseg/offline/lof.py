@@ -32,6 +32,7 @@ from streamseg._kernels.histogram import bin_frames, refine_cut, window_counts
 from streamseg._kernels.lof import lof_batch
 from streamseg._kernels.peaks import peak_windows, robust_threshold
 from streamseg.config import LOFConfig
+from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
 
 
@@ -54,19 +55,16 @@ def lof_features(recording_or_angles, config: LOFConfig | None = None,
         angles in [0, pi] (NaN rows allowed).
     """
     config = LOFConfig() if config is None else config
+    d = feature_width(config, n_features)
     if hasattr(recording_or_angles, "positions") and hasattr(recording_or_angles, "skeleton"):
         from streamseg.skeleton import bone_angles
 
         return np.asarray(bone_angles(recording_or_angles.positions,
                                       recording_or_angles.skeleton,
                                       inclinations=config.inclinations), dtype=np.float64)
-    d = config.n_features if n_features is None else n_features
     angles = np.asarray(recording_or_angles, dtype=np.float64)
     if angles.ndim != 2 or angles.shape[1] != d:
-        raise ParameterError(
-            f"angles have shape {angles.shape}; expected (n_frames, {d}) "
-            "features (pass a Recording, or streamseg.skeleton.bone_angles output with "
-            f"inclinations={config.inclinations})")
+        raise ParameterError(width_message(angles.shape, d, config, n_features))
     return angles
 
 
@@ -205,8 +203,8 @@ class LOFSegmenter:
     ----------
     n_frames_ : int
     n_nan_frames_ : int
-    counts_ : ndarray, shape (m, 8 * bins), window count vectors
-    vectors_ : ndarray, shape (m, 8 * bins), normalized histograms
+    counts_ : ndarray, shape (m, n_features * bins), window count vectors
+    vectors_ : ndarray, shape (m, n_features * bins), normalized histograms
     centres_ : ndarray of int64, shape (m,), window centre frames
     lof_ : ndarray, shape (m,), the LOF curve
     threshold_ : float, the adaptive threshold used on the curve
@@ -218,6 +216,7 @@ class LOFSegmenter:
                  n_features: int | None = None):
         self.config = LOFConfig() if config is None else config
         self.fps = float(fps)
+        feature_width(self.config, n_features)  # validates
         self.n_features = n_features
         self.geometry = self.config.frames(self.fps)
 

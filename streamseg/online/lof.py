@@ -6,6 +6,7 @@ import numpy as np
 
 from streamseg._kernels import lof_stream as _ks
 from streamseg.config import LOFConfig
+from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
 from streamseg.online.events import Cut
 
@@ -63,12 +64,11 @@ class StreamingLOFSegmenter:
         self.config = LOFConfig() if config is None else config
         if not fps > 0:
             raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
-        if n_features is not None and not (isinstance(n_features, int) and n_features >= 1):
-            raise ParameterError(f"n_features={n_features!r} is invalid: expected an int >= 1")
+        self.n_features = feature_width(self.config, n_features)
+        self._explicit_width = n_features
         self.fps = float(fps)
         g = self.geometry = self.config.frames(self.fps)
         c = self.config
-        self.n_features = c.n_features if n_features is None else n_features
         n, k, d, w = g["capacity"], c.k, self.n_features * c.bins, g["window"]
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"]], dtype=np.int64)
@@ -114,15 +114,16 @@ class StreamingLOFSegmenter:
         row = np.asarray(angles_row, dtype=np.float64)
         d = self.n_features
         if row.shape != (d,):
-            raise ParameterError(f"angles_row has shape {row.shape}; expected ({d},)")
+            raise ParameterError(width_message(row.shape, d, self.config, self._explicit_width,
+                                               row=True))
         return self._run(row.reshape(1, d))
 
     def learn_many(self, angles) -> list[Cut]:
         """Feed feature frames, shape (n, n_features); same cuts as ``learn_one`` per row."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim != 2 or a.shape[1] != self.n_features:
-            raise ParameterError(f"angles have shape {a.shape}; expected (n_frames, "
-                                 f"{self.n_features})")
+            raise ParameterError(width_message(a.shape, self.n_features, self.config,
+                                               self._explicit_width))
         return self._run(np.ascontiguousarray(a))
 
     def finish(self) -> list[Cut]:

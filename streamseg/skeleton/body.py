@@ -53,8 +53,10 @@ def body_features(positions: np.ndarray, skeleton) -> np.ndarray:
     Returns
     -------
     ndarray of float64, shape (n_frames, 25): 8 limbs x 3 components, then the trunk's
-    cosine to the world up axis (+y).
+    cosine to the world up axis (the skeleton's ``up``, ``"y"`` for a list of names).
     """
+    from streamseg.skeleton.bones import up_vector
+
     positions = np.asarray(positions, dtype=np.float64)
     names = [p for limb in LIMBS for p in limb]
     idx = resolve(skeleton.names, tuple(dict.fromkeys(names)), POINTS)
@@ -68,5 +70,6 @@ def body_features(positions: np.ndarray, skeleton) -> np.ndarray:
         out.append(np.einsum("nij,nj->ni", axes, v))
     trunk = positions[:, where["neck"]] - positions[:, where["pelvis"]]
     with np.errstate(invalid="ignore", divide="ignore"):
-        out.append((trunk[:, 1] / np.linalg.norm(trunk, axis=1))[:, None])
+        up = up_vector(getattr(skeleton, "up", "y"))
+        out.append((trunk @ up / np.linalg.norm(trunk, axis=1))[:, None])
     return np.concatenate(out, axis=1)

@@ -113,8 +113,9 @@ def angles_at(positions: np.ndarray, points: np.ndarray, up=None) -> np.ndarray:
     positions : ndarray, shape (n_frames, n_joints, 3)
     points : ndarray of int, shape (9, 2)
         From :func:`bone_point_indices`.
-    up : ndarray, shape (3,), or None
-        Unit up vector (:func:`up_vector`): append the 9 inclinations; None: the 8 angles only.
+    up : str, array_like of shape (3,), or None
+        Up axis (a name, :func:`up_vector`, or a nonzero vector, normalized here): append the
+        9 inclinations; None: the 8 angles only.
 
     Returns
     -------
@@ -126,7 +127,21 @@ def angles_at(positions: np.ndarray, points: np.ndarray, up=None) -> np.ndarray:
     points = np.asarray(points, dtype=np.int64)
     if points.shape != (len(BONES), 2) or points.min() < 0 or points.max() >= positions.shape[1]:
         raise ValueError(f"points {points.tolist()} do not index the {positions.shape[1]} joints")
-    m = len(ANGLES) if up is None else len(ANGLES) + len(INCLINATIONS)
+    if up is None:
+        m, up = len(ANGLES), _NO_UP
+    else:
+        m, up = len(ANGLES) + len(INCLINATIONS), _unit(up)
     return angles_kernel(positions, np.ascontiguousarray(points[:, 0]),
-                         np.ascontiguousarray(points[:, 1]), _FIRST[:m], _SECOND[:m],
-                         _NO_UP if up is None else np.asarray(up, dtype=np.float64))
+                         np.ascontiguousarray(points[:, 1]), _FIRST[:m], _SECOND[:m], up)
+
+
+def _unit(up) -> np.ndarray:
+    """``up`` as a unit float64 (3,) vector; a name goes through :func:`up_vector`."""
+    if isinstance(up, str):
+        return up_vector(up)
+    v = np.asarray(up, dtype=np.float64)
+    norm = float(np.linalg.norm(v)) if v.shape == (3,) else 0.0
+    if not (np.isfinite(norm) and norm > 0):
+        raise ValueError(f"up={up!r} is invalid: expected an axis name ({', '.join(UP_AXES)}) "
+                         "or a finite nonzero 3-vector")
+    return v / norm
