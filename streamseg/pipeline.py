@@ -172,6 +172,7 @@ def _segment_triplets(window) -> list:
 
 
 GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
+UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 
 
 class StreamPipeline:
@@ -196,7 +197,7 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "rep_error")
+                 "rep_error", "up_warning", "_spine", "_spine_n")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -207,6 +208,10 @@ class StreamPipeline:
         self.reps = algorithms.rep_counter(fps, skeleton)
         self.rep_offset = None  # stream frame of the counter's frame 0
         self.rep_error = None
+        # the declared up axis is checked once, on the first UP_CHECK_S seconds of frames
+        self.up_warning = None
+        self._spine = np.zeros(3)
+        self._spine_n = 0 if self.plan[1] is not None else -1  # -1: checked (or no need)
         cap = max(int(round(history * fps)), 2)
         self._feat = None  # allocated on the first packet, when the feature width is known
         self._frames = np.zeros(cap, dtype=np.int64)
@@ -242,6 +247,8 @@ class StreamPipeline:
             Frames whose features are not finite (skipped by the segmenter and the ring).
         """
         angles = self.algorithms.angles(positions, self.plan)
+        if self._spine_n >= 0:
+            self._check_up(positions)
         self._width = angles.shape[1]
         out = []
         gap = first_frame - self.next_frame
@@ -263,6 +270,24 @@ class StreamPipeline:
         self._remember(angles, frames)
         reps = self._repetitions(positions, first_frame, ok) if self.reps is not None else []
         return out, reps, n_bad
+
+    def _check_up(self, positions: np.ndarray) -> None:
+        """Set ``up_warning`` (once) when the body stands along another axis than the
+        declared up: the inclinations would then change with heading."""
+        from streamseg.skeleton.bones import likely_up, spine_directions
+
+        s, n = spine_directions(positions, self.plan[0])
+        self._spine += s
+        self._spine_n += n
+        if self._spine_n < UP_CHECK_S * self.fps:
+            return
+        axis = likely_up(self._spine, self.skeleton.up)
+        if axis is not None:
+            self.up_warning = (
+                f"over the first {UP_CHECK_S:g} s the spine points along {axis}, not along the "
+                f"announced up axis {self.skeleton.up}: announce up = {axis!r} (streamseg "
+                "replay --up), or the bone inclinations change with the heading")
+        self._spine_n = -1
 
     def _repetitions(self, positions, first_frame, ok) -> list:
         """``(start, end, count, emitted_at)`` of completed repetitions, in stream frames.

@@ -118,6 +118,10 @@ def test_announced_up_axis_reaches_the_features(start_daemon, rec):
     want = offline_cuts(rec)
     assert cuts_of(events, "z") == want
     assert cuts_of(events, "wrong") != want
+    # the undeclared stream is told, once, which axis its body stands along; it goes on
+    warned = [e for e in events if e.type == "error" and e.reason == "up"]
+    assert [e.stream for e in warned] == ["wrong"] and "'z'" in warned[0].message
+    assert not [e for e in events if e.type == "error" and e.stream == "z"]
 
 
 @pytest.mark.parametrize("receive_thread", [True, False])

@@ -222,6 +222,15 @@ def test_inclinations_follow_the_declared_up_axis(cmu86):
     for bad in ((1.0,), (0.0, 0.0, 0.0), (np.nan, 1.0, 0.0), "w"):
         with pytest.raises(ValueError, match="up="):
             angles_at(pos, points, bad)
+    # a body standing along z in a frame declared y-up is noticed; upright or unclear is not
+    from streamseg.skeleton.bones import likely_up, spine_directions
+
+    spine_y, n = spine_directions(pos, points)
+    assert n == 300 and likely_up(spine_y, "y") is None
+    assert likely_up(spine_directions(z_up, points)[0], "y") == "z"
+    assert likely_up(spine_directions(z_up, points)[0], "z") is None
+    assert likely_up(np.array([1.0, 1.0, 0.0]), "z") is None  # 45 degrees: no clear axis
+    assert likely_up(np.zeros(3), "y") is None
     # the body-frame features read the skeleton's up axis too
     np.testing.assert_allclose(body_features(z_up, skel_z), body_features(pos, cmu86.skeleton),
                                atol=1e-9)

@@ -11,6 +11,7 @@ reports each cut's latency.
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from pathlib import Path
 
@@ -101,8 +102,22 @@ def _angles(args, config: LOFConfig):
     from streamseg.skeleton import bone_angles
 
     rec = read(args.file, args.skeleton, fps=args.fps)
+    up = getattr(args, "up", None) or rec.skeleton.up
+    if config.inclinations:
+        _warn_up(rec, up)
     return bone_angles(rec.positions, rec.skeleton, inclinations=config.inclinations,
-                       up=getattr(args, "up", None)), float(rec.fps)
+                       up=up), float(rec.fps)
+
+
+def _warn_up(rec, up: str) -> None:
+    """Say so on stderr when the body stands along another axis than ``up``."""
+    from streamseg.skeleton.bones import bone_point_indices, likely_up, spine_directions
+
+    axis = likely_up(spine_directions(rec.positions, bone_point_indices(rec.skeleton))[0], up)
+    if axis is not None:
+        print(f"streamseg: warning: in {rec.source or 'the recording'} the spine points along "
+              f"{axis}, not along the up axis {up}: give --up {axis}, or the bone "
+              "inclinations change with the heading", file=sys.stderr)
 
 
 def run(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) -> dict:

@@ -61,6 +61,44 @@ def up_vector(up: str) -> np.ndarray:
     return v
 
 
+def likely_up(spine: np.ndarray, up: str) -> str | None:
+    """The axis a body's spine points along when that is clearly not the declared ``up``.
+
+    Parameters
+    ----------
+    spine : ndarray, shape (3,)
+        Sum (or mean) of unit pelvis-to-spine vectors over some frames.
+    up : str
+        The declared up axis.
+
+    Returns
+    -------
+    str or None
+        An axis name of :data:`UP_AXES` when the mean spine is more than 60 degrees from
+        ``up`` and within 37 degrees of that axis (someone standing in a frame whose up axis
+        was not declared); None otherwise, including when there is no clear axis (lying,
+        tilted, no data).
+    """
+    norm = float(np.linalg.norm(spine))
+    if not (np.isfinite(norm) and norm > 0):
+        return None
+    v = np.asarray(spine, dtype=np.float64) / norm
+    if v @ up_vector(up) >= 0.5:
+        return None
+    best = max(UP_AXES, key=lambda a: float(v @ up_vector(a)))
+    return best if v @ up_vector(best) >= 0.8 else None
+
+
+def spine_directions(positions: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Sum of the unit pelvis-to-spine vectors of the finite frames, shape (3,), and their
+    count, for :func:`likely_up` (``points`` from :func:`bone_point_indices`)."""
+    v = positions[:, points[0, 1]] - positions[:, points[0, 0]]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        v = v / np.linalg.norm(v, axis=1, keepdims=True)
+    ok = np.isfinite(v).all(axis=1)
+    return v[ok].sum(axis=0), int(ok.sum())
+
+
 def bone_point_indices(skeleton) -> np.ndarray:
     """Joint indices of the bone end points, shape (9, 2) (parent point, child point)."""
     names = skeleton.names if hasattr(skeleton, "names") else skeleton
