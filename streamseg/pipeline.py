@@ -197,7 +197,7 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "rep_error", "up_warning", "_spine", "_spine_n")
+                 "notices", "_spine", "_spine_n")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -207,9 +207,8 @@ class StreamPipeline:
         self.segmenter = algorithms.segmenter(fps)
         self.reps = algorithms.rep_counter(fps, skeleton)
         self.rep_offset = None  # stream frame of the counter's frame 0
-        self.rep_error = None
+        self.notices = []  # (reason, message) for the daemon to report, see push()
         # the declared up axis is checked once, on the first UP_CHECK_S seconds of frames
-        self.up_warning = None
         self._spine = np.zeros(3)
         self._spine_n = 0 if self.plan[1] is not None else -1  # -1: checked (or no need)
         cap = max(int(round(history * fps)), 2)
@@ -245,6 +244,10 @@ class StreamPipeline:
             Completed repetitions (empty without a repetition counter).
         n_bad : int
             Frames whose features are not finite (skipped by the segmenter and the ring).
+
+        Problems that do not stop the stream (the repetition counter failed, the up axis
+        looks wrong) are appended to ``notices`` as ``(reason, message)``; the caller reports
+        and clears them.
         """
         angles = self.algorithms.angles(positions, self.plan)
         if self._spine_n >= 0:
@@ -272,7 +275,7 @@ class StreamPipeline:
         return out, reps, n_bad
 
     def _check_up(self, positions: np.ndarray) -> None:
-        """Set ``up_warning`` (once) when the body stands along another axis than the
+        """Add an ``up`` notice (once) when the body stands along another axis than the
         declared up: the inclinations would then change with heading."""
         from streamseg.skeleton.bones import likely_up, spine_directions
 
@@ -283,10 +286,10 @@ class StreamPipeline:
             return
         axis = likely_up(self._spine, self.skeleton.up)
         if axis is not None:
-            self.up_warning = (
+            self.notices.append(("up",
                 f"over the first {UP_CHECK_S:g} s the spine points along {axis}, not along the "
                 f"announced up axis {self.skeleton.up}: announce up = {axis!r} (streamseg "
-                "replay --up), or the bone inclinations change with the heading")
+                "replay --up), or the bone inclinations change with the heading"))
         self._spine_n = -1
 
     def _repetitions(self, positions, first_frame, ok) -> list:
@@ -300,7 +303,9 @@ class StreamPipeline:
         try:
             reps = self.reps.learn_many(positions[ok] if not ok.all() else positions)
         except Exception as err:  # the counter is optional: turn it off for this stream
-            self.reps, self.rep_error = None, f"{type(err).__name__}: {err}"
+            self.reps = None
+            self.notices.append(("rep", f"repetition counting stopped: "
+                                        f"{type(err).__name__}: {err}"))
             return []
         o = self.rep_offset
         return [(r.start + o, r.end + o, int(r.count), r.emitted_at + o) for r in reps]

@@ -88,13 +88,12 @@ def _angles(args, config: LOFConfig):
             raise ParameterError("--up applies to recordings: a feature matrix's inclinations "
                                  "are already computed")
         m = read_matrix(args.file)
-        if m.ndim == 2 and m.shape[1] != config.n_features:
-            what = "8 bone angles + 9 inclinations" if config.inclinations else "8 bone angles"
-            msg = f"{args.file} has {m.shape[1]} columns; the LOF features are {what}"
-            if m.shape[1] in (8, 17):
-                msg += f": add --inclinations {'off' if m.shape[1] == 8 else 'on'}"
-            raise ParameterError(msg)
-        return lof_features(m, config), float(args.fps)
+        width = m.shape[1] if m.ndim == 2 else None
+        if width in (8, 17) and width != config.n_features:  # the other feature set
+            raise ParameterError(f"{args.file} has {width} columns, the features of "
+                                 f"--inclinations {'off' if width == 8 else 'on'}; these "
+                                 f"options take {config.n_features}")
+        return lof_features(m, config), float(args.fps)  # validates any other width
     if getattr(args, "up", None) and not config.inclinations:
         raise ParameterError("--up has no effect without the inclinations (--inclinations off "
                              "or --preset paper)")

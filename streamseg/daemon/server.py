@@ -335,13 +335,9 @@ class Daemon:
             self._error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
                         f"processed: {type(err).__name__}: {err}", pos.shape[0])
             return
-        if st.pipeline.up_warning is not None:
-            self._error(st.stream, "up", st.pipeline.up_warning)
-            st.pipeline.up_warning = None
-        if st.pipeline.rep_error is not None:
-            self._error(st.stream, "rep", f"repetition counting stopped: "
-                        f"{st.pipeline.rep_error}")
-            st.pipeline.rep_error = None
+        for reason, message in st.pipeline.notices:
+            self._error(st.stream, reason, message)
+        st.pipeline.notices.clear()
         if bad:
             st.dropped += bad
             self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
