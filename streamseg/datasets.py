@@ -101,3 +101,102 @@ def cmu02_sequence(data_dir, trials) -> tuple:
     root = Path(data_dir) / "cmu02"
     asf = root / "02.asf"
     return concatenate([read(root / f"02_{t}.amc.gz", skeleton=asf) for t in trials])
+
+
+#: HDM05 classes whose clips hold exactly one repetition each (data/hdm05_reps/README.md).
+HDM05_REPETITIVE = ("squat1Reps", "elbowToKnee1RepsLelbowStart", "rotateArmsBothBackward1Reps",
+                    "kickLFront1Reps", "hopBothLegs1hops")
+#: HDM05 classes whose clips hold one whole action each.
+HDM05_ACTIONS = ("depositFloorR", "grabHighR", "lieDownFloor", "throwBasketball",
+                 "sneak2StepsLStart", "jogLeftCircle4StepsRstart")
+HDM05_ACTORS = ("bd", "bk", "dg")
+#: Repetitions a repetitive class contributes to an action sequence: one set of this many.
+HDM05_SET_REPS = 3
+
+
+def hdm05_clips(data_dir) -> dict:
+    """``(actor, class) -> [clip path, ...]`` in take order, from ``hdm05_reps/clips.csv``."""
+    import csv
+
+    root = Path(data_dir) / "hdm05_reps"
+    out: dict = {}
+    with open(root / "clips.csv", newline="") as fh:
+        for row in csv.DictReader(fh):
+            out.setdefault((row["actor"], row["class"]), []).append(
+                root / row["class"] / (row["file"] + ".gz"))
+    return out
+
+
+def _clips_left(clips, actor, cls, used) -> bool:
+    """Whether ``actor`` has enough unused ``cls`` clips for one more part."""
+    need = HDM05_SET_REPS if cls in HDM05_REPETITIVE else 1
+    return len(clips.get((actor, cls), [])) - used[cls] >= need
+
+
+def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: int = 0) -> dict:
+    """Which clips make each HDM05 action sequence, decided before any result is seen.
+
+    Per actor, ``per_actor`` sequences of ``n_classes`` distinct classes in random order (at
+    least one repetitive and one whole-action class each); a whole-action class is one clip, a
+    repetitive class a set of :data:`HDM05_SET_REPS` consecutive takes. No clip is used twice.
+
+    Returns
+    -------
+    dict
+        ``name -> (actor, [(class, [path, ...]), ...])``, names ``hdm_<actor>_<i>``.
+    """
+    clips = hdm05_clips(data_dir)
+    rng = np.random.default_rng(seed)
+    plans = {}
+    for actor in HDM05_ACTORS:
+        used = {c: 0 for c in HDM05_REPETITIVE + HDM05_ACTIONS}
+        for i in range(per_actor):
+            rep = [c for c in HDM05_REPETITIVE if _clips_left(clips, actor, c, used)]
+            act = [c for c in HDM05_ACTIONS if _clips_left(clips, actor, c, used)]
+            if not rep or not act or len(rep) + len(act) < n_classes:
+                raise ParameterError(f"hdm05_action_plans: actor {actor} has too few clips "
+                                     f"for {per_actor} sequences of {n_classes} classes")
+            while True:
+                classes = list(rng.choice(rep + act, n_classes, replace=False))
+                if set(classes) & set(rep) and set(classes) & set(act):
+                    break
+            parts = []
+            for c in classes:
+                need = HDM05_SET_REPS if c in HDM05_REPETITIVE else 1
+                parts.append((str(c), clips[actor, c][used[c]:used[c] + need]))
+                used[c] += need
+            plans[f"hdm_{actor}_{i}"] = (actor, parts)
+    return plans
+
+
+def hdm05_sequence(data_dir, actor: str, parts) -> tuple:
+    """Read and join the clips of one plan of :func:`hdm05_action_plans`.
+
+    Returns
+    -------
+    recording : Recording
+    cuts : list of int
+        First frame of every class after the first (joins inside a repetition set are not
+        cuts).
+    """
+    from streamseg.io import read
+
+    asf = Path(data_dir) / "hdm05_reps" / "asf" / f"HDM_{actor}.asf"
+    recs, class_starts, n = [], [], 0
+    for _cls, paths in parts:
+        class_starts.append(n)
+        for p in paths:
+            r = read(p, skeleton=asf)
+            recs.append(r)
+            n += r.n_frames
+    joined, _ = concatenate(recs)
+    return joined, class_starts[1:]
+
+
+def hdm05_action_sequences(data_dir, per_actor: int = 3, seed: int = 0) -> dict:
+    """``name -> (recording, cuts, plan)`` for every plan of :func:`hdm05_action_plans`."""
+    out = {}
+    for name, (actor, parts) in hdm05_action_plans(data_dir, per_actor, seed=seed).items():
+        rec, cuts = hdm05_sequence(data_dir, actor, parts)
+        out[name] = (rec, cuts, parts)
+    return out

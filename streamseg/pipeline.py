@@ -311,7 +311,18 @@ class StreamPipeline:
         return [(r.start + o, r.end + o, int(r.count), r.emitted_at + o) for r in reps]
 
     def finish(self) -> list:
-        """Cuts the segmenter still holds at the end of the stream, in stream frames."""
+        """Cuts the segmenter still holds at the end of the stream, in stream frames.
+
+        A stream that ended before its first complete detector window adds a ``short``
+        notice: it could not have had a cut, which a listener should not read as "no change".
+        """
+        seen = self.segmenter.n_frames_
+        window = self.segmenter.geometry["window"]
+        if self.offset == 0 and seen < window:
+            self.notices.append(("short",
+                f"the stream ended after {seen} frames ({seen / self.fps:.2f} s), shorter than "
+                f"the cut detector's window of {window} frames ({window / self.fps:.2f} s): no "
+                "cut could be found"))
         return self._cuts(self.segmenter.finish())
 
     def _remember(self, angles: np.ndarray, frames: np.ndarray) -> None:

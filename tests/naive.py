@@ -167,6 +167,25 @@ def naive_refine_cut(angles, bins, centre, radius, window, n_avail, first=0):
     return at
 
 
+def naive_contrast(angles, bins, g, window, n_avail, oldest=0):
+    """``1 - cos`` between the per-angle histogram counts of the frames ``[g - window, g)``
+    and ``[g, g + window)``, each clipped to ``[oldest, n_avail)`` (frames without NaN only);
+    -1 when a side has no valid frame."""
+    angles = np.asarray(angles, dtype=float)
+
+    def hist(block):
+        block = block[np.isfinite(block).all(axis=1)]
+        if len(block) == 0:
+            return None
+        return naive_window_counts(block, len(block), 1, bins)[0][0]
+
+    a = hist(angles[max(oldest, g - window):min(g, n_avail)])
+    b = hist(angles[max(oldest, g):min(g + window, n_avail)])
+    if a is None or b is None:
+        return -1.0
+    return max(0.0, 1.0 - float(a @ b) / np.sqrt(float(a @ a) * float(b @ b)))
+
+
 def naive_sorted_neighbours(x, times=None, exclusion=0):
     """Every row's eligible neighbours (itself and rows closer than ``exclusion`` in time
     excluded) as ``(distance, index)`` pairs sorted by distance then index."""

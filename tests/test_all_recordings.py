@@ -33,7 +33,7 @@ RECORDINGS = _recordings()
 
 
 def test_every_listed_file_is_bundled():
-    assert len(RECORDINGS) == 1 + 2 + 10 + 64
+    assert len(RECORDINGS) == 1 + 2 + 10 + 188
     assert all(f.exists() and s.exists() for f, s in RECORDINGS)
 
 

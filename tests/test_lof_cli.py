@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from streamseg import cli
+from streamseg.config import LOFConfig
 
 
 def _run(capsys, *argv):
@@ -32,7 +33,7 @@ def test_segment_json_online(capsys, files):
     assert [s["start"] for s in seg[1:]] == cuts and seg[0]["start"] == 0
     assert seg[-1]["end"] == 4579 and all(s["label"] is None for s in seg)
     assert all(a["end"] == b["start"] for a, b in zip(seg, seg[1:]))
-    assert out["params"]["online"] and out["params"]["k"] == 10
+    assert out["params"]["online"] and out["params"]["k"] == LOFConfig().k
 
 
 def test_segment_options_and_paper_preset(capsys, files):

@@ -63,3 +63,32 @@ def test_fit_recording_equals_fit_bone_angles(data_dir):
     np.testing.assert_array_equal(a.lof_, b.lof_)
     np.testing.assert_array_equal(a.predict(), b.predict())
     assert a.n_frames_ == rec.n_frames
+
+
+def test_hdm05_action_plans_use_each_clip_once_and_cut_between_classes(data_dir):
+    from streamseg.datasets import (
+        HDM05_ACTIONS,
+        HDM05_REPETITIVE,
+        HDM05_SET_REPS,
+        hdm05_action_plans,
+        hdm05_sequence,
+    )
+
+    plans = hdm05_action_plans(data_dir)
+    assert len(plans) == 9
+    used = [p for _actor, parts in plans.values() for _c, paths in parts for p in paths]
+    assert len(used) == len(set(used))
+    for actor, parts in plans.values():
+        classes = [c for c, _ in parts]
+        assert len(set(classes)) == 5
+        assert set(classes) & set(HDM05_REPETITIVE) and set(classes) & set(HDM05_ACTIONS)
+        for c, paths in parts:
+            assert len(paths) == (HDM05_SET_REPS if c in HDM05_REPETITIVE else 1)
+            assert all(f"HDM_{actor}_{c}_" in p.name for p in paths)
+    actor, parts = plans["hdm_bd_0"]
+    rec, cuts = hdm05_sequence(data_dir, actor, parts)
+    from streamseg.io import read
+
+    asf = data_dir / "hdm05_reps/asf/HDM_bd.asf"
+    lengths = [sum(read(p, skeleton=asf).n_frames for p in paths) for _c, paths in parts]
+    assert cuts == list(np.cumsum(lengths)[:-1]) and rec.n_frames == sum(lengths)

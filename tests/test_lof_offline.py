@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from sklearn.neighbors import LocalOutlierFactor as sklearn_lof  # the test oracle
 
-from streamseg._kernels.histogram import refine_cut
+from streamseg._kernels.histogram import contrast_at, refine_cut
 from streamseg._kernels.peaks import dp_keep, peak_windows
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
@@ -21,6 +21,7 @@ from streamseg.offline.lof import (
     window_histograms,
 )
 from tests.naive import (
+    naive_contrast,
     naive_cosine_lof,
     naive_douglas_peucker,
     naive_peak_windows,
@@ -219,6 +220,40 @@ def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
     assert refine_cut(fb, valid, 600, 280, 0, 60, 10, 600, 0, 0, left, right) == 280
     # the previous cut's gap (first) bounds the search from below
     assert refine_cut(fb, valid, 600, 300, 48, 60, 10, 600, 0, 310, left, right) == 310
+    # the centre rule: every cut is a window centre
     seg = LOFSegmenter(LOFConfig(refine_s=0.0, inclinations=False), fps=120).fit(a)
-    np.testing.assert_array_equal(seg.predict(), seg.centres_[seg.cut_windows_])
+    assert len(seg.predict()) and np.isin(seg.predict(), seg.centres_).all()
     assert LOFConfig.paper().refine_s == 0.0
+
+
+@settings(max_examples=80, deadline=None)
+@given(data=st.data(), n=st.integers(1, 120), window=st.integers(1, 25), bins=st.integers(2, 6))
+def test_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, window, bins):
+    a = data.draw(arrays(np.float64, (n, 8), elements=st.one_of(
+        st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan))))
+    g = data.draw(st.integers(0, n))
+    n_avail = data.draw(st.integers(0, n))
+    fb, valid = frame_bins(a, bins)
+    left, right = np.zeros(8 * bins, dtype=np.int64), np.zeros(8 * bins, dtype=np.int64)
+    got = contrast_at(fb, valid, n, g, window, bins, n_avail, 0, left, right)
+    assert got == pytest.approx(naive_contrast(a, bins, g, window, n_avail), abs=1e-12)
+    size = data.draw(st.integers(max(1, 2 * window), max(2 * window, n)))
+    oldest = max(0, n_avail - size)
+    ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
+    for f in range(oldest, n_avail):
+        ring[f % size], rv[f % size] = fb[f], valid[f]
+    assert contrast_at(ring, rv, size, g, window, bins, n_avail, oldest, left, right) == \
+        contrast_at(fb, valid, n, g, window, bins, n_avail, oldest, left, right)
+
+
+def test_contrast_hand_derived_values():
+    """Two angles, 2 bins: [0.1, 0.1] x 10 then [3.0, 0.1] x 10."""
+    a = np.array([[0.1] * 8] * 10 + [[3.0] + [0.1] * 7] * 10)
+    fb, valid = frame_bins(a, 2)
+    left, right = np.zeros(16, dtype=np.int64), np.zeros(16, dtype=np.int64)
+    # at the change: counts (10, 0 | 10, 0 ...) vs (0, 10 | 10, 0 ...): cos = 7/8 of the norms
+    assert contrast_at(fb, valid, 20, 10, 10, 2, 20, 0, left, right) == pytest.approx(1 / 8)
+    # inside one half: identical histograms
+    assert contrast_at(fb, valid, 20, 5, 5, 2, 20, 0, left, right) == 0.0
+    # no frame on the right yet: undefined
+    assert contrast_at(fb, valid, 20, 10, 10, 2, 10, 0, left, right) == -1.0

@@ -12,7 +12,7 @@ from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import LOFSegmenter
 from streamseg.online.events import Cut
 from streamseg.online.lof import StreamingLOFSegmenter, warmup
-from tests.naive import naive_refine_cut
+from tests.naive import naive_contrast, naive_refine_cut
 
 FAST = LOFConfig(window_s=0.5, step_s=0.1, k=5, buffer_s=6.0, delay_s=0.5)
 D = LOFConfig().n_features  # 8 bone angles + 9 inclinations
@@ -166,8 +166,10 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
 
     Window w is decided when window w + delay arrives, so its LOF is the offline LOF of the
     prefix of windows 0..w+delay, and its threshold uses that prefix's curve; the cut frame is
-    localised with the frames up to the end of window w + delay. Recomputing that offline
-    (naive localisation) for every window reproduces the emitted cuts exactly.
+    localised with the frames up to the end of window w + delay and confirmed by the contrast
+    of the frames before and after it seen by then. Recomputing that offline (naive
+    localisation and contrast) for every window reproduces the emitted cuts exactly, and the
+    confirmation rejects at least one peak.
     """
     cfg = LOFConfig()
     s = StreamingLOFSegmenter(cfg, fps=120)
@@ -177,7 +179,7 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
     delay, m = g["delay"], len(off.lof_)
     keep = np.zeros(2 * delay + 1, dtype=np.uint8)
     stack = np.zeros(8 * delay + 8, dtype=np.int64)
-    replay, last = [], -(1 << 40)
+    replay, last, rejected = [], -(1 << 40), 0
     for w in range(m - delay):
         t = w + delay
         y = lof_batch(off.counts_[:t + 1], cfg.k, off.centres_[:t + 1], 0)[0]
@@ -188,35 +190,33 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
                 y, lo, t, w, g["min_gap"]) and is_peak(y, lo, t, w, cfg.dp_tolerance, keep, stack):
             n_avail = int(off.centres_[t]) - g["window"] // 2 + g["window"]
             first = replay[-1] + g["min_gap"] * g["step"] if replay else 0
-            replay.append(naive_refine_cut(angles_86_01, cfg.bins, int(off.centres_[w]),
-                                           g["refine"], g["window"], n_avail, first))
+            cut = naive_refine_cut(angles_86_01, cfg.bins, int(off.centres_[w]), g["refine"],
+                                   g["window"], n_avail, first)
+            # the confirming two-sample contrast, with the frames seen at the decision
+            since = replay[-1] if replay else 0  # the before side starts at the last cut
+            if n_avail - cut < g["window"] or naive_contrast(
+                    angles_86_01, cfg.bins, cut, g["contrast"], n_avail, since) \
+                    < cfg.min_contrast:
+                rejected += 1
+                continue
+            replay.append(cut)
             last = w
-    assert online == replay and len(online) >= 5
+    assert online == replay and len(online) >= 5 and rejected >= 1
 
 
-def test_online_vs_offline_cuts_on_86_01(angles_86_01):
-    """Causal decisions differ from the offline reference, which sees the final curve.
-
-    Offline, window w's LOF uses every later window and the threshold the whole curve;
-    online, w is decided with only ``delay`` (2.5 s) of future and the curve so far, so a
-    peak's LOF (and the threshold) when decided are not the final ones. Both localise a cut
-    with the same frames (up to the end of window w + delay). Measured on 86_01 (defaults):
-    online 589 1095 1215 1887 2487 3303 4098, offline 589 1167 2007 2487 3327 4098 -- 4 of the
-    7 online cuts are within one window step (24 frames) of an offline cut (3 identical), the
-    others 48-120 frames away; online has one cut more (1095 and 1215 around the jump->walk
-    label at 1150, where offline has one), since a peak's neighbourhood looks different before
-    the windows after it exist; offline's 2007 is online's 1887, a peak window that only stands
-    out once later windows exist. The bounds below pin that, so a regression shows.
-    """
+def test_offline_cuts_are_the_live_decisions(angles_86_01):
+    """One decision rule: offline segmentation makes the live detector's decisions over the
+    file, whatever the packet size of the live feed."""
     cfg = LOFConfig()
     s = StreamingLOFSegmenter(cfg, fps=120)
-    online = np.array([c.frame for c in s.learn_many(angles_86_01) + s.finish()])
-    offline = LOFSegmenter(cfg, fps=120).fit(angles_86_01).predict()
-    step = s.geometry["step"]
-    gaps = np.abs(online[:, None] - offline[None, :]).min(axis=1)
-    assert (gaps <= step).sum() >= len(online) // 2 + 1 and (gaps == 0).sum() >= 3
-    assert gaps.max() <= 6 * step
-    assert abs(len(offline) - len(online)) <= 3
+    online = []
+    for i in range(0, len(angles_86_01), 37):
+        online += s.learn_many(angles_86_01[i:i + 37])
+    online += s.finish()
+    off = LOFSegmenter(cfg, fps=120).fit(angles_86_01)
+    assert [c.frame for c in online] == list(off.predict())
+    assert [c.emitted_at for c in online] == list(off.decided_at_)
+    np.testing.assert_array_equal([c.score for c in online], off.scores_)
 
 
 def test_short_and_empty_streams():

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+UNDEFINED = -2.0  # cosine distance of an empty count vector
+
 
 @njit(cache=True, nogil=True)
 def bin_frames(angles, bins, out_bins, out_valid):
@@ -97,6 +99,23 @@ def _add_frame(counts, ring, valid, size, g, bins, sign):
             counts[a * bins + ring[pos, a]] += sign
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _cos_distance(left, right):
+    """``1 - cos`` of two count vectors (rounding may leave it just below 0); ``UNDEFINED``
+    when either is all zero."""
+    dot = 0.0
+    nl = 0.0
+    nr = 0.0
+    for d in range(left.shape[0]):
+        dot += float(left[d]) * float(right[d])
+        nl += float(left[d]) * float(left[d])
+        nr += float(right[d]) * float(right[d])
+    den = np.sqrt(nl * nr)
+    if den == 0.0:
+        return UNDEFINED
+    return 1.0 - dot / den
+
+
 @njit(cache=True, nogil=True)
 def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest, first, left,
                right):
@@ -141,15 +160,9 @@ def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest,
     best = -1.0
     at = centre
     for g in range(lo, hi + 1):
-        dot = 0.0
-        nl = 0.0
-        nr = 0.0
-        for d in range(left.shape[0]):
-            dot += float(left[d]) * float(right[d])
-            nl += float(left[d]) * float(left[d])
-            nr += float(right[d]) * float(right[d])
-        den = np.sqrt(nl * nr)
-        dist = 1.0 if den == 0.0 else 1.0 - dot / den
+        dist = _cos_distance(left, right)
+        if dist == UNDEFINED:
+            dist = 1.0
         if dist > best:
             best = dist
             at = g
@@ -159,3 +172,31 @@ def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest,
             _add_frame(right, ring, valid, size, g, bins, -1)
             _add_frame(right, ring, valid, size, g + window, bins, 1)
     return at
+
+
+@njit(cache=True, nogil=True)
+def contrast_at(ring, valid, size, g, window, bins, n_avail, oldest, left, right):
+    """Cosine distance ``1 - cos`` between the count vectors of frames ``[g - window, g)`` and
+    ``[g, g + window)`` (valid frames only), each clipped to the frames ``[oldest, n_avail)``.
+
+    The two-sample statistic that confirms a cut: near 0 when both sides hold the same action,
+    up to 1 when they share no bin. Returns -1.0 when a side holds no valid frame.
+
+    Parameters
+    ----------
+    ring, valid, size, window, bins, n_avail, oldest : as :func:`refine_cut`
+    g : int
+        Candidate cut frame.
+    left, right : int64 (n_angles * bins,), scratch
+    """
+    for d in range(left.shape[0]):
+        left[d] = 0
+        right[d] = 0
+    for f in range(max(oldest, g - window), min(g, n_avail)):
+        _add_frame(left, ring, valid, size, f, bins, 1)
+    for f in range(max(oldest, g), min(g + window, n_avail)):
+        _add_frame(right, ring, valid, size, f, bins, 1)
+    d = _cos_distance(left, right)
+    if d == UNDEFINED:
+        return -1.0
+    return 0.0 if d < 0.0 else d

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from streamseg._kernels.histogram import refine_cut
+from streamseg._kernels.histogram import contrast_at, refine_cut
 from streamseg._kernels.lof import ext_evict, ext_insert
 from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
 
@@ -50,7 +50,10 @@ def _decide(w, hi, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, cu
 
     The cut frame is the peak window's centre moved to the largest before/after histogram
     contrast within ``geo[6]`` frames (:func:`refine_cut`, frames seen so far only), at least
-    ``min_gap * step`` frames after the previous cut frame.
+    ``min_gap * step`` frames after the previous cut frame. With ``p[5] > 0`` the cut is
+    confirmed only when at least ``window`` frames after it have been seen and the contrast of
+    the ``geo[7]`` frames before (since the previous cut at most) and after it
+    (:func:`contrast_at`) reaches ``p[5]``.
     """
     delay, tol, n_mads, min_score, min_gap = p[0], p[1], p[2], p[3], p[4]
     oldest = st[3] - st[2]
@@ -76,6 +79,18 @@ def _decide(w, hi, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, cu
             # cut frames keep the minimum gap too (min_gap windows of step frames)
             c = refine_cut(rb, rv, size, c, geo[6], geo[1], geo[0], st[0], max(0, st[0] - size),
                            st[9] + int(min_gap) * geo[2], left, right)
+        if p[5] > 0.0:
+            # confirmation needs at least one window of frames after the cut (at the end of a
+            # stream there may be fewer: a few frames make any histogram look different)
+            if st[0] - c < geo[1]:
+                return n_ev
+            size = rb.shape[0]
+            # the before side starts no earlier than the previous cut: the new segment is
+            # compared with the current one, not with a change already reported
+            con = contrast_at(rb, rv, size, c, geo[7], geo[0], st[0],
+                              max(0, st[0] - size, st[9]), left, right)
+            if con < p[5]:
+                return n_ev
         st[9] = c
         ev_frame[n_ev] = c
         ev_score[n_ev] = yw
@@ -93,8 +108,10 @@ def stream_block(angles, st, geo, p,
                  ev_frame, ev_score, ev_emit):
     """Feed ``angles`` (n, n_angles) frames; return the number of events written.
 
-    ``geo`` = (bins, window, step, min_valid, k, exclusion frames, refine radius frames);
-    ``p`` = (delay, tol, n_mads, min_score, min_gap) as float64. ``rb``/``rv`` are a ring of
+    ``geo`` = (bins, window, step, min_valid, k, exclusion frames, refine radius frames,
+    contrast frames);
+    ``p`` = (delay, tol, n_mads, min_score, min_gap, min_contrast) as float64;
+    ``geo[7]`` is the contrast sub-window (frames). ``rb``/``rv`` are a ring of
     the last ``len(rb) >= window`` frames' bins and validity (frame ``f`` at ``f % len(rb)``),
     ``cur`` the current window's counts, ``left``/``right`` scratch counts. The LOF state
     (``vecs`` .. ``centres``) is described in :mod:`streamseg._kernels.lof`; its candidate

@@ -27,7 +27,8 @@ _D = LOFConfig()
 _FIELDS = {"window": "window_s", "step": "step_s", "bins": "bins", "k": "k",
            "buffer": "buffer_s", "delay": "delay_s", "threshold": "threshold_mads",
            "min_score": "min_score", "exclusion": "exclusion", "refine": "refine_s",
-           "inclinations": "inclinations"}
+           "inclinations": "inclinations", "min_contrast": "min_contrast",
+           "contrast": "contrast_s"}
 
 
 def add_arguments(group) -> None:
@@ -35,7 +36,7 @@ def add_arguments(group) -> None:
     group.add_argument("--online", action="store_true",
                        help="stream the frames through the live detector (reports latency)")
     group.add_argument("--preset", choices=("default", "paper"), default="default",
-                       help="default: tuned on 86_01 + 14_14; paper: Xing et al. 2015 "
+                       help="default: chosen on 86_01 + one HDM05 join; paper: Xing et al. 2015 "
                             "(500/45 frames at 120 Hz, k=20)")
     group.add_argument("--window", type=float, metavar="S",
                        help=f"LOF window length, seconds (default {_D.window_s:g})")
@@ -59,6 +60,13 @@ def add_arguments(group) -> None:
                        help="move each cut to the largest before/after histogram contrast "
                             f"within S seconds of the peak window's centre (default "
                             f"{_D.refine_s:g}; 0: the centre, as in the paper)")
+    group.add_argument("--min-contrast", type=float, metavar="D",
+                       help="confirm a cut only when the histograms before and after it differ "
+                            f"by this cosine distance (default {_D.min_contrast:g}; 0: no "
+                            "confirmation, as in the paper)")
+    group.add_argument("--contrast", type=float, metavar="S",
+                       help=f"seconds on each side of the confirming contrast (default "
+                            f"{_D.contrast_s:g})")
     group.add_argument("--inclinations", choices=("on", "off"), type=str.lower,
                        help="add each bone's inclination from the up axis to the 8 bone "
                             "angles (default on; the paper preset: off)")
@@ -129,6 +137,12 @@ def run(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) -> dict
     plus ``final``, the buffer's curve at the end), ``threshold`` (offline), ``seconds``
     """
     t0 = time.perf_counter()
+    window = config.frames(fps)["window"]
+    if angles.shape[0] < window:
+        print(f"streamseg: warning: the recording has {angles.shape[0]} frames "
+              f"({angles.shape[0] / fps:.2f} s), shorter than the cut detector's window of "
+              f"{window} frames ({window / fps:.2f} s): no cut can be found (a shorter "
+              "--window would look at it)", file=sys.stderr)
     if online:
         from streamseg.online.lof import StreamingLOFSegmenter
 
@@ -153,7 +167,7 @@ def run(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) -> dict
 
         seg = LOFSegmenter(config, fps).fit(angles)
         out = dict(cuts=[int(c) for c in seg.predict()], latency=None,
-                   scores=[float(v) for v in seg.lof_[seg.cut_windows_]], centres=seg.centres_,
+                   scores=[float(v) for v in seg.scores_], centres=seg.centres_,
                    lof=seg.lof_, threshold=seg.threshold_, n_nan_frames=seg.n_nan_frames_,
                    geometry=seg.geometry)
     out["seconds"] = time.perf_counter() - t0

@@ -384,6 +384,9 @@ class Daemon:
         except Exception as err:  # never die: report, close without the final cuts
             final = []
             self._error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
+        for kind, message in st.pipeline.notices:
+            self._error(st.stream, kind, message)
+        st.pipeline.notices.clear()
         for frame, score, emitted in final:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
             st.cuts.append(ev)

@@ -7,17 +7,16 @@ from the up axis, ``LOFConfig.inclinations``) -> sliding windows -> per-angle hi
 with ``k`` neighbours -> peaks of the LOF curve by Douglas-Peucker simplification and a robust
 threshold -> cut at the centre of each peak window.
 
-Peaks: the paper simplifies the whole curve with Douglas-Peucker and takes its peaks, with
-no stated threshold. Here each window is judged by the rule the streaming detector applies
-(``streamseg._kernels.peaks.peak_windows``): a peak vertex of the simplification of the
-``+-delay`` windows around it, the highest value within ``min_gap``, and above the robust
-threshold ``max(min_score, median + threshold_mads * 1.4826 * MAD)`` of the curve.
-
-Cut frame: the paper takes the peak window's centre (``refine_s = 0``). By default the cut
-moves to the frame within ``refine_s`` of that centre where the histograms of the ``window``
-frames before and after it differ most (:func:`refine_cuts`), using only the frames the
-streaming detector has when it decides that window (up to the end of window ``w + delay``),
-so offline and streaming cuts agree.
+Decision: the paper simplifies the whole curve with Douglas-Peucker and takes its peaks, with
+no stated threshold. Here a file is segmented with the decision the live detector makes
+(:class:`streamseg.online.StreamingLOFSegmenter`, see :class:`streamseg.config.LOFConfig`):
+each window is judged when ``delay_s`` of data after it exist, against the LOF curve of the
+bounded buffer at that moment, its cut moved to the largest before/after histogram contrast
+and confirmed by that contrast. One decision rule, so offline cuts equal the live ones; it is
+also the better rule (with the whole-curve peaks of :func:`select_peaks` the mean F1 over the
+labelled recordings was lower, ``benchmarks/lof_accuracy.py``). The whole-recording curve
+(``lof_``) is still computed, for pictures and as the reference the incremental LOF is tested
+against.
 
 NaN policy (marker dropout): a frame with any NaN angle is skipped (counted in
 ``n_nan_frames_``) and contributes to no histogram; a window with fewer than
@@ -28,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from streamseg._kernels.histogram import bin_frames, refine_cut, window_counts
+from streamseg._kernels.histogram import bin_frames, window_counts
 from streamseg._kernels.lof import lof_batch
 from streamseg._kernels.peaks import peak_windows, robust_threshold
 from streamseg.config import LOFConfig
@@ -150,44 +149,6 @@ def select_peaks(curve: np.ndarray, delay: int, config: LOFConfig, min_gap: int)
                         int(min_gap))
 
 
-def refine_cuts(fb, valid, centres, cut_windows, window: int, delay: int, radius: int,
-                bins: int, gap: int = 0) -> np.ndarray:
-    """Move each cut from its peak window's centre to the largest before/after contrast.
-
-    Window ``w`` is decided by the streaming detector on the last frame of window ``w +
-    delay`` (or at the end of the stream), so only the frames up to there are used; each cut
-    stays at least ``gap`` frames after the previous one.
-
-    Parameters
-    ----------
-    fb : ndarray of int8, shape (n_frames, n_angles), see :func:`frame_bins`
-    valid : ndarray of uint8, shape (n_frames,)
-    centres : ndarray of int64, shape (m,), window centres
-    cut_windows : ndarray of int64, shape (n_cuts,), indices into ``centres``
-    window, delay, radius, bins : int
-        Sub-window length (frames), decision delay (windows), search radius (frames), bins.
-    gap : int
-        Minimum distance between cut frames (frames).
-
-    Returns
-    -------
-    ndarray of int64, shape (n_cuts,), cut frames
-    """
-    n, m = fb.shape[0], centres.shape[0]
-    out = np.asarray(centres, dtype=np.int64)[np.asarray(cut_windows, dtype=np.int64)]
-    if radius <= 0:
-        return out
-    left = np.zeros(fb.shape[1] * bins, dtype=np.int64)
-    right = np.zeros_like(left)
-    prev = -(1 << 40)
-    for i, w in enumerate(cut_windows):
-        last = int(w) + delay
-        n_avail = n if last > m - 1 else int(centres[last]) - window // 2 + window
-        out[i] = prev = refine_cut(fb, valid, n, int(out[i]), radius, window, bins, n_avail, 0,
-                                   prev + gap, left, right)
-    return out
-
-
 class LOFSegmenter:
     """Offline cut detection: LOF over sliding-window histograms of bone angles.
 
@@ -206,10 +167,11 @@ class LOFSegmenter:
     counts_ : ndarray, shape (m, n_features * bins), window count vectors
     vectors_ : ndarray, shape (m, n_features * bins), normalized histograms
     centres_ : ndarray of int64, shape (m,), window centre frames
-    lof_ : ndarray, shape (m,), the LOF curve
-    threshold_ : float, the adaptive threshold used on the curve
-    cut_windows_ : ndarray of int64, window indices of the cuts
-    cuts_ : ndarray of int64, cut frames (see :func:`refine_cuts`)
+    lof_ : ndarray, shape (m,), the LOF curve of the whole recording (for inspection)
+    threshold_ : float, the adaptive threshold of that whole curve
+    cuts_ : ndarray of int64, cut frames: the live detector's decisions over the file
+    scores_ : ndarray of float64, the LOF of each cut's window when it was decided
+    decided_at_ : ndarray of int64, the frame at which each cut was decided
     """
 
     def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
@@ -246,9 +208,13 @@ class LOFSegmenter:
         m = self.lof_.shape[0]
         thr = robust_threshold(self.lof_, m, c.threshold_mads, np.empty(max(m, 1)))
         self.threshold_ = float(max(thr, c.min_score))
-        self.cut_windows_ = select_peaks(self.lof_, g["delay"], c, g["min_gap"])
-        self.cuts_ = refine_cuts(fb, valid, centres, self.cut_windows_, g["window"], g["delay"],
-                                 g["refine"], c.bins, g["min_gap"] * g["step"])
+        from streamseg.online.lof import StreamingLOFSegmenter
+
+        det = StreamingLOFSegmenter(c, self.fps, n_features=angles.shape[1])
+        events = det.learn_many(angles) + det.finish()
+        self.cuts_ = np.array([e.frame for e in events], dtype=np.int64)
+        self.scores_ = np.array([e.score for e in events], dtype=np.float64)
+        self.decided_at_ = np.array([e.emitted_at for e in events], dtype=np.int64)
         return self
 
     def predict(self) -> np.ndarray:

@@ -23,32 +23,37 @@ class StreamingLOFSegmenter:
     windows as candidates, so an eviction almost never forces an O(capacity) rescan for a
     new k-th neighbour; the median and MAD of the threshold use selection, not sorting.
     Window ``w`` is decided once, when window ``w + delay`` is complete: it is a cut when it is a
-    peak vertex of the Douglas-Peucker simplification of the LOF curve over windows ``w - delay .. w
-    + delay`` and reaches ``max(min_score, median + threshold_mads * 1.4826 * MAD)`` of the buffered
-    curve, at least ``min_gap`` windows after the previous cut. The cut frame is then moved from the
-    window's centre to the frame within ``refine`` frames (``refine_s``) where the count histograms
-    of the ``window`` frames before and after it differ most (cosine distance), among the frames
-    already seen; the offline segmenter applies the same rule.
+    peak vertex of the Douglas-Peucker simplification of the LOF curve over windows ``w - delay ..
+    w + delay`` and reaches ``max(min_score, median + threshold_mads * 1.4826 * MAD)`` of the
+    buffered curve, at least ``min_gap`` windows after the previous cut. The cut frame is then
+    moved from the window's centre to the frame within ``refine`` frames (``refine_s``) where the
+    count histograms of the ``window`` frames before and after it differ most (cosine distance),
+    among the frames already seen, and confirmed when at least ``window`` frames after it have
+    been seen and the histograms of the ``contrast`` frames before it (since the previous cut at
+    most) and after it differ by ``min_contrast`` (see :class:`LOFConfig`). The offline segmenter
+    makes these same decisions over a whole file.
     (The frame ring holds ``history`` frames, enough without NaN-dropped windows; after drops
-    the search may be clipped to the frames still held, which the offline rule does not do.)
+    the search may be clipped to the frames still held.)
 
     Latency: window ``w`` is decided on the last frame of window ``w + delay``, that is
     ``delay * step + window - 1 - window // 2`` frames after the centre of ``w``; localisation
     moves the cut by at most ``refine`` frames either way, so the worst-case latency is
     ``delay * step + window - 1 - window // 2 + refine`` frames (:meth:`latency_frames`; with
-    the defaults at 120 Hz: 12 * 24 + 269 - 135 + 48 = 470 frames, 3.9 s; the decision itself
-    is 422 frames, 3.5 s, after the peak window's centre). This holds when no window is dropped for
-    NaN frames; every dropped window delays the decision by one more ``step``. :meth:`finish`
-    decides the last ``delay`` windows at the end.
+    the defaults at 120 Hz: 8 * 24 + 210 - 1 - 105 + 48 = 344 frames, 2.87 s; the decision
+    itself is 296 frames, 2.47 s, after the peak window's centre; the median over the labelled
+    recordings is 2.3 s, ``benchmarks/lof_latency.py``). This holds when no window is dropped
+    for NaN frames; every dropped window delays the decision by one more ``step``.
+    :meth:`finish` decides the last ``delay`` windows at the end.
 
     NaN policy: a frame with any non-finite angle is skipped (counted in ``n_nan_frames_``)
     and enters no histogram; it still advances the frame clock. A window with fewer than
     ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
 
     Memory: fixed at construction, ``capacity * (2 * d * bins + 40 * k + 73)`` +
-    ``(d + 1) * history`` bytes, ``d = n_features``, ``history = delay * step + 2 * window +
-    refine + 1`` frames (defaults at 120 Hz, d = 17: 375 windows and 877 frames, about 273 kB
-    per stream, 273 MB for 1,000 streams; the ``2 * k`` candidates take 60 kB of that).
+    ``(d + 1) * history`` bytes, ``d = n_features``, ``history = delay * step + window +
+    refine + max(window, contrast) + 1`` frames (defaults at 120 Hz, d = 17: 375 windows and
+    691 frames, 195 kB per stream, 195 MB for 1,000 streams; the ``2 * k`` candidates take 30
+    kB of that).
 
     Parameters
     ----------
@@ -71,9 +76,9 @@ class StreamingLOFSegmenter:
         c = self.config
         n, k, d, w = g["capacity"], c.k, self.n_features * c.bins, g["window"]
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
-                              g["refine"]], dtype=np.int64)
+                              g["refine"], g["contrast"]], dtype=np.int64)
         self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
-                            g["min_gap"]], dtype=np.float64)
+                            g["min_gap"], c.min_contrast], dtype=np.float64)
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
         self._st = _ks.new_state()
         # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
@@ -219,8 +224,11 @@ def warmup() -> None:
     s.learn_one(angles[0])
     s.finish()
     LOFSegmenter(cfg, fps=100.0).fit(angles).predict()
-    # the offline localisation kernel, whether or not the random stream had a cut
-    from streamseg.offline.lof import frame_bins, refine_cuts
+    # the confirming contrast, whether or not the random stream had a candidate
+    from streamseg._kernels.histogram import contrast_at
+    from streamseg.offline.lof import frame_bins
 
     fb, valid = frame_bins(angles, cfg.bins)
-    refine_cuts(fb, valid, np.array([10, 20]), np.array([0]), 10, 1, 4, cfg.bins, 2)
+    scratch = np.zeros(fb.shape[1] * cfg.bins, dtype=np.int64)
+    contrast_at(fb, valid, fb.shape[0], 20, 10, cfg.bins, fb.shape[0], 0, scratch,
+                scratch.copy())
