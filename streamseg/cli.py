@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import sys
 
+from streamseg import strict_json
 from streamseg.commands import METHODS, TOOLS
 from streamseg.exceptions import StreamsegError
 
@@ -114,7 +114,8 @@ def _run_eval_all(args) -> int:
         raise StreamsegError(f"no label CSVs with recordings under {args.all}")
     rows, _ = evaluate_all(items, STREAMSEG_METHODS, runs=args.runs)
     if args.json:
-        print(json.dumps([{"recording": r, "method": m, **row} for r, m, row in rows]))
+        print(strict_json.dumps([{"recording": r, "method": m, **row}
+                                 for r, m, row in rows]))
     else:
         print(format_table(rows))
     return 0
@@ -122,7 +123,7 @@ def _run_eval_all(args) -> int:
 
 def _emit(args, result: dict) -> None:
     if args.json:
-        print(json.dumps(result))
+        print(strict_json.dumps(result))
     else:
         _print_human(result)
 

@@ -95,3 +95,15 @@ def test_recording_shorter_than_a_window_is_said(capsys, data_dir):
     cap = capsys.readouterr()
     assert json.loads(cap.out)["cuts"] == []
     assert "shorter than the cut detector's window" in cap.err
+
+
+def test_json_is_strict_when_a_figure_is_undefined(capsys, data_dir, tmp_path):
+    """No cut means no latency: the JSON says null, not NaN (strict readers reject NaN)."""
+    labels = tmp_path / "labels.csv"
+    labels.write_text("sequence,start_frame,end_frame,action_label\n02_03,1,173,run\n")
+    assert cli.main(["eval", str(data_dir / "cmu02/02_03.amc.gz"), "--skeleton",
+                     str(data_dir / "cmu02/02.asf"), "--labels", str(labels), "--method", "lof",
+                     "--online", "--json"]) == 0
+    text = capsys.readouterr().out
+    out = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
+    assert out["cuts"] == [] and out["latency_median"] is None

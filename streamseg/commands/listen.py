@@ -6,14 +6,13 @@ then prints only newer events; ``--count N`` or ``--until-end`` make it stop, fo
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 
 import msgpack
 import zmq
 
-from streamseg import protocol
+from streamseg import protocol, strict_json
 
 
 def add_arguments(parser) -> None:
@@ -150,20 +149,21 @@ def run(args) -> int:
                 if since.get("ok"):
                     state = {"type": "state", **{k: v for k, v in since.items()
                                                  if k not in ("ok", "v")}}
-                    out.write((json.dumps(state) if args.jsonl else _state_line(state)) + "\n")
+                    text = strict_json.dumps(state) if args.jsonl else _state_line(state)
+                    out.write(text + "\n")
                 else:
                     print(f"streamseg listen: {since.get('error')}", file=sys.stderr)
                     since = None
             else:
                 streams = request(args.control, "streams", ctx)
                 line = {"type": "streams", "streams": streams.get("streams", [])}
-                out.write((json.dumps(line) if args.jsonl else
+                out.write((strict_json.dumps(line) if args.jsonl else
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
             out.flush()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
                          timeout=args.timeout, since=since):
-            out.write((json.dumps(protocol.to_json(ev)) if args.jsonl else format_event(ev))
-                      + "\n")
+            text = strict_json.dumps(protocol.to_json(ev)) if args.jsonl else format_event(ev)
+            out.write(text + "\n")
             out.flush()
     except TimeoutError as err:
         print(f"streamseg listen: {err}", file=sys.stderr)

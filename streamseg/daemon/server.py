@@ -335,9 +335,7 @@ class Daemon:
             self._error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
                         f"processed: {type(err).__name__}: {err}", pos.shape[0])
             return
-        for reason, message in st.pipeline.notices:
-            self._error(st.stream, reason, message)
-        st.pipeline.notices.clear()
+        self._report_notices(st)
         if bad:
             st.dropped += bad
             self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
@@ -375,6 +373,12 @@ class Daemon:
         if ev is not None:
             self._publish(self.streams.get(stream) if stream else None, ev)
 
+    def _report_notices(self, st: StreamState) -> None:
+        """Publish the pipeline's notices (problems that do not stop the stream) as errors."""
+        for kind, message in st.pipeline.notices:
+            self._error(st.stream, kind, message)
+        st.pipeline.notices.clear()
+
     def _close(self, st: StreamState, reason: str) -> None:
         """Final cuts now; the final relabel in the worker; then ``closed``."""
         self._flush(st)
@@ -384,9 +388,7 @@ class Daemon:
         except Exception as err:  # never die: report, close without the final cuts
             final = []
             self._error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
-        for kind, message in st.pipeline.notices:
-            self._error(st.stream, kind, message)
-        st.pipeline.notices.clear()
+        self._report_notices(st)
         for frame, score, emitted in final:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
             st.cuts.append(ev)
