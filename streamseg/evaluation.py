@@ -242,16 +242,17 @@ def label_cuts(labels: np.ndarray) -> list[int]:
     return [int(i) for i in np.flatnonzero(labels[1:] != labels[:-1]) + 1]
 
 
-def aca_prediction(features: np.ndarray, n_clusters: int, fps: float,
+def aca_prediction(features: np.ndarray, n_clusters: int | None, fps: float,
                    hierarchical: bool) -> Prediction:
-    """Default-config (H)ACA with ``n_clusters`` actions: frame labels and their cuts."""
+    """Default-config (H)ACA with ``n_clusters`` actions (None: found): frame labels and
+    their cuts."""
     from dataclasses import replace
 
     from streamseg.config import ACAConfig
-    from streamseg.offline.relabel import model_from_config
+    from streamseg.offline.model_selection import fit_aca
 
     config = replace(ACAConfig(), n_clusters=n_clusters, hierarchical=hierarchical)
-    labels = np.asarray(model_from_config(config, fps).fit(features).labels_)
+    labels = np.asarray(fit_aca(features, config, fps).labels_)
     return Prediction(cuts=label_cuts(labels), labels=labels)
 
 
@@ -265,6 +266,7 @@ STREAMSEG_METHODS = {
     "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),
     "ACA (K=true)": lambda item, fps: aca_prediction(_angles(item), item.n_actions, fps, False),
     "HACA (K=true)": lambda item, fps: aca_prediction(_angles(item), item.n_actions, fps, True),
+    "HACA (K found)": lambda item, fps: aca_prediction(_angles(item), None, fps, True),
 }
 
 

@@ -15,12 +15,16 @@ because it costs ~0.5-1 ms per frame) runs in :meth:`StreamPipeline.push` on the
 
 from __future__ import annotations
 
+import collections
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
+from streamseg.offline.identity import snap_to_cuts, stable_labels
 from streamseg.recording import Skeleton
+
+__all__ = ["Algorithms", "Relabelled", "StreamPipeline", "relabel", "stable_labels"]
 
 
 @dataclass(frozen=True)
@@ -82,19 +86,27 @@ class Algorithms:
 
         return StreamingLOFSegmenter(self.lof_config or LOFConfig(), fps)
 
-    def relabel(self, features: np.ndarray, start_frame: int, fps: float):
+    def relabel(self, features: np.ndarray, start_frame: int, fps: float,
+                k_hint: int | None = None):
         """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
 
         Cluster ids are the window's own; :func:`relabel` maps the rows to stream frames and
         then makes the ids consistent with the previous relabel (:func:`stable_labels`),
-        because rows and stream frames differ wherever frames were missing.
+        because rows and stream frames differ wherever frames were missing. ``k_hint``: the
+        previous revision's number of actions (the search for K starts there).
         """
-        from streamseg.config import ACAConfig
         from streamseg.offline import relabel_window
 
         fn = self._relabel or relabel_window
-        return fn(features, start_frame=start_frame, fps=fps,
-                  config=self.aca_config or ACAConfig(), previous=None)
+        return fn(features, start_frame=start_frame, fps=fps, config=self.relabel_config,
+                  previous=None, k_hint=k_hint)
+
+    @property
+    def relabel_config(self):
+        """The ACA configuration relabelling uses."""
+        from streamseg.config import ACAConfig
+
+        return self.aca_config or ACAConfig()
 
     def rep_counter(self, fps: float, skeleton: Skeleton):
         """A live repetition counter for one stream, or None when turned off."""
@@ -130,36 +142,6 @@ class Algorithms:
         return time.perf_counter() - t
 
 
-def stable_labels(window, previous):
-    """``window`` with cluster ids matched to ``previous``'s over the frames both cover.
-
-    Hungarian matching of the overlap (:func:`streamseg.offline.relabel.match_labels`); a
-    cluster absent from the overlap gets an id unused by ``previous`` and by the matches.
-    """
-    from streamseg.offline.relabel import WindowSegmentation, match_labels
-
-    segs = _segment_triplets(window)
-    if previous is None or not segs:
-        return WindowSegmentation(window.start, window.end, segs)
-    new = _frame_labels(window.start, window.end, segs)
-    old = _frame_labels(previous.start, previous.end, _segment_triplets(previous))
-    lo, hi = max(window.start, previous.start), max(min(window.end, previous.end), 0)
-    used = {lab for _, _, lab in _segment_triplets(previous)}
-    a = new[lo - window.start:max(hi, lo) - window.start]
-    b = old[lo - previous.start:max(hi, lo) - previous.start]
-    both = (a >= 0) & (b >= 0)  # frames neither window skipped (missing frames are -1)
-    mapping = match_labels(a[both], b[both], used, new_ids={lab for _, _, lab in segs})
-    return WindowSegmentation(window.start, window.end,
-                              [(a, b, mapping[lab]) for a, b, lab in segs])
-
-
-def _frame_labels(start, end, segs) -> np.ndarray:
-    out = np.full(end - start, -1, dtype=np.int64)
-    for a, b, lab in segs:
-        out[max(a, start) - start:min(b, end) - start] = lab
-    return out
-
-
 def _segment_triplets(window) -> list:
     """``(start, end, label)`` of the algorithm's segments (objects or tuples)."""
     out = []
@@ -171,6 +153,7 @@ def _segment_triplets(window) -> list:
     return out
 
 
+RECENT_CUTS = 256  # live cuts a stream keeps for its relabels
 GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
 UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 
@@ -197,7 +180,7 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "notices", "_spine", "_spine_n")
+                 "notices", "_spine", "_spine_n", "cut_frames")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -208,6 +191,8 @@ class StreamPipeline:
         self.reps = algorithms.rep_counter(fps, skeleton)
         self.rep_offset = None  # stream frame of the counter's frame 0
         self.notices = []  # (reason, message) for the daemon to report, see push()
+        # the live cuts a relabel snaps its boundaries to (the history holds fewer)
+        self.cut_frames = collections.deque(maxlen=RECENT_CUTS)
         # the declared up axis is checked once, on the first UP_CHECK_S seconds of frames
         self._spine = np.zeros(3)
         self._spine_n = 0 if self.plan[1] is not None else -1  # -1: checked (or no need)
@@ -231,7 +216,9 @@ class StreamPipeline:
 
     def _cuts(self, cuts) -> list:
         o = self.offset
-        return [(c.frame + o, float(c.score), c.emitted_at + o) for c in cuts]
+        out = [(c.frame + o, float(c.score), c.emitted_at + o) for c in cuts]
+        self.cut_frames.extend(c[0] for c in out)
+        return out
 
     def push(self, positions: np.ndarray, first_frame: int):
         """Learn stream frames ``first_frame ...`` of ``positions`` (n, J, 3).
@@ -359,17 +346,22 @@ class StreamPipeline:
         return self._feat[idx].astype(np.float64), self._frames[idx].copy()
 
 
-def relabel(algorithms: Algorithms, features, frames, fps, previous) -> Relabelled:
+def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) -> Relabelled:
     """Run one relabel job in stream frames (runs in the worker).
 
     The algorithm sees ``start_frame = frames[0]`` and contiguous rows; a segment bound ``b``
     is row ``b - frames[0]``, mapped back through ``frames`` (the identity without dropped
-    frames). Ids are then matched to ``previous`` (a relabel in stream frames) over the stream
-    frames both cover.
+    frames). Boundaries between actions then move to a live cut (``cuts``, stream frames)
+    within the shortest segment length, ``min_len`` (:func:`snap_to_cuts`), and ids are made
+    stream-wide (:func:`stable_labels`: the overlap with ``previous``, then the stream's
+    prototypes).
     """
+    from streamseg.offline.relabel import WindowSegmentation
+
     t = time.perf_counter()
     start = int(frames[0])
-    window = algorithms.relabel(features, start, fps)
+    k_hint = getattr(previous, "n_clusters", 0) or None
+    window = algorithms.relabel(features, start, fps, k_hint=k_hint)
     m = frames.shape[0]
     segs = []
     for a, b, label in _segment_triplets(window):
@@ -378,8 +370,10 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous) -> Relabell
             continue
         a_i, b_i = max(a_i, 0), min(b_i, m)
         segs.append((int(frames[a_i]), int(frames[b_i - 1]) + 1, int(label)))
-    from streamseg.offline.relabel import WindowSegmentation
-
-    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs), previous)
+    radius = int(round(algorithms.relabel_config.min_len * fps))
+    segs = snap_to_cuts(segs, [c for c in cuts if start < c < int(frames[-1])], radius)
+    k = int(getattr(window, "n_clusters", 0))
+    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous,
+                           features, frames)
     elapsed = time.perf_counter() - t
     return Relabelled(stable.start, stable.end, tuple(stable.segments), stable, elapsed)

@@ -336,5 +336,6 @@ def naive_lloyd(X, centres, n_iter):
             break
         labels = new
         for c in range(k):
-            centres[c] = X[labels == c].mean(0)
+            if np.any(labels == c):  # an empty cluster keeps its centre
+                centres[c] = X[labels == c].mean(0)
     return labels, centres

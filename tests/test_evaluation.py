@@ -78,7 +78,8 @@ def test_eval_all_cli(labelled, capsys):
     assert main(["eval", "--all", str(labelled), "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     methods = {r["method"] for r in rows}
-    assert methods == {"LOF offline", "LOF streaming", "ACA (K=true)", "HACA (K=true)"}
+    assert methods == {"LOF offline", "LOF streaming", "ACA (K=true)", "HACA (K=true)",
+                       "HACA (K found)"}
     for r in rows:
         assert "error" not in r, r
         assert 0 <= r["F1"] <= 1 and 0 <= r["cover"] <= 1

@@ -16,7 +16,8 @@ def lloyd(X, centres, n_iter):
 
     Squared Euclidean distances; ties go to the lower cluster index. A cluster left empty
     takes the point farthest from its own centre (clusters checked in index order), so every
-    cluster keeps at least one point when ``n >= k``. Stops when the labels repeat.
+    cluster keeps at least one point when ``n >= k`` and the points are distinct; a cluster
+    still empty (identical points) keeps its centre. Stops when the labels repeat.
     """
     n, d = X.shape
     k = centres.shape[0]
@@ -68,6 +69,8 @@ def lloyd(X, centres, n_iter):
             for j in range(d):
                 sums[labels[i], j] += X[i, j]
         for c in range(k):
+            if counts[c] == 0:  # identical points can leave a cluster empty: keep its centre
+                continue
             for j in range(d):
                 centres[c, j] = sums[c, j] / counts[c]
     return labels

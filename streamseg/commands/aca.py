@@ -3,7 +3,8 @@
 FILE is a recording (features: ``streamseg.skeleton.quaternion_features``, the paper's
 14-joint quaternions) or a plain feature matrix ``.npy``/``.csv`` (rows = frames, ``--fps``
 default 1 so lengths in seconds are lengths in rows). Temporal reduction is on by default for
-recordings (``--reduce 20``) and off for matrices.
+recordings (``--reduce 20``) and for matrices of more than 1,000 rows. Without ``--clusters``
+the number of actions is found (:mod:`streamseg.offline.model_selection`).
 """
 
 from __future__ import annotations
@@ -20,9 +21,12 @@ _DEFAULTS = ACAConfig()
 
 def add_arguments(group) -> None:
     """ACA options (lengths in seconds)."""
-    group.add_argument("--clusters", type=int, default=_DEFAULTS.n_clusters, metavar="K",
-                       help=f"number of actions (default {_DEFAULTS.n_clusters})")
-    group.add_argument("--hierarchical", action="store_true", help="two-level HACA")
+    group.add_argument("--clusters", type=int, default=None, metavar="K",
+                       help="number of actions (default: found, the K in 2.."
+                            f"{_DEFAULTS.k_max} whose segments have the best silhouette)")
+    group.add_argument("--hierarchical", action="store_true",
+                       help="two-level HACA (the default; kept for scripts)")
+    group.add_argument("--flat", action="store_true", help="one-level ACA instead of HACA")
     group.add_argument("--min-len", type=float, default=None, metavar="S",
                        help=f"shortest segment, seconds (default {_DEFAULTS.min_len:g})")
     group.add_argument("--max-len", type=float, default=None, metavar="S",
@@ -36,7 +40,8 @@ def add_arguments(group) -> None:
     group.add_argument("--seed", type=int, default=0, metavar="N", help="random seed")
     group.add_argument("--reduce", type=int, default=None, metavar="K",
                        help="temporal reduction into K frame classes, 0 = off (default: "
-                            f"{_DEFAULTS.k_reduce} for recordings, off for matrices)")
+                            f"{_DEFAULTS.k_reduce} for recordings and matrices of more than "
+                            "1,000 rows)")
 
 
 def _load(args):
@@ -53,15 +58,19 @@ def _load(args):
     return quaternion_features(rec), float(rec.fps), False
 
 
-def _config(args, is_matrix) -> ACAConfig:
+#: a feature matrix longer than this gets temporal reduction unless ``--reduce 0``
+REDUCE_ROWS = 1000
+
+
+def _config(args, is_matrix, n_rows) -> ACAConfig:
     reduce = args.reduce
-    if reduce is None:
-        reduce = None if is_matrix else _DEFAULTS.k_reduce
+    if reduce is None:  # long matrices too: without it 4,579 rows took 10 minutes
+        reduce = None if is_matrix and n_rows <= REDUCE_ROWS else _DEFAULTS.k_reduce
     elif reduce == 0:
         reduce = None
     values = dict(n_clusters=args.clusters, kernel=args.kernel, sigma=args.sigma,
                   n_init=args.restarts, random_state=args.seed, k_reduce=reduce,
-                  hierarchical=bool(args.hierarchical))
+                  hierarchical=not args.flat)
     if args.min_len is not None:
         values["min_len"] = args.min_len
     if args.max_len is not None:
@@ -74,14 +83,14 @@ def _config(args, is_matrix) -> ACAConfig:
 
 
 def _run(args):
-    from streamseg.offline.relabel import model_from_config
+    from streamseg.offline.model_selection import fit_aca
 
     if args.fps is not None and args.fps <= 0:
         raise ParameterError(f"--fps={args.fps!r} is invalid: expected a frame rate > 0")
     X, fps, is_matrix = _load(args)
-    config = _config(args, is_matrix)
+    config = _config(args, is_matrix, X.shape[0])
     t0 = time.perf_counter()
-    model = model_from_config(config, fps).fit(X)
+    model = fit_aca(X, config, fps)
     seconds = time.perf_counter() - t0
     return X, fps, config, model, seconds
 
@@ -94,7 +103,7 @@ def segment(args) -> dict:
         from streamseg.plot_segments import plot_segments
 
         plot_segments(args.plot, X, model.segments_, fps=fps,
-                      title=f"{Path(args.file).name}: ACA k={config.n_clusters}")
+                      title=f"{Path(args.file).name}: ACA k={model.n_clusters_}")
     return {
         "n_frames": int(X.shape[0]),
         "fps": fps,
@@ -102,6 +111,9 @@ def segment(args) -> dict:
         "cuts": [s["start"] for s in segments[1:]],
         "segments": segments,
         "objective": float(model.objective_),
+        "n_clusters": model.n_clusters_,
+        "k_found": config.n_clusters is None,
+        "k_scores": {str(k): v for k, v in model.scores_.items()},
         "seconds": round(seconds, 3),
         "params": dataclasses.asdict(config),
     }

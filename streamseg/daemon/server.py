@@ -357,7 +357,7 @@ class Daemon:
             return False
         st.next_relabel = st.pipeline.learned + int(round(self.config.relabel_interval * st.fps))
         self.worker.submit(RelabelJob((st.stream, st.gen), feats, frames, st.fps,
-                                      st.pipeline.previous, final))
+                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames)))
         return True
 
     # --- events ------------------------------------------------------------------------------

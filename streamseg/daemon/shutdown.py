@@ -52,7 +52,8 @@ def final_events(daemon) -> None:
         if (time.monotonic() < deadline and daemon.worker.busy_key != key
                 and feats.shape[0] >= 2):
             try:
-                res = relabel(daemon.algorithms, feats, frames, st.fps, st.pipeline.previous)
+                res = relabel(daemon.algorithms, feats, frames, st.fps, st.pipeline.previous,
+                              tuple(st.pipeline.cut_frames))
             except Exception as err:
                 res = err
             job = RelabelJob(key, None, None, st.fps, None, final=True)

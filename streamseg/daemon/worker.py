@@ -12,15 +12,16 @@ from streamseg.pipeline import relabel
 class RelabelJob:
     """A snapshot of one stream's features to relabel (taken by the ingest thread)."""
 
-    __slots__ = ("key", "features", "frames", "fps", "previous", "final", "queued")
+    __slots__ = ("key", "features", "frames", "fps", "previous", "final", "queued", "cuts")
 
-    def __init__(self, key, features, frames, fps, previous, final=False):
+    def __init__(self, key, features, frames, fps, previous, final=False, cuts=()):
         self.key = key  # (stream, generation): a re-announced stream is a new key
         self.features = features
         self.frames = frames
         self.fps = fps
         self.previous = previous
         self.final = final
+        self.cuts = cuts  # live cut frames the relabel's boundaries may snap to
         self.queued = time.monotonic()
 
 
@@ -101,10 +102,10 @@ class RelabelWorker(threading.Thread):
             try:
                 if self.pool is not None:
                     result = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
-                                              job.fps, job.previous).result()
+                                              job.fps, job.previous, job.cuts).result()
                 else:
                     result = relabel(self.algorithms, job.features, job.frames, job.fps,
-                                     job.previous)
+                                     job.previous, job.cuts)
             except Exception as err:  # reported as an error event; the worker lives on
                 result = err
             elapsed = time.monotonic() - started

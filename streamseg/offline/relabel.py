@@ -5,8 +5,11 @@ its numba kernels release the GIL. While it runs, BLAS is limited to one thread 
 (threadpoolctl, when installed), so run one relabelling at a time. :func:`warmup` compiles
 (or loads from cache) the kernels so the first window does not pay for it.
 
-Features must be finite: frames with NaN (lost markers) raise ``ParameterError``; interpolate
-or drop them before calling.
+The number of actions is found per window when ``ACAConfig.n_clusters`` is None
+(:func:`streamseg.offline.model_selection.fit_aca`, searching around the previous window's K).
+Frames with NaN (lost markers) are left out of the fit and take their neighbours' label; a
+window with nothing to cluster (too short, still, no finite frame) is one segment of one
+label.
 """
 
 from __future__ import annotations
@@ -32,11 +35,18 @@ class WindowSegmentation:
         ACA segments tiling the window; labels are cluster ids kept consistent with the
         previous window's (a segment boundary between two segments of one label is a cycle
         boundary inside one action).
+    n_clusters : int
+        The number of actions the fit used (found or given; 0: unknown).
+    prototypes : tuple of (label, mean features (d,), frames)
+        The stream's memory of every action seen so far (see
+        :func:`streamseg.pipeline.stable_labels`); empty outside the daemon.
     """
 
     start: int
     end: int
     segments: list
+    n_clusters: int = 0
+    prototypes: tuple = ()
 
     def frame_labels(self) -> np.ndarray:
         """(end - start,) int64 label of every frame of the window."""
@@ -107,7 +117,8 @@ def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
 
 
 def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
-                   previous: WindowSegmentation | None = None) -> WindowSegmentation:
+                   previous: WindowSegmentation | None = None,
+                   k_hint: int | None = None) -> WindowSegmentation:
     """Run (H)ACA on a window and keep its cluster ids consistent with ``previous``.
 
     Parameters
@@ -121,6 +132,8 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     config : ACAConfig
     previous : WindowSegmentation, optional
         The previous window's result; clusters are matched over the frames both windows cover.
+    k_hint : int, optional
+        When K is found, search around this K (default: ``previous.n_clusters``).
 
     Returns
     -------
@@ -133,9 +146,12 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     X = np.asarray(features, dtype=np.float64)
     if X.ndim != 2 or X.shape[0] == 0:
         raise ParameterError(f"features must be a non-empty (n, d) array, got {X.shape}")
+    from streamseg.offline.model_selection import fit_aca
+
     start = int(start_frame)
     n = X.shape[0]
-    model = model_from_config(config, fps).fit(X)
+    hint = k_hint or (previous.n_clusters if previous is not None else 0) or None
+    model = fit_aca(X, config, fps, k_hint=hint)
     labels = model.labels_
     used = ()
     old_part = np.zeros(0, dtype=np.int64)
@@ -150,7 +166,7 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     mapping = (match_labels(new_part, old_part, used, new_ids=np.unique(labels))
                if previous is not None else {int(u): int(u) for u in np.unique(labels)})
     segments = [(s + start, e + start, mapping[lab]) for s, e, lab in model.segments_]
-    return WindowSegmentation(start, start + n, segments)
+    return WindowSegmentation(start, start + n, segments, model.n_clusters_)
 
 
 def warmup() -> None:

@@ -1,0 +1,183 @@
+"""How many actions: (H)ACA for each candidate K, scored by the silhouette of its segments.
+
+Nobody can tell a live stream how many actions it will hold, so :func:`fit_aca` finds K when
+``ACAConfig.n_clusters`` is None: it fits the configured model for every K in
+``[2, config.k_max]`` (or around a hint, e.g. the previous revision's K) and keeps the one whose
+labelling has the highest mean silhouette (Rousseeuw 1987) under the DTAK distance the method
+itself uses, ``d(a, b) = 2 - 2 DTAK(a, b)``, measured on equal pieces of half the longest
+segment (:func:`piece_silhouette`). The silhouette needs no threshold or penalty weight, so
+nothing in it was tuned on a recording. Measured alternatives (HACA, the 14 labelled
+recordings, K in 2..9): the silhouette of the model's own segments chose worse (mean frame
+accuracy 0.716 against 0.750 for the pieces, 0.765 with the true K); a penalised objective
+and the smallest K within a margin of the best silhouette needed a weight and did no better.
+
+Windows where there is nothing to cluster give one segment of one label instead of an
+exception: too few frames for two segments of ``min_len``, no finite frame, or a body that
+does not move (every feature's standard deviation below :data:`STILL_RAD`). Frames with a
+non-finite feature are left out of the fit and take the label of the frame before them (the
+first ones, of the first finite frame).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from streamseg.config import ACAConfig
+from streamseg.exceptions import ParameterError
+
+#: A window whose every feature varies less than this (standard deviation, radians: 0.06
+#: degrees) holds no motion to cluster: one segment, one label.
+STILL_RAD = 1e-3
+#: The silhouette's frame kernel is computed on at most this many (evenly spaced) frames.
+SILHOUETTE_FRAMES = 1500
+
+
+@dataclass
+class Fitted:
+    """The result of :func:`fit_aca`: frame labels and segments as ACA/HACA give them.
+
+    Attributes
+    ----------
+    labels_ : (n_frames,) int64
+    segments_ : list of (start, end, label), tiling the frames
+    n_clusters_ : int
+        K used (found or given); 1 for a window with nothing to cluster.
+    scores_ : dict
+        K -> mean segment silhouette, for every K tried (empty when K was given).
+    objective_ : float
+        The kept model's objective (0 for one segment).
+    reason : str
+        Why the window was not clustered ("" when it was).
+    """
+
+    labels_: np.ndarray
+    segments_: list
+    n_clusters_: int
+    scores_: dict = field(default_factory=dict)
+    objective_: float = 0.0
+    reason: str = ""
+
+
+def piece_silhouette(X, labels, piece: int, *, kernel: str = "gaussian", sigma=None) -> float:
+    """Mean silhouette of a labelling of ``X``, measured on pieces of ``piece`` frames.
+
+    The frames are cut into pieces of ``piece`` frames every ``piece // 2`` (each labelled by
+    its most frequent label) and the pieces compared by the DTAK distance ``2 - 2 DTAK``. Equal
+    pieces make every K comparable: the model's own segments, fewer and of any length, gave a
+    noisier score (``benchmarks/live_relabel.py`` notes).
+
+    Parameters
+    ----------
+    X : (n, d) float array
+    labels : (n,) int array
+    piece : int, frames
+    kernel, sigma : the frame kernel (:func:`streamseg.offline.dtak.frame_kernel`)
+
+    Returns
+    -------
+    float in [-1, 1]; -1 with fewer than two labels (a single cluster has no silhouette).
+    """
+    from streamseg.offline.dtak import frame_kernel, segment_dtak
+
+    n = X.shape[0]
+    piece = max(2, min(int(piece), n))
+    starts = np.arange(0, n - piece + 1, max(1, piece // 2))
+    lab = np.array([np.bincount(labels[s:s + piece]).argmax() for s in starts])
+    if np.unique(lab).size < 2:
+        return -1.0
+    stride = max(1, -(-n // SILHOUETTE_FRAMES))
+    Kf = frame_kernel(X[::stride], kernel=kernel, sigma=sigma)
+    m = Kf.shape[0]
+    bounds = [(min(s // stride, m - 1), max(min(s // stride, m - 1) + 1,
+                                            min((s + piece) // stride, m))) for s in starts]
+    D = np.clip(2.0 - 2.0 * segment_dtak(Kf, bounds), 0.0, None)
+    sil = np.zeros(lab.size)
+    for i in range(lab.size):
+        own = lab == lab[i]
+        own[i] = False
+        if not own.any():
+            continue  # a cluster of one piece: silhouette 0 (Rousseeuw's convention)
+        a = D[i, own].mean()
+        b = min(D[i, lab == c].mean() for c in np.unique(lab) if c != lab[i])
+        sil[i] = (b - a) / max(a, b, 1e-12)
+    return float(sil.mean())
+
+
+def _single(n: int, reason: str) -> Fitted:
+    return Fitted(np.zeros(n, dtype=np.int64), [(0, n, 0)] if n else [], 1, reason=reason)
+
+
+def fit_aca(X, config: ACAConfig, fps: float, k_hint: int | None = None) -> Fitted:
+    """Fit (H)ACA to ``X`` with ``config``; K found by segment silhouette when not given.
+
+    Parameters
+    ----------
+    X : (n, d) array
+        Feature frames; rows with a non-finite value are allowed (see module docstring).
+    config : ACAConfig
+        ``n_clusters`` None: K is found in ``[2, k_max]``.
+    fps : float
+        Frame rate converting the config's seconds to frames.
+    k_hint : int or None
+        Search only ``k_hint - 1 .. k_hint + 1`` (within ``[2, k_max]``): a stream's previous
+        revision found ``k_hint``, and its actions change by one at a time.
+
+    Returns
+    -------
+    Fitted
+    """
+    from streamseg.offline.relabel import model_from_config
+
+    X = np.asarray(X, dtype=np.float64)
+    if X.ndim != 2:
+        raise ParameterError(f"features must be an (n, d) array, got shape {X.shape}")
+    n = X.shape[0]
+    ok = np.isfinite(X).all(axis=1)
+    m = int(ok.sum())
+    min_len = max(1, int(round(config.min_len * fps)))
+    if m < 2 * min_len:
+        return _single(n, f"{m} finite frames, fewer than two segments of min_len")
+    Xf = X[ok] if m < n else X
+    if float(Xf.std(axis=0).max()) < STILL_RAD:
+        return _single(n, "no motion in the window")
+    if config.n_clusters is not None:
+        ks = [config.n_clusters]
+    elif k_hint is not None:
+        ks = [k for k in (k_hint - 1, k_hint, k_hint + 1) if 2 <= k <= config.k_max]
+    else:
+        ks = list(range(2, config.k_max + 1))
+    ks = [k for k in ks if k * min_len <= m] or [1]
+    piece = max(2, int(round(config.max_len * fps / 2)))  # half the longest segment
+    best, scores = None, {}
+    for k in ks:
+        model = model_from_config(replace(config, n_clusters=k), fps).fit(Xf)
+        if len(ks) > 1:
+            scores[k] = piece_silhouette(Xf, np.asarray(model.labels_), piece,
+                                         kernel=config.kernel, sigma=config.sigma)
+            if best is not None and scores[k] <= scores[best[0]]:
+                continue
+        best = (k, model)
+    k, model = best
+    labels = np.asarray(model.labels_, dtype=np.int64)
+    if m < n:  # spread the labels of the finite frames over the frames left out
+        idx = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
+        first = int(np.flatnonzero(ok)[0])
+        idx[idx < 0] = first
+        full = labels[np.cumsum(ok)[idx] - 1]
+        labels = full
+    return Fitted(labels, _runs(labels, model.segments_, ok), k, scores,
+                  float(model.objective_))
+
+
+def _runs(labels: np.ndarray, segments, ok: np.ndarray) -> list:
+    """Segments in the frames of the whole window: the model's bounds (finite-frame indices)
+    mapped back, so a boundary between two segments of one label survives."""
+    n = labels.shape[0]
+    if ok.all():
+        return [(int(s), int(e), int(lab)) for s, e, lab in segments]
+    where = np.flatnonzero(ok)
+    starts = [0] + [int(where[s]) for s, _, _ in segments[1:]]
+    ends = starts[1:] + [n]
+    return [(a, b, int(labels[a])) for a, b in zip(starts, ends) if b > a]
