@@ -86,20 +86,18 @@ class Algorithms:
 
         return StreamingLOFSegmenter(self.lof_config or LOFConfig(), fps)
 
-    def relabel(self, features: np.ndarray, start_frame: int, fps: float,
-                k_hint: int | None = None):
+    def relabel(self, features: np.ndarray, start_frame: int, fps: float):
         """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
 
         Cluster ids are the window's own; :func:`relabel` maps the rows to stream frames and
         then makes the ids consistent with the previous relabel (:func:`stable_labels`),
-        because rows and stream frames differ wherever frames were missing. ``k_hint``: the
-        previous revision's number of actions (the search for K starts there).
+        because rows and stream frames differ wherever frames were missing.
         """
         from streamseg.offline import relabel_window
 
         fn = self._relabel or relabel_window
         return fn(features, start_frame=start_frame, fps=fps, config=self.relabel_config,
-                  previous=None, k_hint=k_hint)
+                  previous=None)
 
     @property
     def relabel_config(self):
@@ -360,8 +358,7 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
 
     t = time.perf_counter()
     start = int(frames[0])
-    k_hint = getattr(previous, "n_clusters", 0) or None
-    window = algorithms.relabel(features, start, fps, k_hint=k_hint)
+    window = algorithms.relabel(features, start, fps)
     m = frames.shape[0]
     segs = []
     for a, b, label in _segment_triplets(window):

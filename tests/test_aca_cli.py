@@ -43,8 +43,8 @@ def test_segment_matrix_json(tmp_path, capsys):
     x, truth = _sequence()
     np.save(tmp_path / "seq.npy", x)
     code = main(["segment", str(tmp_path / "seq.npy"), "--method", "aca", "--flat",
-                 "--clusters", "3", "--kernel", "equality", "--min-len", "4", "--max-len", "6", "--restarts", "10",
-                 "--json"])
+                 "--clusters", "3", "--kernel", "equality", "--min-len", "4", "--max-len", "6",
+                 "--restarts", "10", "--json"])
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_frames"] == 60 and out["fps"] == 1.0 and out["method"] == "aca"
@@ -67,8 +67,8 @@ def test_eval_matrix_prints_accuracy_and_confusion(tmp_path, capsys):
         rows.append(f"seq,{i * 10 + 1},{i * 10 + 10},{name}")
     (tmp_path / "labels.csv").write_text("\n".join(rows) + "\n")
     code = main(["eval", str(tmp_path / "seq.csv"), "--method", "aca", "--flat",
-                 "--clusters", "3", "--kernel", "equality", "--min-len", "4", "--max-len", "6", "--json",
-                 "--labels", str(tmp_path / "labels.csv")])
+                 "--clusters", "3", "--kernel", "equality", "--min-len", "4", "--max-len", "6",
+                 "--json", "--labels", str(tmp_path / "labels.csv")])
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["accuracy"] == 1.0

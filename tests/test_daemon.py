@@ -245,7 +245,7 @@ def test_late_listener_catches_up_from_control(start_daemon, rec):
 def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
     spans = []
 
-    def slow_relabel(features, *, start_frame, fps, config, previous, k_hint=None):
+    def slow_relabel(features, *, start_frame, fps, config, previous):
         from streamseg.config import ACAConfig
         from streamseg.offline import relabel_window
 

@@ -60,7 +60,7 @@ def test_nan_frames_are_skipped_in_the_ring_and_mapped_back(rec):
     feats, frames = p.snapshot()
     assert feats.shape[0] == 390 and 100 not in frames and frames[100] == 110
 
-    def fake(features, *, start_frame, fps, config, previous, k_hint=None):
+    def fake(features, *, start_frame, fps, config, previous):
         n = features.shape[0]  # rows, not frames: two segments split at row 100
         return WindowSegmentation(start_frame, start_frame + n,
                                   [(start_frame, start_frame + 100, 0),
@@ -85,7 +85,7 @@ def test_labels_stay_stable_across_missing_frames():
     ids must be matched in stream frames. Revision 1 covers frames 0-99 and 200-299 (100-199
     missing), all one cluster; revision 2 covers 200-399 with the same action."""
 
-    def one_cluster(features, *, start_frame, fps, config, previous, k_hint=None):
+    def one_cluster(features, *, start_frame, fps, config, previous):
         n = features.shape[0]
         return WindowSegmentation(start_frame, start_frame + n, [(start_frame, start_frame + n,
                                                                   0)])

@@ -58,9 +58,6 @@ def test_k_is_found_on_distinct_actions():
     fitted = fit_aca(X, ACAConfig(), FPS)
     assert fitted.n_clusters_ == 4 and set(fitted.scores_) == set(range(2, 9))
     assert max(fitted.scores_, key=fitted.scores_.get) == 4
-    # a hint searches only around it
-    hinted = fit_aca(X, ACAConfig(), FPS, k_hint=3)
-    assert set(hinted.scores_) == {2, 3, 4} and hinted.n_clusters_ == 4
 
 
 def test_silhouette_is_high_for_the_true_partition_and_needs_two_labels():
@@ -107,3 +104,18 @@ def test_boundaries_snap_to_live_cuts():
     # 100 -> 95; 200 is a boundary inside one action (not moved); 300 has no cut within 30
     assert got == [(0, 95, 0), (95, 200, 1), (200, 300, 1), (300, 400, 2)]
     assert snap_to_cuts(segs, [], 30) == segs
+
+
+def test_haca_search_shares_the_fine_level_and_equals_single_fits():
+    from dataclasses import replace
+
+    from streamseg.offline.relabel import model_from_config
+
+    X = _actions([0.4, 1.4, 2.4], seed=7)
+    cfg = ACAConfig(n_clusters=None)
+    each = dict(model_from_config(cfg, FPS).fit_each(X, [2, 3, 4]))
+    for k in (2, 3, 4):
+        alone = model_from_config(replace(cfg, n_clusters=k), FPS).fit(X)
+        np.testing.assert_array_equal(each[k].labels_, alone.labels_)
+        assert each[k].segments_ == alone.segments_ and each[k].n_clusters == k
+    assert each[2].fine_segments_ == each[4].fine_segments_

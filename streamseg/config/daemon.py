@@ -23,7 +23,12 @@ class DaemonConfig:
         Seconds without a packet after which a stream is closed (reason ``idle``).
     relabel_interval, relabel_history : float
         Relabel each stream every R seconds of its own time over its last H seconds
-        (``relabel_interval=0`` turns relabelling off). H also bounds each stream's buffer.
+        (``relabel_interval=0`` turns relabelling off). H also bounds each stream's buffer:
+        H x fps x 17 float32 features + int64 frame numbers, 60 s at 120 Hz = 547 kB. A take
+        no longer than H is relabelled whole each time, so its last revision is offline HACA
+        of the whole take (with 20 s windows the live answer fell 0.05-0.31 below that on
+        86_01, 14_14 and HDM05 joins, ``benchmarks/live_relabel.py``); older actions keep
+        their ids through the stream's prototypes (:mod:`streamseg.offline.identity`).
     heartbeat : float
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int
@@ -65,7 +70,7 @@ class DaemonConfig:
     max_streams: int = 2000
     idle_timeout: float = 60.0
     relabel_interval: float = 5.0
-    relabel_history: float = 20.0
+    relabel_history: float = 60.0
     heartbeat: float = 1.0
     max_packet_frames: int = 12000
     drain: int = 16000

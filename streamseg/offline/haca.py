@@ -75,6 +75,23 @@ class HACA:
 
     def fit(self, X):
         """Segment ``X``: (n_frames, d) features."""
+        ((_, fitted),) = self.fit_each(X, [self.n_clusters])
+        self.__dict__.update(fitted.__dict__)
+        return self
+
+    def fit_each(self, X, n_clusters):
+        """Fit the fine level once, then the coarse level for each K of ``n_clusters``.
+
+        The fine level (primitives) does not depend on the number of actions, so a search
+        over K pays for it once. Each coarse fit starts from the same random state, so
+        ``fit_each(X, [k])`` gives exactly ``HACA(k, ...).fit(X)``.
+
+        Returns
+        -------
+        list of (k, fitted HACA)
+        """
+        import copy
+
         X = _as_frames(X)
         n = X.shape[0]
         fmin = self.fine_min_len if self.fine_min_len is not None else max(1, self.min_len // 4)
@@ -108,24 +125,30 @@ class HACA:
         per_unit = n / fs.size  # frames per fine segment
         cmax = max(1, round(self.max_len / per_unit))
         cmin = min(cmax, max(1, round(self.min_len / per_unit)))
-        # first coarse restart: eq. 10 propagation over the primitives' labels (as frame classes)
-        coarse = ACA(self.n_clusters, cmin, cmax, n_init=self.n_init, max_iter=self.max_iter,
-                     kernel="precomputed", init="propagated", random_state=rng).fit(
-                         T, frame_classes=fine_labels)
         # units -> reduced frames -> frames
         unit_frame_start = rs[fs]
         unit_frame_end = re[fe - 1]
-        self.fine_segments_ = [(int(unit_frame_start[i]), int(unit_frame_end[i]), int(lab))
-                               for i, (_, _, lab) in enumerate(fine.segments_)]
-        self.segments_ = [(int(unit_frame_start[s]), int(unit_frame_end[e - 1]), int(lab))
-                          for s, e, lab in coarse.segments_]
-        labels = np.empty(n, dtype=np.int64)
-        for s, e, lab in self.segments_:
-            labels[s:e] = lab
-        self.labels_ = labels
-        self.objective_ = coarse.objective_
-        self.fine_objective_ = fine.objective_
-        return self
+        fine_segments = [(int(unit_frame_start[i]), int(unit_frame_end[i]), int(lab))
+                         for i, (_, _, lab) in enumerate(fine.segments_)]
+        out = []
+        for k in n_clusters:
+            # first coarse restart: eq. 10 propagation over the primitives' labels
+            coarse = ACA(k, cmin, cmax, n_init=self.n_init, max_iter=self.max_iter,
+                         kernel="precomputed", init="propagated",
+                         random_state=copy.deepcopy(rng)).fit(T, frame_classes=fine_labels)
+            fitted = copy.copy(self)
+            fitted.n_clusters = k
+            fitted.fine_segments_ = fine_segments
+            fitted.segments_ = [(int(unit_frame_start[s]), int(unit_frame_end[e - 1]), int(lab))
+                                for s, e, lab in coarse.segments_]
+            labels = np.empty(n, dtype=np.int64)
+            for s, e, lab in fitted.segments_:
+                labels[s:e] = lab
+            fitted.labels_ = labels
+            fitted.objective_ = coarse.objective_
+            fitted.fine_objective_ = fine.objective_
+            out.append((k, fitted))
+        return out
 
     def predict(self):
         """Per-frame labels of the fitted sequence, (n_frames,) int64."""

@@ -6,7 +6,7 @@ its numba kernels release the GIL. While it runs, BLAS is limited to one thread 
 (or loads from cache) the kernels so the first window does not pay for it.
 
 The number of actions is found per window when ``ACAConfig.n_clusters`` is None
-(:func:`streamseg.offline.model_selection.fit_aca`, searching around the previous window's K).
+(:func:`streamseg.offline.model_selection.fit_aca`).
 Frames with NaN (lost markers) are left out of the fit and take their neighbours' label; a
 window with nothing to cluster (too short, still, no finite frame) is one segment of one
 label.
@@ -117,8 +117,7 @@ def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
 
 
 def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
-                   previous: WindowSegmentation | None = None,
-                   k_hint: int | None = None) -> WindowSegmentation:
+                   previous: WindowSegmentation | None = None) -> WindowSegmentation:
     """Run (H)ACA on a window and keep its cluster ids consistent with ``previous``.
 
     Parameters
@@ -132,8 +131,6 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     config : ACAConfig
     previous : WindowSegmentation, optional
         The previous window's result; clusters are matched over the frames both windows cover.
-    k_hint : int, optional
-        When K is found, search around this K (default: ``previous.n_clusters``).
 
     Returns
     -------
@@ -150,8 +147,7 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
 
     start = int(start_frame)
     n = X.shape[0]
-    hint = k_hint or (previous.n_clusters if previous is not None else 0) or None
-    model = fit_aca(X, config, fps, k_hint=hint)
+    model = fit_aca(X, config, fps)
     labels = model.labels_
     used = ()
     old_part = np.zeros(0, dtype=np.int64)
