@@ -205,7 +205,8 @@ def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, g
 
 def capacity(rec, counts, batch, seconds):
     print(f"\n{seconds:g} s per row (the last {seconds - 2.5:g} s measured); 120 Hz streams of "
-          f"CMU 86_01, {batch} frames/packet, relabel every 5 s over 20 s (defaults)")
+          f"CMU 86_01, {batch} frames/packet, relabel every {DaemonConfig().relabel_interval:g} s "
+          f"over {DaemonConfig().relabel_history:g} s (defaults)")
     print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
           f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
     placeholder = ID.decode()

@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import sys
 import threading
-import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -78,23 +77,22 @@ def live(rec, stream, speed, config):
     from streamseg.commands.replay import replay
     from streamseg.daemon import Daemon
 
-    daemon = Daemon(config)
+    daemon = Daemon(replace(config, heartbeat=0.05))
     ep = daemon.bind()
     server = threading.Thread(target=daemon.run, daemon=True)
     server.start()
     daemon.ready.wait()
-    sub = subscriber(ep["publish"], stream=stream)
+    sub = subscriber(ep["publish"])
+    # handshake: the first heartbeat shows the subscription has reached the publisher
+    next(e for e in listen(sub, timeout=30) if e.type == "stats")
     events = []
-    subscribed = threading.Event()
 
     def collect():
-        subscribed.set()
-        events.extend(listen(sub, stream=stream, until_end=True, timeout=120))
+        events.extend(e for e in listen(sub, stream=stream, until_end=True, timeout=120)
+                      if getattr(e, "stream", None) == stream)
 
     t = threading.Thread(target=collect, daemon=True)
     t.start()
-    subscribed.wait()
-    time.sleep(0.3)  # a SUB socket's subscription reaches the publisher asynchronously
     replay(rec, ep["ingest"], stream=stream, speed=speed, batch=max(1, int(4 * speed)))
     t.join(180)
     daemon.stop()

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 
-def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "") -> None:
+def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "",
+             key=None) -> None:
     """Write a PNG timeline.
 
     Parameters
@@ -26,6 +27,10 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "") -
         methods that label frames, and optional ``marks`` (frames, e.g. when each cut was
         emitted) drawn as small arrows.
     title : str
+    key : sequence of str, optional
+        Names of the label values of ``rows``: value ``v`` is drawn in the colour of the
+        human action ``key[v]`` (the truth's labels come first, in their order), and a colour
+        key is drawn. Without it, label values get colours of their own.
     """
     import matplotlib
 
@@ -56,8 +61,9 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "") -
             b = np.concatenate([[0], np.flatnonzero(labels[1:] != labels[:-1]) + 1, [n_frames]])
             for s, e in zip(b[:-1], b[1:]):
                 if labels[s] >= 0:
-                    ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1),
-                                   facecolors=palette[(2 * int(labels[s])) % len(palette)])
+                    v = int(labels[s])
+                    colour = palette[(2 * v + (key is not None)) % len(palette)]
+                    ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1), facecolors=colour)
         for c in cuts:
             ax.plot([c / fps, c / fps], [0.05, 0.95], color="#d62728", lw=1.4)
         for m in marks[0] if marks else ():
@@ -74,6 +80,15 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "") -
     axes[-1].set_xlabel("time (s)   (red: cuts; dotted: human cuts)")
     if title:
         axes[0].set_title(title, fontsize=10)
-    fig.tight_layout()
+    if key is not None:
+        from matplotlib.patches import Patch
+
+        handles = [Patch(color=palette[(2 * v + 1) % len(palette)], label=str(name))
+                   for v, name in enumerate(key)]
+        fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8), fontsize=7,
+                   frameon=False, bbox_to_anchor=(0.5, 0.0))
+        fig.tight_layout(rect=(0, 0.08, 1, 1))
+    else:
+        fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

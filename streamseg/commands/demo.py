@@ -35,8 +35,7 @@ def run(args) -> int:
     rec = read(args.file, skeleton=args.skeleton)
     stream = "86_01"
     loop = "tcp://127.0.0.1:0"
-    daemon = Daemon(DaemonConfig(ingest=loop, publish=loop, control=loop, relabel_interval=3.0,
-                                 relabel_history=12.0, heartbeat=0))
+    daemon = Daemon(DaemonConfig(ingest=loop, publish=loop, control=loop, heartbeat=0))
     ep = daemon.bind()
     server = threading.Thread(target=daemon.run, name="streamseg-daemon", daemon=True)
     server.start()
@@ -80,22 +79,43 @@ def run(args) -> int:
 
 
 def timeline(events, rec, labels_csv, sequence, path) -> None:
-    """Draw human labels, the newest relabel of every frame, and the provisional cuts."""
+    """Draw human labels, the newest relabel of every frame, and the provisional cuts.
+
+    Each relabelled id is drawn in the colour of the human action it matches best (the
+    Hungarian matching of frames), so one colour is one action; ids no action matches get
+    colours of their own, named in the key.
+    """
     import numpy as np
 
-    from streamseg.labels import read_labels
+    from streamseg.labels import frame_labels, read_labels
+    from streamseg.metrics import matched_frame_accuracy
     from streamseg.plot_timeline import timeline as draw
 
     n = rec.n_frames
     human = read_labels(labels_csv, sequence)
+    names = list(dict.fromkeys(s.label for s in human))
     relab = np.full(n, -1)
     for ev in events:  # later revisions overwrite what they cover
         if ev.type == "segments":
             for a, b, lab in ev.segments:
                 relab[a:min(b, n)] = lab
+    truth = frame_labels(human, n)  # index into the sorted label names
+    order = sorted(names)
+    ok = (relab >= 0) & (truth >= 0)
+    acc, match = matched_frame_accuracy(relab[ok], truth[ok]) if ok.any() else (0.0, {})
+    key = list(names)
+    colour_of = {}
+    for lab in np.unique(relab[relab >= 0]):
+        if int(lab) in match:
+            colour_of[int(lab)] = names.index(order[match[int(lab)]])
+        else:
+            colour_of[int(lab)] = len(key)
+            key.append(f"id {int(lab)} (no human match)")
+    shown = np.array([colour_of.get(int(v), -1) for v in relab])
     cuts = [ev for ev in events if ev.type == "cut"]
     draw(path, n, rec.fps, [(s.start, s.end, s.label) for s in human],
-         [("relabelled (ACA)", [], relab),
+         [("relabelled\n(HACA, K found)", [], shown),
           ("provisional cuts\n(> = emitted)", [c.frame for c in cuts], None,
            [c.emitted_at for c in cuts])],
-         title=f"streamseg demo: CMU {sequence}, live")
+         title=f"streamseg demo: CMU {sequence}, live (relabel frame accuracy {acc:.2f})",
+         key=key)
