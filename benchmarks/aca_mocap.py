@@ -58,7 +58,7 @@ def main() -> None:
         truth = frame_labels(segs, rec.n_frames)
         keep = truth >= 0
         k = len({s.label for s in segs})
-        for method, extra in (("ACA", {}), ("HACA", {"hierarchical": True}),
+        for method, extra in (("ACA", {"hierarchical": False}), ("HACA", {"hierarchical": True}),
                               ("HACA-l", {"hierarchical": True, "coarse_kernel": "labels"})):
             accs, secs = [], []
             for seed in range(args.seeds):

@@ -11,6 +11,10 @@ Parameters are the generator's: lengths 10..15. Noise frames make segments longe
 12.5 * (1 + p)), so a second row per p_noise widens max_len to round(15 * (1 + p)) (the
 generator's longest segment plus the expected noise) to show what that costs or buys.
 
+Each setting runs twice: given the true K = 4, and with K found (``--clusters`` omitted: the
+piece silhouette of ``streamseg.offline.model_selection`` over K = 2..8); "K found" counts the
+sequences per K found.
+
 Run: ``.venv/bin/python benchmarks/aca_synthetic.py [--sequences 10]``
 """
 
@@ -34,10 +38,10 @@ from streamseg.cli import main as cli_main  # noqa: E402
 from streamseg.metrics import matched_frame_accuracy  # noqa: E402
 
 
-def run_cli(path, min_len, max_len, seed):
-    argv = ["segment", str(path), "--method", "aca", "--clusters", "4", "--kernel", "equality",
+def run_cli(path, min_len, max_len, seed, k=4):
+    argv = ["segment", str(path), "--method", "aca", "--flat", "--kernel", "equality",
             "--min-len", str(min_len), "--max-len", str(max_len), "--restarts", "10",
-            "--seed", str(seed), "--json"]
+            "--seed", str(seed), "--json"] + (["--clusters", str(k)] if k else [])
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         code = cli_main(argv)
@@ -51,28 +55,32 @@ def main() -> None:
     ap.add_argument("--sequences", type=int, default=10)
     ap.add_argument("--segments", type=int, default=20)
     args = ap.parse_args()
-    print(f"{'p_noise':>7} {'min_len':>7} {'max_len':>7} {'mean acc':>9} {'min acc':>8} "
-          f"{'frames':>7} {'s/seq':>7}")
+    print(f"{'p_noise':>7} {'min_len':>7} {'max_len':>7} {'K':>7} {'mean acc':>9} "
+          f"{'min acc':>8} {'K found':>22} {'frames':>7} {'s/seq':>7}")
     with tempfile.TemporaryDirectory() as tmp:
         for p in (0.0, 0.1, 0.2, 0.3):
-            for max_len in sorted({15, round(15 * (1 + p))}):
-                accs, times, frames = [], [], []
+            for max_len, k in [(m, k) for m in sorted({15, round(15 * (1 + p))})
+                               for k in (4, None)]:
+                accs, times, frames, found = [], [], [], []
                 for i in range(args.sequences):
                     rng = np.random.default_rng(1000 * int(p * 10) + i)
                     x, truth = synthetic_sequence(args.segments, p, rng)
                     path = Path(tmp) / f"seq_{p}_{i}.npy"
                     np.save(path, x)
                     t0 = time.perf_counter()
-                    res = run_cli(path, 10, max_len, seed=i)
+                    res = run_cli(path, 10, max_len, seed=i, k=k)
                     times.append(time.perf_counter() - t0)
                     labels = np.empty(len(x), dtype=np.int64)
                     for s in res["segments"]:
                         labels[s["start"]:s["end"]] = s["label"]
                     accs.append(matched_frame_accuracy(labels, truth)[0])
                     frames.append(len(x))
-                print(f"{p:7.1f} {10:7d} {max_len:7d} {np.mean(accs):9.3f} {np.min(accs):8.3f} "
-                      f"{np.mean(frames):7.0f} {np.mean(times):7.3f}")
-
+                    found.append(res["n_clusters"])
+                counts = "-" if k else " ".join(f"{v}:{found.count(v)}"
+                                                 for v in sorted(set(found)))
+                print(f"{p:7.1f} {10:7d} {max_len:7d} {k or 'found':>7} {np.mean(accs):9.3f} "
+                      f"{np.min(accs):8.3f} {counts:>22} {np.mean(frames):7.0f} "
+                      f"{np.mean(times):7.3f}", flush=True)
 
 if __name__ == "__main__":
     main()

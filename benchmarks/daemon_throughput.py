@@ -11,7 +11,8 @@ Run: ``.venv/bin/python benchmarks/daemon_throughput.py [--frames 60000] [--repe
    Latency is the daemon's own measure: a packet's arrival (``recv`` returned) to the
    publication of its events (its pipeline step done), p50/p99 over all packets of a run.
 2. Capacity: S streams of CMU 86_01 at real time (120 Hz, ``--stream-batch`` frames per
-   packet, starts staggered over 1 s), relabelling on; for each S the received and offered
+   packet, starts staggered over 1 s; the recording repeated when a row lasts longer than
+   it), relabelling on; for each S the received and offered
    frame rates, packet latency p50/p99, relabels per second. A count is "sustained" when the
    daemon takes >= 98% of the offered frames and p99 latency stays < 100 ms.
 """
@@ -210,8 +211,11 @@ def capacity(rec, counts, batch, seconds):
     print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
           f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
     placeholder = ID.decode()
-    tmpl = [P.encode(P.Frames(placeholder, a, 0.0, rec.positions[a:a + batch]))[1]
-            for a in range(0, rec.n_frames, batch)]
+    # the recording repeated (an abrupt join) so that no stream ends before the row does
+    reps = int(np.ceil((seconds + 2) * rec.fps / rec.n_frames))
+    pos = np.concatenate([rec.positions] * reps)
+    tmpl = [P.encode(P.Frames(placeholder, a, 0.0, pos[a:a + batch]))[1]
+            for a in range(0, pos.shape[0], batch)]
     announce = P.encode(announce_of(rec, placeholder))[1]
     for n in counts:
         d, ep, t = start_daemon(max_streams=max(counts) + 10)

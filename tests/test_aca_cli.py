@@ -95,3 +95,19 @@ def test_bad_lengths_are_reported(tmp_path, capsys):
                  "--max-len", "2"])
     assert code == 2
     assert "max_len" in capsys.readouterr().err
+
+
+def test_k_is_found_without_clusters_and_long_matrices_are_reduced(tmp_path, capsys):
+    x, _ = _sequence()
+    np.save(tmp_path / "short.npy", x.astype(float)[:, None])
+    assert main(["segment", str(tmp_path / "short.npy"), "--method", "aca", "--min-len", "4",
+                 "--max-len", "6", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["k_found"] and out["params"]["n_clusters"] is None
+    assert out["n_clusters"] == int(max(out["k_scores"], key=out["k_scores"].get))
+    assert out["params"]["k_reduce"] is None  # 60 rows: no reduction
+    np.save(tmp_path / "long.npy", np.tile(x, 20).astype(float)[:, None])  # 1,200 rows
+    assert main(["segment", str(tmp_path / "long.npy"), "--method", "aca", "--clusters", "3",
+                 "--restarts", "1", "--min-len", "4", "--max-len", "6", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["params"]["k_reduce"] == 20 and not out["k_found"] and out["n_clusters"] == 3
