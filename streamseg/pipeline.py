@@ -351,8 +351,7 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     is row ``b - frames[0]``, mapped back through ``frames`` (the identity without dropped
     frames). Boundaries between actions then move to a live cut (``cuts``, stream frames)
     within the shortest segment length, ``min_len`` (:func:`snap_to_cuts`), and ids are made
-    stream-wide (:func:`stable_labels`: the overlap with ``previous``, then the stream's
-    prototypes).
+    stream-wide (:func:`stable_labels`: the overlap with ``previous``; never a reused id).
     """
     from streamseg.offline.relabel import WindowSegmentation
 
@@ -370,7 +369,6 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     radius = int(round(algorithms.relabel_config.min_len * fps))
     segs = snap_to_cuts(segs, [c for c in cuts if start < c < int(frames[-1])], radius)
     k = int(getattr(window, "n_clusters", 0))
-    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous,
-                           features, frames)
+    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous)
     elapsed = time.perf_counter() - t
     return Relabelled(stable.start, stable.end, tuple(stable.segments), stable, elapsed)

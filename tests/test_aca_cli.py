@@ -111,3 +111,12 @@ def test_k_is_found_without_clusters_and_long_matrices_are_reduced(tmp_path, cap
                  "--restarts", "1", "--min-len", "4", "--max-len", "6", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["params"]["k_reduce"] == 20 and not out["k_found"] and out["n_clusters"] == 3
+
+
+def test_a_still_recording_is_one_segment_with_a_note(tmp_path, capsys):
+    np.save(tmp_path / "still.npy", np.ones((300, 4)))
+    assert main(["segment", str(tmp_path / "still.npy"), "--method", "aca", "--fps", "30",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["segments"] == [{"start": 0, "end": 300, "label": 0}] and out["cuts"] == []
+    assert out["n_clusters"] == 1 and "no motion" in out["note"]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from streamseg.config import ACAConfig
-from streamseg.offline.identity import MAX_PROTOTYPES, snap_to_cuts, stable_labels
+from streamseg.offline.identity import snap_to_cuts, stable_labels
 from streamseg.offline.model_selection import fit_aca, piece_silhouette
 from streamseg.offline.relabel import WindowSegmentation, relabel_window
 
@@ -69,33 +69,16 @@ def test_silhouette_is_high_for_the_true_partition_and_needs_two_labels():
     assert piece_silhouette(X, right, 120) > 0.5 > piece_silhouette(X, stripes, 120)
 
 
-def test_a_returning_action_gets_its_old_id_from_memory():
-    """Revision 1 sees A then B; revision 2 (no overlap) sees C then A again: A keeps its id,
-    C gets a new one."""
-    X = _actions([0.5, 1.5, 2.5, 0.5], seed=5)
-    n = X.shape[0] // 4
-    f1 = np.arange(0, 2 * n)
-    r1 = stable_labels(WindowSegmentation(0, 2 * n, [(0, n, 0), (n, 2 * n, 1)], 2), None,
-                       X[f1], f1)
-    f2 = np.arange(2 * n, 4 * n)
-    r2 = stable_labels(WindowSegmentation(2 * n, 4 * n, [(2 * n, 3 * n, 0), (3 * n, 4 * n, 1)],
-                                          2), r1, X[f2], f2)
-    a_id = r1.segments[0][2]
-    assert r2.segments[1][2] == a_id
-    assert r2.segments[0][2] not in {lab for _, _, lab in r1.segments}
-    assert {p[0] for p in r2.prototypes} == {a_id, r1.segments[1][2], r2.segments[0][2]}
-
-
-def test_memory_is_bounded():
-    rng = np.random.default_rng(6)
-    prev = None
-    for i in range(MAX_PROTOTYPES + 10):
-        X = rng.normal(10 * i, 0.01, (100, 3))
-        f = np.arange(100 * i, 100 * i + 100)
-        prev = stable_labels(WindowSegmentation(f[0], f[-1] + 1, [(f[0], f[-1] + 1, 0)], 1),
-                             prev, X, f)
-    assert len(prev.prototypes) == MAX_PROTOTYPES
-    assert len({p[0] for p in prev.prototypes}) == MAX_PROTOTYPES
+def test_ids_are_never_reused_for_the_life_of_a_stream():
+    """Revision 1 holds actions 0, 1; revision 2 (overlapping only action 1) holds 1 and a new
+    one; revision 3 (no overlap) holds two new clusters: each new cluster gets an id the
+    stream never used, even one the previous revision no longer holds."""
+    r1 = stable_labels(WindowSegmentation(0, 200, [(0, 100, 5), (100, 200, 9)], 2), None)
+    assert [lab for *_, lab in r1.segments] == [0, 1] and r1.next_id == 2
+    r2 = stable_labels(WindowSegmentation(100, 300, [(100, 200, 0), (200, 300, 1)], 2), r1)
+    assert [lab for *_, lab in r2.segments] == [1, 2] and r2.next_id == 3
+    r3 = stable_labels(WindowSegmentation(400, 600, [(400, 500, 0), (500, 600, 1)], 2), r2)
+    assert [lab for *_, lab in r3.segments] == [3, 4] and r3.next_id == 5
 
 
 def test_boundaries_snap_to_live_cuts():

@@ -114,6 +114,7 @@ def segment(args) -> dict:
         "n_clusters": model.n_clusters_,
         "k_found": config.n_clusters is None,
         "k_scores": {str(k): v for k, v in model.scores_.items()},
+        "note": model.reason or None,  # why the recording was not clustered (one segment)
         "seconds": round(seconds, 3),
         "params": dataclasses.asdict(config),
     }

@@ -37,16 +37,16 @@ class WindowSegmentation:
         boundary inside one action).
     n_clusters : int
         The number of actions the fit used (found or given; 0: unknown).
-    prototypes : tuple of (label, mean features (d,), frames)
-        The stream's memory of every action seen so far (see
-        :func:`streamseg.pipeline.stable_labels`); empty outside the daemon.
+    next_id : int
+        The stream's next unused id (ids are never reused; see
+        :mod:`streamseg.offline.identity`); 0 outside the daemon.
     """
 
     start: int
     end: int
     segments: list
     n_clusters: int = 0
-    prototypes: tuple = ()
+    next_id: int = 0
 
     def frame_labels(self) -> np.ndarray:
         """(end - start,) int64 label of every frame of the window."""
