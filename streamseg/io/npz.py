@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from streamseg import strict_json
 from streamseg.exceptions import RecordingError
 from streamseg.recording import Recording, Skeleton
 
@@ -37,7 +38,7 @@ def write_npz(path, recording: Recording, *, compress: bool = False) -> None:
         "units": np.array(recording.skeleton.units),
         "up": np.array(recording.skeleton.up),
         "metadata": np.array(
-            json.dumps({**recording.metadata, "source": recording.source}, default=str)
+            strict_json.dumps({**recording.metadata, "source": recording.source}, default=str)
         ),
     }
     if recording.rotations is not None:
