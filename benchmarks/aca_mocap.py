@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.config import ACAConfig
+from streamseg.evaluation.labels import frame_labels, read_labels
+from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.io import read
-from streamseg.labels import frame_labels, read_labels
-from streamseg.metrics import matched_frame_accuracy
 from streamseg.offline.relabel import model_from_config
 from streamseg.skeleton import quaternion_features
 

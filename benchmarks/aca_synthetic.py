@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _aca_synth import synthetic_sequence  # noqa: E402
 
 from streamseg.cli import main as cli_main  # noqa: E402
-from streamseg.metrics import matched_frame_accuracy  # noqa: E402
+from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
 
 
 def run_cli(path, min_len, max_len, seed, k=4):

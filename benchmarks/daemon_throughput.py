@@ -135,7 +135,7 @@ def daemon_run(msgs, n_frames, relabel=True) -> tuple:
 
 def algorithm_only(rec, n_frames) -> float:
     """Seconds for the pipeline alone (angles + LOF, no sockets) on the same frames."""
-    from streamseg.pipeline import Algorithms, StreamPipeline
+    from streamseg.daemon.pipeline import Algorithms, StreamPipeline
 
     idx = np.arange(n_frames) % rec.n_frames
     pos = rec.positions[idx]

@@ -1,8 +1,8 @@
 """Live relabelling against offline HACA: the real daemon over loopback, scored on human labels.
 
 For each labelled recording (CMU 86_01, the exercise routines 14_14 and 14_20, the two CMU 02
-joins and the nine HDM05 joins of ``streamseg.datasets``; the joins are ABRUPT, not natural
-transitions) this starts the daemon in this process on free loopback ports, replays the
+joins and the nine HDM05 joins of ``streamseg.evaluation.datasets``; the joins are ABRUPT,
+not natural transitions) this starts the daemon in this process on free loopback ports, replays the
 recording as a live stream (``--speeds``, times real time), and collects every ``segments``
 event. The live answer is, for every frame, the label of the newest revision covering it
 (what a listener that applies each revision holds at the end). It is scored against the human
@@ -34,10 +34,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from streamseg.config import ACAConfig, DaemonConfig  # noqa: E402
-from streamseg.datasets import CMU02_SEQUENCES, cmu02_sequence, hdm05_action_sequences  # noqa
+from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence, hdm05_action_sequences  # noqa
+from streamseg.evaluation.labels import frame_labels, read_labels  # noqa: E402
+from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
 from streamseg.io import read  # noqa: E402
-from streamseg.labels import frame_labels, read_labels  # noqa: E402
-from streamseg.metrics import matched_frame_accuracy  # noqa: E402
 
 DATA = ROOT / "data"
 

@@ -2,16 +2,16 @@
 
 Recordings, in three sets (every labelled one in data/):
 - "cmu": CMU 86_01 (labels with boundary windows) and the CMU exercise routines 14_14, 14_20;
-- "cmu02": two sequences joined from CMU subject 02 trials (``streamseg.datasets.
+- "cmu02": two sequences joined from CMU subject 02 trials (``streamseg.evaluation.datasets.
   CMU02_SEQUENCES``): only trials whose trial-level label names ONE action and that last at
   least 2.5 s (01 walk, 05 punch/strike, 07-09 swordplay, 10 wash self), each action once, in
   two orders; true cuts are the joins, ABRUPT by construction. The earlier sequences
   walk+run+jump+punch and punch+bend+walk+jump break that rule (03 run is 1.4 s, 04 and 06
   hold several actions) and are printed below the means, for reference only;
 - "hdm": nine sequences joined from the HDM05 clips of data/hdm05_reps
-  (``streamseg.datasets.hdm05_action_plans``: per actor bd, bk, dg three sequences of five of
-  the eleven classes in random order, a repetitive class as a set of 3 repetitions, no clip
-  used twice; 2-7 s actions). Their true cuts are the joins between classes, ABRUPT by
+  (``streamseg.evaluation.datasets.hdm05_action_plans``: per actor bd, bk, dg three sequences
+  of five of the eleven classes in random order, a repetitive class as a set of 3 repetitions,
+  no clip used twice; 2-7 s actions). Their true cuts are the joins between classes, ABRUPT by
   construction (no natural transition).
 
 The LOF defaults were chosen on 86_01 and hdm_bd_0 only (streaming F1, each value the one whose
@@ -43,16 +43,16 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from streamseg.config import LOFConfig  # noqa: E402
-from streamseg.datasets import (  # noqa: E402
+from streamseg.evaluation.datasets import (  # noqa: E402
     CMU02_MIN_SECONDS,
     CMU02_MULTI_ACTION_SEQUENCES,
     CMU02_SEQUENCES,
     cmu02_sequence,
     hdm05_action_sequences,
 )
+from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts  # noqa: E402
+from streamseg.evaluation.metrics import covering, cut_scores, latency_stats  # noqa: E402
 from streamseg.io import read  # noqa: E402
-from streamseg.labels import cut_windows, read_labels, true_cuts  # noqa: E402
-from streamseg.metrics import covering, cut_scores, latency_stats  # noqa: E402
 from streamseg.offline.lof import LOFSegmenter  # noqa: E402
 from streamseg.online.lof import StreamingLOFSegmenter  # noqa: E402
 from streamseg.skeleton import bone_angles  # noqa: E402
@@ -158,7 +158,7 @@ def main():
     print(f"LOF defaults chosen on {', '.join(CHOSEN_ON)}: {LOFConfig()}")
     print(f"CMU 02 sequences: trials naming one action and lasting >= {CMU02_MIN_SECONDS} s: "
           + "; ".join(f"{k} = {'+'.join(v)}" for k, v in CMU02_SEQUENCES.items()))
-    print("HDM05 sequences: 5 classes each, joins abrupt (streamseg.datasets)")
+    print("HDM05 sequences: 5 classes each, joins abrupt (streamseg.evaluation.datasets)")
     print(f"Pelt penalty chosen on 86_01 from {PELT_PENALTIES}: {pen}\n")
     head = (f"{'method':26s} {'recording':26s} {'n':>3s} {'true':>4s} {'P':>5s} {'R':>5s} "
             f"{'F1':>5s} {'F1_1s':>5s} {'cover':>5s} {'lat_med':>7s} {'lat_max':>7s}")

@@ -32,8 +32,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from lof_accuracy import FPS, features, lof_cuts, recordings  # noqa: E402
 
 from streamseg.config import LOFConfig  # noqa: E402
-from streamseg.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
-from streamseg.metrics import cut_scores  # noqa: E402
+from streamseg.evaluation.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
+from streamseg.evaluation.metrics import cut_scores  # noqa: E402
 
 FLOORS = tuple(np.round(np.arange(1.05, 3.0, 0.05), 2))
 DELAYS = (1.5, 2.5, 3.5)

@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from lof_accuracy import FPS, features, lof_cuts, recordings, score, set_of  # noqa: E402
 
 from streamseg.config import LOFConfig  # noqa: E402
-from streamseg.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
+from streamseg.evaluation.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
 
 DELAYS = (1.0, 1.2, 1.5, 1.8, 2.0, 2.5, 3.0)
 SETS = ("cmu", "cmu02", "hdm")

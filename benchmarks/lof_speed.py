@@ -34,7 +34,7 @@ sys.path.insert(0, str(ROOT))
 
 from streamseg._kernels.peaks import peak_windows  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
-from streamseg.datasets import concatenate  # noqa: E402
+from streamseg.evaluation.datasets import concatenate  # noqa: E402
 from streamseg.io import read  # noqa: E402
 from streamseg.offline.lof import LOFSegmenter, window_histograms  # noqa: E402
 from streamseg.online.lof import StreamingLOFSegmenter, warmup  # noqa: E402

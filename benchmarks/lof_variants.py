@@ -63,8 +63,8 @@ from lof_accuracy import FPS, features, lof_cuts, recordings  # noqa: E402
 
 from streamseg._kernels.peaks import peak_windows  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
-from streamseg.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
-from streamseg.metrics import cut_scores, match_cuts  # noqa: E402
+from streamseg.evaluation.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
+from streamseg.evaluation.metrics import cut_scores, match_cuts  # noqa: E402
 from streamseg.offline.lof import window_histograms  # noqa: E402
 
 TRAIN = ("86_01", "14_14")

@@ -24,8 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from streamseg.datasets import CMU02_SEQUENCES, cmu02_sequence
-from streamseg.evaluation import (
+from streamseg.evaluation.corpus import (
     STREAMSEG_METHODS,
     LabelledRecording,
     Prediction,
@@ -35,6 +34,7 @@ from streamseg.evaluation import (
     score,
     segments_from_cuts,
 )
+from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence
 from streamseg.offline.lof import lof_features
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -184,7 +184,7 @@ def main() -> None:
     if args.markdown:
         Path(args.markdown).write_text(table + "\n")
     if args.plot:
-        from streamseg.plot_timeline import timeline
+        from streamseg.plotting.timeline import timeline
 
         shown = [(m, preds[(TRAIN, m)].cuts, preds[(TRAIN, m)].labels) for m in methods
                  if not preds[(TRAIN, m)].error]

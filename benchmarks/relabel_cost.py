@@ -1,6 +1,6 @@
 """Cost of one relabel revision against the history it covers (median of 3 runs).
 
-A revision of the daemon (``streamseg.pipeline.relabel``: HACA with the number of actions
+A revision of the daemon (``streamseg.daemon.pipeline.relabel``: HACA with the number of actions
 found over K = 2..8 on one shared fine level, boundaries snapped to the live cuts, ids made
 stream-wide) on the last H seconds of real 120 Hz features: CMU 86_01, 14_14 and 14_20
 joined (115 s, the daemon's 17 cut features, float32 as the daemon keeps them). Beside it,
@@ -26,9 +26,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from streamseg.config import ACAConfig  # noqa: E402
+from streamseg.daemon.pipeline import Algorithms, relabel  # noqa: E402
 from streamseg.io import read  # noqa: E402
 from streamseg.offline.model_selection import fit_aca  # noqa: E402
-from streamseg.pipeline import Algorithms, relabel  # noqa: E402
 from streamseg.skeleton import bone_angles  # noqa: E402
 
 DATA = ROOT / "data"

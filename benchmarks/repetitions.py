@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.config import RepetitionConfig
+from streamseg.evaluation.metrics import count_error, repetition_accuracy
 from streamseg.io import read
-from streamseg.metrics import count_error, repetition_accuracy
 from streamseg.offline.repetition import RepetitionSegmenter
 from streamseg.recording import Recording, Skeleton
 

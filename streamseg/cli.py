@@ -107,7 +107,7 @@ def _run_eval(args) -> int:
 
 
 def _run_eval_all(args) -> int:
-    from streamseg.evaluation import STREAMSEG_METHODS, discover, evaluate_all, format_table
+    from streamseg.evaluation.corpus import STREAMSEG_METHODS, discover, evaluate_all, format_table
 
     items = discover(args.all, skeleton=args.skeleton)
     if not items:

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 
 from streamseg._kernels.aca import dp_search, dp_search_padded
 from streamseg._kernels.dtak import segment_kernel
+from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.exceptions import ParameterError
-from streamseg.metrics import matched_frame_accuracy
 from streamseg.offline.aca import (
     ACA,
     cluster_stats,

@@ -54,7 +54,7 @@ def test_segment_matrix_json(tmp_path, capsys):
     assert all(isinstance(s["label"], int) for s in segs)
     assert out["params"]["n_clusters"] == 3 and out["params"]["kernel"] == "equality"
     labels = np.concatenate([[s["label"]] * (s["end"] - s["start"]) for s in segs])
-    from streamseg.metrics import matched_frame_accuracy
+    from streamseg.evaluation.metrics import matched_frame_accuracy
 
     assert matched_frame_accuracy(labels, truth)[0] == 1.0
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from streamseg.config import ACAConfig
+from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.exceptions import ParameterError
-from streamseg.metrics import matched_frame_accuracy
 from streamseg.offline import HACA, WindowSegmentation, relabel_window, warmup
 from streamseg.offline.aca import ACA
 from streamseg.offline.aca_init import (

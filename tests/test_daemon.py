@@ -15,10 +15,10 @@ from streamseg.commands.listen import listen, request, subscriber
 from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
+from streamseg.daemon.pipeline import Algorithms
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.pipeline import Algorithms
 from streamseg.skeleton import bone_angles
 
 pytestmark = pytest.mark.daemon

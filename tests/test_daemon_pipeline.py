@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
 from streamseg.io import read
 from streamseg.offline.relabel import WindowSegmentation
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
 from streamseg.skeleton import bone_angles
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from streamseg.cli import main
-from streamseg.evaluation import (
+from streamseg.evaluation.corpus import (
     LabelledRecording,
     Prediction,
     discover,

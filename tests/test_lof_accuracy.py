@@ -16,10 +16,10 @@ import pytest
 
 from streamseg import cli
 from streamseg.config import LOFConfig
-from streamseg.datasets import hdm05_action_sequences
+from streamseg.evaluation.datasets import hdm05_action_sequences
+from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts
+from streamseg.evaluation.metrics import cut_scores
 from streamseg.io import read
-from streamseg.labels import cut_windows, read_labels, true_cuts
-from streamseg.metrics import cut_scores
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
 

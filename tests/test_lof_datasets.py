@@ -12,7 +12,7 @@ from streamseg.offline.lof import LOFSegmenter
 
 
 def test_cmu02_sequence_joins_clips_at_the_true_cuts(data_dir):
-    from streamseg.datasets import CMU02_SEQUENCES, cmu02_sequence, concatenate
+    from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence, concatenate
 
     trials = CMU02_SEQUENCES["02_walk_punch_sword_wash"]
     rec, cuts = cmu02_sequence(data_dir, trials)
@@ -32,7 +32,7 @@ def test_cmu02_sequence_joins_clips_at_the_true_cuts(data_dir):
 
 
 def test_cmu02_sequences_follow_the_single_action_rule(data_dir):
-    from streamseg.datasets import (
+    from streamseg.evaluation.datasets import (
         CMU02_MIN_SECONDS,
         CMU02_MULTI_ACTION_SEQUENCES,
         CMU02_SEQUENCES,
@@ -66,7 +66,7 @@ def test_fit_recording_equals_fit_bone_angles(data_dir):
 
 
 def test_hdm05_action_plans_use_each_clip_once_and_cut_between_classes(data_dir):
-    from streamseg.datasets import (
+    from streamseg.evaluation.datasets import (
         HDM05_ACTIONS,
         HDM05_REPETITIVE,
         HDM05_SET_REPS,

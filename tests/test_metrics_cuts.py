@@ -7,7 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from streamseg.metrics import covering, cut_scores, cut_windows_from, latency_stats, match_cuts
+from streamseg.evaluation.metrics import (
+    covering,
+    cut_scores,
+    cut_windows_from,
+    latency_stats,
+    match_cuts,
+)
 
 
 def test_flat_tolerance_hand_example():

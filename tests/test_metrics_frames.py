@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from streamseg.evaluation.metrics import frame_confusion, matched_frame_accuracy
 from streamseg.exceptions import ParameterError
-from streamseg.metrics import frame_confusion, matched_frame_accuracy
 
 
 def test_confusion_counts_shared_frames():

@@ -15,9 +15,9 @@ from streamseg.commands.listen import listen, subscriber
 from streamseg.commands.replay import replay
 from streamseg.config import ACAConfig, DaemonConfig
 from streamseg.daemon import Daemon
+from streamseg.evaluation.labels import frame_labels, read_labels
+from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.io import read
-from streamseg.labels import frame_labels, read_labels
-from streamseg.metrics import matched_frame_accuracy
 from streamseg.offline.model_selection import fit_aca
 from streamseg.skeleton import bone_angles
 

@@ -48,7 +48,7 @@ def test_nan_riddled_window_keeps_every_frame_and_its_actions():
     assert segs[0][0] == 0 and segs[-1][1] == X.shape[0]
     assert all(a[1] == b[0] for a, b in zip(segs, segs[1:]))
     # the three blocks are still found (0.90 without the holes)
-    from streamseg.metrics import matched_frame_accuracy
+    from streamseg.evaluation.metrics import matched_frame_accuracy
 
     assert matched_frame_accuracy(got.labels_, truth)[0] >= 0.85
 

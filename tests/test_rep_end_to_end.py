@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from streamseg.cli import main
+from streamseg.evaluation.metrics import repetition_accuracy
 from streamseg.io import read, write_npz
-from streamseg.metrics import repetition_accuracy
 from streamseg.offline.repetition import RepetitionSegmenter
 from streamseg.online.repetition import Rep, RepetitionCounter
 from streamseg.recording import Recording

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from streamseg.config import RepetitionConfig
+from streamseg.evaluation.metrics import count_error, repetition_accuracy
 from streamseg.exceptions import ParameterError
-from streamseg.metrics import count_error, repetition_accuracy
 from streamseg.offline import repetition_steps as steps
 from streamseg.offline.repetition import RepetitionSegmenter
 

@@ -7,14 +7,14 @@ import pytest
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError, SkeletonError
-from streamseg.offline.repetition import angles_from_positions
-from streamseg.ukf import ukf_pass, ukf_update
-from streamseg.ukf_model import (
+from streamseg.kinematics.model import (
     N_ANGLES,
     bone_directions,
     fit_angles,
     forward_kinematics,
 )
+from streamseg.kinematics.ukf import ukf_pass, ukf_update
+from streamseg.offline.repetition import angles_from_positions
 
 # ASF bone whose END is each model point: the synthetic skeletons below use Acclaim names.
 ASF_JOINTS = {

@@ -100,7 +100,7 @@ def segment(args) -> dict:
     X, fps, config, model, seconds = _run(args)
     segments = [{"start": s, "end": e, "label": int(lab)} for s, e, lab in model.segments_]
     if args.plot:
-        from streamseg.plot_segments import plot_segments
+        from streamseg.plotting.segments import plot_segments
 
         plot_segments(args.plot, X, model.segments_, fps=fps,
                       title=f"{Path(args.file).name}: ACA k={model.n_clusters_}")
@@ -122,8 +122,8 @@ def segment(args) -> dict:
 
 def evaluate(args) -> dict:
     """Hungarian-matched frame accuracy and confusion matrix (eq. 11) against ``args.labels``."""
-    from streamseg.labels import frame_labels, read_labels
-    from streamseg.metrics import frame_confusion, matched_frame_accuracy
+    from streamseg.evaluation.labels import frame_labels, read_labels
+    from streamseg.evaluation.metrics import frame_confusion, matched_frame_accuracy
 
     X, fps, config, model, seconds = _run(args)
     sequence = args.sequence or Path(args.file).name.split(".")[0]
@@ -135,7 +135,7 @@ def evaluate(args) -> dict:
     acc, mapping = matched_frame_accuracy(pred, truth[keep])
     C, clusters, labels = frame_confusion(pred, truth[keep])
     if args.plot:
-        from streamseg.plot_segments import plot_segments
+        from streamseg.plotting.segments import plot_segments
 
         # colour clusters like the labels they are matched to
         shown = [(s, e, int(mapping.get(lab, len(names) + lab))) for s, e, lab in model.segments_]

@@ -87,9 +87,9 @@ def timeline(events, rec, labels_csv, sequence, path) -> None:
     """
     import numpy as np
 
-    from streamseg.labels import frame_labels, read_labels
-    from streamseg.metrics import matched_frame_accuracy
-    from streamseg.plot_timeline import timeline as draw
+    from streamseg.evaluation.labels import frame_labels, read_labels
+    from streamseg.evaluation.metrics import matched_frame_accuracy
+    from streamseg.plotting.timeline import timeline as draw
 
     n = rec.n_frames
     human = read_labels(labels_csv, sequence)

@@ -12,14 +12,12 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-import time
 from pathlib import Path
-
-import numpy as np
 
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import lof_features
+from streamseg.offline.lof_report import lof_report
 from streamseg.recording import UP_AXES
 
 _D = LOFConfig()
@@ -127,51 +125,14 @@ def _warn_up(rec, up: str) -> None:
               "inclinations change with the heading", file=sys.stderr)
 
 
-def run(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) -> dict:
-    """Segment a bone-angle matrix; returns cuts, latencies and the LOF curve.
-
-    Returns
-    -------
-    dict with ``cuts`` (list of int), ``latency`` (list of int, online only), ``centres`` and
-    ``lof`` (the curve: offline the whole one; online each window's LOF when it was decided,
-    plus ``final``, the buffer's curve at the end), ``threshold`` (offline), ``seconds``
-    """
-    t0 = time.perf_counter()
+def _run(angles, fps, config: LOFConfig, online: bool) -> dict:
     window = config.frames(fps)["window"]
     if angles.shape[0] < window:
         print(f"streamseg: warning: the recording has {angles.shape[0]} frames "
               f"({angles.shape[0] / fps:.2f} s), shorter than the cut detector's window of "
               f"{window} frames ({window / fps:.2f} s): no cut can be found (a shorter "
               "--window would look at it)", file=sys.stderr)
-    if online:
-        from streamseg.online.lof import StreamingLOFSegmenter
-
-        det = StreamingLOFSegmenter(config, fps)
-        delay, step = det.geometry["delay"], det.geometry["step"]
-        events, dec_x, dec_y = [], [], []
-        # step-sized packets (results do not depend on packet size) so the value each window
-        # had when it was decided can be recorded for the picture
-        for i in range(0, angles.shape[0], step):
-            seen = det.n_windows_
-            events += det.learn_many(angles[i:i + step])
-            if det.n_windows_ > seen and det.n_windows_ > delay:
-                dec_x.append(int(det.buffer_centres()[-1 - delay]))
-                dec_y.append(float(det.buffer_lof()[-1 - delay]))
-        events += det.finish()
-        out = dict(cuts=[c.frame for c in events], latency=[c.latency for c in events],
-                   scores=[c.score for c in events], centres=np.array(dec_x),
-                   lof=np.array(dec_y), final=(det.buffer_centres(), det.buffer_lof()),
-                   threshold=None, n_nan_frames=det.n_nan_frames_, geometry=det.geometry)
-    else:
-        from streamseg.offline.lof import LOFSegmenter
-
-        seg = LOFSegmenter(config, fps).fit(angles)
-        out = dict(cuts=[int(c) for c in seg.predict()], latency=None,
-                   scores=[float(v) for v in seg.scores_], centres=seg.centres_,
-                   lof=seg.lof_, threshold=seg.threshold_, n_nan_frames=seg.n_nan_frames_,
-                   geometry=seg.geometry)
-    out["seconds"] = time.perf_counter() - t0
-    return out
+    return lof_report(angles, fps, config, online)
 
 
 def _segments(cuts, n):
@@ -180,7 +141,7 @@ def _segments(cuts, n):
 
 
 def _plot(args, res, n, fps, title, truth=None):
-    from streamseg.plot import plot_curve
+    from streamseg.plotting.curve import plot_curve
 
     extra = []
     if "final" in res:
@@ -194,7 +155,7 @@ def segment(args) -> dict:
     """Cut ``args.file``; the JSON of the issue (n_frames, fps, method, cuts, segments, ...)."""
     config = config_from_args(args)
     angles, fps = _angles(args, config)
-    res = run(angles, fps, config, bool(args.online))
+    res = _run(angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     if args.plot:
         _plot(args, res, n, fps, f"{Path(args.file).name}: LOF "
@@ -210,12 +171,12 @@ def segment(args) -> dict:
 
 def evaluate(args) -> dict:
     """Precision/recall/F1 (label window + 0.5 s, and flat 1 s), covering, latency."""
-    from streamseg.labels import cut_windows, read_labels, true_cuts
-    from streamseg.metrics import covering, cut_scores, latency_stats
+    from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts
+    from streamseg.evaluation.metrics import covering, cut_scores, latency_stats
 
     config = config_from_args(args)
     angles, fps = _angles(args, config)
-    res = run(angles, fps, config, bool(args.online))
+    res = _run(angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     segs = read_labels(args.labels, sequence)

@@ -69,7 +69,7 @@ def segment(args) -> dict:
     """Repetitions of ``args.file`` as the JSON-able result the issue specifies."""
     cfg, seg, seconds = _run(args)
     if args.plot:
-        from streamseg.plot_repetitions import plot_repetitions
+        from streamseg.plotting.repetitions import plot_repetitions
 
         plot_repetitions(args.plot, seg)
     a = seg.analysis_
@@ -109,14 +109,14 @@ def evaluate(args) -> dict:
     routines' labels.csv) do not mark repetitions: alpha is then meaningless; use
     ``segment`` on each block instead.
     """
-    from streamseg.labels import read_labels
-    from streamseg.metrics import count_error, repetition_accuracy
+    from streamseg.evaluation.labels import read_labels
+    from streamseg.evaluation.metrics import count_error, repetition_accuracy
 
     cfg, seg, seconds = _run(args)
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     truth = [(s.start, s.end) for s in read_labels(args.labels, sequence)]
     if args.plot:
-        from streamseg.plot_repetitions import plot_repetitions
+        from streamseg.plotting.repetitions import plot_repetitions
 
         plot_repetitions(args.plot, seg, truth=truth)
     return {

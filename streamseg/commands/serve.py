@@ -48,7 +48,7 @@ def add_arguments(parser) -> None:
 def build(args):
     """``(DaemonConfig, Algorithms)`` from parsed arguments."""
     from streamseg.daemon import load_config
-    from streamseg.pipeline import Algorithms
+    from streamseg.daemon.pipeline import Algorithms
 
     config, lof, aca, rep = DaemonConfig(), None, None, None
     if args.config:

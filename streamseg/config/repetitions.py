@@ -20,7 +20,7 @@ class RepetitionConfig:
         UKF random-walk std of each joint angle, rad per second.
     estimate_noise : bool
         Offline: raise ``position_noise`` to the noise estimated from the recording's
-        frame-to-frame jitter (:func:`streamseg.ukf_model.estimate_noise`) when larger.
+        frame-to-frame jitter (:func:`streamseg.kinematics.model.estimate_noise`) when larger.
     length_speed : float
         UKF random-walk std of log bone lengths per second (passes 1-2).
     ukf_passes : int

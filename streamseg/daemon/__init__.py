@@ -1,4 +1,4 @@
-"""The streamseg daemon: sockets and lifecycle only (algorithms live in :mod:`streamseg.pipeline`).
+"""The streamseg daemon: sockets and lifecycle (algorithms: :mod:`streamseg.daemon.pipeline`).
 
 Start one with :class:`Daemon` (``bind()`` then ``run()`` until ``stop()``), or from the command
 line with ``streamseg serve``. See ``docs/architecture.md`` and ``docs/protocol.md``.

@@ -21,10 +21,10 @@ from streamseg.config import DaemonConfig
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.ingest import Receiver
 from streamseg.daemon.options import skeleton_from
+from streamseg.daemon.pipeline import Algorithms, StreamPipeline
 from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
 from streamseg.daemon.worker import RelabelJob, RelabelWorker
-from streamseg.pipeline import Algorithms, StreamPipeline
 
 log = logging.getLogger("streamseg.daemon")
 CLOSED_KEPT = 1000  # states of closed streams kept for late joiners

@@ -5,8 +5,8 @@ from __future__ import annotations
 import logging
 import time
 
+from streamseg.daemon.pipeline import relabel
 from streamseg.daemon.worker import RelabelJob
-from streamseg.pipeline import relabel
 
 log = logging.getLogger("streamseg.daemon")
 

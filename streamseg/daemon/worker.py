@@ -6,7 +6,7 @@ import collections
 import threading
 import time
 
-from streamseg.pipeline import relabel
+from streamseg.daemon.pipeline import relabel
 
 
 class RelabelJob:

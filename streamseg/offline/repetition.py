@@ -9,8 +9,7 @@ from scipy.signal import hilbert
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
-from streamseg.offline import repetition_steps as steps
-from streamseg.ukf_model import (
+from streamseg.kinematics.model import (
     BONE_NAMES,
     bone_directions,
     estimate_noise,
@@ -18,6 +17,7 @@ from streamseg.ukf_model import (
     limb_points,
     observations,
 )
+from streamseg.offline import repetition_steps as steps
 
 __all__ = ["RepetitionAnalysis", "RepetitionSegmenter", "angles_from_positions", "analyse"]
 
@@ -36,7 +36,7 @@ def angles_from_positions(positions, names, fps, config: RepetitionConfig | None
     Returns
     -------
     ndarray, shape (n_frames, 20)
-        In :data:`streamseg.ukf_model.ANGLE_NAMES` order, radians.
+        In :data:`streamseg.kinematics.model.ANGLE_NAMES` order, radians.
     """
     cfg = config or RepetitionConfig()
     pts = limb_points(np.asarray(positions, dtype=np.float64), names)

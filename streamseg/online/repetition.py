@@ -32,10 +32,10 @@ import numpy as np
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
+from streamseg.kinematics.model import bone_directions, limb_points, observations
+from streamseg.kinematics.tracker import AngleTracker
 from streamseg.offline.repetition import analyse
 from streamseg.offline.repetition_steps import to_repetitions
-from streamseg.ukf_model import bone_directions, limb_points, observations
-from streamseg.ukf_online import AngleTracker
 
 __all__ = ["Rep", "RepetitionCounter"]
 

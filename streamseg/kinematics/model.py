@@ -21,8 +21,8 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from streamseg.exceptions import ParameterError, SkeletonError
+from streamseg.kinematics.ukf import ukf_pass
 from streamseg.skeleton.names import POINTS, resolve
-from streamseg.ukf import ukf_pass
 
 __all__ = ["ANGLE_NAMES", "MODEL_POINTS", "fit_angles", "forward_kinematics", "limb_points",
            "torso_frames"]
@@ -64,7 +64,7 @@ def limb_points(positions: np.ndarray, names) -> dict:
     return {k: positions[:, i] for k, i in zip(MODEL_POINTS, idx)}
 
 
-def _unit(v):
+def unit(v):
     return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
 
 
@@ -85,9 +85,9 @@ def torso_frames(pts: dict, fps: float, cutoff_hz: float | None = 2.0):
     if cutoff_hz is not None and n > 30 and cutoff_hz < 0.45 * fps:
         sos = butter(2, cutoff_hz, fs=fps, output="sos")
         P = {k: sosfiltfilt(sos, v, axis=0) for k, v in P.items()}
-    up = _unit(P["sternum"] - P["pelvis"])
+    up = unit(P["sternum"] - P["pelvis"])
     lat = P["l_hip"] - P["r_hip"]
-    lat = _unit(lat - np.sum(lat * up, axis=1, keepdims=True) * up)
+    lat = unit(lat - np.sum(lat * up, axis=1, keepdims=True) * up)
     fwd = np.cross(lat, up)
     return np.stack([lat, up, fwd], axis=1)
 
@@ -110,7 +110,7 @@ _DOWN = np.array([0.0, -1.0, 0.0])
 _LEFT = np.array([1.0, 0.0, 0.0])
 
 
-def _arm(a, lengths):
+def arm_points(a, lengths):
     """Shoulder, elbow, wrist relative to the sternum (eqs. 1-3). a: (s, 6), lengths: (s, 3)."""
     R_sca = _rot(1, a[:, 1]) @ _rot(2, a[:, 0])
     sho = lengths[:, :1] * (R_sca @ _LEFT)
@@ -125,7 +125,7 @@ def _arm(a, lengths):
     return sho, elb, wri
 
 
-def _leg(a, lengths, pelvis_dir):
+def leg_points(a, lengths, pelvis_dir):
     """Hip, knee, ankle relative to the pelvis (eqs. 4-5). a: (s, 4), lengths: (s, 3)."""
     hip = lengths[:, :1] * pelvis_dir
     R = _rot(0, a[:, 0]) @ _rot(2, a[:, 2]) @ _rot(1, a[:, 1])  # swing x, z, then twist y
@@ -154,15 +154,16 @@ def forward_kinematics(angles, lengths, pelvis_dir=(0.5, -0.7, 0.3)):
     """
     angles = np.atleast_2d(angles)
     lengths = np.broadcast_to(lengths, (angles.shape[0], N_LENGTHS))
-    pdir = _unit(np.asarray(pelvis_dir, dtype=np.float64))
-    out = [*_arm(angles[:, 0:6], lengths[:, 0:3]), *_arm(angles[:, 6:12], lengths[:, 3:6]),
-           *_leg(angles[:, 12:16], lengths[:, 6:9], pdir),
-           *_leg(angles[:, 16:20], lengths[:, 9:12], pdir)]
+    pdir = unit(np.asarray(pelvis_dir, dtype=np.float64))
+    out = [*arm_points(angles[:, 0:6], lengths[:, 0:3]),
+           *arm_points(angles[:, 6:12], lengths[:, 3:6]),
+           *leg_points(angles[:, 12:16], lengths[:, 6:9], pdir),
+           *leg_points(angles[:, 16:20], lengths[:, 9:12], pdir)]
     return np.concatenate(out, axis=1)
 
 
-_SETTLE_STEPS = 20  # updates on frame 0 before pass 1 (pulls the neutral pose onto frame 0)
-_SETTLE_VAR = 1e-4  # variance re-added per settling step so it keeps moving
+SETTLE_STEPS = 20  # updates on frame 0 before pass 1 (pulls the neutral pose onto frame 0)
+SETTLE_VAR = 1e-4  # variance re-added per settling step so it keeps moving
 _MIRROR = np.array([-1.0, 1.0, 1.0])
 _OBS_ORDER = ("l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow", "r_wrist",
               "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle")
@@ -207,7 +208,7 @@ def observations(pts: dict, fps: float, torso_cutoff_hz: float | None = 2.0, *,
         raise SkeletonError("cannot estimate body size: limb joints coincide or are all missing")
     if pelvis_dir is None:
         hips = np.concatenate([local["l_hip"], local["r_hip"]])
-        pelvis_dir = _unit(np.nanmedian(_unit(hips), axis=0))
+        pelvis_dir = unit(np.nanmedian(unit(hips), axis=0))
     Y = np.concatenate([local[k] for k in _OBS_ORDER], axis=1) / scale
     return Y, scale, pelvis_dir, raw / scale
 
@@ -257,17 +258,17 @@ def fit_angles(Y, fps, pelvis_dir, lengths0, *, position_noise=0.05, angle_speed
     lengths0 = np.asarray(lengths0, dtype=np.float64)
     if lengths0.shape != (N_LENGTHS,) or not np.all(lengths0 > 0):
         raise ParameterError(f"lengths0 must be {N_LENGTHS} positive lengths; got {lengths0}")
-    pdir = _unit(np.asarray(pelvis_dir, dtype=np.float64))
+    pdir = unit(np.asarray(pelvis_dir, dtype=np.float64))
     angles = np.empty((Y.shape[0], N_ANGLES))
     lengths = np.empty(N_LENGTHS)
-    a0 = _initial_angles()
-    for limb, (asl, lsl, ysl) in enumerate(_LIMBS):
+    a0 = initial_angles()
+    for limb, (asl, lsl, ysl) in enumerate(LIMBS):
         if limb < 2:
             def chain(A, L):
-                return np.concatenate(_arm(A, L), axis=1)
+                return np.concatenate(arm_points(A, L), axis=1)
         else:
             def chain(A, L):
-                return np.concatenate(_leg(A, L, pdir), axis=1)
+                return np.concatenate(leg_points(A, L, pdir), axis=1)
         angles[:, asl], lengths[lsl] = _fit_limb(
             Y[:, ysl], chain, a0[asl], lengths0[lsl], fps, position_noise, angle_speed,
             length_speed, passes)
@@ -276,12 +277,12 @@ def fit_angles(Y, fps, pelvis_dir, lengths0, *, position_noise=0.05, angle_speed
 
 
 # (angle slice, length slice, observation slice) per limb: left arm, right arm, legs
-_LIMBS = ((slice(0, 6), slice(0, 3), slice(0, 9)), (slice(6, 12), slice(3, 6), slice(9, 18)),
+LIMBS = ((slice(0, 6), slice(0, 3), slice(0, 9)), (slice(6, 12), slice(3, 6), slice(9, 18)),
           (slice(12, 16), slice(6, 9), slice(18, 27)),
           (slice(16, 20), slice(9, 12), slice(27, 36)))
 _MAX_ANGLE_STD = 0.3  # rad; caps the variance of angles the data leave unobserved (see below)
-_INITIAL_ANGLE_STD = 0.3  # rad
-_INITIAL_LOG_LENGTH_STD = 0.05
+INITIAL_ANGLE_STD = 0.3  # rad
+INITIAL_LOG_LENGTH_STD = 0.05
 
 
 def _fit_limb(Y, chain, a0, l0, fps, noise, angle_speed, length_speed, passes):
@@ -295,16 +296,16 @@ def _fit_limb(Y, chain, a0, l0, fps, noise, angle_speed, length_speed, passes):
         return chain(X[:, :k], np.exp(X[:, k:]))
 
     x = np.concatenate([a0, np.log(l0)])
-    P = np.diag(np.concatenate([np.full(k, _INITIAL_ANGLE_STD**2),
-                                np.full(3, _INITIAL_LOG_LENGTH_STD**2)]))
+    P = np.diag(np.concatenate([np.full(k, INITIAL_ANGLE_STD**2),
+                                np.full(3, INITIAL_LOG_LENGTH_STD**2)]))
     Q = np.concatenate([np.full(k, qa), np.full(3, ql)])
     # Settle on the first frame before pass 1 so pass 1 does not start with a transient.
     first = Y[:1]
-    for _ in range(_SETTLE_STEPS):
-        _, x, P = ukf_pass(first, h_full, x, P, np.full(k + 3, _SETTLE_VAR), R,
-                           max_std=_cap(k, 3))
-    X1, x, P = ukf_pass(Y, h_full, x, P, Q, R, max_std=_cap(k, 3))
-    X2, x, P = ukf_pass(Y, h_full, x, P, Q, R, reverse=True, max_std=_cap(k, 3))
+    for _ in range(SETTLE_STEPS):
+        _, x, P = ukf_pass(first, h_full, x, P, np.full(k + 3, SETTLE_VAR), R,
+                           max_std=std_caps(k, 3))
+    X1, x, P = ukf_pass(Y, h_full, x, P, Q, R, max_std=std_caps(k, 3))
+    X2, x, P = ukf_pass(Y, h_full, x, P, Q, R, reverse=True, max_std=std_caps(k, 3))
     if passes == 2:
         return 0.5 * (X1[:, :k] + X2[:, :k]), np.exp(0.5 * (X1[-1, k:] + X2[0, k:]))
     lengths = 0.5 * (np.exp(X1[:, k:]).mean(axis=0) + np.exp(X2[:, k:]).mean(axis=0))
@@ -313,19 +314,19 @@ def _fit_limb(Y, chain, a0, l0, fps, noise, angle_speed, length_speed, passes):
         return chain(A, np.broadcast_to(lengths, (A.shape[0], 3)))
 
     Qa = np.full(k, qa)
-    X3, a, Pa = ukf_pass(Y, h_angles, x[:k], P[:k, :k], Qa, R, max_std=_cap(k, 0))
-    X4, _, _ = ukf_pass(Y, h_angles, a, Pa, Qa, R, reverse=True, max_std=_cap(k, 0))
+    X3, a, Pa = ukf_pass(Y, h_angles, x[:k], P[:k, :k], Qa, R, max_std=std_caps(k, 0))
+    X4, _, _ = ukf_pass(Y, h_angles, a, Pa, Qa, R, reverse=True, max_std=std_caps(k, 0))
     return 0.5 * (X3 + X4), lengths
 
 
-def _cap(k, n_lengths):
+def std_caps(k, n_lengths):
     # Angles the data do not constrain (e.g. upper-arm twist while the elbow is straight)
     # would random-walk to variances whose sigma points wrap around the circle; capping them
     # keeps the filter local. Log lengths are never capped (their variance stays small).
     return np.concatenate([np.full(k, _MAX_ANGLE_STD), np.full(n_lengths, np.inf)])
 
 
-def _initial_angles():
+def initial_angles():
     """A neutral pose: clavicles level, arms and legs hanging, elbows and knees slightly bent.
 
     The slight bend picks the anatomical branch of the elbow/knee solution from the start.

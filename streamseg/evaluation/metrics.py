@@ -16,8 +16,8 @@ def cut_windows_from(true_cuts, tolerance=None, windows=None, margin: int = 0):
     tolerance : int, optional
         Flat tolerance: ``(t - tolerance, t + tolerance)``.
     windows : sequence of (int, int), optional
-        Per-boundary windows (e.g. from :func:`streamseg.labels.cut_windows`); used instead of
-        ``tolerance`` when given.
+        Per-boundary windows (e.g. from :func:`streamseg.evaluation.labels.cut_windows`); used
+        instead of ``tolerance`` when given.
     margin : int
         Frames added on both sides of every window.
 

@@ -16,9 +16,15 @@ from pathlib import Path
 
 import numpy as np
 
+from streamseg.evaluation.labels import (
+    LabelSegment,
+    cut_windows,
+    frame_labels,
+    read_labels,
+    true_cuts,
+)
+from streamseg.evaluation.metrics import covering, cut_scores, latency_stats, matched_frame_accuracy
 from streamseg.exceptions import RecordingError
-from streamseg.labels import LabelSegment, cut_windows, frame_labels, read_labels, true_cuts
-from streamseg.metrics import covering, cut_scores, latency_stats, matched_frame_accuracy
 
 LABEL_HEADER = ["sequence", "start_frame", "end_frame", "action_label"]
 RECORDING_SUFFIXES = (".amc.gz", ".amc", ".bvh", ".npz")
@@ -229,10 +235,10 @@ def _angles(item: LabelledRecording) -> np.ndarray:
 
 def lof_prediction(angles: np.ndarray, fps: float, online: bool) -> Prediction:
     """Default-config LOF cuts of a bone-angle matrix, offline or streamed in 120-frame packets."""
-    from streamseg.commands.lof import run
     from streamseg.config import LOFConfig
+    from streamseg.offline.lof_report import lof_report
 
-    res = run(angles, fps, LOFConfig(), online)
+    res = lof_report(angles, fps, LOFConfig(), online)
     return Prediction(cuts=list(res["cuts"]), latencies=res["latency"] if online else None)
 
 

@@ -1,1 +1,0 @@
-"""Standalone client scripts (thin wrappers of the ``streamseg`` subcommands)."""
