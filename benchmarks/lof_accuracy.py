@@ -104,7 +104,7 @@ def lof_cuts(angles, config, online):
             ev += det.learn_many(angles[i:i + 120])
         ev += det.finish()
         return [c.frame for c in ev], [c.latency for c in ev]
-    return list(LOFSegmenter(config, FPS, n_features=d).fit(angles).predict()), None
+    return list(LOFSegmenter(config, FPS, n_features=d).fit(angles).cuts_), None
 
 
 def whole_curve_cuts(angles, config):

@@ -66,7 +66,7 @@ def median_time(fn, runs=RUNS):
 
 
 def offline_ours(rec, cfg):
-    return LOFSegmenter(cfg, rec.fps).fit(rec).predict()
+    return LOFSegmenter(cfg, rec.fps).fit(rec).cuts_
 
 
 def offline_sklearn(rec, cfg):

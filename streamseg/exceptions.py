@@ -11,6 +11,13 @@ class ParameterError(StreamsegError, ValueError):
     """A parameter has a value outside its allowed range or type."""
 
 
+class NotFittedError(ParameterError, AttributeError):
+    """A fitted attribute or ``predict()`` was asked of an estimator before ``fit``.
+
+    An AttributeError too, so ``hasattr(estimator, "labels_")`` stays False before ``fit``.
+    """
+
+
 class RecordingError(StreamsegError):
     """A recording file cannot be read.
 

@@ -193,10 +193,11 @@ def test_infeasible_lengths_fall_back_to_min_len_one():
 
 
 @pytest.mark.parametrize("kw,match", [({"n_clusters": 0}, "n_clusters"),
-                                      ({"min_len": 5, "max_len": 3}, "max_len"),
+                                      ({"min_len_frames": 5, "max_len_frames": 3},
+                                       "max_len_frames"),
                                       ({"kernel": "cosine"}, "kernel"),
                                       ({"init": "kmeans"}, "init")])
 def test_parameter_errors(kw, match):
-    params = {"n_clusters": 2, "min_len": 2, "max_len": 4} | kw
+    params = {"n_clusters": 2, "min_len_frames": 2, "max_len_frames": 4} | kw
     with pytest.raises(ParameterError, match=match):
         ACA(**params).fit(np.arange(10.0))

@@ -115,7 +115,8 @@ def test_haca_on_blocks():
     X, y = _blocks(np.random.default_rng(1), [0, 1, 2, 1, 0], 3)
     accs = []
     for seed in range(3):
-        model = HACA(3, 40, 120, fine_clusters=6, fine_min_len=8, fine_max_len=20, n_init=5,
+        model = HACA(3, 40, 120, fine_clusters=6, fine_min_len_frames=8, fine_max_len_frames=20,
+                     n_init=5,
                      random_state=seed).fit(X)
         accs.append(matched_frame_accuracy(model.labels_, y)[0])
     # a single run can stop in a local minimum of the fine level; most runs are near perfect
@@ -135,7 +136,7 @@ def test_match_labels_hungarian_and_fresh_ids():
 
 def test_relabel_window_keeps_ids_consistent_and_absolute():
     X, _ = _blocks(np.random.default_rng(2), [0, 1, 2, 0, 1, 2], 2)
-    cfg = ACAConfig(n_clusters=3, min_len=0.3, max_len=0.8, k_reduce=None, n_init=3)
+    cfg = ACAConfig(n_clusters=3, min_len_s=0.3, max_len_s=0.8, k_reduce=None, n_init=3)
     fps = 100.0
     first = relabel_window(X[:320], start_frame=1000, fps=fps, config=cfg)
     assert first.start == 1000 and first.end == 1320
@@ -154,7 +155,7 @@ def test_relabel_window_runs_in_a_worker_thread():
     from concurrent.futures import ThreadPoolExecutor
 
     X, _ = _blocks(np.random.default_rng(4), [0, 1, 2], 2)
-    cfg = ACAConfig(n_clusters=3, min_len=0.3, max_len=0.8, k_reduce=None, n_init=2)
+    cfg = ACAConfig(n_clusters=3, min_len_s=0.3, max_len_s=0.8, k_reduce=None, n_init=2)
     direct = relabel_window(X, start_frame=0, fps=100.0, config=cfg)
     with ThreadPoolExecutor(1) as pool:
         threaded = pool.submit(relabel_window, X, start_frame=0, fps=100.0, config=cfg).result()
@@ -171,7 +172,7 @@ def test_window_segmentation_is_frozen_and_warmup_runs():
 
 def test_aca_config_validation():
     with pytest.raises(ParameterError, match="max_len"):
-        ACAConfig(min_len=2.0, max_len=1.0)
+        ACAConfig(min_len_s=2.0, max_len_s=1.0)
     with pytest.raises(ParameterError, match="kernel"):
         ACAConfig(kernel="rbf")
 
@@ -194,7 +195,7 @@ def test_relabel_window_with_a_cluster_born_after_the_overlap():
     X = np.concatenate(block) + rng.normal(0, 0.05, (180, 2))
     previous = WindowSegmentation(0, 120, [(0, 30, 7), (30, 60, 4), (60, 90, 7),
                                            (90, 120, 4)])
-    config = ACAConfig(n_clusters=3, min_len=10, max_len=30, k_reduce=None, n_init=5)
+    config = ACAConfig(n_clusters=3, min_len_s=10, max_len_s=30, k_reduce=None, n_init=5)
     out = relabel_window(X[60:], start_frame=60, fps=1.0, config=config, previous=previous)
     labels = out.frame_labels()
     assert labels[0] == 7 and labels[45] == 4          # matched over frames 60-119

@@ -72,7 +72,7 @@ def test_features_options_match_the_library(capsys, files):
         cfg = LOFConfig(**kw)
         assert out["params"]["inclinations"] == cfg.inclinations
         feats = bone_angles(rec.positions, rec.skeleton, inclinations=cfg.inclinations, up=up)
-        assert out["cuts"] == LOFSegmenter(cfg, rec.fps).fit(feats).predict().tolist()
+        assert out["cuts"] == LOFSegmenter(cfg, rec.fps).fit(feats).cuts_.tolist()
     assert cli.main(["segment", str(amc), "--skeleton", str(asf), "--method", "lof", "--up", "z",
                      "--inclinations", "off"]) == 2
     assert "no effect" in capsys.readouterr().err

@@ -12,7 +12,7 @@ from sklearn.neighbors import LocalOutlierFactor as sklearn_lof  # the test orac
 from streamseg._kernels.histogram import contrast_at, refine_cut
 from streamseg._kernels.peaks import dp_keep, peak_windows
 from streamseg.config import LOFConfig
-from streamseg.exceptions import ParameterError
+from streamseg.exceptions import NotFittedError, ParameterError
 from streamseg.offline.lof import (
     LOFSegmenter,
     frame_bins,
@@ -148,8 +148,14 @@ def test_segmenter_finds_cuts_between_synthetic_actions():
     parts = [np.clip(mu + 0.25 * np.sin(t / 9.0 + np.arange(d)) + rng.normal(0, 0.05, (1500, d)),
                      0, np.pi) for mu in (0.6, 1.6, 2.4)]
     seg = LOFSegmenter(LOFConfig(), fps=120).fit(np.concatenate(parts))
-    cuts = seg.predict()
+    cuts = seg.cuts_
     assert len(cuts) == 2
+    # predict(): the three segments between the cuts, tiling the frames
+    segs = seg.predict()
+    assert [(s.start, s.end) for s in segs] == [(0, cuts[0]), (cuts[0], cuts[1]), (cuts[1], 4500)]
+    assert [s.label for s in segs] == [0, 1, 2]
+    seg.cuts_[:] = -1  # a copy: the model keeps its cuts
+    assert (seg.cuts_ == cuts).all()
     assert np.abs(cuts - np.array([1500, 3000])).max() <= seg.geometry["step"] * 2
     assert seg.lof_.shape == seg.centres_.shape
     assert seg.n_nan_frames_ == 0
@@ -160,8 +166,11 @@ def test_segmenter_validates_input():
         LOFSegmenter(LOFConfig(), 120).fit(np.zeros((100, 7)))
     with pytest.raises(ParameterError, match="inclinations=True"):
         LOFSegmenter(LOFConfig(), 120).fit(np.zeros((100, 8)))  # the paper's angles only
-    with pytest.raises(ParameterError, match="fit"):
+    with pytest.raises(NotFittedError, match="fit"):
         LOFSegmenter(LOFConfig(), 120).predict()
+    with pytest.raises(NotFittedError, match="fit"):
+        _ = LOFSegmenter(LOFConfig(), 120).cuts_
+    assert not hasattr(LOFSegmenter(LOFConfig(), 120), "cuts_")
 
 
 def test_config_validates_and_paper_preset():
@@ -222,7 +231,7 @@ def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
     assert refine_cut(fb, valid, 600, 300, 48, 60, 10, 600, 0, 310, left, right) == 310
     # the centre rule: every cut is a window centre
     seg = LOFSegmenter(LOFConfig(refine_s=0.0, inclinations=False), fps=120).fit(a)
-    assert len(seg.predict()) and np.isin(seg.predict(), seg.centres_).all()
+    assert len(seg.cuts_) and np.isin(seg.cuts_, seg.centres_).all()
     assert LOFConfig.paper().refine_s == 0.0
 
 

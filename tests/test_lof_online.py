@@ -214,7 +214,7 @@ def test_offline_cuts_are_the_live_decisions(angles_86_01):
         online += s.learn_many(angles_86_01[i:i + 37])
     online += s.finish()
     off = LOFSegmenter(cfg, fps=120).fit(angles_86_01)
-    assert [c.frame for c in online] == list(off.predict())
+    assert [c.frame for c in online] == list(off.cuts_)
     assert [c.emitted_at for c in online] == list(off.decided_at_)
     np.testing.assert_array_equal([c.score for c in online], off.scores_)
 

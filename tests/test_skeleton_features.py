@@ -78,7 +78,8 @@ def test_kinect_names_reach_the_same_angles(cmu86):
             pos[:, k] = cmu86.positions[:200, names.index(src[joint])]
     skel = Skeleton(KINECT, np.full(len(KINECT), -1), np.zeros((len(KINECT), 3)), "m")
     np.testing.assert_allclose(
-        bone_angles(pos, skel), bone_angles(cmu86.positions[:200], cmu86.skeleton)
+        bone_angles(pos, skel, inclinations=False),
+        bone_angles(cmu86.positions[:200], cmu86.skeleton, inclinations=False)
     )
     np.testing.assert_allclose(
         body_features(pos, skel), body_features(cmu86.positions[:200], cmu86.skeleton)
@@ -98,7 +99,7 @@ def test_unknown_skeleton_lists_missing_joints():
 def test_bone_angle_range_and_nan_dropout(cmu86):
     pos = cmu86.positions[:300].copy()
     pos[100, 5] = np.nan  # a marker dropout on one joint (rfemur = knee)
-    a = bone_angles(pos, cmu86.skeleton)
+    a = bone_angles(pos, cmu86.skeleton, inclinations=False)
     finite = a[np.isfinite(a)]
     assert finite.min() >= 0 and finite.max() <= np.pi
     assert np.isnan(a[100]).any() and np.isfinite(a[99]).all() and np.isfinite(a[101]).all()
@@ -157,7 +158,7 @@ def test_bone_angle_kernel_equals_naive_twin(cmu86):
     pos[50, 4] = np.nan                       # a dropout
     pos[60, 13] = pos[60, 18]                 # a zero-length upper arm (shoulder on elbow)
     points = bone_point_indices(cmu86.skeleton)
-    got = bone_angles(pos, cmu86.skeleton)
+    got = bone_angles(pos, cmu86.skeleton, inclinations=False)
     want = naive_bone_angles(pos, points.tolist(), ANGLES)
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
@@ -181,7 +182,8 @@ def test_inclinations_equal_naive_twin(cmu86):
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
     # the first 8 columns are the paper's angles, unchanged
-    np.testing.assert_array_equal(got[:, :8], bone_angles(pos, cmu86.skeleton))
+    np.testing.assert_array_equal(got[:, :8],
+                                  bone_angles(pos, cmu86.skeleton, inclinations=False))
     # hand-derived: a horizontal spine is pi/2 from up; a shin pointing down and forward at
     # 45 degrees is 3 pi / 4; a forearm pointing straight up is 0
     one = cmu86.positions[:1].copy()

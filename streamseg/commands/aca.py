@@ -28,9 +28,9 @@ def add_arguments(group) -> None:
                        help="two-level HACA (the default; kept for scripts)")
     group.add_argument("--flat", action="store_true", help="one-level ACA instead of HACA")
     group.add_argument("--min-len", type=float, default=None, metavar="S",
-                       help=f"shortest segment, seconds (default {_DEFAULTS.min_len:g})")
+                       help=f"shortest segment, seconds (default {_DEFAULTS.min_len_s:g})")
     group.add_argument("--max-len", type=float, default=None, metavar="S",
-                       help=f"longest segment, seconds (default {_DEFAULTS.max_len:g})")
+                       help=f"longest segment, seconds (default {_DEFAULTS.max_len_s:g})")
     group.add_argument("--kernel", choices=("gaussian", "equality"), default="gaussian",
                        help="frame kernel (equality: 1 iff frames are equal)")
     group.add_argument("--sigma", type=float, default=None, metavar="S",
@@ -72,13 +72,13 @@ def _config(args, is_matrix, n_rows) -> ACAConfig:
                   n_init=args.restarts, random_state=args.seed, k_reduce=reduce,
                   hierarchical=not args.flat)
     if args.min_len is not None:
-        values["min_len"] = args.min_len
+        values["min_len_s"] = args.min_len
     if args.max_len is not None:
-        values["max_len"] = args.max_len
-    if "min_len" in values and "max_len" not in values:
-        values["max_len"] = max(values["min_len"], _DEFAULTS.max_len)
-    if "max_len" in values and "min_len" not in values:
-        values["min_len"] = min(values["max_len"], _DEFAULTS.min_len)
+        values["max_len_s"] = args.max_len
+    if "min_len_s" in values and "max_len_s" not in values:
+        values["max_len_s"] = max(values["min_len_s"], _DEFAULTS.max_len_s)
+    if "max_len_s" in values and "min_len_s" not in values:
+        values["min_len_s"] = min(values["max_len_s"], _DEFAULTS.min_len_s)
     return ACAConfig(**values)
 
 

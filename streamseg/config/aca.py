@@ -22,7 +22,7 @@ class ACAConfig:
         (:mod:`streamseg.offline.model_selection`).
     k_max : int
         Largest number of actions tried when ``n_clusters`` is None.
-    min_len, max_len : float
+    min_len_s, max_len_s : float
         Segment lengths in seconds (a segment is one or a few cycles of an action; a run of
         one action is several consecutive segments with one label).
     kernel : {"gaussian", "equality"}
@@ -46,7 +46,7 @@ class ACAConfig:
         the CMU 02 joins, ``docs/peers_table.md``), and live relabelling is measured against it.
     fine_clusters : int
         HACA fine level: number of primitives.
-    fine_min_len, fine_max_len : float
+    fine_min_len_s, fine_max_len_s : float
         HACA fine level: primitive lengths in seconds.
     coarse_kernel : {"labels", "dtak"}
         HACA coarse level: kernel between primitives, their DTAK or the equality of their
@@ -57,8 +57,8 @@ class ACAConfig:
 
     n_clusters: int | None = None
     k_max: int = 8
-    min_len: float = 0.5
-    max_len: float = 2.0
+    min_len_s: float = 0.5
+    max_len_s: float = 2.0
     kernel: str = "gaussian"
     sigma: float | None = None
     n_init: int = 10
@@ -68,8 +68,8 @@ class ACAConfig:
     reduce_cap: float = 1 / 6
     hierarchical: bool = True
     fine_clusters: int = 10
-    fine_min_len: float = 1 / 12
-    fine_max_len: float = 0.25
+    fine_min_len_s: float = 1 / 12
+    fine_max_len_s: float = 0.25
     coarse_kernel: str = "dtak"
     random_state: int | None = 0
 
@@ -80,10 +80,11 @@ class ACAConfig:
         _check("n_clusters", self.n_clusters, self.n_clusters is None or (
             is_int(self.n_clusters) and self.n_clusters >= 1), "None or an integer >= 1")
         _check("k_max", self.k_max, is_int(self.k_max) and self.k_max >= 2, "an integer >= 2")
-        _check("min_len", self.min_len, isinstance(self.min_len, (int, float))
-               and self.min_len > 0, "a length > 0 seconds")
-        _check("max_len", self.max_len, isinstance(self.max_len, (int, float))
-               and self.max_len >= self.min_len, f"a length >= min_len={self.min_len} seconds")
+        _check("min_len_s", self.min_len_s, isinstance(self.min_len_s, (int, float))
+               and self.min_len_s > 0, "a length > 0 seconds")
+        _check("max_len_s", self.max_len_s, isinstance(self.max_len_s, (int, float))
+               and self.max_len_s >= self.min_len_s,
+               f"a length >= min_len_s={self.min_len_s} seconds")
         _check("kernel", self.kernel, self.kernel in ("gaussian", "equality"),
                "'gaussian' or 'equality'")
         _check("sigma", self.sigma, self.sigma is None or (
@@ -101,11 +102,11 @@ class ACAConfig:
                "True or False")
         _check("fine_clusters", self.fine_clusters,
                is_int(self.fine_clusters) and self.fine_clusters >= 1, "an integer >= 1")
-        _check("fine_min_len", self.fine_min_len, isinstance(self.fine_min_len, (int, float))
-               and self.fine_min_len > 0, "a length > 0 seconds")
-        _check("fine_max_len", self.fine_max_len, isinstance(self.fine_max_len, (int, float))
-               and self.fine_max_len >= self.fine_min_len,
-               f"a length >= fine_min_len={self.fine_min_len} seconds")
+        _check("fine_min_len_s", self.fine_min_len_s, isinstance(self.fine_min_len_s, (int, float))
+               and self.fine_min_len_s > 0, "a length > 0 seconds")
+        _check("fine_max_len_s", self.fine_max_len_s, isinstance(self.fine_max_len_s, (int, float))
+               and self.fine_max_len_s >= self.fine_min_len_s,
+               f"a length >= fine_min_len_s={self.fine_min_len_s} seconds")
         _check("coarse_kernel", self.coarse_kernel, self.coarse_kernel in ("labels", "dtak"),
                "'labels' or 'dtak'")
         _check("random_state", self.random_state, self.random_state is None

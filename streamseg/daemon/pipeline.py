@@ -366,7 +366,7 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
             continue
         a_i, b_i = max(a_i, 0), min(b_i, m)
         segs.append((int(frames[a_i]), int(frames[b_i - 1]) + 1, int(label)))
-    radius = int(round(algorithms.relabel_config.min_len * fps))
+    radius = int(round(algorithms.relabel_config.min_len_s * fps))
     segs = snap_to_cuts(segs, [c for c in cuts if start < c < int(frames[-1])], radius)
     k = int(getattr(window, "n_clusters", 0))
     stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous)

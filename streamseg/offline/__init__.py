@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from streamseg.offline.aca import ACA
+from streamseg.offline.aca_segmenter import ACASegmenter
 from streamseg.offline.haca import HACA
 from streamseg.offline.lof import LOFSegmenter
 from streamseg.offline.model_selection import fit_aca
@@ -12,5 +13,6 @@ from streamseg.offline.repetition import RepetitionSegmenter
 
 warmup = warmup_aca  # the relabeller's kernels (the daemon warms them at start)
 
-__all__ = ["ACA", "HACA", "LOFSegmenter", "RepetitionSegmenter", "WindowSegmentation",
+__all__ = ["ACA", "ACASegmenter", "HACA", "LOFSegmenter", "RepetitionSegmenter",
+           "WindowSegmentation",
            "fit_aca", "relabel_window", "warmup", "warmup_aca"]

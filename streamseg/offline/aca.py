@@ -10,7 +10,7 @@ Decisions (see also :class:`ACA`):
 
 * The DP admits only lengths in [min_len, max_len], as Algorithm 1 and eq. 9 of the paper do.
   The reference code admits 1..max_len (min_len only shapes the initialization); we keep the
-  paper's constraint because min_len is the user's granularity control and without it the DP
+  paper's constraint because min_len_frames is the user's granularity control and without it the DP
   is free to carve out one-frame segments that fit a centre well. Only when ``n`` frames
   cannot be tiled with lengths in range (e.g. ``n < min_len``) is the lower bound dropped to 1.
 * An empty cluster is re-seeded with the segment farthest from its own centre (taken from a
@@ -20,8 +20,8 @@ Decisions (see also :class:`ACA`):
   ``max_iter`` steps); restarts keep the lowest objective (the first one on ties, so the
   answer does not depend on ``n_jobs``).
 
-Speed: the DP step (``streamseg._kernels.aca``) costs O(n^2 max_len) per iteration and
-O(n max_len) memory besides the (n, n) frame kernel, as in section 3.5. For the 0/1 equality
+Speed: the DP step (``streamseg._kernels.aca``) costs O(n^2 max_len_frames) per iteration and
+O(n max_len_frames) memory besides the (n, n) frame kernel, as in section 3.5. For the 0/1 equality
 kernel it runs in exact int16 arithmetic. Restarts can run in threads (``n_jobs``).
 """
 
@@ -38,6 +38,7 @@ from streamseg._kernels.dtak import segment_kernel_within
 from streamseg.exceptions import ParameterError
 from streamseg.offline.aca_init import kmeans, propagated_init, random_init
 from streamseg.offline.dtak import KERNELS, _as_frames, frame_kernel
+from streamseg.segments import Estimator
 
 INITS = ("random", "propagated")
 
@@ -179,14 +180,14 @@ def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int
     return starts, ends, labels, objective(T, labels, k), it
 
 
-class ACA:
+class ACA(Estimator):
     """Aligned Cluster Analysis of one sequence of frames.
 
     Parameters
     ----------
     n_clusters : int
         Number of actions k.
-    min_len, max_len : int
+    min_len_frames, max_len_frames : int
         Segment lengths in frames (of the sequence given to :meth:`fit`, before reduction).
     n_init : int
         Restarts; the one with the lowest objective is kept.
@@ -223,12 +224,12 @@ class ACA:
         Coordinate-descent steps of the kept restart.
     """
 
-    def __init__(self, n_clusters, min_len, max_len, *, n_init=10, max_iter=50,
+    def __init__(self, n_clusters, min_len_frames, max_len_frames, *, n_init=10, max_iter=50,
                  kernel="gaussian", sigma=None, init="random", k_reduce=None, reduce_cap=20,
                  k_frame=20, n_jobs=1, random_state=None):
         self.n_clusters = n_clusters
-        self.min_len = min_len
-        self.max_len = max_len
+        self.min_len_frames = min_len_frames
+        self.max_len_frames = max_len_frames
         self.n_init = n_init
         self.max_iter = max_iter
         self.kernel = kernel
@@ -246,16 +247,17 @@ class ACA:
                 raise ParameterError(f"{name}={v!r} is invalid: expected an integer >= {lo}")
 
         posint("n_clusters", self.n_clusters)
-        posint("min_len", self.min_len)
-        posint("max_len", self.max_len)
+        posint("min_len_frames", self.min_len_frames)
+        posint("max_len_frames", self.max_len_frames)
         posint("n_init", self.n_init)
         posint("max_iter", self.max_iter)
         posint("reduce_cap", self.reduce_cap)
         posint("k_frame", self.k_frame)
         posint("n_jobs", self.n_jobs)
-        if self.max_len < self.min_len:
+        if self.max_len_frames < self.min_len_frames:
             raise ParameterError(
-                f"max_len={self.max_len!r} is invalid: expected >= min_len={self.min_len}")
+                f"max_len_frames={self.max_len_frames!r} is invalid: expected >= "
+                f"min_len_frames={self.min_len_frames}")
         if self.kernel not in KERNELS + ("precomputed",):
             raise ParameterError(f"kernel={self.kernel!r} is invalid: expected one of "
                                  f"{KERNELS + ('precomputed',)}")
@@ -301,8 +303,8 @@ class ACA:
         nr = K.shape[0]
         # Lengths are given in original frames; a reduced frame stands for n / nr of them.
         scale = nr / n
-        wmax = max(1, int(round(self.max_len * scale)))
-        wmin = min(wmax, max(1, int(round(self.min_len * scale))))
+        wmax = max(1, int(round(self.max_len_frames * scale)))
+        wmin = min(wmax, max(1, int(round(self.min_len_frames * scale))))
         wmin = feasible_min_len(nr, wmin, wmax)
         k = self.n_clusters
         # the equality kernel is 0/1 by construction; a precomputed one is checked
@@ -360,11 +362,6 @@ class ACA:
         bounds = np.concatenate([[0], cuts, [n]]).astype(np.int64)
         self.segments_ = [(int(s), int(e), int(frame[s])) for s, e in
                           zip(bounds[:-1], bounds[1:], strict=True)]
-
-    def predict(self):
-        """Per-frame labels of the fitted sequence, (n_frames,) int64."""
-        return self.labels_
-
 
 def _explicit_init(init, runs, n, nr, k):
     segs = sorted((int(s), int(e), int(lab)) for s, e, lab in init)

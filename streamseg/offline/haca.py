@@ -24,16 +24,17 @@ from streamseg.offline.aca import ACA
 from streamseg.offline.aca_init import kmeans
 from streamseg.offline.dtak import _as_frames, frame_kernel
 from streamseg.offline.reduction import reduce_frames
+from streamseg.segments import Estimator
 
 
-class HACA:
+class HACA(Estimator):
     """Two-level ACA.
 
     Parameters
     ----------
-    n_clusters, min_len, max_len : int
+    n_clusters, min_len_frames, max_len_frames : int
         Coarse level: number of actions and segment lengths in frames.
-    fine_clusters, fine_min_len, fine_max_len : int
+    fine_clusters, fine_min_len_frames, fine_max_len_frames : int
         Fine level: number of primitives and their lengths in frames.
     coarse_kernel : {"labels", "dtak"}
         Kernel between primitives at the coarse level (module docstring).
@@ -53,16 +54,17 @@ class HACA:
         Eq. 5 of the coarse level.
     """
 
-    def __init__(self, n_clusters, min_len, max_len, *, fine_clusters=10, fine_min_len=None,
-                 fine_max_len=None, coarse_kernel="dtak", n_init=10, max_iter=50,
+    def __init__(self, n_clusters, min_len_frames, max_len_frames, *, fine_clusters=10,
+                 fine_min_len_frames=None,
+                 fine_max_len_frames=None, coarse_kernel="dtak", n_init=10, max_iter=50,
                  kernel="gaussian", sigma=None, init="random", k_reduce=None, reduce_cap=20,
                  random_state=None):
         self.n_clusters = n_clusters
-        self.min_len = min_len
-        self.max_len = max_len
+        self.min_len_frames = min_len_frames
+        self.max_len_frames = max_len_frames
         self.fine_clusters = fine_clusters
-        self.fine_min_len = fine_min_len
-        self.fine_max_len = fine_max_len
+        self.fine_min_len_frames = fine_min_len_frames
+        self.fine_max_len_frames = fine_max_len_frames
         self.coarse_kernel = coarse_kernel
         self.n_init = n_init
         self.max_iter = max_iter
@@ -94,8 +96,10 @@ class HACA:
 
         X = _as_frames(X)
         n = X.shape[0]
-        fmin = self.fine_min_len if self.fine_min_len is not None else max(1, self.min_len // 4)
-        fmax = self.fine_max_len if self.fine_max_len is not None else max(fmin, self.min_len)
+        fmin = self.fine_min_len_frames
+        fmin = max(1, self.min_len_frames // 4) if fmin is None else fmin
+        fmax = self.fine_max_len_frames
+        fmax = max(fmin, self.min_len_frames) if fmax is None else fmax
         if self.coarse_kernel not in ("labels", "dtak"):
             raise ParameterError(f"coarse_kernel={self.coarse_kernel!r} is invalid: expected "
                                  "'labels' or 'dtak'")
@@ -123,8 +127,8 @@ class HACA:
         else:
             T = segment_kernel(K, fs, fe)
         per_unit = n / fs.size  # frames per fine segment
-        cmax = max(1, round(self.max_len / per_unit))
-        cmin = min(cmax, max(1, round(self.min_len / per_unit)))
+        cmax = max(1, round(self.max_len_frames / per_unit))
+        cmin = min(cmax, max(1, round(self.min_len_frames / per_unit)))
         # units -> reduced frames -> frames
         unit_frame_start = rs[fs]
         unit_frame_end = re[fe - 1]
@@ -150,6 +154,3 @@ class HACA:
             out.append((k, fitted))
         return out
 
-    def predict(self):
-        """Per-frame labels of the fitted sequence, (n_frames,) int64."""
-        return self.labels_

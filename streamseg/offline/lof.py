@@ -33,6 +33,7 @@ from streamseg._kernels.peaks import peak_windows, robust_threshold
 from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
+from streamseg.segments import Estimator, segments_from_cuts
 
 
 def lof_features(recording_or_angles, config: LOFConfig | None = None,
@@ -149,7 +150,7 @@ def select_peaks(curve: np.ndarray, delay: int, config: LOFConfig, min_gap: int)
                         int(min_gap))
 
 
-class LOFSegmenter:
+class LOFSegmenter(Estimator):
     """Offline cut detection: LOF over sliding-window histograms of bone angles.
 
     Parameters
@@ -172,6 +173,8 @@ class LOFSegmenter:
     cuts_ : ndarray of int64, cut frames: the live detector's decisions over the file
     scores_ : ndarray of float64, the LOF of each cut's window when it was decided
     decided_at_ : ndarray of int64, the frame at which each cut was decided
+    segments_ : list of Segment, the segments between the cuts (labels 0, 1, ...);
+        :meth:`predict` returns them
     """
 
     def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
@@ -215,10 +218,6 @@ class LOFSegmenter:
         self.cuts_ = np.array([e.frame for e in events], dtype=np.int64)
         self.scores_ = np.array([e.score for e in events], dtype=np.float64)
         self.decided_at_ = np.array([e.emitted_at for e in events], dtype=np.int64)
+        self.segments_ = segments_from_cuts(self.cuts_, self.n_frames_)
         return self
 
-    def predict(self) -> np.ndarray:
-        """Cut frames (0-based; a new segment starts at each), shape (n_cuts,), int64."""
-        if not hasattr(self, "lof_"):
-            raise ParameterError("LOFSegmenter.predict() before fit(): call fit(recording) first")
-        return self.cuts_.copy()

@@ -46,7 +46,7 @@ def lof_report(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) 
         from streamseg.offline.lof import LOFSegmenter
 
         seg = LOFSegmenter(config, fps).fit(angles)
-        out = dict(cuts=[int(c) for c in seg.predict()], latency=None,
+        out = dict(cuts=[int(c) for c in seg.cuts_], latency=None,
                    scores=[float(v) for v in seg.scores_], centres=seg.centres_,
                    lof=seg.lof_, threshold=seg.threshold_, n_nan_frames=seg.n_nan_frames_,
                    geometry=seg.geometry)

@@ -142,7 +142,7 @@ def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
     n = X.shape[0]
     ok = np.isfinite(X).all(axis=1)
     m = int(ok.sum())
-    min_len = max(1, int(round(config.min_len * fps)))
+    min_len = max(1, int(round(config.min_len_s * fps)))
     if m < 2 * min_len:
         return _single(n, f"{m} finite frames, fewer than two segments of min_len")
     Xf = X[ok] if m < n else X
@@ -154,7 +154,7 @@ def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
     ks = [config.n_clusters] if config.n_clusters is not None else list(
         range(2, config.k_max + 1))
     ks = [k for k in ks if k * min_len <= m] or [1]
-    piece = max(2, int(round(config.max_len * fps / 2)))  # half the longest segment
+    piece = max(2, int(round(config.max_len_s * fps / 2)))  # half the longest segment
     model = model_from_config(config, fps)
     if config.hierarchical:  # one fine level for every K
         fits = model.fit_each(Xf, ks)

@@ -68,11 +68,12 @@ def model_from_config(config: ACAConfig, fps: float):
                   sigma=config.sigma, k_reduce=config.k_reduce,
                   reduce_cap=frames(config.reduce_cap), random_state=config.random_state)
     if config.hierarchical:
-        return HACA(config.n_clusters, frames(config.min_len), frames(config.max_len),
-                    fine_clusters=config.fine_clusters, fine_min_len=frames(config.fine_min_len),
-                    fine_max_len=frames(config.fine_max_len),
+        return HACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
+                    fine_clusters=config.fine_clusters,
+                    fine_min_len_frames=frames(config.fine_min_len_s),
+                    fine_max_len_frames=frames(config.fine_max_len_s),
                     coarse_kernel=config.coarse_kernel, **common)
-    return ACA(config.n_clusters, frames(config.min_len), frames(config.max_len),
+    return ACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
                init=config.init, **common)
 
 

@@ -223,7 +223,7 @@ def warmup() -> None:
     s.learn_many(angles)
     s.learn_one(angles[0])
     s.finish()
-    LOFSegmenter(cfg, fps=100.0).fit(angles).predict()
+    LOFSegmenter(cfg, fps=100.0).fit(angles).predict()  # the whole offline path
     # the confirming contrast, whether or not the random stream had a candidate
     from streamseg._kernels.histogram import contrast_at
     from streamseg.offline.lof import frame_bins

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from streamseg._kernels.bones import angles_kernel
+from streamseg.exceptions import ParameterError
 from streamseg.recording import UP_AXES
 from streamseg.skeleton.names import POINTS, resolve
 
@@ -55,7 +56,7 @@ POINT_NAMES = tuple(dict.fromkeys(p for bone in BONES for p in bone))
 def up_vector(up: str) -> np.ndarray:
     """The unit vector of an up-axis name (``"y"``, ``"-z"``, ...), float64 shape (3,)."""
     if up not in UP_AXES:
-        raise ValueError(f"up={up!r} is invalid: expected one of {', '.join(UP_AXES)}")
+        raise ParameterError(f"up={up!r} is invalid: expected one of {', '.join(UP_AXES)}")
     v = np.zeros(3)
     v["xyz".index(up[-1])] = -1.0 if up.startswith("-") else 1.0
     return v
@@ -106,9 +107,12 @@ def bone_point_indices(skeleton) -> np.ndarray:
     return np.array([[idx[a], idx[b]] for a, b in BONES])
 
 
-def bone_angles(positions: np.ndarray, skeleton, inclinations: bool = False,
+def bone_angles(positions: np.ndarray, skeleton, inclinations: bool = True,
                 up: str | None = None) -> np.ndarray:
-    """The 8 bone angles of every frame, optionally followed by the 9 bone inclinations.
+    """The 8 bone angles of every frame, followed (by default) by the 9 bone inclinations.
+
+    The default gives the 17 features the cut detector expects (``LOFConfig.inclinations``);
+    ``inclinations=False`` gives the paper's 8 angles.
 
     Eq. (1) of the paper writes ``Bone1 = P_root - P_lowerback`` while Table 1 and its text say
     bones point from parent to child; we follow the table. (Either way the angle is mirrored
@@ -119,7 +123,7 @@ def bone_angles(positions: np.ndarray, skeleton, inclinations: bool = False,
     ----------
     positions : ndarray, shape (n_frames, n_joints, 3)
     skeleton : Skeleton or sequence of joint names
-    inclinations : bool
+    inclinations : bool, default True
         Append each bone's angle from the up axis (:data:`INCLINATION_NAMES`).
     up : str or None
         Up axis of the positions (:data:`UP_AXES`); None: the skeleton's ``up`` (``"y"`` for
@@ -161,10 +165,12 @@ def angles_at(positions: np.ndarray, points: np.ndarray, up=None) -> np.ndarray:
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     if positions.ndim != 3 or positions.shape[2] != 3:
-        raise ValueError(f"positions has shape {positions.shape}; expected (n_frames, n_joints, 3)")
+        raise ParameterError(f"positions has shape {positions.shape}; "
+                             "expected (n_frames, n_joints, 3)")
     points = np.asarray(points, dtype=np.int64)
     if points.shape != (len(BONES), 2) or points.min() < 0 or points.max() >= positions.shape[1]:
-        raise ValueError(f"points {points.tolist()} do not index the {positions.shape[1]} joints")
+        raise ParameterError(f"points {points.tolist()} do not index the "
+                             f"{positions.shape[1]} joints")
     if up is None:
         m, up = len(ANGLES), _NO_UP
     else:
@@ -180,6 +186,6 @@ def _unit(up) -> np.ndarray:
     v = np.asarray(up, dtype=np.float64)
     norm = float(np.linalg.norm(v)) if v.shape == (3,) else 0.0
     if not (np.isfinite(norm) and norm > 0):
-        raise ValueError(f"up={up!r} is invalid: expected an axis name ({', '.join(UP_AXES)}) "
+        raise ParameterError(f"up={up!r} is invalid: expected an axis name ({', '.join(UP_AXES)}) "
                          "or a finite nonzero 3-vector")
     return v / norm

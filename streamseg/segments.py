@@ -1,0 +1,93 @@
+"""The result type every segmenter returns, and the checks every estimator shares.
+
+Every estimator (:class:`~streamseg.offline.LOFSegmenter`, :class:`~streamseg.offline.ACA`,
+:class:`~streamseg.offline.HACA`, :class:`~streamseg.offline.ACASegmenter`,
+:class:`~streamseg.offline.RepetitionSegmenter`) follows one convention: ``fps`` and a config
+at construction, ``fit(X)`` returns the estimator, ``predict()`` (or ``fit_predict(X)``)
+returns a list of :class:`Segment` tiling the frames it was fitted on, and fitted attributes
+end in ``_`` and are returned as copies. Asking before ``fit`` raises
+:class:`~streamseg.exceptions.NotFittedError`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from streamseg.exceptions import NotFittedError
+
+
+class Segment(NamedTuple):
+    """Frames ``[start, end)`` (0-based, end exclusive) and their label.
+
+    ``label`` is an action id (int) for clusterings, the segment's index for cut detectors
+    (which do not say which segments are alike), a repetition's index for repetitions.
+    """
+
+    start: int
+    end: int
+    label: int
+
+
+def segments_from_cuts(cuts, n_frames: int) -> list[Segment]:
+    """The segments between ``cuts`` (sorted frames) over ``n_frames``, labelled 0, 1, ..."""
+    bounds = [0, *(int(c) for c in cuts if 0 < int(c) < n_frames), int(n_frames)]
+    bounds = sorted(set(bounds))
+    return [Segment(s, e, i) for i, (s, e) in enumerate(zip(bounds[:-1], bounds[1:]))]
+
+
+def segments_from_labels(labels) -> list[Segment]:
+    """Runs of equal per-frame labels, shape (n_frames,) -> list of Segment."""
+    labels = np.asarray(labels)
+    if labels.size == 0:
+        return []
+    cuts = np.flatnonzero(labels[1:] != labels[:-1]) + 1
+    bounds = np.concatenate([[0], cuts, [labels.size]])
+    return [Segment(int(s), int(e), int(labels[s])) for s, e in zip(bounds[:-1], bounds[1:])]
+
+
+def _copy(value):
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, list):
+        return list(value)
+    if isinstance(value, dict):
+        return dict(value)
+    return value
+
+
+class Estimator:
+    """Base of the offline estimators: fitted attributes (public names ending in ``_``) are
+    kept apart and handed out as copies, so mutating a result never changes the model, and
+    reading one before ``fit`` raises :class:`NotFittedError`."""
+
+    def __setattr__(self, name, value):
+        if name.endswith("_") and not name.startswith("_"):
+            self.__dict__.setdefault("_fitted", {})[name] = value
+        else:
+            object.__setattr__(self, name, value)
+
+    def __getattr__(self, name):  # only called when normal lookup fails
+        if name.endswith("_") and not name.startswith("_"):
+            fitted = self.__dict__.get("_fitted", {})
+            if name in fitted:
+                return _copy(fitted[name])
+            cls = type(self).__name__
+            raise NotFittedError(f"{cls}.{name} is not set: call {cls}.fit(X) first"
+                                 if not fitted else f"{cls} has no fitted attribute {name!r}")
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def _check_fitted(self) -> None:
+        if not self.__dict__.get("_fitted"):
+            cls = type(self).__name__
+            raise NotFittedError(f"{cls}.predict() before fit(): call {cls}.fit(X) first")
+
+    def predict(self) -> list[Segment]:
+        """The segments of the fitted sequence (0-based, end exclusive), tiling its frames."""
+        self._check_fitted()
+        return [Segment(*s) for s in self.__dict__["_fitted"]["segments_"]]
+
+    def fit_predict(self, X) -> list[Segment]:
+        """``fit(X)`` then ``predict()``."""
+        return self.fit(X).predict()
