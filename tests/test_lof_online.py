@@ -10,7 +10,7 @@ from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import LOFSegmenter
-from streamseg.online.events import Cut
+from streamseg.online.events import CutEvent
 from streamseg.online.lof import StreamingLOFSegmenter, warmup
 from tests.naive import naive_contrast, naive_refine_cut
 
@@ -47,7 +47,7 @@ def test_learn_one_equals_learn_many():
     ev2 += many.finish()
     assert ev1 == ev2 and len(ev1) >= 3
     np.testing.assert_array_equal(one.buffer_lof(), many.buffer_lof())
-    assert all(isinstance(c, Cut) and c.provisional for c in ev1)
+    assert all(isinstance(c, CutEvent) and c.provisional for c in ev1)
 
 
 def test_cuts_emitted_once_with_stated_latency():

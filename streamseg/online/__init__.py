@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from streamseg.online.events import Cut
+from streamseg.online.events import CutEvent
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.online.lof import warmup as warmup_lof
 from streamseg.online.repetition import Rep, RepetitionCounter
 
-__all__ = ["Cut", "Rep", "RepetitionCounter", "StreamingLOFSegmenter", "warmup_lof"]
+__all__ = ["CutEvent", "Rep", "RepetitionCounter", "StreamingLOFSegmenter", "warmup_lof"]

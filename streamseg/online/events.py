@@ -1,4 +1,5 @@
-"""Events the streaming detectors emit."""
+"""Events the streaming detectors emit (library objects; the wire messages they become are
+:mod:`streamseg.protocol.messages`)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ from dataclasses import dataclass
 
 
 @dataclass(frozen=True)
-class Cut:
+class CutEvent:
     """A detected cut: a new segment starts at ``frame``.
 
     Attributes

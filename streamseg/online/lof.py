@@ -1,4 +1,4 @@
-"""Streaming LOF cut detector: bone-angle frames in, :class:`Cut` events out."""
+"""Streaming LOF cut detector: bone-angle frames in, :class:`CutEvent` events out."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from streamseg._kernels import lof_stream as _ks
 from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
-from streamseg.online.events import Cut
+from streamseg.online.events import CutEvent
 
 
 class StreamingLOFSegmenter:
@@ -75,10 +75,12 @@ class StreamingLOFSegmenter:
         g = self.geometry = self.config.frames(self.fps)
         c = self.config
         n, k, d, w = g["capacity"], c.k, self.n_features * c.bins, g["window"]
+        # in the order of the kernel's GEO_* and P_* slots
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"], g["contrast"]], dtype=np.int64)
         self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
                             g["min_gap"], c.min_contrast], dtype=np.float64)
+        assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
         self._st = _ks.new_state()
         # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
@@ -113,7 +115,7 @@ class StreamingLOFSegmenter:
         self._stack = np.zeros(4 * (2 * g["delay"] + 1) + 4, dtype=np.int64)
 
     # ---- feeding ---------------------------------------------------------------------------
-    def learn_one(self, angles_row) -> list[Cut]:
+    def learn_one(self, angles_row) -> list[CutEvent]:
         """Feed one feature frame, shape (n_features,) radians (8 bone angles, then 9
         inclinations when ``config.inclinations``); return the cuts decided on it."""
         row = np.asarray(angles_row, dtype=np.float64)
@@ -123,7 +125,7 @@ class StreamingLOFSegmenter:
                                                row=True))
         return self._run(row.reshape(1, d))
 
-    def learn_many(self, angles) -> list[Cut]:
+    def learn_many(self, angles) -> list[CutEvent]:
         """Feed feature frames, shape (n, n_features); same cuts as ``learn_one`` per row."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim != 2 or a.shape[1] != self.n_features:
@@ -131,7 +133,7 @@ class StreamingLOFSegmenter:
                                                self._explicit_width))
         return self._run(np.ascontiguousarray(a))
 
-    def finish(self) -> list[Cut]:
+    def finish(self) -> list[CutEvent]:
         """End of stream: decide the windows still waiting for ``delay`` future windows."""
         m = self.geometry["delay"] + 1
         ev_f = np.empty(m, dtype=np.int64)
@@ -142,7 +144,7 @@ class StreamingLOFSegmenter:
                               self._curve, self._keep, self._stack, ev_f, ev_s, ev_e)
         return self._events(n, ev_f, ev_s, ev_e)
 
-    def _run(self, a: np.ndarray) -> list[Cut]:
+    def _run(self, a: np.ndarray) -> list[CutEvent]:
         m = a.shape[0] // self.geometry["step"] + 2
         ev_f = np.empty(m, dtype=np.int64)
         ev_s = np.empty(m)
@@ -156,37 +158,37 @@ class StreamingLOFSegmenter:
         return self._events(n, ev_f, ev_s, ev_e)
 
     @staticmethod
-    def _events(n, ev_f, ev_s, ev_e) -> list[Cut]:
-        return [Cut(int(ev_f[i]), float(ev_s[i]), int(ev_e[i])) for i in range(n)]
+    def _events(n, ev_f, ev_s, ev_e) -> list[CutEvent]:
+        return [CutEvent(int(ev_f[i]), float(ev_s[i]), int(ev_e[i])) for i in range(n)]
 
     # ---- read-only views (never mutate state) ----------------------------------------------
     @property
     def n_frames_(self) -> int:
         """Frames fed so far (NaN frames included)."""
-        return int(self._st[0])
+        return int(self._st[_ks.ST_FRAMES])
 
     @property
     def n_nan_frames_(self) -> int:
         """Frames skipped because an angle was NaN or infinite."""
-        return int(self._st[5])
+        return int(self._st[_ks.ST_NAN_FRAMES])
 
     @property
     def n_dropped_windows_(self) -> int:
         """Windows not inserted because fewer than ``min_valid`` of their frames were valid."""
-        return int(self._st[6])
+        return int(self._st[_ks.ST_DROPPED])
 
     @property
     def n_windows_(self) -> int:
         """Windows inserted into the LOF buffer so far (including evicted ones)."""
-        return int(self._st[3])
+        return int(self._st[_ks.ST_NEXT_SEQ])
 
     @property
     def n_lof_updates_(self) -> int:
         """Total LOF recomputations done by the incremental updates (work statistic)."""
-        return int(self._st[7])
+        return int(self._st[_ks.ST_RECOMPUTES])
 
     def _order(self) -> np.ndarray:
-        size, nxt = int(self._st[2]), int(self._st[3])
+        size, nxt = int(self._st[_ks.ST_BUFFERED]), int(self._st[_ks.ST_NEXT_SEQ])
         return np.arange(nxt - size, nxt) % self._seqs.shape[0]
 
     def buffer_vectors(self) -> np.ndarray:
