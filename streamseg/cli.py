@@ -1,14 +1,21 @@
-"""``streamseg`` command line: info | segment | eval | serve | replay | listen."""
+"""streamseg: live motion-capture segmentation (cuts, action labels, repetitions).
+
+Commands: info, segment, eval (files); serve, replay, listen, demo (the daemon). Output of
+segment/eval --json: docs/output.md. Exit codes: 0 ok, 1 runtime failure, 2 usage.
+"""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import sys
+from pathlib import Path
 
 from streamseg import strict_json
 from streamseg.commands import METHODS, TOOLS
-from streamseg.exceptions import StreamsegError
+from streamseg.exceptions import ParameterError, RecordingError, SkeletonError, StreamsegError
 
 
 def _available(table: dict) -> dict:
@@ -21,6 +28,22 @@ def _available(table: dict) -> dict:
             if err.name != module:
                 raise
     return found
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Help with the default of every option that has one and does not already say it."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if ("default" not in text and action.default not in (None, False, argparse.SUPPRESS)
+                and action.option_strings and not isinstance(action.default, bool)):
+            text += " (default: %(default)s)"
+        return text
+
+
+def _plain(text: str) -> str:
+    """A docstring line as help text: no Sphinx/RST markup."""
+    return text.replace("``", "").replace(":func:", "").replace(":mod:", "").replace("`", "")
 
 
 def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> None:
@@ -39,10 +62,12 @@ def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> 
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="streamseg", description=__doc__)
+    parser = argparse.ArgumentParser(prog="streamseg", description=__doc__,
+                                     formatter_class=_Formatter)
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("info", help="summarize a recording and its features")
+    p = sub.add_parser("info", help="summarize a recording (or feature matrix) and its features",
+                       formatter_class=_Formatter)
     _add_input_arguments(p)
     p.set_defaults(run=_run_info)
 
@@ -51,7 +76,8 @@ def build_parser() -> argparse.ArgumentParser:
         ("segment", "segment a recording offline (or --online)"),
         ("eval", "score a segmentation against human labels"),
     ):
-        p = sub.add_parser(name, help=helptext)
+        p = sub.add_parser(name, help=helptext, description=helptext,
+                           formatter_class=_Formatter)
         _add_input_arguments(p, optional=name == "eval")
         if name == "eval":
             p.add_argument(
@@ -70,12 +96,18 @@ def build_parser() -> argparse.ArgumentParser:
             "--labels", metavar="CSV", help="human labels (sequence,start,end,label,...)"
         )
         p.add_argument("--sequence", help="label rows to use (default: the file's stem)")
+        owners = {}  # option dest -> the method whose option it is
         for mname, module in methods.items():
+            before = {a.dest for a in p._actions}
             module.add_arguments(p.add_argument_group(f"{mname} options"))
-        p.set_defaults(run=_run_segment if name == "segment" else _run_eval, methods=methods)
+            owners.update({a.dest: mname for a in p._actions if a.dest not in before})
+        p.set_defaults(run=_run_segment if name == "segment" else _run_eval, methods=methods,
+                       owners=owners)
 
     for name, module in _available(TOOLS).items():
-        p = sub.add_parser(name, help=(module.__doc__ or "").strip().splitlines()[0])
+        doc = _plain((module.__doc__ or "").strip())
+        p = sub.add_parser(name, help=doc.splitlines()[0], description=doc,
+                           formatter_class=_Formatter)
         module.add_arguments(p)
         p.set_defaults(run=module.run)
     return parser
@@ -88,7 +120,49 @@ def _run_info(args) -> int:
     return 0
 
 
+def _check_options(args, parser_defaults: dict) -> None:
+    """Warn about options that do nothing for the chosen method or command."""
+    from streamseg.commands.output import warn
+
+    for dest, owner in args.owners.items():
+        if owner != args.method and getattr(args, dest) != parser_defaults.get(dest):
+            flag = "--" + dest.replace("_", "-")
+            warn(args, f"{flag} is a {owner} option: it does nothing with --method "
+                       f"{args.method}")
+    if args.command == "segment":
+        for dest in ("labels", "sequence"):
+            if getattr(args, dest):
+                warn(args, f"--{dest} does nothing with segment (use eval to score against "
+                           "labels)")
+
+
+def _check_plot(args) -> None:
+    check_plot(args.plot)
+
+
+def check_plot(plot, need_matplotlib: bool = True) -> None:
+    """Fail before the work, not after it, on a picture that cannot be written."""
+    if not plot:
+        return
+    path = Path(plot)
+    if path.suffix.lower() != ".png":
+        raise ParameterError(f"--plot {plot}: expected a .png file name")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ParameterError(f"--plot {plot}: folder {folder} does not exist (create it "
+                             "or choose another path)")
+    if not os.access(folder, os.W_OK):
+        raise ParameterError(f"--plot {plot}: folder {folder} is not writable")
+    if not need_matplotlib:
+        return
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise ParameterError("--plot needs matplotlib: pip install 'streamseg[plot]'") from None
+
+
 def _run_segment(args) -> int:
+    _check_plot(args)
     _emit(args, args.methods[args.method].segment(args))
     return 0
 
@@ -97,35 +171,53 @@ def _run_eval(args) -> int:
     if args.all:
         return _run_eval_all(args)
     if not args.file:
-        raise StreamsegError("eval needs FILE --labels CSV, or --all DIR")
+        raise ParameterError("eval needs FILE --labels CSV, or --all DIR")
     if not args.labels:
-        raise StreamsegError(
+        raise ParameterError(
             "eval needs --labels CSV (sequence,start_frame,end_frame,action_label)"
         )
+    _check_plot(args)
     _emit(args, args.methods[args.method].evaluate(args))
     return 0
 
 
 def _run_eval_all(args) -> int:
-    from streamseg.evaluation.corpus import STREAMSEG_METHODS, discover, evaluate_all, format_table
+    from streamseg.evaluation.corpus import (
+        STREAMSEG_METHODS,
+        discover,
+        evaluate_all,
+        format_table,
+        json_row,
+    )
 
     items = discover(args.all, skeleton=args.skeleton)
     if not items:
-        raise StreamsegError(f"no label CSVs with recordings under {args.all}")
+        raise ParameterError(f"no label CSVs with recordings under {args.all}")
     rows, _ = evaluate_all(items, STREAMSEG_METHODS, runs=args.runs)
     if args.json:
-        print(strict_json.dumps([{"recording": r, "method": m, **row}
-                                 for r, m, row in rows]))
+        print(strict_json.dumps({"schema": 1, "command": "eval --all", "folder": args.all,
+                                 "rows": [{"recording": r, "method": m, **json_row(row)}
+                                          for r, m, row in rows]}))
     else:
         print(format_table(rows))
     return 0
 
 
 def _emit(args, result: dict) -> None:
+    from streamseg.commands import output
+
+    if args.plot:
+        result["plot"] = str(args.plot)
     if args.json:
         print(strict_json.dumps(result))
+    elif result.get("command") == "segment":
+        print(output.format_segmentation(result))
+    elif result.get("command") == "eval":
+        print(output.format_evaluation(result))
     else:
         _print_human(result)
+    if args.plot:
+        print(f"wrote {args.plot}", file=sys.stderr if args.json else sys.stdout)
 
 
 def _print_human(result: dict) -> None:
@@ -144,15 +236,55 @@ def _print_human(result: dict) -> None:
             print(f"{key:>24}: {value}")
 
 
-def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.run(args) or 0)
-    except StreamsegError as err:
-        print(f"streamseg {args.command}: error: {err}", file=sys.stderr)
+def _failure(args, err: BaseException) -> int:
+    """One line on stderr for a failure, and its exit code: 2 when what was asked cannot be
+    done as asked (an option, an input file that is missing or unreadable), 1 when it failed
+    while running (sockets, the daemon, an internal error)."""
+    import zmq
+
+    where = f"streamseg {getattr(args, 'command', '')}".rstrip()
+    if isinstance(err, (ParameterError, SkeletonError, RecordingError)):
+        print(f"{where}: error: {err}", file=sys.stderr)
         return 2
+    if isinstance(err, (FileNotFoundError, IsADirectoryError, PermissionError)):
+        print(f"{where}: error: {err.strerror}: {err.filename}", file=sys.stderr)
+        return 2
+    if isinstance(err, zmq.ZMQError):
+        hint = ("another process uses the port: choose other ports (e.g. tcp://127.0.0.1:0 "
+                "for a free one) or stop that process"
+                if err.errno == zmq.EADDRINUSE else
+                "endpoints look like tcp://127.0.0.1:5560" if err.errno == zmq.EINVAL else
+                "check the endpoints and that the daemon runs")
+        print(f"{where}: error: {err.strerror}: {hint}", file=sys.stderr)
+        return 1
+    if isinstance(err, (StreamsegError, OSError)):
+        print(f"{where}: error: {err}", file=sys.stderr)
+        return 1
+    print(f"{where}: internal error: {type(err).__name__}: {err} (please report it; "
+          "STREAMSEG_DEBUG=1 shows the traceback)", file=sys.stderr)
+    return 1
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command in ("segment", "eval"):
+            sub = parser._subparsers._group_actions[0].choices[args.command]
+            _check_options(args, {a.dest: a.default for a in sub._actions})
+        return int(args.run(args) or 0)
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:
+        # the reader went away (`streamseg info x | head`): not an error; stop quietly
+        with contextlib.suppress(OSError):
+            sys.stdout = open(os.devnull, "w")  # noqa: SIM115 (flushed at exit)
+        return 0
+    except Exception as err:
+        if os.environ.get("STREAMSEG_DEBUG"):
+            raise
+        return _failure(args, err)
+
 
 
 if __name__ == "__main__":

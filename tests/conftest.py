@@ -11,3 +11,19 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 def data_dir() -> Path:
     """The repository's bundled real recordings (see data/README.md)."""
     return DATA
+
+
+@pytest.fixture(scope="session")
+def warm_kernels() -> None:
+    """Every numba kernel compiled (or loaded from the cache) once per session, so that no
+    test's waits include compilation: a daemon started after this is ready at once."""
+    from streamseg.daemon.pipeline import Algorithms
+
+    Algorithms(repetitions=True).warmup()
+
+
+def wait_ready(daemon, thread) -> None:
+    """Wait for ``daemon.ready`` (set once its kernels are warm) however long compilation
+    takes, failing at once if the daemon's thread died instead."""
+    while not daemon.ready.wait(1.0):
+        assert thread.is_alive(), "the daemon thread ended before it was ready"

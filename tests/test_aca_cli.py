@@ -74,7 +74,7 @@ def test_eval_matrix_prints_accuracy_and_confusion(tmp_path, capsys):
     assert out["accuracy"] == 1.0
     C = np.array(out["confusion"])
     assert C.sum() == 60 and sorted(C.max(axis=1).tolist()) == [20, 20, 20]
-    assert out["labels"] == ["a", "b", "c"]
+    assert out["label_names"] == ["a", "b", "c"]
 
 
 def test_segment_recording_with_plot(data_dir, tmp_path, capsys):
@@ -118,5 +118,6 @@ def test_a_still_recording_is_one_segment_with_a_note(tmp_path, capsys):
     assert main(["segment", str(tmp_path / "still.npy"), "--method", "aca", "--fps", "30",
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["segments"] == [{"start": 0, "end": 300, "label": 0}] and out["cuts"] == []
+    assert out["segments"] == [{"start": 0, "end": 300, "label": 0, "start_s": 0.0,
+                                "end_s": 10.0}] and out["cuts"] == []
     assert out["n_clusters"] == 1 and "no motion" in out["note"]

@@ -3,34 +3,36 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import threading
-import time
 
 import numpy as np
 import pytest
 
 from streamseg.cli import main
 from streamseg.commands import serve
-from streamseg.commands.listen import listen, subscriber
+from streamseg.commands.listen import listen, subscribe
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
+from tests.conftest import wait_ready
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
 
 
 @pytest.fixture
-def daemon():
+def daemon(warm_kernels):
     d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
                             heartbeat=0))
     ep = d.bind()
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
-    assert d.ready.wait(30)
+    wait_ready(d, t)
     yield ep
     d.stop()
     t.join(10)
@@ -41,20 +43,27 @@ def files(data_dir):
             str(data_dir / "cmu86" / "86.asf")]
 
 
+def _listener(daemon, *argv):
+    """`streamseg listen --control` in its own process; returns it once its first line (the
+    late-join state, written after the subscription handshake) is out."""
+    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "listen", "--from",
+                             daemon["publish"], "--control", daemon["control"], *argv],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = proc.stdout.readline()
+    assert first, proc.stderr.read()
+    return proc, first
+
+
 def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
-    out = {}
-    lis = threading.Thread(target=lambda: out.setdefault("rc", main(
-        ["listen", "--from", daemon["publish"], "--stream", "x", "--jsonl", "--until-end",
-         "--timeout", "30"])))
-    lis.start()
-    time.sleep(0.4)
+    proc, first = _listener(daemon, "--stream", "x", "--jsonl", "--until-end", "--timeout",
+                            "30")
+    assert json.loads(first) == {"type": "state", "stream": "x", "open": False}
     assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
                  "--batch", "50", "--stream", "x"]) == 0
-    lis.join(60)
-    assert out["rc"] == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith("streamseg replay: x: sent 4579 frames")
-    events = [json.loads(x) for x in lines[1:]]
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert capsys.readouterr().out.startswith("streamseg replay: x: sent 4579 frames")
+    events = [json.loads(x) for x in out.splitlines()]
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     seg = StreamingLOFSegmenter(fps=rec.fps)
     feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
@@ -72,24 +81,21 @@ def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
 
 
 def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
+    closed = subscribe(daemon["publish"], daemon["control"], stream="y", kind="closed")
     main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
           "y"])
     capsys.readouterr()
-    time.sleep(0.3)
+    next(listen(closed, timeout=30))  # the daemon has taken the whole first take
+    closed.close()
     # the stream is closed: the control endpoint still has its final state
-    out = {}
-    lis = threading.Thread(target=lambda: out.setdefault("rc", main(
-        ["listen", "--from", daemon["publish"], "--stream", "y", "--control",
-         daemon["control"], "--type", "cut", "--count", "2", "--timeout", "20"])))
-    lis.start()
-    time.sleep(0.5)
+    proc, first = _listener(daemon, "--stream", "y", "--type", "cut", "--count", "2",
+                            "--timeout", "20")
+    assert first.startswith("[y] state    frame 4579  revision 0")
     main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
           "y"])
-    lis.join(30)
-    assert out["rc"] == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert lines[0].startswith("[y] state    frame 4579  revision 0")
-    cuts = [x for x in lines if "] cut " in x]
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    cuts = [x for x in out.splitlines() if "] cut " in x]
     assert len(cuts) == 2
 
 
@@ -120,17 +126,14 @@ def test_demo_runs_and_draws(tmp_path, capsys):
 
 def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
     """The template client in examples/ follows a replay without importing streamseg."""
-    import subprocess
-    import sys
     from pathlib import Path
 
     script = Path(__file__).resolve().parents[1] / "examples" / "minimal_listener.py"
     assert "streamseg" not in "".join(
         line for line in script.read_text().splitlines() if line.startswith(("import", "from")))
-    proc = subprocess.Popen([sys.executable, str(script), daemon["publish"], "m"],
-                            stdout=subprocess.PIPE, text=True)
-    assert proc.stdout.readline().startswith("listening on")
-    time.sleep(0.3)  # the subscription travels to the daemon after connect (ZeroMQ slow joiner)
+    proc = subprocess.Popen([sys.executable, str(script), daemon["publish"], "m", "--control",
+                             daemon["control"]], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("listening on")  # after its hello handshake
     assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
                  "--batch", "60", "--stream", "m"]) == 0
     out, _ = proc.communicate(timeout=60)
@@ -164,8 +167,7 @@ def test_replay_and_segment_up_option_fix_a_z_up_file(daemon, data_dir, capsys, 
     # without --up the file's axis (y) is wrong: a warning names the fix, the run goes on
     assert main(["segment", str(f), "--json"]) == 0
     assert "--up z" in capsys.readouterr().err
-    s = subscriber(daemon["publish"], "zf")
-    time.sleep(0.3)
+    s = subscribe(daemon["publish"], daemon["control"], "zf")
     assert main(["replay", str(f), "--to", daemon["ingest"], "--speed", "0", "--batch", "60",
                  "--stream", "zf", "--up", "z"]) == 0
     events = list(listen(s, stream="zf", until_end=True, timeout=30))

@@ -11,7 +11,7 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import listen, request, subscriber
+from streamseg.commands.listen import listen, request, subscribe
 from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
@@ -20,6 +20,7 @@ from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
+from tests.conftest import wait_ready
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -39,7 +40,7 @@ def offline_cuts(rec, positions=None):
 
 
 @pytest.fixture
-def start_daemon():
+def start_daemon(warm_kernels):
     running = []
 
     def start(algorithms=None, **overrides):
@@ -49,7 +50,7 @@ def start_daemon():
         ep = d.bind()
         t = threading.Thread(target=d.run, daemon=True, name="streamseg-daemon-under-test")
         t.start()
-        assert d.ready.wait(30)
+        wait_ready(d, t)
         running.append((d, t))
         return d, ep
 
@@ -61,9 +62,7 @@ def start_daemon():
 
 
 def sub(ep, **kw):
-    s = subscriber(ep["publish"], **kw)
-    time.sleep(0.2)  # subscriptions reach the PUB socket before events are sent
-    return s
+    return subscribe(ep["publish"], ep["control"], **kw)  # a handshake, not a sleep
 
 
 def push(ep):

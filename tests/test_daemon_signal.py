@@ -11,7 +11,7 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import listen, request, subscriber
+from streamseg.commands.listen import listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
 
@@ -37,8 +37,7 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
                     break
             except TimeoutError:
                 assert time.time() < deadline
-        s = subscriber(ep["publish"], stream="t")
-        time.sleep(0.2)
+        s = subscribe(ep["publish"], ep["control"], stream="t")
         push = zmq.Context.instance().socket(zmq.PUSH)
         push.setsockopt(zmq.LINGER, 2000)
         push.connect(ep["ingest"])
@@ -47,7 +46,7 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
         for a in range(0, n, 30):
             push.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a:a + 30])))
         push.close()
-        while request(ep["control"], "state", stream="t")["frame"] < n:
+        while request(ep["control"], "state", stream="t").get("frame", -1) < n:
             time.sleep(0.05)
         proc.send_signal(signal.SIGTERM)
         events = list(listen(s, stream="t", until_end=True, timeout=20))

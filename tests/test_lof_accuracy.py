@@ -106,4 +106,4 @@ def test_json_is_strict_when_a_figure_is_undefined(capsys, data_dir, tmp_path):
                      "--online", "--json"]) == 0
     text = capsys.readouterr().out
     out = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
-    assert out["cuts"] == [] and out["latency_median"] is None
+    assert out["cuts"] == [] and out["latency_median_frames"] is None

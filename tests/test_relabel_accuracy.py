@@ -20,6 +20,7 @@ from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.io import read
 from streamseg.offline.model_selection import fit_aca
 from streamseg.skeleton import bone_angles
+from tests.conftest import wait_ready
 
 LOOP = "tcp://127.0.0.1:0"
 
@@ -47,7 +48,7 @@ def test_offline_haca_finds_the_number_of_actions(data_dir, name, k_true, floor)
 
 @pytest.mark.daemon
 @pytest.mark.slow
-def test_live_relabelling_of_86_01_matches_the_labels(data_dir):
+def test_live_relabelling_of_86_01_matches_the_labels(data_dir, warm_kernels):
     """Replayed as fast as the daemon takes it: the newest revision of every frame scores
     like offline HACA, one id per action (the three walks share one)."""
     rec, truth = _recording(data_dir, "86_01")
@@ -56,7 +57,7 @@ def test_live_relabelling_of_86_01_matches_the_labels(data_dir):
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
     try:
-        assert d.ready.wait(30)
+        wait_ready(d, t)
         s = subscriber(ep["publish"])
         # handshake: the first heartbeat shows the subscription has reached the publisher
         next(e for e in listen(s, timeout=30) if e.type == "stats")

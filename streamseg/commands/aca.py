@@ -9,10 +9,12 @@ the number of actions is found (:mod:`streamseg.offline.model_selection`).
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import time
 from pathlib import Path
 
+from streamseg.commands.output import evaluation, segmentation, warn
 from streamseg.config import ACAConfig
 from streamseg.exceptions import ParameterError
 
@@ -21,9 +23,10 @@ _DEFAULTS = ACAConfig()
 
 def add_arguments(group) -> None:
     """ACA options (lengths in seconds)."""
-    group.add_argument("--clusters", type=int, default=None, metavar="K",
+    group.add_argument("--clusters", type=_clusters, default=None, metavar="K",
                        help="number of actions (default: found, the K in 2.."
-                            f"{_DEFAULTS.k_max} whose segments have the best silhouette)")
+                            f"{_DEFAULTS.k_max} whose segments have the best silhouette); "
+                            "with eval, 'labels' takes K from the human labels")
     group.add_argument("--hierarchical", action="store_true",
                        help="two-level HACA (the default; kept for scripts)")
     group.add_argument("--flat", action="store_true", help="one-level ACA instead of HACA")
@@ -44,11 +47,27 @@ def add_arguments(group) -> None:
                             "1,000 rows)")
 
 
+def _clusters(text: str):
+    if text == "labels":
+        return text
+    try:
+        k = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of actions or "
+                                         "'labels'") from None
+    if k < 1:
+        raise argparse.ArgumentTypeError(f"{k}: expected a number of actions >= 1")
+    return k
+
+
 def _load(args):
     """(features (n, d), fps, is_matrix) for ``args.file``."""
     from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
 
     if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
+        if args.fps is None:
+            warn(args, f"{Path(args.file).name} is a feature matrix with no frame rate: "
+                 "1 row per second assumed, so --min-len/--max-len are in rows (give --fps)")
         fps = 1.0 if args.fps is None else float(args.fps)
         return read_matrix(args.file), fps, True
     from streamseg.io import read
@@ -82,12 +101,17 @@ def _config(args, is_matrix, n_rows) -> ACAConfig:
     return ACAConfig(**values)
 
 
-def _run(args):
+def _run(args, n_labels: int | None = None):
     from streamseg.offline.model_selection import fit_aca
 
     if args.fps is not None and args.fps <= 0:
         raise ParameterError(f"--fps={args.fps!r} is invalid: expected a frame rate > 0")
+    if args.clusters == "labels" and n_labels is None:
+        raise ParameterError("--clusters labels takes K from human labels: use it with eval "
+                             "(segment has no labels), or give a number")
     X, fps, is_matrix = _load(args)
+    if args.clusters == "labels":
+        args.clusters = n_labels
     config = _config(args, is_matrix, X.shape[0])
     t0 = time.perf_counter()
     model = fit_aca(X, config, fps)
@@ -98,26 +122,24 @@ def _run(args):
 def segment(args) -> dict:
     """Segment ``args.file``; returns the JSON-able result (same shape as the LOF method)."""
     X, fps, config, model, seconds = _run(args)
-    segments = [{"start": s, "end": e, "label": int(lab)} for s, e, lab in model.segments_]
     if args.plot:
         from streamseg.plotting.segments import plot_segments
 
         plot_segments(args.plot, X, model.segments_, fps=fps,
                       title=f"{Path(args.file).name}: ACA k={model.n_clusters_}")
-    return {
-        "n_frames": int(X.shape[0]),
-        "fps": fps,
-        "method": "haca" if config.hierarchical else "aca",
-        "cuts": [s["start"] for s in segments[1:]],
-        "segments": segments,
-        "objective": float(model.objective_),
-        "n_clusters": model.n_clusters_,
-        "k_found": config.n_clusters is None,
-        "k_scores": {str(k): v for k, v in model.scores_.items()},
-        "note": model.reason or None,  # why the recording was not clustered (one segment)
-        "seconds": round(seconds, 3),
-        "params": dataclasses.asdict(config),
-    }
+    if model.reason:
+        warn(args, f"{Path(args.file).name} was not clustered ({model.reason}): one segment")
+    return segmentation(
+        args, method="haca" if config.hierarchical else "aca", n_frames=int(X.shape[0]),
+        fps=fps, segments=[(s, e, int(lab)) for s, e, lab in model.segments_],
+        objective=float(model.objective_),
+        n_clusters=model.n_clusters_,
+        k_found=config.n_clusters is None,
+        k_scores={str(k): v for k, v in model.scores_.items()},
+        note=model.reason or None,  # why the recording was not clustered (one segment)
+        seconds=round(seconds, 3),
+        params=dataclasses.asdict(config),
+    )
 
 
 def evaluate(args) -> dict:
@@ -125,10 +147,10 @@ def evaluate(args) -> dict:
     from streamseg.evaluation.labels import frame_labels, read_labels
     from streamseg.evaluation.metrics import frame_confusion, matched_frame_accuracy
 
-    X, fps, config, model, seconds = _run(args)
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     truth_segments = read_labels(args.labels, sequence)
     names = sorted({s.label for s in truth_segments})
+    X, fps, config, model, seconds = _run(args, n_labels=len(names))
     truth = frame_labels(truth_segments, X.shape[0])
     keep = truth >= 0  # unlabelled frames are not scored
     pred = model.labels_[keep]
@@ -141,14 +163,16 @@ def evaluate(args) -> dict:
         shown = [(s, e, int(mapping.get(lab, len(names) + lab))) for s, e, lab in model.segments_]
         plot_segments(args.plot, X, shown, fps=fps, truth=truth,
                       title=f"{sequence}: accuracy {acc:.3f}")
-    return {
-        "method": "haca" if config.hierarchical else "aca",
-        "n_frames": int(X.shape[0]),
-        "scored_frames": int(keep.sum()),
-        "accuracy": acc,
-        "clusters": [int(c) for c in clusters],
-        "labels": [names[int(i)] for i in labels],
-        "matching": {str(int(c)): names[int(t)] for c, t in mapping.items()},
-        "confusion": C.tolist(),
-        "seconds": round(seconds, 3),
-    }
+    return evaluation(
+        args, method="haca" if config.hierarchical else "aca", n_frames=int(X.shape[0]),
+        fps=fps,
+        n_clusters=model.n_clusters_, k_found=config.n_clusters is None,
+        n_true_actions=len(names),
+        scored_frames=int(keep.sum()),
+        accuracy=acc,
+        clusters=[int(c) for c in clusters],
+        label_names=[names[int(i)] for i in labels],
+        matching={str(int(c)): names[int(t)] for c, t in mapping.items()},
+        confusion=C.tolist(),
+        seconds=round(seconds, 3),
+    )

@@ -26,12 +26,14 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from streamseg.commands.listen import format_event, listen, subscriber
+    from streamseg.cli import check_plot
+    from streamseg.commands.listen import format_event, listen, subscribe
     from streamseg.commands.replay import replay
     from streamseg.config import DaemonConfig
     from streamseg.daemon import Daemon
     from streamseg.io import read
 
+    check_plot(args.plot, need_matplotlib=False)  # before the run, not after it
     rec = read(args.file, skeleton=args.skeleton)
     stream = "86_01"
     loop = "tcp://127.0.0.1:0"
@@ -42,8 +44,7 @@ def run(args) -> int:
     print(f"daemon: ingest {ep['ingest']}  publish {ep['publish']}  control {ep['control']}")
     print("warming kernels ...", flush=True)
     daemon.ready.wait()
-    sub = subscriber(ep["publish"], stream=stream)
-    time.sleep(0.2)
+    sub = subscribe(ep["publish"], ep["control"], stream=stream)
     events = []
     t0 = time.monotonic()
 

@@ -19,8 +19,33 @@ def _table(title, names, values, unit) -> list[str]:
     return lines
 
 
+def _matrix_info(path, fps) -> str:
+    from streamseg.io.matrix import read_matrix
+
+    m = read_matrix(path)
+    out = [f"file:      {path}", "format:    feature matrix (rows = frames)",
+           f"frames:    {m.shape[0]}", f"columns:   {m.shape[1]}"]
+    if fps:
+        out += [f"fps:       {fps:g}", f"duration:  {m.shape[0] / fps:.2f} s"]
+    else:
+        out.append("fps:       not stored in a matrix (segment/eval take --fps)")
+    out.append(f"NaN rows:  {int((~np.isfinite(m)).any(axis=1).sum())}")
+    if m.shape[1] in (8, 17):
+        out.append(f"looks like: the cut detector's {m.shape[1]} bone features "
+                   f"(--inclinations {'on' if m.shape[1] == 17 else 'off'})")
+    out += _table("columns", [f"column {i}" for i in range(m.shape[1])], m, "as stored")
+    return "\n".join(out)
+
+
 def info(path, skeleton=None, fps=None) -> str:
-    """A readable summary of recording ``path``: size, rate, joints and feature ranges."""
+    """A readable summary of ``path``: size, rate, joints and feature ranges (a recording),
+    or rows, columns and column ranges (a feature matrix ``.npy``/``.csv``)."""
+    from pathlib import Path
+
+    from streamseg.io.matrix import MATRIX_SUFFIXES
+
+    if Path(path).suffix.lower() in MATRIX_SUFFIXES:
+        return _matrix_info(path, fps)
     rec = read(path, skeleton, fps=fps, lenient=True)
     n_nan = int(np.isnan(rec.positions).any(axis=(1, 2)).sum())
     out = [

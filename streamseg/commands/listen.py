@@ -59,6 +59,63 @@ def subscriber(endpoint: str, stream=None, kind=None, ctx=None):
     return sock
 
 
+def handshake(sock, control: str, ctx=None, timeout: float = 30.0) -> list:
+    """Wait until the SUB socket ``sock`` receives what the daemon publishes.
+
+    ZeroMQ gives no sign when a subscription reaches the publisher, and drops what is sent
+    before it does. So ask the daemon (control ``hello``) to publish a token on a topic only
+    this socket subscribes to, again every 50 ms, until the token arrives. Returns the frames
+    of the other events that arrived meanwhile, for :func:`listen` (``pending``): none is lost.
+    """
+    import secrets
+
+    token = secrets.token_hex(8)
+    prefix = protocol.topic("hello", token)
+    sock.setsockopt(zmq.SUBSCRIBE, prefix)
+    poller = zmq.Poller()
+    poller.register(sock, zmq.POLLIN)
+    pending, deadline = [], time.monotonic() + timeout
+    try:
+        while time.monotonic() < deadline:
+            reply = request(control, "hello", ctx, timeout=timeout, token=token)
+            if not reply.get("ok"):
+                raise TimeoutError(f"the daemon refused hello: {reply.get('error')}")
+            end = time.monotonic() + 0.05
+            while (left := end - time.monotonic()) > 0 and poller.poll(int(left * 1000) + 1):
+                frames = sock.recv_multipart()
+                if frames[0] == prefix:
+                    return pending
+                pending.append(frames)
+        raise TimeoutError(f"no hello from the daemon's publisher in {timeout} s: is "
+                           "the publish endpoint the one of the daemon at the control endpoint?")
+    finally:
+        sock.setsockopt(zmq.UNSUBSCRIBE, prefix)
+
+
+class Subscription:
+    """A SUB socket whose subscription is known to be live, with the events that arrived
+    during the handshake (:func:`listen` yields them first)."""
+
+    def __init__(self, sock, pending):
+        self.sock = sock
+        self.pending = list(pending)
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+def subscribe(endpoint: str, control: str, stream=None, kind=None, ctx=None,
+              timeout: float = 30.0) -> Subscription:
+    """:func:`subscriber` then :func:`handshake`: events published after this returns reach
+    the subscription (no sleep, no slow-joiner loss)."""
+    sock = subscriber(endpoint, stream, kind, ctx)
+    try:
+        return Subscription(sock, handshake(sock, control, ctx, timeout))
+    except BaseException:
+        sock.close()
+        raise
+
+
 def merged_runs(segments) -> list:
     """Consecutive segments of one label joined: ACA's segments are cycles of an action, a
     reader wants the actions."""
@@ -103,13 +160,18 @@ def format_event(ev) -> str:
     return repr(ev)
 
 
-def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None):
+def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
+           pending=()):
     """Yield decoded events from a SUB socket until a stop condition.
 
     ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
     or before its newest cut are skipped (they are in the state already), until the stream
-    is closed (a snapshot of an already closed stream filters nothing).
+    is closed (a snapshot of an already closed stream filters nothing). ``pending``: frames
+    received before (:func:`handshake`), yielded first.
     """
+    if isinstance(sock, Subscription):
+        pending, sock.pending = list(sock.pending) + list(pending), []
+        sock = sock.sock
     if since and since.get("closed"):
         since = None  # the snapshot is of a closed stream: later events are a new one
     rev = since.get("revision", 0) if since else 0
@@ -117,12 +179,19 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     seen = 0
     poller = zmq.Poller()
     poller.register(sock, zmq.POLLIN)
+    pending = list(pending)
     while count is None or seen < count:
-        if not poller.poll(None if timeout is None else int(timeout * 1000)):
-            raise TimeoutError(f"no event for {timeout} s")
+        if pending:
+            frames = pending.pop(0)
+        else:
+            if not poller.poll(None if timeout is None else int(timeout * 1000)):
+                raise TimeoutError(f"no event for {timeout} s")
+            frames = sock.recv_multipart()
         try:
-            ev = protocol.decode(sock.recv_multipart())
+            ev = protocol.decode(frames)
         except protocol.WireError:
+            continue
+        if ev.type == "hello":
             continue
         if since is not None and getattr(ev, "stream", None) == since.get("stream"):
             if (ev.type == "segments" and ev.revision <= rev) or \
@@ -140,10 +209,11 @@ def run(args) -> int:
     ctx = zmq.Context.instance()
     sock = subscriber(args.source, args.stream, args.kind, ctx)
     out = sys.stdout
-    since = None
+    since, pending = None, []
     try:
         if args.control:
-            time.sleep(0.2)  # let the subscription reach the daemon before the snapshot
+            # the subscription is live before the snapshot: nothing falls between them
+            pending = handshake(sock, args.control, ctx)
             if args.stream:
                 since = request(args.control, "state", ctx, stream=args.stream)
                 if since.get("ok"):
@@ -151,8 +221,10 @@ def run(args) -> int:
                                                  if k not in ("ok", "v")}}
                     text = strict_json.dumps(state) if args.jsonl else _state_line(state)
                     out.write(text + "\n")
-                else:
-                    print(f"streamseg listen: {since.get('error')}", file=sys.stderr)
+                else:  # not open (yet): say so where the events go, then follow it
+                    state = {"type": "state", "stream": args.stream, "open": False}
+                    out.write((strict_json.dumps(state) if args.jsonl else
+                               f"[{args.stream}] not open yet: waiting for it") + "\n")
                     since = None
             else:
                 streams = request(args.control, "streams", ctx)
@@ -161,7 +233,7 @@ def run(args) -> int:
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
             out.flush()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
-                         timeout=args.timeout, since=since):
+                         timeout=args.timeout, since=since, pending=pending):
             text = strict_json.dumps(protocol.to_json(ev)) if args.jsonl else format_event(ev)
             out.write(text + "\n")
             out.flush()

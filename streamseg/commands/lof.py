@@ -11,9 +11,9 @@ reports each cut's latency.
 from __future__ import annotations
 
 import dataclasses
-import sys
 from pathlib import Path
 
+from streamseg.commands.output import evaluation, segmentation, warn
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import lof_features
@@ -109,35 +109,29 @@ def _angles(args, config: LOFConfig):
     rec = read(args.file, args.skeleton, fps=args.fps)
     up = getattr(args, "up", None) or rec.skeleton.up
     if config.inclinations:
-        _warn_up(rec, up)
+        _warn_up(args, rec, up)
     return bone_angles(rec.positions, rec.skeleton, inclinations=config.inclinations,
                        up=up), float(rec.fps)
 
 
-def _warn_up(rec, up: str) -> None:
-    """Say so on stderr when the body stands along another axis than ``up``."""
+def _warn_up(args, rec, up: str) -> None:
+    """Warn when the body stands along another axis than ``up``."""
     from streamseg.skeleton.bones import bone_point_indices, likely_up, spine_directions
 
     axis = likely_up(spine_directions(rec.positions, bone_point_indices(rec.skeleton))[0], up)
     if axis is not None:
-        print(f"streamseg: warning: in {rec.source or 'the recording'} the spine points along "
-              f"{axis}, not along the up axis {up}: give --up {axis}, or the bone "
-              "inclinations change with the heading", file=sys.stderr)
+        warn(args, f"in {rec.source or 'the recording'} the spine points along {axis}, not "
+             f"along the up axis {up}: give --up {axis}, or the bone inclinations change with "
+             "the heading")
 
 
-def _run(angles, fps, config: LOFConfig, online: bool) -> dict:
+def _run(args, angles, fps, config: LOFConfig, online: bool) -> dict:
     window = config.frames(fps)["window"]
     if angles.shape[0] < window:
-        print(f"streamseg: warning: the recording has {angles.shape[0]} frames "
-              f"({angles.shape[0] / fps:.2f} s), shorter than the cut detector's window of "
-              f"{window} frames ({window / fps:.2f} s): no cut can be found (a shorter "
-              "--window would look at it)", file=sys.stderr)
+        warn(args, f"the recording has {angles.shape[0]} frames ({angles.shape[0] / fps:.2f} s), "
+             f"shorter than the cut detector's window of {window} frames "
+             f"({window / fps:.2f} s): no cut can be found (a shorter --window would look at it)")
     return lof_report(angles, fps, config, online)
-
-
-def _segments(cuts, n):
-    b = [0] + [int(c) for c in cuts] + [n]
-    return [{"start": s, "end": e, "label": None} for s, e in zip(b[:-1], b[1:]) if e > s]
 
 
 def _plot(args, res, n, fps, title, truth=None):
@@ -155,18 +149,21 @@ def segment(args) -> dict:
     """Cut ``args.file``; the JSON of the issue (n_frames, fps, method, cuts, segments, ...)."""
     config = config_from_args(args)
     angles, fps = _angles(args, config)
-    res = _run(angles, fps, config, bool(args.online))
+    res = _run(args, angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     if args.plot:
         _plot(args, res, n, fps, f"{Path(args.file).name}: LOF "
               f"({'online' if args.online else 'offline'}, {args.preset})")
-    out = {"n_frames": n, "fps": fps, "method": "lof", "cuts": res["cuts"],
-           "segments": _segments(res["cuts"], n)}
+    bounds = [0, *res["cuts"], n]
+    extra = {"mode": "online" if args.online else "offline"}
     if args.online:
-        out["cut_latency_frames"] = res["latency"]
-    out["params"] = {**dataclasses.asdict(config), "preset": args.preset,
-                     "online": bool(args.online), "frames": res["geometry"]}
-    return out
+        extra["cut_latency_frames"] = res["latency"]
+        extra["cut_latency_s"] = [round(v / fps, 4) for v in res["latency"]]
+    extra["params"] = {**dataclasses.asdict(config), "preset": args.preset,
+                       "online": bool(args.online), "frames": res["geometry"]}
+    return segmentation(args, method="lof", n_frames=n, fps=fps,
+                        segments=[(s, e, None) for s, e in zip(bounds[:-1], bounds[1:]) if e > s],
+                        **extra)
 
 
 def evaluate(args) -> dict:
@@ -176,15 +173,15 @@ def evaluate(args) -> dict:
 
     config = config_from_args(args)
     angles, fps = _angles(args, config)
-    res = _run(angles, fps, config, bool(args.online))
+    res = _run(args, angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     segs = read_labels(args.labels, sequence)
     truth, windows = true_cuts(segs, n), cut_windows(segs)[:len(true_cuts(segs, n))]
     win = cut_scores(res["cuts"], truth, windows=windows, margin=int(round(0.5 * fps)))
     flat = cut_scores(res["cuts"], truth, tolerance=int(round(1.0 * fps)))
-    out = {"method": "lof", "mode": "online" if args.online else "offline",
-           "preset": args.preset, "n_frames": n, "n_true": win["n_true"],
+    out = {"mode": "online" if args.online else "offline",
+           "preset": args.preset, "n_true": win["n_true"],
            "n_cuts": win["n_pred"],
            "precision": win["precision"], "recall": win["recall"], "f1": win["f1"],
            "precision_1s": flat["precision"], "recall_1s": flat["recall"], "f1_1s": flat["f1"],
@@ -192,10 +189,10 @@ def evaluate(args) -> dict:
            "true_cuts": truth}
     if args.online:
         lat = latency_stats(res["latency"])
-        out.update(latency_median=lat["median"], latency_max=lat["max"],
+        out.update(latency_median_frames=lat["median"], latency_max_frames=lat["max"],
                    latency_median_s=lat["median"] / fps)
     if args.plot:
         _plot(args, res, n, fps, f"{sequence}: LOF F1 {win['f1']:.2f} "
               f"({'online' if args.online else 'offline'}, {args.preset})",
               truth=[(s.start, min(s.end, n), s.label) for s in segs])
-    return out
+    return evaluation(args, method="lof", n_frames=n, fps=fps, **out)

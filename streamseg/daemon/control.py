@@ -1,4 +1,4 @@
-"""The control endpoint's requests (REQ/REP): ping, streams, state, stats, shutdown."""
+"""The control endpoint's requests (REQ/REP): ping, hello, streams, state, stats, shutdown."""
 
 from __future__ import annotations
 
@@ -34,6 +34,12 @@ def answer(daemon, req) -> dict:
                                       f"send v={protocol.PROTOCOL_VERSION} (docs/protocol.md)"}
     if op == "ping":
         return {"ok": True}
+    if op == "hello":
+        token = req.get("token")
+        if not protocol.valid_stream_id(token):
+            return {"ok": False, "error": "hello needs a token: 1-128 of A-Za-z0-9_.:@+=-"}
+        daemon.pub.send_multipart(protocol.encode(protocol.Hello(token)))
+        return {"ok": True}
     if op == "streams":
         return {"ok": True, "streams": [{"stream": s, "fps": st.fps, "frame": st.next_seq,
                                          "revision": st.revision}
@@ -57,5 +63,5 @@ def answer(daemon, req) -> dict:
     if op == "shutdown":
         daemon.stop()
         return {"ok": True}
-    return {"ok": False, "error": f"unknown op {op!r}; expected ping, streams, state, stats "
-                                  "or shutdown"}
+    return {"ok": False, "error": f"unknown op {op!r}; expected ping, hello, streams, state, "
+                                  "stats or shutdown"}

@@ -167,6 +167,16 @@ def score(item: LabelledRecording, pred: Prediction, fps: float) -> dict:
 
 
 COLUMNS = ("P", "R", "F1", "F1@1s", "cover", "acc", "lat_med", "lat_max", "time_s", "n_cuts")
+#: the table's short column names -> the keys of the JSON rows (docs/output.md), as ``eval``
+JSON_KEYS = {"P": "precision", "R": "recall", "F1": "f1", "F1@1s": "f1_1s", "cover": "covering",
+             "acc": "accuracy", "lat_med": "latency_median_frames",
+             "lat_max": "latency_max_frames", "time_s": "seconds", "n_cuts": "n_cuts",
+             "error": "error"}
+
+
+def json_row(row: dict) -> dict:
+    """A :func:`score` row with the key names of ``eval --json`` (NaN -> null when dumped)."""
+    return {JSON_KEYS.get(k, k): v for k, v in row.items()}
 
 
 def format_table(rows: list[tuple[str, str, dict]], means: bool = True) -> str:

@@ -43,6 +43,7 @@ from streamseg.protocol.messages import (
     Error,
     Frames,
     Gap,
+    Hello,
     Rep,
     Segments,
     Stats,
@@ -54,6 +55,7 @@ from streamseg.protocol.messages import (
 
 __all__ = ["DAEMON_WIDE", "EVENT_TYPES", "INGEST_TYPES", "MAX_INT", "MESSAGES",
            "PROTOCOL_VERSION", "Announce", "Closed", "Cut", "End", "Error", "Frames", "Gap",
+           "Hello",
            "Rep", "Segments", "Stats", "WireError", "decode", "decode_array", "encode",
            "encode_array", "frames_fields", "from_body", "subscriptions", "to_json", "topic",
            "unpack_body", "valid_stream_id"]

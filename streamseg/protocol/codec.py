@@ -20,6 +20,7 @@ from streamseg.protocol.messages import (
     Error,
     Frames,
     Gap,
+    Hello,
     Rep,
     Segments,
     Stats,
@@ -67,7 +68,8 @@ def encode(msg) -> list[bytes]:
         if isinstance(value, np.ndarray):
             value = encode_array(value)
         body[f.name] = value
-    stream = getattr(msg, "stream", None)
+    # a hello is routed by its token, so only the subscriber that asked receives it
+    stream = msg.token if msg.type == "hello" else getattr(msg, "stream", None)
     return [topic(msg.type, stream), msgpack.packb(body, use_bin_type=True)]
 
 
@@ -253,6 +255,7 @@ _BUILDERS = {
                          _int(o, "got", "gap", None)),
     "error": _error,
     "stats": _stats,
+    "hello": lambda o: Hello(str(o["token"])),
     "closed": lambda o: Closed(_stream(o, "closed"), str(o["reason"]),
                                _int(o, "frames", "closed", None)),
 }

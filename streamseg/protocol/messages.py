@@ -201,8 +201,19 @@ class Closed:
     type = "closed"
 
 
+@dataclass(frozen=True)
+class Hello:
+    """Event: the answer to a control ``hello`` request, published on topic
+    ``hello/<token>/``. A subscriber that receives its token knows its subscription is live
+    (ZeroMQ drops what a PUB socket sends before a subscription arrives)."""
+
+    token: str
+
+    type = "hello"
+
+
 MESSAGES = {cls.type: cls for cls in (Announce, Frames, End, Cut, Segments, Rep, Gap, Error,
-                                      Stats, Closed)}
+                                      Stats, Closed, Hello)}
 
 
 def _same_float(a: float, b: float) -> bool:

@@ -1,0 +1,104 @@
+"""The command line's output contract (``docs/output.md``): one shape for every method.
+
+``segment`` returns :func:`segmentation` objects, ``eval`` :func:`evaluation` objects; both
+print as strict JSON with ``--json`` and as a readable table otherwise. Warnings go to stderr
+as one line each *and* into the object's ``warnings`` list, so a script reading the JSON sees
+them too.
+"""
+
+from __future__ import annotations
+
+import sys
+
+#: Version of the JSON objects described in docs/output.md.
+SCHEMA = 1
+
+
+def warn(args, message: str) -> None:
+    """Print ``message`` as one warning line and keep it for the JSON ``warnings`` list."""
+    if not hasattr(args, "warnings"):
+        args.warnings = []
+    if message not in args.warnings:
+        args.warnings.append(message)
+        print(f"streamseg {getattr(args, 'command', '')}: warning: {message}".replace("  ", " "),
+              file=sys.stderr)
+
+
+def merge_runs(segments) -> list[tuple[int, int, object]]:
+    """Adjacent segments of one label merged: ACA tiles one action with several pieces."""
+    out: list[list] = []
+    for s, e, lab in segments:
+        if out and lab is not None and out[-1][2] == lab and out[-1][1] == s:
+            out[-1][1] = int(e)
+        else:
+            out.append([int(s), int(e), lab])
+    return [tuple(x) for x in out]
+
+
+def segmentation(args, *, method: str, n_frames: int, fps: float, segments, **extra) -> dict:
+    """The ``segment`` object: frames and seconds of every cut and segment, same-label runs
+    merged (``segments`` as (start, end, label) tiling the frames; label None for cut
+    detectors, which do not say which segments are alike)."""
+    merged = merge_runs(segments)
+    segs = [{"start": s, "end": e, "label": lab, "start_s": round(s / fps, 4),
+             "end_s": round(e / fps, 4)} for s, e, lab in merged]
+    cuts = [s["start"] for s in segs[1:]]
+    out = {"schema": SCHEMA, "command": "segment", "file": str(args.file), "method": method,
+           "n_frames": int(n_frames), "fps": float(fps),
+           "duration_s": round(n_frames / fps, 4) if fps else None,
+           "cuts": cuts, "cuts_s": [round(c / fps, 4) for c in cuts], "segments": segs}
+    out.update(extra)
+    out["warnings"] = list(getattr(args, "warnings", []))
+    return out
+
+
+def evaluation(args, *, method: str, n_frames: int, fps: float, **scores) -> dict:
+    """The ``eval`` object: the method's scores against ``args.labels``."""
+    out = {"schema": SCHEMA, "command": "eval", "file": str(args.file), "labels": args.labels,
+           "method": method, "n_frames": int(n_frames), "fps": float(fps)}
+    out.update(scores)
+    out["warnings"] = list(getattr(args, "warnings", []))
+    return out
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return "-" if v is None else str(v)
+
+
+def format_segmentation(result: dict) -> str:
+    """A readable table of a :func:`segmentation` object."""
+    n, fps = result["n_frames"], result["fps"]
+    segs = result["segments"]
+    head = (f"{result['file']}: {result['method']}, {len(result['cuts'])} cuts, "
+            f"{len(segs)} segments over {n} frames ({n / fps:.2f} s at {fps:g} fps)")
+    lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  label"]
+    for i, s in enumerate(segs):
+        lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
+                     f"{s['end_s']:>9.2f}  {_cell(s['label'])}")
+    skip = {"schema", "command", "file", "method", "n_frames", "fps", "duration_s", "cuts",
+            "cuts_s", "segments", "warnings", "params", "repetitions", "sets"}
+    for key, value in result.items():
+        if key in skip or isinstance(value, (dict, list)):
+            continue
+        lines.append(f"  {key}: {_cell(value)}")
+    return "\n".join(lines)
+
+
+def format_evaluation(result: dict) -> str:
+    """A readable list of an :func:`evaluation` object's scores."""
+    lines = [f"{result['file']} against {result['labels']}: {result['method']}"]
+    skip = {"schema", "command", "file", "labels", "method", "warnings"}
+    for key, value in result.items():
+        if key in skip:
+            continue
+        if key == "confusion":
+            lines.append(f"  {key}:")
+            lines += ["    " + " ".join(f"{v:6d}" for v in row) for row in value]
+        elif isinstance(value, list) and len(value) > 12:
+            lines.append(f"  {key}: [{len(value)} items] {value[:12]} ...")
+        else:
+            shown = value if isinstance(value, (list, dict)) else _cell(value)
+            lines.append(f"  {key}: {shown}")
+    return "\n".join(lines)
