@@ -241,6 +241,7 @@ def test_late_listener_catches_up_from_control(start_daemon, rec):
     assert revs and revs[0] == state["revision"] + 1 and revs == sorted(revs)
 
 
+@pytest.mark.slow
 def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
     spans = []
 
@@ -317,6 +318,7 @@ def test_control_requests(start_daemon):
         assert not t.is_alive(), "the shutdown request did not stop the daemon"
 
 
+@pytest.mark.slow
 def test_live_repetitions_match_the_counter(start_daemon, data_dir):
     from streamseg.online import RepetitionCounter
 
@@ -332,6 +334,7 @@ def test_live_repetitions_match_the_counter(start_daemon, data_dir):
     assert got == [(r.start, r.end, r.count, r.emitted_at) for r in want]
 
 
+@pytest.mark.slow
 def test_relabel_in_a_process_pool(start_daemon, rec):
     d, ep = start_daemon(relabel_interval=5.0, relabel_history=10.0, relabel_processes=1)
     s = sub(ep, stream="pp")

@@ -18,6 +18,7 @@ from streamseg.io import read
 pytestmark = pytest.mark.daemon
 
 
+@pytest.mark.slow
 def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     ep = {k: f"ipc://{tmp_path}/{k}" for k in ("ingest", "publish", "control")}

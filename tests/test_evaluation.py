@@ -74,6 +74,7 @@ def test_table_reports_errors_and_means():
     assert "| **mean (1)** | a | 1.000 | 1.000 | 1.000 |" in text
 
 
+@pytest.mark.slow
 def test_eval_all_cli(labelled, capsys):
     assert main(["eval", "--all", str(labelled), "--json"]) == 0
     out = json.loads(capsys.readouterr().out,

@@ -99,6 +99,7 @@ def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):
         taken.close(0)
 
 
+@pytest.mark.slow
 def test_a_matrix_without_fps_is_said_and_info_reads_matrices(capsys, tmp_path):
     import numpy as np
 
