@@ -163,6 +163,11 @@ def test_restarts_keep_lowest_objective_and_descent_is_monotone():
     # n_init=6 with seed 0 begins with exactly the restart of n_init=1 with seed 0
     best = ACA(3, 6, 9, n_init=6, kernel="equality", random_state=0).fit(x)
     assert best.objective_ <= objs[0] + 1e-12
+    # six restarts were run and the kept one is the lowest of them, whichever it was
+    assert best.restart_objectives_.shape == (6,)
+    assert best.restart_objectives_[0] == pytest.approx(objs[0])
+    assert best.objective_ == best.restart_objectives_.min()
+    assert np.unique(best.restart_objectives_).size > 1  # the restarts did differ
     K = frame_kernel(x, kernel="equality")
     rng = np.random.default_rng(4)
     from streamseg.offline.aca import descend

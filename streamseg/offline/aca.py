@@ -220,6 +220,8 @@ class ACA(Estimator):
         Half-open frame ranges covering the sequence.
     objective_ : float
         Eq. 5 of the kept restart (on the reduced sequence when reducing).
+    restart_objectives_ : ndarray, shape (n_init,)
+        Eq. 5 at the end of every restart; ``objective_`` is their minimum.
     n_iter_ : int
         Coordinate-descent steps of the kept restart.
     """
@@ -332,6 +334,7 @@ class ACA(Estimator):
         starts, ends, labels, obj, it = best
         self._store(starts, ends, labels, runs, n, expand_labels)
         self.objective_ = float(obj)
+        self.restart_objectives_ = np.array([res[3] for res in results], dtype=np.float64)
         self.n_iter_ = int(it)
         self.min_len_used_, self.max_len_used_ = int(wmin), int(wmax)
         return self
