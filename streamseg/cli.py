@@ -129,6 +129,10 @@ def _check_options(args, parser_defaults: dict) -> None:
             flag = "--" + dest.replace("_", "-")
             warn(args, f"{flag} is a {owner} option: it does nothing with --method "
                        f"{args.method}")
+    name = str(getattr(args, "file", "") or "").lower()
+    if args.skeleton and name and not name.endswith((".amc", ".amc.gz")):
+        warn(args, f"--skeleton does nothing for {Path(name).name}: only AMC files take an "
+                   "ASF skeleton (BVH and .npz carry their own, matrices need none)")
     if args.command == "segment":
         for dest in ("labels", "sequence"):
             if getattr(args, dest):

@@ -399,4 +399,7 @@ def test_failed_start_with_receive_thread_still_shuts_down():
     t.start()
     t.join(20)
     assert not t.is_alive(), "the daemon hung in shutdown"
-    assert "err" in box or "rc" in box
+    # the failure reaches the caller, and every socket is closed behind it
+    assert isinstance(box.get("err"), RuntimeError) and "warmup failed" in str(box["err"])
+    assert "rc" not in box
+    assert d.ingest.closed and d.pub.closed and d.control.closed

@@ -76,6 +76,18 @@ def test_options_that_do_nothing_are_named(capsys, recording):
     assert any("--labels does nothing with segment" in w for w in out["warnings"])
 
 
+
+def test_a_skeleton_given_to_a_file_that_carries_its_own_is_named(capsys, recording, tmp_path):
+    from streamseg.io import read
+    from streamseg.io.npz import write_npz
+
+    f = tmp_path / "take.npz"
+    write_npz(f, read(recording[0], skeleton=recording[2]))
+    out = _json(capsys, "segment", f, "--skeleton", recording[2], "--json")
+    assert out["warnings"] == ["--skeleton does nothing for take.npz: only AMC files take an "
+                               "ASF skeleton (BVH and .npz carry their own, matrices need none)"]
+
+
 def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):
     assert main([str(a) for a in ["segment", *recording, "--plot", tmp_path / "no" / "x.png"]]) \
         == 2
