@@ -74,8 +74,7 @@ def _curve(seqs, lof, st, curve):
 
 
 @njit(cache=True, nogil=True)
-def _decide(w, hi, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, curve, keep, stack,
-            ev_frame, ev_score, ev_emit, n_ev, emitted_at):
+def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
     """Decide window ``w`` with the curve known up to ``hi``; append an event if it is a cut.
 
     The cut frame is the peak window's centre moved to the largest before/after histogram
@@ -86,6 +85,10 @@ def _decide(w, hi, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, cu
     the ``geo[GEO_CONTRAST]`` frames before (since the previous cut at most) and after it
     (:func:`contrast_at`) reaches ``p[P_MIN_CONTRAST]``.
     """
+    rb, rv, _, left, right = frames
+    seqs, lof, centres = lofs[2], lofs[9], lofs[11]
+    work, curve, keep, stack = scratch
+    ev_frame, ev_score, ev_emit = events
     delay, tol, n_mads = p[P_DELAY], p[P_TOLERANCE], p[P_MADS]
     min_score, min_gap = p[P_MIN_SCORE], p[P_MIN_GAP]
     oldest = st[ST_NEXT_SEQ] - st[ST_BUFFERED]
@@ -135,23 +138,23 @@ def _decide(w, hi, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, cu
 
 
 @njit(cache=True, nogil=True)
-def stream_block(angles, st, geo, p,
-                 rb, rv, cur, left, right,
-                 vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
-                 centres, work, curve, keep, stack,
-                 ev_frame, ev_score, ev_emit):
+def stream_block(angles, st, geo, p, frames, lofs, scratch, events):
     """Feed ``angles`` (n, n_angles) frames; return the number of events written.
 
-    ``geo`` = (bins, window, step, min_valid, k, exclusion frames, refine radius frames,
-    contrast frames);
-    ``p`` = (delay, tol, n_mads, min_score, min_gap, min_contrast) as float64;
-    ``geo[GEO_CONTRAST]`` is the contrast sub-window (frames). ``rb``/``rv`` are a ring of
+    ``geo`` (int64, slots ``GEO_*``) = (bins, window, step, min_valid, k, exclusion frames,
+    refine radius frames, contrast frames); ``p`` (float64, slots ``P_*``) = (delay, tol,
+    n_mads, min_score, min_gap, min_contrast). The arrays come in groups (tuples):
+    ``frames = (rb, rv, cur, left, right)``, ``lofs = (vecs, norms, seqs, nn_idx, nn_d, nn_key,
+    nn_cnt, trunc, lrd, lof, mark, centres)``, ``scratch = (work, curve, keep, stack)``,
+    ``events = (ev_frame, ev_score, ev_emit)``. ``rb``/``rv`` are a ring of
     the last ``len(rb) >= window`` frames' bins and validity (frame ``f`` at ``f % len(rb)``),
     ``cur`` the current window's counts, ``left``/``right`` scratch counts. The LOF state
     (``vecs`` .. ``centres``) is described in :mod:`streamseg._kernels.lof`; its candidate
     lists may hold more than ``k`` entries. Events: cut frame, score (LOF), frame index at
     emission.
     """
+    rb, rv, cur, left, right = frames
+    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres = lofs
     bins, window, step = geo[GEO_BINS], geo[GEO_WINDOW], geo[GEO_STEP]
     min_valid, k, excl = geo[GEO_MIN_VALID], geo[GEO_K], geo[GEO_EXCLUSION]
     n_slots = seqs.shape[0]
@@ -208,19 +211,17 @@ def stream_block(angles, st, geo, p,
                                         lrd, lof, mark, centres, slot, vec, seq, k, excl)
         st[ST_BUFFERED] += 1
         st[ST_NEXT_SEQ] = seq + 1
-        n_ev = _decide(seq - delay, seq, seqs, lof, centres, st, p, geo, rb, rv, left, right,
-                       work, curve, keep, stack, ev_frame, ev_score, ev_emit, n_ev, f)
+        n_ev = _decide(seq - delay, seq, st, p, geo, frames, lofs, scratch, events, n_ev, f)
     return n_ev
 
 
 @njit(cache=True, nogil=True)
-def stream_finish(st, p, geo, rb, rv, left, right, seqs, lof, centres, work, curve, keep, stack,
-                  ev_frame, ev_score, ev_emit):
+def stream_finish(st, p, geo, frames, lofs, scratch, events):
     """Decide the windows still waiting for their delay, with the curve as it ends."""
     delay = int(p[P_DELAY])
     last = st[ST_NEXT_SEQ] - 1
     n_ev = 0
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
-        n_ev = _decide(w, last, seqs, lof, centres, st, p, geo, rb, rv, left, right, work, curve,
-                       keep, stack, ev_frame, ev_score, ev_emit, n_ev, st[ST_FRAMES] - 1)
+        n_ev = _decide(w, last, st, p, geo, frames, lofs, scratch, events, n_ev,
+                       st[ST_FRAMES] - 1)
     return n_ev

@@ -139,9 +139,7 @@ class StreamingLOFSegmenter:
         ev_f = np.empty(m, dtype=np.int64)
         ev_s = np.empty(m)
         ev_e = np.empty(m, dtype=np.int64)
-        n = _ks.stream_finish(self._st, self._p, self._geo, self._rb, self._rv, self._left,
-                              self._right, self._seqs, self._lof, self._centres, self._work,
-                              self._curve, self._keep, self._stack, ev_f, ev_s, ev_e)
+        n = _ks.stream_finish(self._st, self._p, self._geo, *self._groups(), (ev_f, ev_s, ev_e))
         return self._events(n, ev_f, ev_s, ev_e)
 
     def _run(self, a: np.ndarray) -> list[CutEvent]:
@@ -149,13 +147,17 @@ class StreamingLOFSegmenter:
         ev_f = np.empty(m, dtype=np.int64)
         ev_s = np.empty(m)
         ev_e = np.empty(m, dtype=np.int64)
-        n = _ks.stream_block(a, self._st, self._geo, self._p, self._rb, self._rv, self._cur,
-                             self._left, self._right, self._vecs, self._norms, self._seqs,
-                             self._nn_idx, self._nn_d, self._nn_key, self._nn_cnt,
-                             self._trunc, self._lrd, self._lof, self._mark, self._centres,
-                             self._work, self._curve, self._keep, self._stack,
-                             ev_f, ev_s, ev_e)
+        n = _ks.stream_block(a, self._st, self._geo, self._p, *self._groups(),
+                             (ev_f, ev_s, ev_e))
         return self._events(n, ev_f, ev_s, ev_e)
+
+    def _groups(self) -> tuple:
+        """The kernel's state arrays in its three groups: frame ring and counts, the LOF
+        buffer (:mod:`streamseg._kernels.lof`), scratch."""
+        return ((self._rb, self._rv, self._cur, self._left, self._right),
+                (self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d, self._nn_key,
+                 self._nn_cnt, self._trunc, self._lrd, self._lof, self._mark, self._centres),
+                (self._work, self._curve, self._keep, self._stack))
 
     @staticmethod
     def _events(n, ev_f, ev_s, ev_e) -> list[CutEvent]:
