@@ -123,3 +123,14 @@ def test_a_matrix_without_fps_is_said_and_info_reads_matrices(capsys, tmp_path):
     assert main(["info", str(m)]) == 0
     text = capsys.readouterr().out
     assert "frames:    120" in text and "columns:   3" in text
+
+
+def test_listen_jsonl_writes_segments_as_objects():
+    from streamseg import protocol as P
+    from streamseg.commands.listen import json_event
+
+    ev = P.Segments("s", 2, 0, 10, ((0, 4, 1), (4, 10, 0)), True, 0.5)
+    out = json_event(ev)
+    assert out["segments"] == [{"start": 0, "end": 4, "label": 1},
+                               {"start": 4, "end": 10, "label": 0}]
+    assert out["type"] == "segments" and out["revision"] == 2

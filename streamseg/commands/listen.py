@@ -116,6 +116,25 @@ def subscribe(endpoint: str, control: str, stream=None, kind=None, ctx=None,
         raise
 
 
+def json_event(ev) -> dict:
+    """An event as ``listen --jsonl`` prints it (docs/output.md): its fields, with segments
+    as ``{"start", "end", "label"}`` objects like ``segment --json`` prints them."""
+    out = protocol.to_json(ev)
+    if ev.type == "segments":
+        out["segments"] = [{"start": int(a), "end": int(b), "label": int(lab)}
+                           for a, b, lab in ev.segments]
+    return out
+
+
+def _json_state(state: dict) -> dict:
+    segs = state.get("segments")
+    if isinstance(segs, dict) and isinstance(segs.get("segments"), list):
+        segs = dict(segs, segments=[{"start": a, "end": b, "label": lab}
+                                    for a, b, lab in segs["segments"]])
+        state = dict(state, segments=segs)
+    return state
+
+
 def merged_runs(segments) -> list:
     """Consecutive segments of one label joined: ACA's segments are cycles of an action, a
     reader wants the actions."""
@@ -219,7 +238,8 @@ def run(args) -> int:
                 if since.get("ok"):
                     state = {"type": "state", **{k: v for k, v in since.items()
                                                  if k not in ("ok", "v")}}
-                    text = strict_json.dumps(state) if args.jsonl else _state_line(state)
+                    text = (strict_json.dumps(_json_state(state)) if args.jsonl else
+                            _state_line(state))
                     out.write(text + "\n")
                 else:  # not open (yet): say so where the events go, then follow it
                     state = {"type": "state", "stream": args.stream, "open": False}
@@ -234,7 +254,7 @@ def run(args) -> int:
             out.flush()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
                          timeout=args.timeout, since=since, pending=pending):
-            text = strict_json.dumps(protocol.to_json(ev)) if args.jsonl else format_event(ev)
+            text = strict_json.dumps(json_event(ev)) if args.jsonl else format_event(ev)
             out.write(text + "\n")
             out.flush()
     except TimeoutError as err:
