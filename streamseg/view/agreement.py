@@ -26,7 +26,16 @@ class HumanLabels:
     def read(cls, path, sequence: str) -> HumanLabels:
         return cls(read_labels(path, sequence))
 
-    def agreement(self, segments, cuts) -> dict:
+    def windows(self, fps: float | None) -> list:
+        """Acceptance window of each human boundary: the file's own, else +-1 s (the flat
+        tolerance ``streamseg eval`` uses)."""
+        own = cut_windows(self.segments)
+        if any(lo != hi for lo, hi in own) or not fps:
+            return own
+        tol = int(round(1.0 * fps))
+        return [(c - tol, c + tol) for c in true_cuts(self.segments)]
+
+    def agreement(self, segments, cuts, fps: float | None = None) -> dict:
         """Agreement over the frames relabelled so far.
 
         Parameters
@@ -35,6 +44,8 @@ class HumanLabels:
             The newest relabelled label of each frame.
         cuts : list of dict
             Provisional cuts (``frame``).
+        fps : float, optional
+            Frame rate, for the +-1 s boundary tolerance of files without windows.
 
         Returns
         -------
@@ -52,7 +63,7 @@ class HumanLabels:
         truth = frame_labels(self.segments, end)
         ok = (relab >= 0) & (truth >= 0)
         acc, match = matched_frame_accuracy(relab[ok], truth[ok]) if ok.any() else (None, {})
-        all_windows = cut_windows(self.segments)
+        all_windows = self.windows(fps)
         passed = [i for i, (_, hi) in enumerate(all_windows) if hi < end]
         windows = [all_windows[i] for i in passed]
         truth_cuts = [true_cuts(self.segments)[i] for i in passed]

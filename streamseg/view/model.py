@@ -124,7 +124,7 @@ class StreamView:
 
     def _score(self) -> None:
         if self.human is not None and self.segments:
-            self.agreement = self.human.agreement(self.segments, self.cuts)
+            self.agreement = self.human.agreement(self.segments, self.cuts, self.fps)
 
     def stats(self, uptime: float, st: dict) -> None:
         frames_in = st.get("frames_in")

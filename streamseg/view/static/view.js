@@ -327,6 +327,10 @@ function renderViewport() {
   const frame = Math.max(open.frame, (rows.get(open.id) || {}).frame || 0);
   nowLine.setAttribute("x1", frame); nowLine.setAttribute("x2", frame);
   nowLine.setAttribute("y2", AXIS_Y);
+  const future = $("future");  // the human labels ahead of the stream, greyed
+  future.setAttribute("x", frame);
+  future.setAttribute("width", open.human && !open.closed ?
+    Math.max(0, open.human[open.human.length - 1][1] - frame) : 0);
   const titles = $("lane-titles");
   if (!titles.childElementCount) {
     const names = {human: "human labels", seg: "relabelled (id)", cut: "provisional cuts",
