@@ -76,8 +76,12 @@ class Feed:
 
     async def _events(self) -> None:
         recv, apply = self.sub.recv_multipart, self.hub.apply
+        n = 0
         while True:
             parts = await recv()
+            n += 1
+            if n % 128 == 0:  # a ready future does not yield: let the pages have their turn
+                await asyncio.sleep(0)
             try:
                 ev = protocol.decode(parts)
             except protocol.WireError as err:
