@@ -171,8 +171,10 @@ class StreamView:
                 "agreement": self.agreement, "labels_error": self.labels_error,
                 "events": self.events}
 
-    def timeline(self, cut_from: int = 0, rep_from: int = 0, seg_version: int = -1) -> dict:
-        """What a page needs to draw this stream, from the given cursors on (0 and -1: all)."""
+    def timeline(self, cut_from: int = 0, rep_from: int = 0, seg_version: int = -1,
+                 human: bool = True) -> dict:
+        """What a page needs to draw this stream, from the given cursors on (0 and -1: all);
+        the human labels when ``human`` (the page does not have them yet) and they are known."""
         out = {"stream": self.stream, "fps": self.fps, "frame": self.frame,
                "cuts": self.cuts[max(0, cut_from - self.cut_base):],
                "cut_next": self.cut_base + len(self.cuts),
@@ -182,7 +184,7 @@ class StreamView:
                "revision": self.revision, "seg_range": self.seg_range}
         if seg_version != self.seg_version:
             out["segments"] = self.segments
-        if cut_from == 0 and self.human is not None:
+        if human and self.human is not None:
             out["human"] = self.human.rows
         return out
 

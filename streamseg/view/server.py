@@ -31,13 +31,14 @@ STATIC = Path(__file__).resolve().parent / "static"
 class _Page:
     """One connected page: its socket and what it has of its open stream."""
 
-    __slots__ = ("ws", "stream", "cut_next", "rep_next", "seg_version", "sent")
+    __slots__ = ("ws", "stream", "cut_next", "rep_next", "seg_version", "has_human", "sent")
 
     def __init__(self, ws):
         self.ws = ws
         self.stream = None
         self.cut_next = self.rep_next = 0
         self.seg_version = -1
+        self.has_human = False
         self.sent = 0
 
 
@@ -148,6 +149,7 @@ class ViewServer:
                         else None
                     page.cut_next = page.rep_next = 0
                     page.seg_version = -1
+                    page.has_human = False
                     await self._send_timeline(page)
         finally:
             self.pages.discard(page)
@@ -167,10 +169,11 @@ class ViewServer:
         sv = self.hub.streams.get(page.stream) if page.stream else None
         if sv is None:
             return
-        tl = sv.timeline(page.cut_next, page.rep_next, page.seg_version)
+        tl = sv.timeline(page.cut_next, page.rep_next, page.seg_version, not page.has_human)
         tl["full"] = page.cut_next == 0 and page.seg_version == -1
         page.cut_next, page.rep_next = tl["cut_next"], tl["rep_next"]
         page.seg_version = tl["seg_version"]
+        page.has_human = page.has_human or "human" in tl
         await self._send(page, {"t": "timeline", "row": sv.summary(self.hub.clock()), **tl})
 
     async def _broadcast(self) -> None:
