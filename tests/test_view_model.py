@@ -151,3 +151,61 @@ def test_view_command_explains_a_bad_address(capsys):
     assert main(["view", "--from", "tcp://127.0.0.1:1", "--http", "here"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "expected HOST:PORT" in err
+
+
+def _line_with(proc, text: str, limit: int = 50) -> str:
+    for _ in range(limit):
+        line = proc.stdout.readline()
+        if text in line or not line:
+            return line
+    return ""
+
+
+def test_serve_http_and_view_commands_serve_the_page():
+    """``serve --http`` and ``view`` as a user runs them: the printed address answers with
+    the page and the JSON of the streams; SIGTERM/SIGINT stop both cleanly."""
+    pytest.importorskip("aiohttp")
+    import json
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    loop = "tcp://127.0.0.1:0"
+    serve = subprocess.Popen(
+        [sys.executable, "-m", "streamseg.cli", "serve", "--ingest", loop, "--publish", loop,
+         "--control", loop, "--http", "127.0.0.1:0", "--log-level", "WARNING"],
+        stdout=subprocess.PIPE, text=True)
+    view = None
+    try:
+        endpoints = _line_with(serve, "streamseg serve: ingest=")
+        ep = dict(kv.split("=", 1) for kv in endpoints.split(": ", 1)[1].split())
+        url = _line_with(serve, "live view ").split("live view ")[1].strip()
+        assert url.startswith("http://127.0.0.1:")
+        page = urllib.request.urlopen(url).read().decode()
+        assert "<svg id=\"timeline\"" in page and "static/view.js" in page
+        import re
+
+        links = re.findall(r'(?:src|href)="([^"]*)"', page)
+        assert links and all(u.startswith("static/") for u in links)  # served here, no CDN
+        js = urllib.request.urlopen(url + "static/view.js").read().decode()
+        rest = js.replace('"http://www.w3.org/2000/svg"', "").replace('"https:"', "")
+        assert "new WebSocket" in js and "http" not in rest and "import " not in rest
+        api = json.load(urllib.request.urlopen(url + "api/streams"))
+        assert api["rows"] == [] and api["header"]["control"] == ep["control"]
+        view = subprocess.Popen(
+            [sys.executable, "-m", "streamseg.cli", "view", "--from", ep["publish"],
+             "--control", ep["control"], "--http", "127.0.0.1:0"],
+            stdout=subprocess.PIPE, text=True)
+        line = _line_with(view, "streamseg view: http://")
+        other = line.split("streamseg view: ", 1)[1].split()[0]
+        assert json.load(urllib.request.urlopen(other + "api/streams"))["rows"] == []
+        view.send_signal(signal.SIGINT)
+        assert view.wait(30) == 0
+        serve.send_signal(signal.SIGTERM)
+        assert serve.wait(60) == 0
+    finally:
+        for p in (serve, view):
+            if p is not None and p.poll() is None:
+                p.kill()
+                p.wait()
