@@ -46,6 +46,7 @@ def browser():
         ctx = pw.chromium.launch_persistent_context(
             profile, executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
             viewport={"width": 1400, "height": 800})
+        ctx.set_default_timeout(120_000)  # a slow CI machine; conditions, never sleeps
         yield ctx
         ctx.close()
     shutil.rmtree(profile, ignore_errors=True)
@@ -285,4 +286,49 @@ def test_hundred_streams_list_is_virtual_and_filterable(live, browser, rec):
                            f"{n_cuts}")
     assert frames_of(page, "#cut-layer line.cut", "data-frame") == \
         sorted(e.frame for e in lv.of("s099", "cut"))
+    page.close()
+
+
+def test_repetitions_gaps_and_errors_reach_the_page(live, browser, data_dir):
+    """Repetitions on: the live count of the set and each repetition on the timeline; a lost
+    packet shows as a gap, a repeated one in the errors by kind."""
+    lv = live(repetitions=True, relabel_interval=0)
+    rec = read(data_dir / "cmu_exercise" / "14_14.amc.gz",
+               skeleton=data_dir / "cmu86" / "86.asf").slice(0, 1800)  # jumping jacks
+    page = browser.new_page()
+    page.goto(lv.url + "#stream=reps")
+    wait_view_live(page)
+    push = zmq.Context.instance().socket(zmq.PUSH)
+    push.setsockopt(zmq.LINGER, 30000)
+    push.connect(lv.ep["ingest"])
+    from streamseg.commands.replay import announce_of
+
+    push.send_multipart(P.encode(announce_of(rec, "reps")))
+    for a in range(0, rec.n_frames, 30):
+        if a != 900:  # one packet lost: frames 900..929
+            push.send_multipart(P.encode(P.Frames("reps", a, time.time(),
+                                                  rec.positions[a:a + 30])))
+        if a == 600:  # and one sent twice: 30 duplicate frames
+            push.send_multipart(P.encode(P.Frames("reps", a, time.time(),
+                                                  rec.positions[a:a + 30])))
+    push.send_multipart(P.encode(P.End("reps")))
+    push.close()
+    lv.wait_closed("reps")
+    page.wait_for_selector('.row[data-stream="reps"][data-closed="end"]')
+    reps = [(e.start, e.end, e.count) for e in lv.of("reps", "rep")]
+    assert len(reps) >= 3
+    page.wait_for_function(f"() => document.querySelectorAll('#rep-layer rect.rep').length "
+                           f"=== {len(reps)}")
+    shown = page.eval_on_selector_all("#rep-layer rect.rep", "els => els.map(e => "
+                                      "[+e.dataset.start, +e.dataset.end, +e.dataset.count])")
+    assert [tuple(r) for r in shown] == reps
+    assert page.text_content("#rep-count") == str(reps[-1][2])
+    assert f"{reps[-1][2]} reps" in page.text_content('.row[data-stream="reps"]')
+    assert [(e.expected, e.got) for e in lv.of("reps", "gap")] == [(900, 930)]
+    assert page.text_content('#health dd[data-k="gaps"]') == "1"
+    errors = {e.reason: e.count for e in lv.of("reps", "error")}
+    assert errors.get("duplicate") == 30
+    page.wait_for_function("() => document.querySelector('#health dd[data-k=\"errors\"]')"
+                           ".textContent.includes('duplicate×30')")
+    assert "errors duplicate×30" in page.text_content('.row[data-stream="reps"]')
     page.close()
