@@ -209,3 +209,16 @@ def test_serve_http_and_view_commands_serve_the_page():
             if p is not None and p.poll() is None:
                 p.kill()
                 p.wait()
+
+
+def test_the_oldest_closed_streams_are_forgotten_beyond_the_limit():
+    hub = Hub(clock=lambda: 0.0)
+    hub.max_closed = 3
+    hub.apply(P.Cut("open", 5, 0.0, 1.0, 9))
+    for i in range(5):
+        hub.apply(P.Cut(f"c{i}", 5, 0.0, 1.0, 9))
+        hub.apply(P.Closed(f"c{i}", "end", 10))
+    changed, gone = hub.take_dirty()
+    assert gone == ["c0", "c1"] and "c0" not in changed
+    assert hub.order == ["c2", "c3", "c4", "open"] and set(hub.streams) == set(hub.order)
+    assert hub.take_dirty() == ([], [])

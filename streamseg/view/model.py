@@ -16,6 +16,7 @@ from streamseg.view.agreement import HumanLabels
 MAX_CUTS = 20_000  # per stream, newest kept: a page never needs more to draw a timeline
 MAX_SEGMENTS = 20_000
 MAX_REPS = 20_000
+MAX_CLOSED = 1000  # closed streams kept (oldest forgotten first), as many as the daemon keeps
 
 
 class StreamView:
@@ -207,6 +208,9 @@ class Hub:
         self.totals: dict = {}
         self.uptime = None
         self.want_state: set = set()  # streams whose snapshot the feed should ask for
+        self.closed_order: dict = {}  # closed stream ids, oldest first (insertion order)
+        self.removed: set = set()  # forgotten since the last take_dirty
+        self.max_closed = MAX_CLOSED
 
     def get(self, stream: str, fresh: bool = False) -> StreamView:
         sv = self.streams.get(stream)
@@ -235,6 +239,7 @@ class Hub:
         sv = self.get(stream)
         if sv.ended and kind != "closed" and kind != "error":
             sv = self.get(stream, fresh=True)  # re-announced: a new stream of the same id
+            self.closed_order.pop(stream, None)
         now = self.clock()
         sv.touch(kind, now)
         if kind == "cut":
@@ -250,6 +255,7 @@ class Hub:
         elif kind == "closed":
             sv.closed, sv.ended = ev.reason, True
             sv.frame = max(sv.frame, ev.frames)
+            self._closed(stream)
         self.dirty.add(stream)
 
     def apply_state(self, state: dict, reader=None) -> None:
@@ -273,13 +279,28 @@ class Hub:
             sv.frame = max(sv.frame, state["frame"])
         if state.get("closed") and sv.closed is None:
             sv.closed = state["closed"]
+            self._closed(stream)
         sv.set_labels(state.get("labels"), reader)
         self.dirty.add(stream)
 
-    def take_dirty(self) -> list:
-        out = sorted(self.dirty)
+    def _closed(self, stream: str) -> None:
+        self.closed_order.pop(stream, None)
+        self.closed_order[stream] = None
+        while len(self.closed_order) > self.max_closed:
+            old = next(iter(self.closed_order))
+            del self.closed_order[old]
+            del self.streams[old]
+            self.order.pop(bisect.bisect_left(self.order, old))
+            self.dirty.discard(old)
+            self.want_state.discard(old)
+            self.removed.add(old)
+
+    def take_dirty(self) -> tuple[list, list]:
+        """``(changed, forgotten)`` stream ids since the last call."""
+        out, gone = sorted(self.dirty), sorted(self.removed)
         self.dirty.clear()
-        return out
+        self.removed.clear()
+        return out, gone
 
     def header(self) -> dict:
         """Daemon-wide figures for the page's header."""

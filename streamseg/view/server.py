@@ -182,12 +182,13 @@ class ViewServer:
         while True:
             await asyncio.sleep(self.interval)
             tick += 1
-            dirty = self.hub.take_dirty()
-            if not self.pages or (not dirty and tick % header_every):
+            dirty, gone = self.hub.take_dirty()
+            if not self.pages or (not dirty and not gone and tick % header_every):
                 continue
             now = self.hub.clock()
             rows = [self.hub.streams[s].summary(now) for s in dirty if s in self.hub.streams]
-            msg = {"t": "rows", "all": False, "header": self.header(), "rows": rows}
+            msg = {"t": "rows", "all": False, "header": self.header(), "rows": rows,
+                   "removed": gone}
             changed = set(dirty)
             for page in list(self.pages):
                 await self._send(page, msg)

@@ -86,6 +86,11 @@ function applyHeader(h) {
 
 function applyRows(msg) {
   if (msg.all) { rows.clear(); order = []; }
+  for (const id of msg.removed || []) {  // closed streams the server no longer keeps
+    if (!rows.has(id)) continue;
+    rows.delete(id);
+    order.splice(order.indexOf(id), 1);
+  }
   const t = trace ? nowMs() : 0;
   let openChanged = false;
   for (const r of msg.rows) {
@@ -110,7 +115,8 @@ function visibleIds() {
   const f = $("filter").value.trim().toLowerCase();
   return f ? order.filter((id) => id.toLowerCase().includes(f)) : order;
 }
-function rowHtml(r, i) {
+const rowEls = new Map();  // stream id -> {el, html}: rows in the DOM, rewritten when changed
+function rowHtml(r) {
   const closed = r.closed ? ` data-closed="${esc(r.closed)}"` : "";
   const nerr = Object.values(r.errors || {}).reduce((a, b) => a + b, 0);
   const sel = open && open.id === r.stream ? " sel" : "";
@@ -120,12 +126,12 @@ function rowHtml(r, i) {
     `id ${r.action[0]}` : "";
   const reps = r.reps !== null ? ` · ${r.reps} reps` : "";
   const last = r.last ? `${esc(r.last.type)} ${ago(r.last.at)}` : "no event yet";
-  return `<div class="row${sel}${nerr ? " err" : ""}" data-stream="${esc(r.stream)}"${closed} ` +
-    `style="top:${i * ROW_H}px"><div><span class="dot"></span><span class="name">` +
+  return {cls: `row${sel}${nerr ? " err" : ""}`, closed: r.closed,
+          html: `<div><span class="dot"></span><span class="name">` +
     `${esc(r.stream)}</span> <span class="meta">${state} · ${act}${reps}</span></div>` +
     `<div class="meta">lag ${fmt(r.lag, 2, " s")} · buffer <span class="fill"><i ` +
     `style="width:${fill}%"></i></span> ${fill}% · ${r.cuts} cuts · errors ` +
-    `${nerr ? esc(errText(r.errors)) : "0"} · ${last}</div></div>`;
+    `${nerr ? esc(errText(r.errors)) : "0"} · ${last}</div>`};
 }
 function renderList() {
   const ids = visibleIds();
@@ -134,9 +140,27 @@ function renderList() {
   const top = list.scrollTop, h = list.clientHeight || 600;
   const a = Math.max(0, Math.floor(top / ROW_H) - 3);
   const b = Math.min(ids.length, Math.ceil((top + h) / ROW_H) + 3);
-  let html = "";
-  for (let i = a; i < b; i++) html += rowHtml(rows.get(ids[i]), i);
-  spacer.innerHTML = html;
+  const keep = new Set();
+  for (let i = a; i < b; i++) {
+    const id = ids[i];
+    keep.add(id);
+    const want = rowHtml(rows.get(id));
+    let item = rowEls.get(id);
+    if (!item) {
+      const el = document.createElement("div");
+      el.dataset.stream = id;
+      spacer.appendChild(el);
+      item = {el, html: null};
+      rowEls.set(id, item);
+    }
+    const el = item.el;
+    el.style.top = `${i * ROW_H}px`;
+    if (el.className !== want.cls) el.className = want.cls;
+    if (want.closed) el.dataset.closed = want.closed; else delete el.dataset.closed;
+    if (item.html !== want.html) { el.innerHTML = want.html; item.html = want.html; }
+  }
+  for (const [id, item] of rowEls)
+    if (!keep.has(id)) { item.el.remove(); rowEls.delete(id); }
   const nOpen = order.filter((id) => !rows.get(id).closed).length;
   $("count").textContent = order.length ?
     `${order.length} streams (${nOpen} open)` + (ids.length !== order.length ?
@@ -395,7 +419,8 @@ function renderAxis(f0, f1, k, width) {
 
 // --- wiring ---------------------------------------------------------------------------------------
 
-$("spacer").addEventListener("click", (e) => {
+// pointerdown, not click: a row rewritten between press and release would lose the click
+$("spacer").addEventListener("pointerdown", (e) => {
   const row = e.target.closest(".row");
   if (row) openStream(row.dataset.stream);
 });
