@@ -10,13 +10,16 @@ Run: ``.venv/bin/python benchmarks/view_latency.py [--runs 3] [--streams 1,100]
    ``probe`` stream the page has open. Events/s = events / (first sent -> the view's hub has
    applied the last); page messages/s = WebSocket messages the server sent per second (the
    coalescing: one ``rows`` message per tick, not one per event); probe latency = publish
-   -> the probe's cut line is in the page's DOM, under that saturation.
+   -> the probe's cut line is in the page's DOM, under that saturation. Baseline, alternated
+   with the view runs: a bare SUB ``recv_multipart`` + ``protocol.decode`` loop on the same
+   publisher (the least any Python subscriber pays); the ratio is view / baseline.
 2. Daemon to DOM: a real daemon (LOF cuts, relabelling off so 100 streams fit the machine)
    fed S copies of CMU 86_01 at ``--speed`` times real time, round robin on one socket; a
    listener in this process stamps each ``cut`` as the daemon's subscribers receive it; the
    page (open on ``s000``) stamps when the cut's line entered the DOM (timeline) and when the
    list row of any stream first showed that many cuts (list). Latency = page - listener, per
-   cut, median and p95 over the run's cuts.
+   cut, median and p95 over the run's cuts. Its baseline is the coalescing tick (0.1 s, so
+   50 ms median by itself).
 
 Every figure is the median over ``--runs`` runs (fresh daemon, view and page each run).
 Wall time on a shared machine: the ratios matter more than the absolute figures.
@@ -57,6 +60,47 @@ def page_trace(page):
     return page.evaluate("() => window.viewTrace")
 
 
+def events(n_streams: int, n_events: int) -> list:
+    names = [f"b{i:03d}" for i in range(n_streams)]
+    return [P.encode(P.Cut(names[i % n_streams], i, 0.0, 1.0, i)) for i in range(n_events)]
+
+
+def bare(n_streams: int, n_events: int) -> float:
+    """Baseline: events/s of a bare SUB ``recv_multipart`` + ``protocol.decode`` loop on the
+    same flat-out publisher (what any Python subscriber pays before doing anything)."""
+    ctx = zmq.Context.instance()
+    pub = ctx.socket(zmq.PUB)
+    pub.setsockopt(zmq.SNDHWM, 0)
+    pub.bind("tcp://127.0.0.1:*")
+    sub = ctx.socket(zmq.SUB)
+    sub.setsockopt(zmq.RCVHWM, 0)
+    sub.setsockopt(zmq.SUBSCRIBE, b"")
+    sub.connect(pub.getsockopt_string(zmq.LAST_ENDPOINT))
+    msgs = events(n_streams, n_events)
+    while not sub.poll(10):  # handshake: the subscription is live
+        pub.send_multipart(P.encode(P.Cut("hello", 0, 0.0, 1.0, 0)))
+    while sub.poll(0):
+        sub.recv_multipart()
+    done = threading.Event()
+
+    def receive():
+        for _ in range(n_events):
+            P.decode(sub.recv_multipart())
+        done.set()
+
+    t = threading.Thread(target=receive)
+    t.start()
+    t0 = time.perf_counter()
+    for m in msgs:
+        pub.send_multipart(m)
+    done.wait()
+    elapsed = time.perf_counter() - t0
+    t.join()
+    sub.close()
+    pub.close()
+    return n_events / elapsed
+
+
 def capacity(browser, n_streams: int, n_events: int) -> dict:
     ctx = zmq.Context.instance()
     pub = ctx.socket(zmq.PUB)
@@ -75,18 +119,18 @@ def capacity(browser, n_streams: int, n_events: int) -> dict:
             page.wait_for_timeout(20)
         hub = view.server.hub
         base, sent0 = hub.applied, view.server.sent
-        names = [f"b{i:03d}" for i in range(n_streams)]
+        msgs = events(n_streams, n_events)
         sends = {}
         probe0 = 10_000_000
         t0 = time.perf_counter()
         w0 = time.time() * 1000
-        for i in range(n_events):
+        for i, m in enumerate(msgs):
             if i % 200 == 0:
                 f = probe0 + i
                 sends[f] = time.time() * 1000
                 pub.send_multipart(P.encode(P.Cut("probe", f, 0.0, 1.0, f)))
             else:
-                pub.send_multipart(P.encode(P.Cut(names[i % n_streams], i, 0.0, 1.0, i)))
+                pub.send_multipart(m)
         total = n_events
         while hub.applied - base < total:
             time.sleep(0.001)
@@ -202,13 +246,17 @@ def main() -> None:
                 viewport={"width": 1400, "height": 800})
             print(f"1. forwarding capacity: {args.events} cut events published as fast as "
                   f"possible, one page open; median of {args.runs} runs")
-            print("| streams | events/s applied by the view | page messages/s | probe latency "
-                  "p50 / p95 (ms) |")
-            print("|---:|---:|---:|---:|")
+            print("| streams | bare SUB + decode (events/s) | applied by the view (events/s) | "
+                  "ratio | page messages/s | probe latency p50 / p95 (ms) |")
+            print("|---:|---:|---:|---:|---:|---:|")
             for n in counts:
-                rs = [capacity(browser, n, args.events) for _ in range(args.runs)]
-                print(f"| {n} | {med(r['events_s'] for r in rs):,.0f} | "
-                      f"{med(r['page_msgs_s'] for r in rs):.1f} | "
+                rs, base = [], []
+                for _ in range(args.runs):  # alternated, so both see the same machine
+                    base.append(bare(n, args.events))
+                    rs.append(capacity(browser, n, args.events))
+                view_rate = med(r["events_s"] for r in rs)
+                print(f"| {n} | {med(base):,.0f} | {view_rate:,.0f} | "
+                      f"{view_rate / med(base):.2f} | {med(r['page_msgs_s'] for r in rs):.1f} | "
                       f"{med(r['p50_ms'] for r in rs):.0f} / {med(r['p95_ms'] for r in rs):.0f}"
                       " |", flush=True)
             print(f"\n2. daemon event -> page DOM: S x CMU 86_01 at {args.speed:g}x real time, "
