@@ -222,3 +222,45 @@ def test_the_oldest_closed_streams_are_forgotten_beyond_the_limit():
     assert gone == ["c0", "c1"] and "c0" not in changed
     assert hub.order == ["c2", "c3", "c4", "open"] and set(hub.streams) == set(hub.order)
     assert hub.take_dirty() == ([], [])
+
+
+def test_websocket_refuses_other_origins_and_hosts():
+    """A page of another site in the same browser cannot read the streams (cross-site
+    WebSocket, or DNS rebinding: another name for 127.0.0.1); the view's own page and
+    non-browser clients (no Origin) can."""
+    aiohttp = pytest.importorskip("aiohttp")
+    import asyncio
+
+    from streamseg.view.server import ViewThread
+
+    view = ViewThread("tcp://127.0.0.1:1", None)  # no daemon needed to answer the socket
+    url = view.start()
+
+    async def attempt(origin):
+        headers = {"Origin": origin} if origin else {}
+        async with aiohttp.ClientSession() as session:
+            try:
+                async with session.ws_connect(url + "ws", headers=headers) as ws:
+                    msg = await ws.receive_json(timeout=10)
+                    return msg["t"]
+            except aiohttp.WSServerHandshakeError as err:
+                return err.status
+
+    try:
+        own = url.rstrip("/")
+        assert asyncio.run(attempt(own)) == "rows"
+        assert asyncio.run(attempt(None)) == "rows"
+        assert asyncio.run(attempt("http://evil.example")) == 403
+        import urllib.error
+        import urllib.request
+
+        port = url.rsplit(":", 1)[1].strip("/")
+        rebound = urllib.request.Request(url + "api/streams",
+                                         headers={"Host": f"evil.example:{port}"})
+        with pytest.raises(urllib.error.HTTPError) as err:
+            urllib.request.urlopen(rebound)
+        assert err.value.code == 403
+        local = urllib.request.Request(url + "api/streams", headers={"Host": f"localhost:{port}"})
+        assert urllib.request.urlopen(local).status == 200
+    finally:
+        view.stop()

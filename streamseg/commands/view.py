@@ -6,8 +6,6 @@ the ``view`` extra: ``pip install 'streamseg[view]'``.
 
 from __future__ import annotations
 
-import ipaddress
-
 from streamseg.exceptions import StreamsegError
 
 DEFAULT_HTTP = "127.0.0.1:8765"
@@ -41,13 +39,6 @@ def http_address(text: str) -> tuple[str, int]:
     return host, number
 
 
-def _loopback(host: str) -> bool:
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return host == "localhost"
-
-
 def start_view(publish: str, control: str | None, http: str, **kwargs):
     """Start a :class:`~streamseg.view.ViewThread`; a missing extra or a busy port is a
     :class:`StreamsegError` (one line for the command line)."""
@@ -63,6 +54,8 @@ def start_view(publish: str, control: str | None, http: str, **kwargs):
     except OSError as err:
         raise StreamsegError(f"cannot serve the page on {host}:{port}: {err.strerror or err}; "
                              "pick another --http address (port 0: any free port)") from None
+    from streamseg.view.server import _loopback
+
     if not _loopback(host):
         print(f"streamseg view: warning: serving on {host}, not loopback; the page has no "
               "authentication", flush=True)

@@ -13,10 +13,12 @@ of streams that changed and what it shows, not the daemon's event rate.
 from __future__ import annotations
 
 import asyncio
+import ipaddress
 import json
 import logging
 import threading
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
@@ -26,6 +28,14 @@ from streamseg.view.model import Hub
 
 log = logging.getLogger("streamseg.view")
 STATIC = Path(__file__).resolve().parent / "static"
+LOOPBACK_NAMES = {"127.0.0.1", "localhost", "::1"}
+
+
+def _loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host == "localhost"
 
 
 class _Page:
@@ -70,7 +80,7 @@ class ViewServer:
         self._pump = None
 
     def app(self) -> web.Application:
-        app = web.Application()
+        app = web.Application(middlewares=[self._check_host])
         app.router.add_get("/", self._index)
         app.router.add_get("/ws", self._ws)
         app.router.add_get("/api/streams", self._api_streams)
@@ -103,6 +113,17 @@ class ViewServer:
 
     # --- HTTP ---------------------------------------------------------------------------------
 
+    @web.middleware
+    async def _check_host(self, request, handler):
+        # On loopback, only loopback names: a site whose name an attacker re-points at
+        # 127.0.0.1 (DNS rebinding) is refused.
+        if _loopback(self.host):
+            name = urlsplit(f"//{request.host}").hostname or ""
+            if name not in LOOPBACK_NAMES:
+                raise web.HTTPForbidden(text=f"host {request.host!r} refused: open the page "
+                                             f"as {self.url}")
+        return await handler(request)
+
     async def _index(self, request):
         return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
 
@@ -128,6 +149,11 @@ class ViewServer:
     # --- WebSocket ------------------------------------------------------------------------------
 
     async def _ws(self, request):
+        origin = request.headers.get("Origin")
+        if origin is not None and urlsplit(origin).netloc != request.host:
+            # another site open in the same browser must not read the streams
+            raise web.HTTPForbidden(text=f"WebSocket from origin {origin!r} refused: only "
+                                         f"the view's own page ({request.host}) may connect")
         ws = web.WebSocketResponse(heartbeat=30)
         await ws.prepare(request)
         page = _Page(ws)
