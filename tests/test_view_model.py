@@ -264,3 +264,77 @@ def test_websocket_refuses_other_origins_and_hosts():
         assert urllib.request.urlopen(local).status == 200
     finally:
         view.stop()
+
+
+def test_a_stream_lost_in_a_daemon_crash_is_marked_lost(rec):
+    """kill -9 the daemon mid-stream and start another on the same endpoints: the view
+    notices (the new daemon does not know the stream) and marks it closed, ``lost``."""
+    pytest.importorskip("aiohttp")
+    import json
+    import signal
+    import subprocess
+    import sys
+    import urllib.request
+
+    from streamseg.view.server import ViewThread
+
+    def serve(ingest="tcp://127.0.0.1:0", publish="tcp://127.0.0.1:0",
+              control="tcp://127.0.0.1:0"):
+        p = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "serve", "--ingest",
+                              ingest, "--publish", publish, "--control", control,
+                              "--log-level", "WARNING", "--relabel-interval", "0"],
+                             stdout=subprocess.PIPE, text=True)
+        line = _line_with(p, "streamseg serve: ingest=")
+        return p, dict(kv.split("=", 1) for kv in line.split(": ", 1)[1].split())
+
+    def rows(url):
+        return {r["stream"]: r for r in json.load(urllib.request.urlopen(url + "api/streams"))
+                ["rows"]}
+
+    def until(cond, what, limit=60.0):
+        """Follow the view's WebSocket (as a page does) until ``cond(rows)`` holds."""
+        import asyncio
+
+        import aiohttp
+
+        async def follow():
+            seen = {}
+            async with aiohttp.ClientSession() as session:
+                async with session.ws_connect(url + "ws") as ws:
+                    async for msg in ws:
+                        m = json.loads(msg.data)
+                        if m["t"] != "rows":
+                            continue
+                        if m["all"]:
+                            seen.clear()
+                        seen.update((r["stream"], r) for r in m["rows"])
+                        if cond(seen):
+                            return
+
+        try:
+            asyncio.run(asyncio.wait_for(follow(), limit))
+        except asyncio.TimeoutError:
+            raise AssertionError(f"not seen in {limit} s: {what}") from None
+
+    first, ep = serve()
+    second = view = None
+    try:
+        view = ViewThread(ep["publish"], ep["control"], poll=0.2)
+        url = view.start()
+        view.server.feed.timeout = 1.0
+        replay(rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]), ep["ingest"],
+               stream="gone", speed=0, batch=50, end=False)
+        until(lambda r: r.get("gone", {}).get("frame") == 600, "the stream's frames")
+        assert rows(url)["gone"]["closed"] is None
+        first.send_signal(signal.SIGKILL)
+        first.wait(30)
+        second, _ = serve(ep["ingest"], ep["publish"], ep["control"])
+        until(lambda r: r.get("gone", {}).get("closed") == "lost", "the stream marked lost")
+        assert rows(url)["gone"]["closed"] == "lost"
+    finally:
+        if view is not None:
+            view.stop()
+        for p in (first, second):
+            if p is not None and p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+                p.wait(60)

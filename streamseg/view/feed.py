@@ -52,6 +52,7 @@ class Feed:
         self.connected = None  # None: not asked yet; True/False: control answered or not
         self.changed = asyncio.Event()  # the hub has dirty streams
         self.wanted = asyncio.Event()  # the hub wants a snapshot
+        self.check: set = set()  # open streams the daemon's stats did not list
         self._req = None
         self._tasks: list = []
 
@@ -128,12 +129,21 @@ class Feed:
                     self.hub.apply(protocol.Stats(float(stats["uptime"]), stats["totals"],
                                                   stats["streams"]))
                     self.hub.applied -= 1  # a polled snapshot, not a forwarded event
+                    # open here, unknown to the daemon's table: closing, or lost in a crash
+                    self.check.update(s for s, sv in self.hub.streams.items()
+                                      if sv.closed is None and s not in stats["streams"])
+                    self.hub.want_state.update(self.check)
                     self.changed.set()
             self.wanted.clear()
             while self.hub.want_state:
                 stream = min(self.hub.want_state)
                 self.hub.want_state.discard(stream)
                 reply = await self.request("state", stream=stream)
+                if reply is not None and self.check:
+                    if not reply.get("ok") and stream in self.check:
+                        self.hub.lost(stream)  # the daemon restarted without it
+                        self.changed.set()
+                    self.check.discard(stream)
                 if reply and reply.get("ok"):
                     if not self.labels:
                         reply.pop("labels", None)

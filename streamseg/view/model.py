@@ -283,6 +283,15 @@ class Hub:
         sv.set_labels(state.get("labels"), reader)
         self.dirty.add(stream)
 
+    def lost(self, stream: str) -> None:
+        """The daemon does not know this open stream any more (it restarted without a
+        ``closed`` event): shown as closed, reason ``lost``."""
+        sv = self.streams.get(stream)
+        if sv is not None and sv.closed is None:
+            sv.closed, sv.ended = "lost", True
+            self._closed(stream)
+            self.dirty.add(stream)
+
     def _closed(self, stream: str) -> None:
         self.closed_order.pop(stream, None)
         self.closed_order[stream] = None
