@@ -241,8 +241,11 @@ def test_view_started_late_catches_up_through_state(browser, rec):
 
         state = request(ep["control"], "state", stream="late")
         assert state["closed"] == "end"
+        want = sorted({c["frame"] for c in state["cuts"]})  # no relabel: the daemon kept all
+        page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut')"
+                               f".length === {len(want)}")
         shown = frames_of(page, "#cut-layer line.cut", "data-frame")
-        assert shown == sorted({c["frame"] for c in state["cuts"]})  # no relabel: all kept
+        assert shown == want
         assert shown and min(shown) < half  # cuts from before the view started are there
         page.close()
     finally:
