@@ -66,12 +66,12 @@ def run(args) -> int:
     import signal
     import threading
 
+    done = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):  # before the address: a script may stop us
+        signal.signal(sig, lambda *_: done.set())
     view = start_view(args.source, args.control, args.http, interval=args.interval,
                       labels=args.labels)
     print(f"streamseg view: {view.url}  (events from {args.source})", flush=True)
-    done = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: done.set())
     done.wait()
     view.stop()
     return 0
