@@ -6,7 +6,7 @@ the ``view`` extra: ``pip install 'streamseg[view]'``.
 
 from __future__ import annotations
 
-from streamseg.exceptions import StreamsegError
+from streamseg.exceptions import ParameterError, StreamsegError
 
 DEFAULT_HTTP = "127.0.0.1:8765"
 
@@ -34,7 +34,7 @@ def http_address(text: str) -> tuple[str, int]:
         if not 0 <= number < 65536:
             raise ValueError
     except ValueError:
-        raise StreamsegError(f"--http {text!r}: expected HOST:PORT with a port in 0..65535, "
+        raise ParameterError(f"--http {text!r}: expected HOST:PORT with a port in 0..65535, "
                              f"e.g. {DEFAULT_HTTP}") from None
     return host, number
 
