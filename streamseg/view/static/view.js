@@ -20,6 +20,7 @@ let ws = null;
 let open = null;          // the open stream: {id, fps, frame, cuts, segments, reps, human, ...}
 const trace = new URLSearchParams(location.search).has("trace") ? [] : null;
 window.viewTrace = trace;  // benchmarks/view_latency.py reads when updates reached the DOM
+window.viewBusyMs = 0;     // and how long this page's script spent on the updates
 
 function nowMs() { return performance.timeOrigin + performance.now(); }
 function esc(s) {
@@ -64,10 +65,12 @@ function connect() {
     setTimeout(connect, 1000);
   };
   ws.onmessage = (m) => {
+    const start = trace ? performance.now() : 0;
     const msg = JSON.parse(m.data);
     if (msg.header) applyHeader(msg.header);
     if (msg.t === "rows") applyRows(msg);
     else if (msg.t === "timeline") applyTimeline(msg);
+    if (trace) window.viewBusyMs += performance.now() - start;
   };
 }
 function send(obj) { if (ws && ws.readyState === 1) ws.send(JSON.stringify(obj)); }
