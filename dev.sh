@@ -20,7 +20,7 @@ ensure_env() {  # $1 = extras, e.g. "plot" or "test,plot,dev"
 
 case "${1:-}" in
     demo)
-        ensure_env plot
+        ensure_env plot,view
         shift
         exec .venv/bin/streamseg demo "$@"
         ;;

@@ -118,9 +118,10 @@ def test_serve_options_toml_then_flags(tmp_path):
 
 def test_demo_runs_and_draws(tmp_path, capsys):
     png = tmp_path / "t.png"
-    assert main(["demo", "--speed", "0", "--plot", str(png)]) == 0
+    assert main(["demo", "--speed", "0", "--plot", str(png), "--http", "127.0.0.1:0"]) == 0
     out = capsys.readouterr().out
     assert "] cut " in out and "] relabel " in out and "closed   (end)" in out
+    assert "live page: http://127.0.0.1:" in out  # the test extra has aiohttp
     assert png.stat().st_size > 10_000
 
 

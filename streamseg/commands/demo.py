@@ -2,12 +2,15 @@
 
 Starts the daemon in this process on free loopback ports, replays the bundled recording at a
 few times real speed, prints cut and relabel events as they arrive, stops cleanly and draws
-provisional cuts, relabelled segments and the human labels on one timeline.
+provisional cuts, relabelled segments and the human labels on one timeline. With the ``view``
+extra installed it also serves the live web page (``streamseg view``) and prints its address;
+on a terminal the page stays up after the replay until Enter or Ctrl-C.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import threading
 import time
 from pathlib import Path
@@ -20,6 +23,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--plot", metavar="PNG", default="streamseg_demo.png",
                         help="timeline picture to write (default streamseg_demo.png)")
     parser.add_argument("--batch", type=int, default=4, help="frames per packet (default 4)")
+    parser.add_argument("--http", default="127.0.0.1:8765", metavar="HOST:PORT",
+                        help="address of the live page (default 127.0.0.1:8765, another free "
+                             "port if that one is taken)")
+    parser.add_argument("--no-view", dest="view", action="store_false",
+                        help="no live page, even with the view extra installed")
     parser.add_argument("--file", default=str(DATA / "86_01.amc.gz"), help=argparse.SUPPRESS)
     parser.add_argument("--skeleton", default=str(DATA / "86.asf"), help=argparse.SUPPRESS)
     parser.add_argument("--labels", default=str(DATA / "labels_86_01.csv"), help=argparse.SUPPRESS)
@@ -44,6 +52,7 @@ def run(args) -> int:
     print(f"daemon: ingest {ep['ingest']}  publish {ep['publish']}  control {ep['control']}")
     print("warming kernels ...", flush=True)
     daemon.ready.wait()
+    view = _start_view(args, ep) if args.view else None
     sub = subscribe(ep["publish"], ep["control"], stream=stream)
     events = []
     t0 = time.monotonic()
@@ -57,14 +66,22 @@ def run(args) -> int:
     listener = threading.Thread(target=show, name="streamseg-listen", daemon=True)
     listener.start()
     print(f"replaying {Path(args.file).name}: {rec.n_frames} frames at {rec.fps:g} Hz, "
-          f"{args.speed:g}x real time ({rec.n_frames / rec.fps / max(args.speed, 1e-9):.1f} s)",
+          + (f"{args.speed:g}x real time ({rec.n_frames / rec.fps / args.speed:.1f} s)"
+             if args.speed > 0 else "as fast as the daemon takes it"),
           flush=True)
     try:
-        replay(rec, ep["ingest"], stream=stream, speed=args.speed, batch=args.batch)
+        replay(rec, ep["ingest"], stream=stream, speed=args.speed, batch=args.batch,
+               labels=args.labels, labels_sequence=stream)
         listener.join(60)
+        if view is not None and sys.stdin.isatty():
+            print(f"the live page stays up at {view.url}: press Enter (or Ctrl-C) to stop",
+                  flush=True)
+            sys.stdin.readline()
     except KeyboardInterrupt:
         print("interrupted: stopping the daemon")
     finally:
+        if view is not None:
+            view.stop()
         daemon.stop()
         server.join(30)
         sub.close()
@@ -77,6 +94,25 @@ def run(args) -> int:
         except ImportError:
             print("matplotlib is not installed (pip install 'streamseg[plot]'): no picture")
     return 0
+
+
+def _start_view(args, ep):
+    """The live page on ``args.http`` (any free port if taken); None without aiohttp."""
+    from streamseg.commands.view import http_address, start_view
+    from streamseg.exceptions import StreamsegError
+
+    try:
+        import aiohttp  # noqa: F401
+    except ImportError:
+        print("live page: not started (pip install 'streamseg[view]' for streamseg view)")
+        return None
+    host, port = http_address(args.http)
+    try:
+        view = start_view(ep["publish"], ep["control"], f"{host}:{port}")
+    except StreamsegError:
+        view = start_view(ep["publish"], ep["control"], f"{host}:0")
+    print(f"live page: {view.url}#stream=86_01  (open it in a browser)", flush=True)
+    return view
 
 
 def timeline(events, rec, labels_csv, sequence, path) -> None:

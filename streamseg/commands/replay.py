@@ -29,6 +29,11 @@ def add_arguments(parser) -> None:
     parser.add_argument("--up", choices=UP_AXES,
                         help="announce this world up axis (default: the format's, y for "
                              "AMC/BVH)")
+    parser.add_argument("--labels", metavar="CSV",
+                        help="announce this human label file (sequence,start_frame,end_frame,"
+                             "action_label): `streamseg view` overlays it and shows agreement")
+    parser.add_argument("--labels-sequence", metavar="NAME",
+                        help="the label file's sequence to use (default: the file's stem)")
 
 
 def stream_id(path) -> str:
@@ -36,15 +41,20 @@ def stream_id(path) -> str:
     return "".join(c if c.isalnum() or c in "_.:@+=-" else "_" for c in name)[:128] or "stream"
 
 
-def announce_of(recording, stream: str) -> protocol.Announce:
+def announce_of(recording, stream: str, labels=None,
+                labels_sequence: str | None = None) -> protocol.Announce:
+    """The announce message of ``recording`` as ``stream``; ``labels`` (a label CSV path, made
+    absolute so a subscriber in another directory finds it) is passed on to subscribers."""
     sk = recording.skeleton
     return protocol.Announce(stream, float(recording.fps), tuple(sk.names),
-                             tuple(int(p) for p in sk.parents), str(sk.units)[:64], sk.up)
+                             tuple(int(p) for p in sk.parents), str(sk.units)[:64], sk.up,
+                             None if labels is None else str(Path(labels).resolve()),
+                             labels_sequence if labels is not None else None)
 
 
 def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: int = 1,
            dtype=np.float64, ctx: zmq.Context | None = None, end: bool = True,
-           sock=None) -> int:
+           sock=None, labels=None, labels_sequence: str | None = None) -> int:
     """Send one pass of ``recording`` to ``endpoint``; returns the number of frames sent.
 
     Parameters
@@ -58,6 +68,8 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
         Frames per packet.
     sock : zmq.Socket, optional
         An already connected PUSH socket (to interleave several streams on one).
+    labels, labels_sequence : str, optional
+        A human label CSV and its sequence (default: the stream id) to announce.
     """
     if batch < 1 or speed < 0:
         raise ValueError(f"batch={batch} must be >= 1 and speed={speed} >= 0")
@@ -70,7 +82,8 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
     positions = np.ascontiguousarray(recording.positions, dtype=dtype)
     n, fps = positions.shape[0], float(recording.fps)
     try:
-        sock.send_multipart(protocol.encode(announce_of(recording, stream)))
+        sock.send_multipart(protocol.encode(announce_of(recording, stream, labels,
+                                                        labels_sequence)))
         t0 = time.perf_counter()
         for a in range(0, n, batch):
             if speed > 0:
@@ -99,7 +112,9 @@ def run(args) -> int:
     passes = 0
     while True:
         sent = replay(rec, args.to, stream=stream, speed=args.speed, batch=args.batch,
-                      dtype=dtype, ctx=ctx)
+                      dtype=dtype, ctx=ctx, labels=args.labels,
+                      labels_sequence=args.labels_sequence or (stream_id(args.file)
+                                                               if args.labels else None))
         passes += 1
         print(f"streamseg replay: {stream}: sent {sent} frames ({passes} pass"
               f"{'es' if passes > 1 else ''}) to {args.to}", flush=True)

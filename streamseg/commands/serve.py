@@ -33,6 +33,9 @@ def add_arguments(parser) -> None:
                         help="TOML file with tables [daemon], [lof], [aca]")
     parser.add_argument("--log-level", default="INFO",
                         choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    parser.add_argument("--http", metavar="HOST:PORT",
+                        help="also serve the live web page (streamseg view) at this address, "
+                             "e.g. 127.0.0.1:8765 (needs the view extra)")
     described = field_help(DaemonConfig)
     for f in dataclasses.fields(DaemonConfig):
         kind = type(f.default)
@@ -70,4 +73,14 @@ def run(args) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: daemon.stop())
     print("streamseg serve: " + " ".join(f"{k}={v}" for k, v in endpoints.items()), flush=True)
-    return daemon.run()
+    view = None
+    if getattr(args, "http", None):
+        from streamseg.commands.view import start_view
+
+        view = start_view(endpoints["publish"], endpoints.get("control"), args.http)
+        print(f"streamseg serve: live view {view.url}", flush=True)
+    try:
+        return daemon.run()
+    finally:
+        if view is not None:
+            view.stop()

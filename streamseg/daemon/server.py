@@ -267,7 +267,9 @@ class Daemon:
         if old is not None:
             self._close(old, "reannounced")
         skeleton = skeleton_from(msg.joints, msg.parents, msg.units, msg.up)
-        self._open(msg.stream, msg.fps, skeleton, now)
+        st = self._open(msg.stream, msg.fps, skeleton, now)
+        if st is not None and msg.labels:  # passed on to subscribers through `state`
+            st.labels = {"path": msg.labels, "sequence": msg.labels_sequence or msg.stream}
 
     def _open(self, stream, fps, skeleton, now):
         if len(self.streams) >= self.config.max_streams:

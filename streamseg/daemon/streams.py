@@ -23,7 +23,7 @@ class StreamState:
 
     __slots__ = ("stream", "gen", "fps", "pipeline", "next_seq", "t0", "last_seen", "frames_in",
                  "dropped", "lost", "events_out", "revision", "segments", "cuts", "reps",
-                 "next_relabel", "relabel_time", "pending", "arrivals")
+                 "next_relabel", "relabel_time", "pending", "arrivals", "labels")
 
     def __init__(self, stream: str, gen: int, fps: float, pipeline, now: float):
         self.stream = stream
@@ -45,6 +45,7 @@ class StreamState:
         self.relabel_time = 0.0
         self.pending = []  # Frames packets received in this drain, contiguous
         self.arrivals = []  # perf_counter() at which each pending packet was received
+        self.labels = None  # {"path", "sequence"} of human labels the announce named
 
     def time_of(self, frame: int) -> float:
         return (self.t0 or 0.0) + frame / self.fps
@@ -62,7 +63,8 @@ class StreamState:
                 "revision": self.revision,
                 "segments": None if seg is None else protocol.to_json(seg),
                 "cuts": [protocol.to_json(c) for c in self.cuts
-                         if seg is None or c.frame >= seg.end]}
+                         if seg is None or c.frame >= seg.end],
+                **({"labels": self.labels} if self.labels else {})}
 
 
 class LatencyRing:

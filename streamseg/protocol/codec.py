@@ -60,11 +60,17 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
     return np.frombuffer(data, dtype=dtype).reshape(shape)
 
 
+_OPTIONAL = {"announce": ("labels", "labels_sequence")}  # left out when None (older readers)
+
+
 def encode(msg) -> list[bytes]:
     """The two frames ``[topic, body]`` of a message object."""
     body = {"v": PROTOCOL_VERSION, "type": msg.type}
+    optional = _OPTIONAL.get(msg.type, ())
     for f in fields(msg):
         value = getattr(msg, f.name)
+        if value is None and f.name in optional:
+            continue
         if isinstance(value, np.ndarray):
             value = encode_array(value)
         body[f.name] = value
@@ -170,7 +176,11 @@ def _announce(obj):
           "a string of at most 64 characters (e.g. mm, cm, inch*0.45)", s)
     up = obj.get("up", "y")
     _need(up in UP_AXES, "announce", "up", up, f"one of {', '.join(UP_AXES)}", s)
-    return Announce(s, fps, tuple(joints), tuple(parents), units, up)
+    labels, seq = obj.get("labels"), obj.get("labels_sequence")
+    for key, value in (("labels", labels), ("labels_sequence", seq)):
+        _need(value is None or (isinstance(value, str) and 0 < len(value) <= 4096), "announce",
+              key, value, "a string of 1-4096 characters, or nil", s)
+    return Announce(s, fps, tuple(joints), tuple(parents), units, up, labels, seq)
 
 
 def frames_fields(obj: dict, stream: str | None = None) -> tuple:

@@ -67,6 +67,8 @@ class Announce:
     parents: tuple[int, ...]
     units: str = "mm"
     up: str = "y"
+    labels: str | None = None  # optional: path of a human label CSV for this recording
+    labels_sequence: str | None = None  # its rows to use (default: the stream id)
 
     type = "announce"
 
