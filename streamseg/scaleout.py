@@ -41,7 +41,7 @@ def local_cluster(n_workers: int | None = None, processes: bool = True,
     n = n_workers or os.cpu_count() or 1
     return distributed.LocalCluster(n_workers=n, threads_per_worker=threads_per_worker,
                                     processes=processes, host="127.0.0.1", protocol="tcp://",
-                                    dashboard_address=None, silence_logs=logging.ERROR)
+                                    dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
 
 
 def connect(address: str, timeout: float = 10.0):
