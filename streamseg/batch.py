@@ -49,13 +49,12 @@ def expand(inputs, allow_missing: bool = False) -> list[str]:
 
 
 def skeleton_for(path: str, given: str | None = None) -> str | None:
-    """The ASF of an AMC: ``given``, else the ``.asf`` beside it (or in its folder's parent,
-    or an ``asf/`` folder there) whose name starts the file's name (``86.asf`` for
-    ``86_01.amc``, ``HDM_bd.asf`` for ``HDM_bd_hop...amc``), else the only one beside it."""
-    if given:
-        return given
+    """The ASF of an AMC, as ``eval --all`` finds it: the ``.asf`` beside it (or in an
+    ``asf/`` folder beside it, or in its folder's parent) whose name starts the file's name
+    (``86.asf`` for ``86_01.amc``, ``HDM_bd.asf`` for ``HDM_bd_hop...amc``), else the only
+    one beside it, else ``given`` (``--skeleton``: for AMCs whose folder has none)."""
     if ".amc" not in Path(path).name.lower():
-        return None
+        return given
     name = Path(path).name
     here = Path(path).parent
     candidates = []
@@ -66,7 +65,7 @@ def skeleton_for(path: str, given: str | None = None) -> str | None:
     if prefixed:
         return str(max(prefixed, key=lambda a: len(a.stem)))
     beside = sorted(here.glob("*.asf"))
-    return str(beside[0]) if len(beside) == 1 else None
+    return str(beside[0]) if len(beside) == 1 else given
 
 
 def label_index(path) -> dict:

@@ -31,8 +31,9 @@ def add_arguments(parser) -> None:
                         help="one JSON line per recording, appended; a rerun skips the "
                              "recordings already in it")
     parser.add_argument("--method", choices=sorted(METHODS), default="lof")
-    parser.add_argument("--skeleton", help="ASF for AMCs (default: the ASF beside each AMC "
-                        "whose name starts the file's name, or the only one there)")
+    parser.add_argument("--skeleton", help="ASF for AMCs whose folder has none (each AMC "
+                        "takes the ASF beside it whose name starts the file's name, or the "
+                        "only one there)")
     parser.add_argument("--fps", type=float, default=None,
                         help="frame rate for feature matrices (.npy/.csv) or AMCs")
     parser.add_argument("--scheduler", metavar="ADDRESS",
