@@ -237,3 +237,50 @@ def test_batch_output_is_strict_json_and_a_cut_line_is_skipped(tmp_path, capsys,
     assert len(lines) == 3  # the cut-short line stays on its own line, ignored
     obj = json.loads(lines[-1], parse_constant=lambda c: pytest.fail(f"non-strict {c}"))
     assert obj["file"] == f and obj["method"] == "haca"
+
+
+def test_backend_option_picks_the_worker_and_rejects_unknown_names():
+    from streamseg.daemon.backends import relabel_worker
+    from streamseg.daemon.dask_worker import DaskRelabelWorker
+    from streamseg.daemon.worker import RelabelWorker
+    from streamseg.exceptions import ParameterError
+
+    with pytest.raises(ParameterError, match="relabel_backend"):
+        DaemonConfig(relabel_backend="cluster")
+    with pytest.raises(ParameterError, match="relabel_scheduler"):
+        DaemonConfig(relabel_scheduler="localhost")
+    w = relabel_worker(Algorithms(), DaemonConfig(relabel_backend="process"))
+    assert isinstance(w, RelabelWorker) and w.pool is not None
+    w.stop()
+    w = relabel_worker(Algorithms(), DaemonConfig())
+    assert isinstance(w, RelabelWorker) and w.pool is None
+    w = relabel_worker(Algorithms(), DaemonConfig(relabel_backend="dask",
+                                                  relabel_scheduler="tcp://127.0.0.1:1"))
+    assert isinstance(w, DaskRelabelWorker)
+
+
+def test_an_unreachable_scheduler_means_local_relabels_and_an_error_event(rec):
+    import socket
+
+    with socket.socket() as sk:  # a port nobody listens on
+        sk.bind(("127.0.0.1", 0))
+        port = sk.getsockname()[1]
+    d, ep, s = start(dict(relabel_interval=5.0, relabel_history=10.0, relabel_backend="dask",
+                          relabel_scheduler=f"tcp://127.0.0.1:{port}"))
+    try:
+        replay(rec.slice(0, 1500), ep["ingest"], stream="u", speed=0, batch=60)
+        events, closed, told = [], False, False
+        for e in listen(s, timeout=120):  # the stream closes; the failed connection is told
+            events.append(e)
+            closed |= e.type == "closed" and e.stream == "u"
+            told |= e.type == "error" and e.reason == "relabel_backend"
+            if closed and told:
+                break
+    finally:
+        stop(d)
+    assert closed
+    told = [e for e in events if e.type == "error" and e.reason == "relabel_backend"]
+    assert told and "not reachable" in told[0].message
+    segs = [e for e in events if e.type == "segments" and e.stream == "u"]
+    assert segs and segs[-1].final and segs[-1].end == 1500
+    assert d.worker.sent == 0 and d.worker.fallbacks >= 1

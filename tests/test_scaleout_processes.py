@@ -28,7 +28,9 @@ from streamseg.commands.replay import replay  # noqa: E402
 from streamseg.config import DaemonConfig  # noqa: E402
 from streamseg.daemon import Daemon  # noqa: E402
 from streamseg.io import read  # noqa: E402
+from streamseg.online.lof import StreamingLOFSegmenter  # noqa: E402
 from streamseg.pipeline import Algorithms  # noqa: E402
+from streamseg.skeleton import bone_angles  # noqa: E402
 from tests import dask_gate  # noqa: E402
 
 pytestmark = [pytest.mark.daemon, pytest.mark.slow]
@@ -98,11 +100,22 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
         replay(take, ep["ingest"], stream="k", speed=0, batch=60)  # ends: the final relabel
         first = dask_gate.wait_started(gate, 1)[0]
         assert first in pid_of.values()
+        # while that job is stuck on the cluster, another stream is cut and closed as usual
+        short = rec.slice(0, 900)  # its final window is too short to be gated
+        seg = StreamingLOFSegmenter(fps=rec.fps)
+        want = [c.frame for c in seg.learn_many(bone_angles(short.positions, short.skeleton,
+                                                            inclinations=True)) + seg.finish()]
+        replay(short, ep["ingest"], stream="c", speed=0, batch=60)
+        other = [e for e in listen(s, stream="c", until_end=True, timeout=120)
+                 if getattr(e, "stream", None) == "c"]  # the subscriber has every stream's events
+        assert [e.frame for e in other if e.type == "cut"] == want and want
+        assert not (gate / "release").exists() and dask_gate.started(gate) == [first]
         os.kill(first, signal.SIGKILL)
         second = dask_gate.wait_started(gate, 2)[1]
         assert second != first and second in pid_of.values()
         (gate / "release").touch()
-        events = list(listen(s, stream="k", until_end=True, timeout=120))
+        events = [e for e in listen(s, stream="k", until_end=True, timeout=120)
+                  if getattr(e, "stream", None) == "k"]
         segs = [e for e in events if e.type == "segments"]
         assert [e.revision for e in segs] == [1] and segs[0].final
         assert (segs[0].start, segs[0].end) == (0, take.n_frames)
@@ -131,7 +144,8 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
         assert "runs locally" in told.message
         assert os.getpid() in dask_gate.wait_started(gate, 2)  # the local fallback runs it
         (gate / "release").touch()
-        events = list(listen(s, stream="x", until_end=True, timeout=120))
+        events = [e for e in listen(s, stream="x", until_end=True, timeout=120)
+                  if getattr(e, "stream", None) == "x"]
         segs = [e for e in events if e.type == "segments"]
         assert [e.revision for e in segs] == [1] and segs[0].final
         assert segs[0].end == take.n_frames and d.worker.fallbacks >= 1

@@ -156,7 +156,8 @@ class DaskRelabelWorker(threading.Thread):
             self._out.clear()
             self._cond.notify_all()
         for _, fut, _ in out:
-            fut.cancel()
+            if fut is not None:
+                fut.cancel()
         if self.is_alive():
             self.join(timeout)
         self.local.stop(timeout)
@@ -268,14 +269,22 @@ class DaskRelabelWorker(threading.Thread):
                     continue
                 self._counter += 1
                 key = f"relabel-{job.key[0]}-{job.key[1]}-{self._counter}"
-                try:
-                    fut = self.client.submit(remote_relabel, self.algorithms, job.features,
-                                             job.frames, job.fps, job.previous, job.cuts,
-                                             key=key, pure=False)
-                except Exception as err:  # the client closed under us
+                client, sent = self.client, time.monotonic()
+                self._out[job.key] = (job, None, sent)  # out, being sent
+            # outside the lock: pickling a 1 MB window must not hold up the ingest thread
+            try:
+                fut = client.submit(remote_relabel, self.algorithms, job.features, job.frames,
+                                    job.fps, job.previous, job.cuts, key=key, pure=False)
+            except Exception as err:  # the client closed under us
+                with self._cond:
+                    self._out.pop(job.key, None)
                     self._fallback(job, f"could not submit ({type(err).__name__}: {err})")
+                continue
+            with self._cond:
+                if self._out.get(job.key) != (job, None, sent):  # stopped or expired meanwhile
+                    fut.cancel()
                     continue
-                self._out[job.key] = (job, fut, time.monotonic())
+                self._out[job.key] = (job, fut, sent)
                 self.sent += 1
             fut.add_done_callback(lambda f, job=job: self._returned(job, f))
 
@@ -289,7 +298,8 @@ class DaskRelabelWorker(threading.Thread):
         for key, (job, fut, sent) in list(self._out.items()):
             if now - sent > self.timeout:
                 del self._out[key]
-                fut.cancel()
+                if fut is not None:
+                    fut.cancel()
                 self._fallback(job, f"no result from the cluster in {self.timeout:g} s")
 
     def _fallback(self, job, why) -> None:
