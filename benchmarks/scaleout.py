@@ -10,13 +10,16 @@
     cluster of 1 and 2 worker processes. Jobs per second, median of ``--repeats``; from it
     the relabel interval each stream gets at S streams, ``max(R, S / jobs_per_s)`` with the
     default cadence R = 5 s.
-(b) ``streamseg batch --method lof`` over every recording in data/ (and ``--copies`` copies
-    of it, as links in a temporary folder), on a local cluster of 1 and 2 worker processes:
-    wall time of the command (cluster start included) and speed-up against 1 worker.
+(b) ``streamseg batch --method lof`` over every recording in data/ (``--copies`` copies of
+    it, as links in a temporary folder: 201 recordings, most of them 1-3 s HDM05 clips) and
+    ``--method aca`` (HACA, K found) over the 14 CMU takes (``--aca-copies`` copies), on a
+    local cluster of 1 and 2 worker processes started beforehand (``--scheduler``): wall
+    time of the command and speed-up against 1 worker; the cluster's start on its own.
 (c) Scheduler overhead per task: a trivial task's round trip (submit, run, result), one at a
     time, and per task of 1,000 trivial tasks submitted together.
 
 Run: .venv/bin/python benchmarks/scaleout.py [--jobs 8] [--repeats 3] [--copies 3]
+     [--aca-copies 6] [--skip a,b,c]
 The machine has 2 cores shared with other work: 2 workers can at best double 1 worker, and
 any other load on the machine shows in the figures.
 """
@@ -111,34 +114,45 @@ def relabel_capacity(X, n_jobs: int, repeats: int) -> list:
     return rows
 
 
-def batch_wall(inputs, workers: int, out: Path) -> float:
+def batch_wall(inputs, address: str, out: Path, method: str = "lof") -> tuple:
     from streamseg.cli import main
 
     if out.exists():
         out.unlink()
     t = time.perf_counter()
     with redirect_stderr(io.StringIO()), redirect_stdout(io.StringIO()):
-        rc = main(["batch", *inputs, "--method", "lof", "--workers", str(workers),
+        rc = main(["batch", *inputs, "--method", method, "--scheduler", address,
                    "--skeleton", str(DATA / "cmu86/86.asf"), "--output", str(out)])
     wall = time.perf_counter() - t
     if rc != 0:
         raise SystemExit(f"batch failed (exit {rc}); see {out}")
-    return wall
+    import json
+
+    work = sum(json.loads(line).get("seconds", 0.0) for line in out.read_text().splitlines())
+    return wall, work
 
 
-def batch_speedup(copies: int, repeats: int) -> tuple:
+def batch_speedup(copies: int, repeats: int, method: str, subset=None) -> tuple:
+    """``(n recordings, [(workers, median wall s, task s summed)]``) over ``copies`` links
+    to data/ (or to its folders ``subset``)."""
     tmp = Path(tempfile.mkdtemp(prefix="streamseg-scaleout-"))
     for c in range(copies):
         os.symlink(DATA, tmp / f"copy{c}")  # the same files under other names
     from streamseg.batch import expand
 
-    inputs = [str(tmp / f"copy{c}") for c in range(copies)]
+    inputs = [str(tmp / f"copy{c}" / sub) for c in range(copies) for sub in (subset or [""])]
     n = len(expand(inputs))
     rows = []
-    batch_wall([str(DATA / "cmu86")], 2, tmp / "warm.jsonl")  # numba caches written
     for workers in (1, 2):
-        walls = [batch_wall(inputs, workers, tmp / "out.jsonl") for _ in range(repeats)]
-        rows.append((workers, statistics.median(walls)))
+        t = time.perf_counter()
+        cluster = local_cluster(workers)
+        started = time.perf_counter() - t
+        address = cluster.scheduler_address
+        batch_wall([str(DATA / "cmu86")], address, tmp / "warm.jsonl", method)  # kernels
+        runs = [batch_wall(inputs, address, tmp / "out.jsonl", method) for _ in range(repeats)]
+        cluster.close()
+        rows.append((workers, statistics.median(w for w, _ in runs),
+                     statistics.median(k for _, k in runs), started))
     return n, rows
 
 
@@ -170,6 +184,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=8, help="relabel jobs per timed run")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--copies", type=int, default=3, help="copies of data/ for (b)")
+    ap.add_argument("--aca-copies", type=int, default=6,
+                    help="copies of the 14 CMU takes for (b), aca")
     ap.add_argument("--skip", default="", help="comma list of a,b,c to skip")
     args = ap.parse_args()
     skip = set(args.skip.split(","))
@@ -188,14 +204,22 @@ def main():
                   f"| {max(CADENCE, 1000 / rate):.0f} |", flush=True)
         print()
     if "b" not in skip:
-        n, rows = batch_speedup(args.copies, args.repeats)
-        print(f"(b) streamseg batch --method lof over data/ x {args.copies} = {n} recordings "
-              "(wall time of the command, local cluster start included)")
-        print("| workers | wall s | recordings/s | speed-up |")
-        print("|---|---|---|---|")
-        for workers, wall in rows:
-            print(f"| {workers} | {wall:.1f} | {n / wall:.1f} | {rows[0][1] / wall:.2f}x |",
-                  flush=True)
+        print("(b) streamseg batch --scheduler (a local cluster started beforehand: its start "
+              "is its own column); wall time of the command; 'segment s' sums the seconds of "
+              "the lines (lof: the whole task; aca: the fit, without reading)")
+        print("| method | recordings | workers | cluster start s | wall s | segment s (sum) | "
+              "recordings/s | speed-up |")
+        print("|---|---|---|---|---|---|---|---|")
+        cmu = ["cmu86", "cmu_exercise", "cmu02"]  # the 14 CMU takes: 1.4-38 s each
+        for method, copies, subset, what in (
+                ("lof", args.copies, None, "data/"), ("aca", args.aca_copies, cmu, "CMU takes")):
+            if copies <= 0:
+                continue
+            n, rows = batch_speedup(copies, args.repeats, method, subset)
+            for workers, wall, work, started in rows:
+                print(f"| {method} | {n} ({copies} x {what}) | {workers} | {started:.1f} | "
+                      f"{wall:.1f} | {work:.1f} | {n / wall:.1f} | {rows[0][1] / wall:.2f}x |",
+                      flush=True)
         print()
     if "c" not in skip:
         trip, bulk = overhead(args.repeats)

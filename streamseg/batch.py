@@ -221,7 +221,8 @@ def summary(objects: list[dict]) -> str:
 
 
 def write_line(fh, obj: dict) -> None:
-    """Append one strict-JSON line and make it durable before the next task is counted."""
+    """Append one strict-JSON line, flushed: a crash of this process loses no finished
+    recording (the caller syncs the file to disk at the end, not per line: on small
+    recordings a sync per line cost more than the segmenting)."""
     fh.write(strict_json.dumps(obj) + "\n")
     fh.flush()
-    os.fsync(fh.fileno())

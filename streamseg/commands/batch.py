@@ -105,6 +105,7 @@ def run(args) -> int:
                     batch.write_line(fh, obj)
                     done[os.path.abspath(f)] = obj
                     bar.step(("FAILED " if "error" in obj else "") + os.path.basename(f))
+                os.fsync(fh.fileno())
         else:
             print(f"streamseg batch: all {len(files)} recordings are already in {args.output}",
                   file=sys.stderr)
