@@ -26,13 +26,14 @@ from streamseg.evaluation import LABEL_HEADER, RECORDING_SUFFIXES
 MATRIX_SUFFIXES = (".npy", ".csv")
 
 
-def expand(inputs, allow_missing: bool = False) -> list[str]:
+def expand(inputs) -> list[str]:
     """Recording paths from files, globs and folders, in the given order, each once.
 
     A folder contributes every recording under it (``.amc[.gz]``, ``.bvh``, ``.npz``,
     sorted); a file is taken as named (feature matrices ``.npy``/``.csv`` too); a pattern
-    with ``* ? [`` is expanded here (also when the shell did not). A name that matches
-    nothing is returned as is, so its task reports "no such file".
+    with ``* ? [`` is expanded here (also when the shell did not) and adds nothing when it
+    matches nothing. A plain name that does not exist is kept, so its line says "no such
+    file".
     """
     out = []
     for item in inputs:

@@ -284,3 +284,16 @@ def test_an_unreachable_scheduler_means_local_relabels_and_an_error_event(rec):
     segs = [e for e in events if e.type == "segments" and e.stream == "u"]
     assert segs and segs[-1].final and segs[-1].end == 1500
     assert d.worker.sent == 0 and d.worker.fallbacks >= 1
+
+
+def test_batch_says_in_one_line_what_is_wrong(tmp_path, capsys, data_dir):
+    assert main(["batch", str(data_dir / "cmu86"), "--output",
+                 str(tmp_path / "missing" / "o.jsonl")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "not a file in an existing folder" in err
+    assert main(["batch", str(tmp_path / "empty*.amc"), "--output",
+                 str(tmp_path / "o.jsonl"), "--labels", str(tmp_path)]) == 2
+    assert "no recordings" in capsys.readouterr().err
+    assert main(["batch", str(data_dir / "cmu86"), "--output", str(tmp_path / "o.jsonl"),
+                 "--labels", str(tmp_path)]) == 2
+    assert "no label CSV" in capsys.readouterr().err

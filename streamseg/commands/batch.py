@@ -63,6 +63,9 @@ def run(args) -> int:
     distributed = require_distributed()
     if args.workers is not None and args.workers < 1:
         raise ParameterError(f"--workers={args.workers}: expected an integer >= 1")
+    out_dir = os.path.dirname(os.path.abspath(args.output))
+    if not os.path.isdir(out_dir) or os.path.isdir(args.output):
+        raise ParameterError(f"--output {args.output}: not a file in an existing folder")
     files = batch.expand(args.inputs)
     if not files:
         raise ParameterError(f"no recordings in {' '.join(args.inputs)}")
