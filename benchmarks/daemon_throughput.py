@@ -1,7 +1,8 @@
 """Daemon throughput, latency and capacity, beside the raw ZeroMQ + msgpack limit.
 
 Run: ``.venv/bin/python benchmarks/daemon_throughput.py [--frames 60000] [--repeats 3]
-[--streams 250,500,1000] [--stream-batch 4] [--seconds 6]``
+[--streams 250,500,1000] [--stream-batch 4] [--seconds 6] [--relabel-backend dask
+--dask-workers 2]``
 
 1. Frames per second, one stream sent as fast as possible by a separate sender process, with
    1 and with 120 frames per packet: (a) the raw limit, a bare ``recv_multipart`` +
@@ -97,19 +98,23 @@ def raw_limit(msgs) -> float:
 
 
 RELABEL_PROCESSES = 0
+RELABEL_BACKEND = {}  # relabel_backend / relabel_scheduler overrides (--relabel-backend)
 RECEIVE_THREAD = DaemonConfig().receive_thread
 
 
 def start_daemon(**overrides):
     loop = "tcp://127.0.0.1:0"
     cfg = dict(ingest=loop, publish=loop, control="", heartbeat=0,
-               relabel_processes=RELABEL_PROCESSES, receive_thread=RECEIVE_THREAD)
+               relabel_processes=RELABEL_PROCESSES, receive_thread=RECEIVE_THREAD,
+               **RELABEL_BACKEND)
     cfg.update(overrides)
     d = Daemon(DaemonConfig(**cfg))
     ep = d.bind()
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
     d.ready.wait()
+    if hasattr(d.worker, "wait_connected"):  # the dask backend: its cluster is up first
+        assert d.worker.wait_connected(120), "the Dask cluster did not come up"
     return d, ep, t
 
 
@@ -255,6 +260,11 @@ def main():
     ap.add_argument("--skip-throughput", action="store_true")
     ap.add_argument("--relabel-processes", type=int, default=0,
                     help="DaemonConfig.relabel_processes (0: relabel in a thread)")
+    ap.add_argument("--relabel-backend", choices=("thread", "process", "dask"), default=None,
+                    help="DaemonConfig.relabel_backend (default: the config's default)")
+    ap.add_argument("--dask-workers", type=int, default=0,
+                    help="with --relabel-backend dask: a local cluster of this many worker "
+                         "processes, started here (0: the daemon starts one per core)")
     ap.add_argument("--receive-thread", type=int, choices=(0, 1), default=None,
                     help="DaemonConfig.receive_thread (default: the config's default)")
     ap.add_argument("--switch-interval", type=float, default=0.0,
@@ -268,13 +278,25 @@ def main():
         import sys
 
         sys.setswitchinterval(args.switch_interval)
-    print(f"relabel_processes = {RELABEL_PROCESSES}, receive_thread = {RECEIVE_THREAD}")
+    cluster = None
+    if args.relabel_backend:
+        RELABEL_BACKEND["relabel_backend"] = args.relabel_backend
+        if args.relabel_backend == "dask" and args.dask_workers:
+            from streamseg.scaleout import local_cluster
+
+            cluster = local_cluster(args.dask_workers)
+            RELABEL_BACKEND["relabel_scheduler"] = cluster.scheduler_address
+    print(f"relabel_processes = {RELABEL_PROCESSES}, receive_thread = {RECEIVE_THREAD}, "
+          f"relabel backend {RELABEL_BACKEND or 'thread'}"
+          + (f" ({args.dask_workers} local workers)" if cluster else ""))
     rec = load()
     if not args.skip_throughput:
         for relabel in (False, True):
             throughput(rec, args.frames, args.repeats, relabel)
     if args.streams:
         capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch, args.seconds)
+    if cluster is not None:
+        cluster.close()
 
 
 if __name__ == "__main__":

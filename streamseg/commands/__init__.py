@@ -32,4 +32,5 @@ TOOLS = {
     "listen": "streamseg.commands.listen",
     "demo": "streamseg.commands.demo",
     "view": "streamseg.commands.view",
+    "batch": "streamseg.commands.batch",
 }

@@ -55,6 +55,17 @@ class DaemonConfig:
     relabel_processes : int
         0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
         N > 0: the worker thread hands each job to a pool of N processes.
+    relabel_backend : str
+        Where relabel jobs run: ``thread`` (a thread of the daemon), ``process`` (that thread
+        hands each job to a pool of ``relabel_processes`` processes, at least 1) or ``dask``
+        (each job goes to the Dask cluster of ``relabel_scheduler``, several at once; results
+        are published as they return, in revision order per stream; a failed or lost job
+        runs locally, with an ``error`` event ``relabel_backend``). ``dask`` needs
+        ``pip install streamseg[dask]``.
+    relabel_scheduler : str
+        With ``relabel_backend = "dask"``: the scheduler's address, e.g.
+        ``tcp://10.0.0.5:8786``; ``""`` starts a local cluster (one worker process per core,
+        on 127.0.0.1).
     relabel_share : float
         With relabelling in a thread and jobs waiting, the worker pauses after each job so
         relabelling takes at most this share of the time (it shares the GIL with ingest);
@@ -84,6 +95,8 @@ class DaemonConfig:
     shutdown_relabel: float = 5.0
     repetitions: bool = False
     relabel_processes: int = 0
+    relabel_backend: str = "thread"
+    relabel_scheduler: str = ""
     relabel_share: float = 0.25
     receive_thread: bool = False
 
@@ -107,6 +120,13 @@ class DaemonConfig:
         _check("relabel_processes", self.relabel_processes,
                type(self.relabel_processes) is int and self.relabel_processes >= 0,
                "an integer >= 0")
+        _check("relabel_backend", self.relabel_backend,
+               self.relabel_backend in ("thread", "process", "dask"),
+               'one of "thread", "process", "dask"')
+        _check("relabel_scheduler", self.relabel_scheduler,
+               isinstance(self.relabel_scheduler, str)
+               and (self.relabel_scheduler == "" or "://" in self.relabel_scheduler),
+               'a scheduler address like tcp://127.0.0.1:8786, or "" (a local cluster)')
         _check("relabel_share", self.relabel_share,
                isinstance(self.relabel_share, (int, float)) and 0 < self.relabel_share <= 1,
                "a fraction in (0, 1]")

@@ -18,13 +18,14 @@ import zmq
 
 from streamseg import protocol
 from streamseg.config import DaemonConfig
+from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.ingest import Receiver
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline
 from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
-from streamseg.daemon.worker import RelabelJob, RelabelWorker
+from streamseg.daemon.worker import RelabelJob
 
 log = logging.getLogger("streamseg.daemon")
 CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
@@ -72,8 +73,7 @@ class Daemon:
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
-        self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes,
-                                    share=self.config.relabel_share)
+        self.worker = relabel_worker(self.algorithms, self.config)
         self.default_skeleton = None
         if self.config.default_skeleton:
             from streamseg.io.asf import read_asf
@@ -414,6 +414,8 @@ class Daemon:
         log.info("stream %s closed (%s) after %d frames", st.stream, reason, st.next_seq)
 
     def _collect(self) -> None:
+        for stream, reason, message in self.worker.notices():  # e.g. the cluster was lost
+            self._error(stream if stream in self.streams else None, reason, message)
         for job, result in self.worker.results():
             self._relabelled(job, result)
 

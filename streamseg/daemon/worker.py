@@ -74,6 +74,10 @@ class RelabelWorker(threading.Thread):
             out.append(self._done.popleft())
         return out
 
+    def notices(self) -> list:
+        """Backend problems to report as errors (none here; see the dask backend)."""
+        return []
+
     def warm(self) -> None:
         """Load the kernels in the worker processes too (before the first packet)."""
         if self.pool is not None:

@@ -179,6 +179,12 @@ def json_row(row: dict) -> dict:
     return {JSON_KEYS.get(k, k): v for k, v in row.items()}
 
 
+def table_row(row: dict) -> dict:
+    """Inverse of :func:`json_row`: a JSON row back under the table's column names."""
+    short = {v: k for k, v in JSON_KEYS.items()}
+    return {short.get(k, k): v for k, v in row.items()}
+
+
 def format_table(rows: list[tuple[str, str, dict]], means: bool = True) -> str:
     """Markdown table of ``(recording, method, row)``; with ``means``, a per-method mean block."""
 

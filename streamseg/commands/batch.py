@@ -1,0 +1,156 @@
+"""Segment or evaluate a whole corpus on a Dask cluster (one JSON line per recording).
+
+``streamseg batch PATH... --method lof|aca|rep --output FILE.jsonl`` runs ``segment`` with
+the same options on every recording (files, globs, folders), on a local cluster (one worker
+process per core, 127.0.0.1) or on ``--scheduler tcp://HOST:8786``. Each line is the
+``segment --json`` object plus ``"file"``, or ``{"file", "error"}``; a rerun skips recordings
+already in FILE. ``--labels`` scores each against human labels as ``eval --all`` does. Exit
+code 1 when any recording failed. Needs ``pip install streamseg[dask]``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import sys
+import time
+
+from streamseg.commands import METHODS
+from streamseg.exceptions import ParameterError
+
+# options of the batch itself; every other parsed option is a `segment` option for the task
+_OWN = {"inputs", "output", "scheduler", "workers", "labels", "retry_failed", "method",
+        "command", "run", "log_level"}
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("inputs", nargs="+", metavar="PATH",
+                        help="recordings (.amc[.gz], .bvh, .npz, .npy, .csv), globs or folders "
+                             "(every recording under them)")
+    parser.add_argument("--output", "-o", required=True, metavar="FILE.jsonl",
+                        help="one JSON line per recording, appended; a rerun skips the "
+                             "recordings already in it")
+    parser.add_argument("--method", choices=sorted(METHODS), default="lof")
+    parser.add_argument("--skeleton", help="ASF for AMCs whose folder has none (each AMC "
+                        "takes the ASF beside it whose name starts the file's name, or the "
+                        "only one there)")
+    parser.add_argument("--fps", type=float, default=None,
+                        help="frame rate for feature matrices (.npy/.csv) or AMCs")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a "
+                             "local cluster on 127.0.0.1)")
+    parser.add_argument("--workers", type=int, default=None, metavar="N",
+                        help="local cluster: worker processes (default: one per core)")
+    parser.add_argument("--labels", metavar="CSV|DIR",
+                        help="score against human labels (a label CSV, or a folder searched "
+                             "for them; sequence = file name before the first dot)")
+    parser.add_argument("--retry-failed", action="store_true",
+                        help="run again the recordings whose line in FILE is an error")
+    for name in sorted(METHODS):
+        module = importlib.import_module(METHODS[name])
+        module.add_arguments(parser.add_argument_group(f"{name} options (as for segment)"))
+
+
+def _options(args) -> dict:
+    return {k: v for k, v in vars(args).items() if k not in _OWN}
+
+
+def run(args) -> int:
+    from streamseg.commands import batch_tasks as batch
+    from streamseg.evaluation.corpus import Progress
+    from streamseg.scaleout import connect, local_cluster, require_distributed
+
+    distributed = require_distributed()
+    if args.workers is not None and args.workers < 1:
+        raise ParameterError(f"--workers={args.workers}: expected an integer >= 1")
+    out_dir = os.path.dirname(os.path.abspath(args.output))
+    if not os.path.isdir(out_dir) or os.path.isdir(args.output):
+        raise ParameterError(f"--output {args.output}: not a file in an existing folder")
+    files = batch.expand(args.inputs)
+    if not files:
+        raise ParameterError(f"no recordings in {' '.join(args.inputs)}")
+    labels = batch.label_index(args.labels) if args.labels else {}
+    done = batch.read_done(args.output)
+    todo = [f for f in files if os.path.abspath(f) not in done
+            or (args.retry_failed and "error" in done[os.path.abspath(f)])]
+    options = _options(args)
+    cluster = client = None
+    t0 = time.perf_counter()
+    try:
+        if todo:
+            if args.scheduler:
+                client = connect(args.scheduler)
+                where = args.scheduler
+            else:
+                cluster = local_cluster(args.workers)
+                client = distributed.Client(cluster, set_as_default=False)
+                where = f"a local cluster of {len(cluster.workers)} worker processes"
+            print(f"streamseg batch: {len(files)} recordings, {len(files) - len(todo)} already "
+                  f"in {args.output}, {len(todo)} to run on {where}", file=sys.stderr)
+            futures = {}
+            for i, f in enumerate(todo):
+                fut = client.submit(batch.run_one, f, args.method, options,
+                                    labels.get(batch.sequence_of(f)), pure=False,
+                                    key=f"batch-{i}-{os.path.basename(f)}")
+                futures[fut] = f
+            bar = Progress(len(todo))
+            with open(args.output, "a", encoding="utf-8") as fh:
+                if fh.tell() and not _ends_with_newline(args.output):
+                    fh.write("\n")  # a line cut short by a crash stays on its own
+                for fut in distributed.as_completed(list(futures), loop=client.loop):
+                    f = futures[fut]
+                    try:
+                        obj = fut.result()
+                    except Exception as err:  # the task's worker died (again) or was lost
+                        obj = {"file": f, "error": f"the cluster lost this task "
+                                                   f"({type(err).__name__}: {err})"[:300]}
+                    fut.release()
+                    batch.write_line(fh, obj)
+                    done[os.path.abspath(f)] = obj
+                    bar.step(("FAILED " if "error" in obj else "") + os.path.basename(f))
+                os.fsync(fh.fileno())
+        else:
+            print(f"streamseg batch: all {len(files)} recordings are already in {args.output}",
+                  file=sys.stderr)
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    objects = [done[os.path.abspath(f)] for f in files]
+    _print_summary(objects, args, time.perf_counter() - t0)
+    return 1 if any("error" in o for o in objects) else 0
+
+
+def _ends_with_newline(path) -> bool:
+    with open(path, "rb") as fh:
+        fh.seek(-1, os.SEEK_END)
+        return fh.read(1) == b"\n"
+
+
+def _print_summary(objects, args, wall: float) -> None:
+    from streamseg.commands import batch_tasks as batch
+    from streamseg.evaluation.corpus import format_table, table_row
+
+    print(batch.summary(objects))
+    # strict JSON stored NaN (no accuracy for a method without labels...) as null
+    scored = [(batch.sequence_of(o["file"]), o.get("method", args.method),
+               table_row({k: float("nan") if v is None else v for k, v in o["scores"].items()}))
+              for o in objects if "scores" in o]
+    if scored and "F1" in scored[0][2]:
+        print()
+        print(format_table(scored))
+    elif scored:
+        print()
+        print("| recording | alpha | count | true count | count error |")
+        print("|---|---|---|---|---|")
+        for name, _, s in scored:
+            print(f"| {name} | {s['alpha']:.3f} | {s['count']} | {s['true_count']} | "
+                  f"{s['count_error']:.3f} |")
+    if args.labels:
+        missing = sum(1 for o in objects if "error" not in o and "scores" not in o)
+        if missing:
+            print(f"({missing} recordings have no rows in the labels and are not scored)")
+    failed = sum(1 for o in objects if "error" in o)
+    print(f"\n{len(objects) - failed} segmented, {failed} failed; {wall:.1f} s; "
+          f"lines in {args.output}")
