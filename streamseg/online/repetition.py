@@ -26,7 +26,7 @@ default), so every delay is below 4.6 s; for paces of 0.5-2 s per repetition it 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -88,6 +88,10 @@ class RepetitionCounter:
             raise ParameterError("skeleton=None is invalid: pass the stream's Skeleton (or its "
                                  "joint names)")
         self.config = config or RepetitionConfig()
+        # Live the buffer's ends are wherever the stream is, not a rest pose: boundaries are
+        # refined to velocity minima (the offline "rest" refinement needs the take's ends).
+        self._analysis_config = replace(self.config, refine_to="speed",
+                                        refine_fraction=self.config.live_refine_fraction)
         self.fps = float(fps)
         self._names = tuple(getattr(skeleton, "names", skeleton))
         self._cap = int(round(self.config.buffer_seconds * self.fps))
@@ -169,14 +173,14 @@ class RepetitionCounter:
         a = None
         if ok:
             try:
-                a = analyse(X, self.fps, cfg)
+                a = analyse(X, self.fps, self._analysis_config)
             except ParameterError:
                 a = None
         # A primary frequency pinned at the lowest admissible bin means the true period may be
         # longer than the buffer allows: not (yet) evidence of repetition.
         self.repetitive_ = bool(a is not None and a.concentration >= cfg.repetitive_ratio
                                 and a.primary_cycles >= cfg.min_cycles + 0.5
-                                and a.subharmonic < 0.5)
+                                and a.subharmonic < cfg.max_subharmonic)
         if not self.repetitive_:
             self._since_repetitive += self._hop
             if self._since_repetitive >= self._cap:
