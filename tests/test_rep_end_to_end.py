@@ -67,15 +67,6 @@ def test_cli_segment_json_and_plot(squats, tmp_path, capsys):
     assert png.stat().st_size > 10_000
 
 
-def test_cli_warns_when_the_take_is_not_repetitive(data_dir, capsys):
-    """A whole exercise routine (six different exercises) is no single repetitive action."""
-    assert main(["segment", str(data_dir / "cmu_exercise/14_14.amc.gz"), "--skeleton",
-                 str(data_dir / "cmu86/86.asf"), "--method", "rep", "--json"]) == 0
-    captured = capsys.readouterr()
-    assert json.loads(captured.out)["repetitive"] is False
-    assert "does not look repetitive" in captured.err
-
-
 def test_live_counter_counts_the_squats_with_bounded_delay(squats):
     rec, truth = squats
     counter = RepetitionCounter(None, rec.fps, rec.skeleton)
