@@ -343,9 +343,10 @@ class Daemon:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
             st.cuts.append(ev)
             self._publish(st, ev)
-        for a, b, count, emitted in reps:
+        for a, b, count, emitted, label, index in reps:
             st.reps = count
-            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted))
+            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
+                                           label, index))
         self.latency.add(time.perf_counter() - np.array(arrivals))
         if (self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel
                 and not self.worker.pending((st.stream, st.gen))):
