@@ -147,9 +147,11 @@ def main(argv=None):
     ap.add_argument("--rotate", action="store_true", help="choose on each actor in turn")
     ap.add_argument("--routines", action="store_true", help="part 2: whole routines")
     ap.add_argument("--live", action="store_true", help="part 3: the live counter")
+    ap.add_argument("--skip-hdm05", action="store_true", help="skip part 1")
     args = ap.parse_args(argv)
     base = RepetitionConfig()
-    run_hdm05(args, base)
+    if not args.skip_hdm05:
+        run_hdm05(args, base)
     if args.routines or args.live:
         import rep_routines
 
