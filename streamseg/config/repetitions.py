@@ -97,8 +97,9 @@ class RepetitionConfig:
     hop_seconds : float
         Live: analysis interval.
     repetitive_ratio : float
-        Live: the buffer counts as repetitive when the band around the primary frequency holds
-        at least this share of the total (detrended) angle power above ``min_cycles``.
+        Routines (:mod:`streamseg.offline.sets`): a take whose power concentration reaches
+        this (and that passes the repetitive test) is one exercise, one set, and is not cut
+        into actions.
     """
 
     position_noise: float = 0.05
