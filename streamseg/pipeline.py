@@ -296,6 +296,16 @@ class StreamPipeline:
             self.notices.append(("rep", f"repetition counting stopped: "
                                         f"{type(err).__name__}: {err}"))
             return []
+        return self._rep_tuples(reps)
+
+    def finish_reps(self) -> list:
+        """The repetitions the counter still holds at the stream's end (its ``finish``), as
+        :meth:`push` gives them."""
+        if self.reps is None or self.rep_offset is None:
+            return []
+        return self._rep_tuples(self.reps.finish())
+
+    def _rep_tuples(self, reps) -> list:
         o = self.rep_offset
         if reps and self.rep_sets is None:
             from streamseg.online.rep_sets import SetTracker

@@ -259,6 +259,8 @@ class RepetitionCounter:
                 continue  # reported already (or the rest of one that was)
             if self._last_end is not None:
                 s = self._last_end
+            if e - s > 2.0 * a.period:
+                break  # not one repetition of the buffer's rhythm (a pause, another action)
             out.append(self._emit(s, e))
         return out
 
