@@ -88,6 +88,21 @@ def test_live_counter_counts_the_squats_with_bounded_delay(squats):
         counter.learn_many(np.zeros((3, 2, 3)))
 
 
+def test_live_final_count_equals_the_offline_count(squats, fitted):
+    rec, truth = squats
+    counter = RepetitionCounter(None, rec.fps, rec.skeleton)
+    events = []
+    for i in range(0, rec.n_frames, 30):
+        events += counter.learn_many(rec.positions[i:i + 30])
+    before = len(events)
+    events += counter.finish()
+    assert events[-1].count == fitted.count_ == len(truth)
+    assert before < len(events)  # the last squat only finish() can report
+    mean_len = np.mean([b - a for a, b in truth])
+    for e in events[:3]:  # the first repetitions of the set: ends within 0.25 repetition
+        assert min(abs(e.end - b) for _, b in truth) < 0.25 * mean_len
+
+
 def test_live_events_do_not_depend_on_chunking(squats):
     rec, _ = squats
     pos = rec.positions[:400]
