@@ -67,7 +67,10 @@ def plot_repetitions(path, segmenter, truth=None, sets=None) -> None:
     ax1.set_ylabel("band-passed parameters")
     ax1.legend(fontsize=6, ncol=4, loc="upper right")
     ax2.plot(t, a.speed2, color="k", lw=0.8, label="sum of squared velocities (eq. 10)")
-    if a.candidates.size:
+    routine = sets is not None and len(sets) > 1
+    if routine:  # the curves are the whole take's; each set was analysed on its own
+        ax1.set_ylabel("band-passed parameters\n(whole take)")
+    if a.candidates.size and not routine:
         ax2.scatter(t[a.candidates], a.speed2[a.candidates], c=a.labels, cmap="tab10", s=25,
                     zorder=3, label=f"candidates (K*={a.k_star} groups)")
     for i, (s, e) in enumerate(reps):

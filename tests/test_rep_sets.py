@@ -36,9 +36,12 @@ def routine(data_dir):
     return rec, truth
 
 
-def test_cli_cuts_cmu_14_14_into_sets(data_dir, capsys):
+def test_cli_cuts_cmu_14_14_into_sets(data_dir, capsys, tmp_path):
+    png = tmp_path / "sets.png"
     assert main(["segment", str(data_dir / "cmu_exercise/14_14.amc.gz"), "--skeleton",
-                 str(data_dir / "cmu86/86.asf"), "--method", "rep", "--json"]) == 0
+                 str(data_dir / "cmu86/86.asf"), "--method", "rep", "--json",
+                 "--plot", str(png)]) == 0
+    assert png.stat().st_size > 10_000
     out = json.loads(capsys.readouterr().out)
     sets = out["sets"]
     assert sets[0]["start"] == 0 and sets[-1]["end"] == out["n_frames"]
