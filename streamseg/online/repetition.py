@@ -235,8 +235,11 @@ class RepetitionCounter:
         Live, a repetition is reported half a period after it ends; the last ones of a
         stream never are. At the end the buffer is cut by the offline rule (the sequence
         taken to end at a repetition boundary, ``merge_edges``): the repetitions after the
-        last one reported are emitted (``emitted_at`` = the frames seen). Only when the
-        buffer passes the repetitive test, or a set is under way.
+        last one reported are emitted (``emitted_at`` = the frames seen), up to the first
+        piece longer than two periods. Only when the buffer passes the repetitive test. When
+        the last analysis did not (no set under way), the end's repetitions are a new set
+        (the count restarts), taken as live takes a set's first ones: pieces of 0.6-1.6
+        periods.
         """
         cfg = self.config
         X = self._dirs
@@ -247,20 +250,34 @@ class RepetitionCounter:
             a = analyse(X, self.fps, self._analysis_config)
         except ParameterError:
             return []
-        if self._last_end is None and not self._repetitive(a):
+        if not self._repetitive(a):
             return []
         start = self.n_seen_ - n
         reps = to_repetitions(a.boundaries, n, a.period, cfg.edge_fraction, a.speed2,
                               merge_edges=True)
+        under_way = self._last_end is not None and self.repetitive_
+        if not under_way and self._last_end is not None:
+            # the last analysis was not repetitive: what the end holds is a new set
+            self.count_, first = 0, self._last_end
+            self._last_end = None
+        else:
+            first = None
         out = []
         for s, e in reps:
             s, e = s + start, e + start
-            if self._last_end is not None and e - self._last_end < 0.5 * a.period:
-                continue  # reported already (or the rest of one that was)
-            if self._last_end is not None:
+            if under_way:
+                if e - self._last_end < 0.5 * a.period:
+                    continue  # reported already (or the rest of one that was)
                 s = self._last_end
-            if e - s > 2.0 * a.period:
-                break  # not one repetition of the buffer's rhythm (a pause, another action)
+                if e - s > 2.0 * a.period:
+                    break  # not one repetition of the set's rhythm (a pause, another action)
+            else:  # a new set: as its first repetitions live, each near one period
+                if first is not None and s < first:
+                    continue
+                if not 0.6 * a.period <= e - s <= 1.6 * a.period:
+                    if out:
+                        break
+                    continue
             out.append(self._emit(s, e))
         return out
 
