@@ -1,150 +1,184 @@
-"""Repetition segmentation on real HDM05 repetitions and CMU exercise routines.
+"""Repetition counting: held-out HDM05 actors, whole routines, and the live counter.
 
-Sequences: 3-8 real HDM05 single-repetition clips of one actor and one class concatenated in
-take order (subsets drawn with a fixed seed); the true repetition boundaries are the joins.
-dg has only two rotateArmsBothBackward clips, so its sequences repeat clips (drawn with
-replacement). "Kinect-like": every 4th frame (120 -> 30 Hz) plus Gaussian noise of 2.5 cm on
-every coordinate (positions are in metres, see ``Skeleton.units``). Parameters are the
-RepetitionConfig defaults, fixed for every file (not tuned per file).
+Part 1, leave-one-actor-out (``benchmarks/rep_data.py`` says how the sequences are made):
+sequences of 3-8 real single-repetition HDM05 clips of one actor and class (five classes,
+actors bd, bk, dg), clean (120 Hz mocap) and Kinect-like (30 Hz, 2.5 cm noise). The
+section-4 parameters are chosen by a small grid on ONE actor's sequences (``--choose-on``,
+default bd; the chosen values are the RepetitionConfig defaults) and held for the other two;
+the table prints every class and actor with its count found / true per sequence and alpha
+(eq. 15); "held-out" rows are the actors not used to choose. ``--rotate`` repeats the choice
+on each actor in turn and prints the held-out means of each choice.
 
-Also prints the count found in every labelled exercise block of CMU 14_14 and 14_20 (no
-repetition ground truth exists there; the counts are for inspection).
+Part 2, routines (``--routines``): whole takes are split into actions by HACA (K found, as
+``segment --method aca``) and counted inside each repetitive set (``streamseg.offline.sets``):
+CMU 14_14 and 14_20 (exercise blocks labelled by people, no repetition labels: the counts
+are printed for inspection) and sequences joined from HDM05 classes (a repetitive class is a
+set of several consecutive takes; every join is abrupt).
 
-Run: ``.venv/bin/python benchmarks/repetitions.py [--per-pair 3] [--seed 0]``
+Part 3, live (``--live``): the live counter over the same material: its final count against
+the offline count, the error of the first repetitions of each set and the delay of each
+``rep`` event.
+
+Run: ``.venv/bin/python benchmarks/repetitions.py [--per-pair 3] [--seed 0] [--choose-seeds
+0,1] [--rotate] [--routines] [--live]``. The defaults were chosen with ``--seed 0`` and are also
+the choice with ``--choose-seeds 0,1`` (six sequences per class of bd); ``--seed 1`` alone
+chooses velocity-minimum boundaries (the choice on three sequences per class is noisy).
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
+import itertools
 import time
 from collections import defaultdict
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
+from rep_data import bone_features, load_clips, make_sequences
 
 from streamseg.config import RepetitionConfig
+from streamseg.evaluation.datasets import HDM05_ACTORS, HDM05_REPETITIVE
 from streamseg.evaluation.metrics import count_error, repetition_accuracy
-from streamseg.io import read
 from streamseg.offline.repetition import RepetitionSegmenter
-from streamseg.recording import Recording, Skeleton
 
-DATA = Path(__file__).resolve().parents[1] / "data"
-KINECT_FPS_STEP = 4  # 120 Hz -> 30 Hz
-KINECT_NOISE_M = 0.025
-
-
-def load_clips():
-    """{(class, actor): [positions (n, J, 3), ...]} and the joint names, from clips.csv."""
-    clips, names = defaultdict(list), {}
-    with open(DATA / "hdm05_reps" / "clips.csv", newline="") as fh:
-        for row in csv.DictReader(fh):
-            path = DATA / "hdm05_reps" / row["class"] / (row["file"] + ".gz")
-            asf = DATA / "hdm05_reps" / "asf" / f"HDM_{row['actor']}.asf"
-            rec = read(path, skeleton=asf)
-            assert rec.skeleton.units == "m", rec.skeleton.units
-            clips[(row["class"], row["actor"])].append(rec.positions)
-            names[row["actor"]] = rec.skeleton.names
-    return clips, names
+#: The grid the section-4 parameters are chosen from (on one actor).
+GRID = {
+    "refine_to": ("speed", "rest"),
+    "refine_fraction": (0.2, 0.3, 0.4),
+    "refine_band": (3.0, 4.0, 6.0),
+    "bandpass_width_cycles": (4.0, 6.0, 8.0),
+}
 
 
-def make_sequences(clips, per_pair, seed):
-    """[(class, actor, positions, true_repetitions)] with 3..8 clips each."""
-    rng = np.random.default_rng(seed)
+def score(seqs, cfg):
+    """[(alpha, count error, count)] of ``cfg`` on cached features."""
     out = []
-    for (cls, actor), group in sorted(clips.items()):
-        for _ in range(per_pair):
-            k = int(rng.integers(3, 9))
-            if len(group) >= k:
-                idx = np.sort(rng.choice(len(group), size=k, replace=False))
-            else:
-                idx = rng.choice(len(group), size=k, replace=True)
-            parts = [group[i] for i in idx]
-            bounds = np.cumsum([0] + [p.shape[0] for p in parts])
-            reps = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
-            out.append((cls, actor, np.concatenate(parts), reps))
+    for s in seqs:
+        seg = RepetitionSegmenter(cfg).fit(s["X"], s["fps"])
+        out.append((repetition_accuracy(seg.repetitions_, s["reps"]),
+                    count_error(seg.count_, len(s["reps"])), seg.count_))
     return out
 
 
-def kinectify(pos, reps, rng):
-    """30 Hz and 2.5 cm noise; repetition boundaries mapped to the new frame numbers."""
-    sub = pos[::KINECT_FPS_STEP]
-    sub = sub + rng.normal(0.0, KINECT_NOISE_M, sub.shape)
-    n = sub.shape[0]
+def choose(seqs, base):
+    """The grid point of the best mean alpha + share of exact counts on ``seqs``."""
+    best = None
+    for vals in itertools.product(*GRID.values()):
+        cfg = replace(base, **dict(zip(GRID, vals)))
+        r = np.array(score(seqs, cfg))
+        value = r[:, 0].mean() + np.mean(r[:, 1] == 0)
+        if best is None or value > best[0] + 1e-12:
+            best = (value, cfg, dict(zip(GRID, vals)))
+    return best[1], best[2]
 
-    def m(f):
-        return min(n, int(np.ceil(f / KINECT_FPS_STEP)))
 
-    return sub, [(m(a), m(b)) for a, b in reps]
+def summary(rows):
+    r = np.array(rows)
+    return r[:, 0].mean(), np.mean(r[:, 1] == 0), np.abs(r[:, 1]).mean(), len(r)
 
 
-def run_hdm05(per_pair, seed, cfg):
+def run_hdm05(args, base):
     clips, names = load_clips()
-    seqs = make_sequences(clips, per_pair, seed)
-    rng = np.random.default_rng(seed + 1)
-    rows, seconds = defaultdict(list), []
-    for cls, actor, pos, reps in seqs:
-        for cond in ("mocap 120Hz", "kinect-like 30Hz"):
-            if cond.startswith("kinect"):
-                p, r, fps = (*kinectify(pos, reps, rng), 120.0 / KINECT_FPS_STEP)
-            else:
-                p, r, fps = pos, reps, 120.0
-            sk = Skeleton(names[actor], np.zeros(len(names[actor]), int),
-                          np.zeros((len(names[actor]), 3)), "m")
-            t0 = time.perf_counter()
-            seg = RepetitionSegmenter(cfg).fit(Recording(fps, sk, p))
-            seconds.append((time.perf_counter() - t0) / (p.shape[0] / fps))
-            # baseline (the paper's ablation, Fig. 9): no parameter selection (theta = 1)
-            base = RepetitionSegmenter(replace(cfg, power_ratio=1.0)).fit(seg.angles_, fps)
-            res = []
-            for s in (seg, base):
-                res += [repetition_accuracy(s.repetitions_, r), count_error(s.count_, len(r))]
-            rows[(cond, cls)].append(res)
-            rows[(cond, "ALL")].append(res)
-    print(f"HDM05: {len(seqs)} sequences x 2 conditions ({per_pair} per actor and class)")
-    print("alpha: eq. 15; exact: share of sequences with the right count; MAE: mean |count "
-          "error|; base_*: same without parameter selection (theta = 1, the paper's ablation)")
-    print(f"{'condition':18s} {'class':28s} {'n':>3s} {'alpha':>6s} {'exact':>6s} {'MAE':>5s}"
-          f" {'base_a':>6s} {'base_ex':>7s} {'base_MAE':>8s} {'a/base':>6s}")
-    for (cond, cls), v in sorted(rows.items(), key=lambda kv: (kv[0][0], kv[0][1] == "ALL",
-                                                                kv[0][1])):
-        v = np.array(v)
-        a, e, ba, be = v[:, 0], v[:, 1], v[:, 2], v[:, 3]
-        print(f"{cond:18s} {cls[:28]:28s} {len(v):3d} {a.mean():6.3f} {np.mean(e == 0):6.2f} "
-              f"{np.abs(e).mean():5.2f} {ba.mean():6.3f} {np.mean(be == 0):7.2f} "
-              f"{np.abs(be).mean():8.2f} {a.mean() / ba.mean():6.2f}")
-    print(f"compute: median {np.median(seconds):.3f} s per second of motion "
-          f"(UKF + segmentation, one core)")
-
-
-def run_cmu(cfg):
-    asf = DATA / "cmu86" / "86.asf"
-    blocks = defaultdict(list)
-    with open(DATA / "cmu_exercise" / "labels.csv", newline="") as fh:
-        for row in csv.DictReader(fh):
-            blocks[row["sequence"]].append((int(row["start_frame"]) - 1, int(row["end_frame"]),
-                                            row["action_label"]))
-    print("\nCMU exercise routines (skeleton 86.asf as approximation): count per block")
-    print(f"{'seq':6s} {'block':18s} {'frames':>11s} {'count':>5s} {'rep/s':>6s}")
-    for seq, bl in sorted(blocks.items()):
-        rec = read(DATA / "cmu_exercise" / f"{seq}.amc.gz", skeleton=asf)
-        for a, b, label in bl:
-            seg = RepetitionSegmenter(cfg).fit(rec.slice(a, min(b, rec.n_frames)))
-            print(f"{seq:6s} {label:18s} {a:5d}-{b:5d} {seg.count_:5d} "
-                  f"{seg.primary_frequency_hz_:6.2f}")
+    seqs = make_sequences(clips, names, args.per_pair, args.seed, classes=set(HDM05_REPETITIVE))
+    t0 = time.perf_counter()
+    for s in seqs:
+        s["X"] = bone_features(s, base)
+    print(f"HDM05: {len(seqs) // 2} sequences x 2 conditions ({args.per_pair} per actor and "
+          f"class, seed {args.seed}); UKF features {time.perf_counter() - t0:.0f} s (cached)")
+    on = args.choose_on
+    t0 = time.perf_counter()
+    pool = [s for s in seqs if s["actor"] == on]
+    seeds = [int(x) for x in args.choose_seeds.split(",")] if args.choose_seeds else []
+    for seed in seeds:  # more draws of the same actor's clips to choose on
+        if seed != args.seed:
+            more = [s for s in make_sequences(clips, names, args.per_pair, seed,
+                                              classes=set(HDM05_REPETITIVE)) if s["actor"] == on]
+            for s in more:
+                s["X"] = bone_features(s, base)
+            pool += more
+    cfg, chosen = choose(pool, base)
+    print(f"chosen on {on} alone ({len(pool) // 2} sequences, seeds {seeds or [args.seed]}; "
+          f"{len(list(itertools.product(*GRID.values())))} grid points, "
+          f"{time.perf_counter() - t0:.0f} s): {chosen}")
+    if cfg != base:
+        print(f"  NOTE: differs from the RepetitionConfig defaults (they hold "
+              f"{ {k: getattr(base, k) for k in GRID} })")
+    res = score(seqs, cfg)
+    table = defaultdict(list)
+    for s, r in zip(seqs, res):
+        table[(s["cond"], s["cls"], s["actor"])].append((s, r))
+    print("\nper class and actor: count found/true of each sequence, alpha (eq. 15) mean")
+    print(f"{'condition':9s} {'class':28s} {'actor':5s} {'held-out':8s} {'counts':24s} "
+          f"{'alpha':>6s}")
+    for (cond, cls, actor), v in sorted(table.items()):
+        counts = " ".join(f"{r[2]}/{len(s['reps'])}" for s, r in v)
+        alpha = np.mean([r[0] for _, r in v])
+        print(f"{cond:9s} {cls[:28]:28s} {actor:5s} {'no' if actor == on else 'yes':8s} "
+              f"{counts:24s} {alpha:6.3f}")
+    print("\nsummary (alpha mean, share of exact counts, mean |count error|, n)")
+    print(f"{'condition':9s} {'actors':22s} {'alpha':>6s} {'exact':>6s} {'MAE':>5s} {'n':>3s}")
+    for cond in ("clean", "kinect"):
+        for label, keep in ((f"held-out (not {on})", lambda a: a != on), (f"{on} (chosen on)",
+                                                                           lambda a: a == on)):
+            rows = [r for s, r in zip(seqs, res) if s["cond"] == cond and keep(s["actor"])]
+            a, e, m, n = summary(rows)
+            print(f"{cond:9s} {label:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
+        for actor in HDM05_ACTORS:
+            rows = [r for s, r in zip(seqs, res) if s["cond"] == cond and s["actor"] == actor]
+            a, e, m, n = summary(rows)
+            print(f"{cond:9s} {'  ' + actor:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
+    others = [("the previous boundaries (refined to velocity minima, 0.2 period)",
+               replace(cfg, refine_to="speed", refine_fraction=0.2))]
+    if cfg != base:  # another draw of sequences (--seed) may choose otherwise
+        others.append(("the RepetitionConfig defaults (chosen on bd, seed 0), held", base))
+    for title, other in others:
+        other_rows = score(seqs, other)
+        print(f"\n{title}:")
+        for cond in ("clean", "kinect"):
+            for label, keep in ((f"held-out (not {on})", lambda a: a != on),
+                                (on, lambda a: a == on)):
+                rows = [r for s, r in zip(seqs, other_rows)
+                        if s["cond"] == cond and keep(s["actor"])]
+                a, e, m, n = summary(rows)
+                print(f"{cond:9s} {label:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
+    if args.rotate:
+        print("\nleave-one-actor-out rotation: choose on one actor, score the other two")
+        print(f"{'chosen on':9s} {'choice':60s} {'clean a':>7s} {'ex':>5s} {'kinect a':>8s} "
+              f"{'ex':>5s}")
+        for actor in HDM05_ACTORS:
+            c, ch = choose([s for s in seqs if s["actor"] == actor], base)
+            r = score(seqs, c)
+            out = []
+            for cond in ("clean", "kinect"):
+                rows = [x for s, x in zip(seqs, r) if s["cond"] == cond and s["actor"] != actor]
+                a, e, _, _ = summary(rows)
+                out += [a, e]
+            desc = ", ".join(f"{k}={v}" for k, v in ch.items())
+            print(f"{actor:9s} {desc[:60]:60s} {out[0]:7.3f} {out[1]:5.2f} {out[2]:8.3f} "
+                  f"{out[3]:5.2f}")
+    return cfg
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-pair", type=int, default=3, help="sequences per actor and class")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--skip-cmu", action="store_true")
+    ap.add_argument("--choose-on", default="bd", choices=HDM05_ACTORS)
+    ap.add_argument("--choose-seeds", default="",
+                    help="choose on the chosen actor's sequences of these seeds (e.g. 0,1; "
+                         "default: --seed's only)")
+    ap.add_argument("--rotate", action="store_true", help="choose on each actor in turn")
+    ap.add_argument("--routines", action="store_true", help="part 2: whole routines")
+    ap.add_argument("--live", action="store_true", help="part 3: the live counter")
+    ap.add_argument("--skip-hdm05", action="store_true", help="skip part 1")
     args = ap.parse_args(argv)
-    cfg = RepetitionConfig()
-    run_hdm05(args.per_pair, args.seed, cfg)
-    if not args.skip_cmu:
-        run_cmu(cfg)
+    base = RepetitionConfig()
+    if not args.skip_hdm05:
+        run_hdm05(args, base)
+    if args.routines or args.live:
+        import rep_routines
+
+        rep_routines.run(args, base)
 
 
 if __name__ == "__main__":

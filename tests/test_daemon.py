@@ -328,7 +328,8 @@ def test_live_repetitions_match_the_counter(start_daemon, data_dir):
     s = sub(ep, stream="reps")
     replay(rec, ep["ingest"], stream="reps", speed=0, batch=30)
     events = list(listen(s, stream="reps", until_end=True, timeout=60))
-    want = RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton).learn_many(rec.positions)
+    counter = RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton)
+    want = counter.learn_many(rec.positions) + counter.finish()
     got = [(e.start, e.end, e.count, e.emitted_at) for e in events if e.type == "rep"]
     assert len(want) >= 3
     assert got == [(r.start, r.end, r.count, r.emitted_at) for r in want]

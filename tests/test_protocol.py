@@ -45,6 +45,7 @@ messages = st.one_of(
     st.builds(P.Cut, ids, nat, finite, finite, nat, st.booleans()),
     st.builds(P.Segments, ids, nat, nat, nat, segments, st.booleans(), finite),
     st.builds(P.Rep, ids, nat, nat, nat, finite, nat),
+    st.builds(P.Rep, ids, nat, nat, nat, finite, nat, st.one_of(st.none(), nat), nat),
     st.builds(P.Gap, ids, nat, nat),
     st.builds(P.Error, st.one_of(st.none(), ids), st.text(max_size=10), st.text(max_size=30),
               nat),

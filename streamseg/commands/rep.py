@@ -46,58 +46,90 @@ def _config(args) -> RepetitionConfig:
                             seed=args.rep_seed)
 
 
-def _run(args):
+def _run(args, sets=False):
+    """(config, fitted segmenter, seconds); with ``sets`` a :class:`RoutineSegmenter` for a
+    recording (a parameter matrix has no joint positions to cut into actions: one set)."""
     from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
     from streamseg.offline.repetition import RepetitionSegmenter
 
     cfg = _config(args)
-    seg = RepetitionSegmenter(cfg)
     t0 = time.perf_counter()
     if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
         if args.fps is None:
             raise ParameterError("--fps is required with a parameter matrix (.npy/.csv): "
                                  "the frame rate of its rows")
-        seg.fit(read_matrix(args.file), fps=float(args.fps))
+        seg = RepetitionSegmenter(cfg).fit(read_matrix(args.file), fps=float(args.fps))
     else:
         from streamseg.io import read
 
-        seg.fit(read(args.file, args.skeleton, fps=args.fps))
+        rec = read(args.file, args.skeleton, fps=args.fps)
+        if sets:
+            from streamseg.offline.sets import RoutineSegmenter
+
+            seg = RoutineSegmenter(cfg).fit(rec)
+        else:
+            seg = RepetitionSegmenter(cfg).fit(rec)
     return cfg, seg, time.perf_counter() - t0
 
 
+def _sets(seg) -> list:
+    """The JSON "sets" of a fitted RoutineSegmenter or RepetitionSegmenter."""
+    from streamseg.offline.sets import RepetitionSet
+
+    if hasattr(seg, "sets_"):
+        sets = seg.sets_
+    else:
+        sets = [RepetitionSet(0, int(seg.n_frames_), 0, int(seg.count_), bool(seg.repetitive_),
+                              seg.reason_, list(seg.repetitions_))]
+    return [{"start": st.start, "end": st.end, "label": st.label, "count": st.count,
+             "repetitive": st.repetitive, "reason": st.reason or None,
+             "repetitions": [{"start": int(a), "end": int(b)} for a, b in st.repetitions]}
+            for st in sets]
+
+
 def segment(args) -> dict:
-    """Repetitions of ``args.file`` as the JSON-able result the issue specifies."""
-    cfg, seg, seconds = _run(args)
+    """Repetitions of ``args.file`` as the JSON-able result the issues specify.
+
+    A recording is first cut into action sets (:class:`streamseg.offline.sets.
+    RoutineSegmenter`) and counted inside each; ``count`` and ``repetitions`` are those of
+    every set together; ``repetitive`` says whether any set is repetitive.
+    """
+    cfg, seg, seconds = _run(args, sets=True)
+    whole = getattr(seg, "whole_", seg)
+    sets = _sets(seg)
+    repetitive = any(st["repetitive"] for st in sets)
     if args.plot:
         from streamseg.plotting.repetitions import plot_repetitions
 
-        plot_repetitions(args.plot, seg)
-    a = seg.analysis_
-    # the live counter's "repetitive" test, applied to the whole input: a multi-exercise
-    # routine or a non-repetitive take gets counted all the same, so say so
-    repetitive = bool(a.concentration >= cfg.repetitive_ratio)
+        plot_repetitions(args.plot, whole, sets=sets)
     if not repetitive:
         print(f"streamseg segment: warning: {Path(args.file).name} does not look repetitive "
-              f"(power concentration {a.concentration:.2f} < {cfg.repetitive_ratio}); the count "
-              "assumes one repeated action: cut the take into exercises first", file=sys.stderr)
+              f"({sets[0]['reason'] if len(sets) == 1 else 'no set is'}): count 0",
+              file=sys.stderr)
+    a = whole.analysis_
+    params = {
+        "selected": [] if a is None else [whole.param_names_[i] for i in a.selected],
+        "k_star": 0 if a is None else int(a.k_star),
+        "n_candidates": 0 if a is None else int(a.candidates.size),
+        "concentration": 0.0 if a is None else round(float(a.concentration), 4),
+        "power_ratio": cfg.power_ratio,
+        "bandpass_width_cycles": cfg.bandpass_width_cycles,
+        "ukf_passes": cfg.ukf_passes,
+        "seconds": round(seconds, 3),
+    }
     return {
-        "n_frames": int(seg.n_frames_),
-        "fps": float(seg.fps_),
+        "n_frames": int(whole.n_frames_),
+        "fps": float(whole.fps_),
         "method": "rep",
         "count": int(seg.count_),
         "repetitive": repetitive,
+        "reason": None if repetitive else (sets[0]["reason"] if len(sets) == 1
+                                           else "no set is repetitive"),
         "repetitions": [{"start": int(s), "end": int(e)} for s, e in seg.repetitions_],
-        "primary_frequency_hz": float(seg.primary_frequency_hz_),
-        "params": {
-            "selected": [seg.param_names_[i] for i in a.selected],
-            "k_star": int(a.k_star),
-            "n_candidates": int(a.candidates.size),
-            "concentration": round(float(a.concentration), 4),
-            "power_ratio": cfg.power_ratio,
-            "bandpass_width_cycles": cfg.bandpass_width_cycles,
-            "ukf_passes": cfg.ukf_passes,
-            "seconds": round(seconds, 3),
-        },
+        "sets": sets,
+        "n_actions": int(getattr(seg, "n_clusters_", 1)),
+        "primary_frequency_hz": float(whole.primary_frequency_hz_),
+        "params": params,
     }
 
 

@@ -178,7 +178,7 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "notices", "_spine", "_spine_n", "cut_frames")
+                 "notices", "_spine", "_spine_n", "cut_frames", "rep_sets")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -188,6 +188,7 @@ class StreamPipeline:
         self.segmenter = algorithms.segmenter(fps)
         self.reps = algorithms.rep_counter(fps, skeleton)
         self.rep_offset = None  # stream frame of the counter's frame 0
+        self.rep_sets = None  # streamseg.online.rep_sets.SetTracker, with the first rep
         self.notices = []  # (reason, message) for the daemon to report, see push()
         # the live cuts a relabel snaps its boundaries to (the history holds fewer)
         self.cut_frames = collections.deque(maxlen=RECENT_CUTS)
@@ -225,8 +226,10 @@ class StreamPipeline:
         -------
         cuts : list of (frame, score, emitted_at)
             New cuts, in stream frames.
-        reps : list of (start, end, count, emitted_at)
-            Completed repetitions (empty without a repetition counter).
+        reps : list of (start, end, count, emitted_at, label, set_index)
+            Completed repetitions (empty without a repetition counter): ``count`` in the
+            current set, the action ``label`` (None: not yet relabelled) and the set's index
+            (:mod:`streamseg.online.rep_sets`).
         n_bad : int
             Frames whose features are not finite (skipped by the segmenter and the ring).
 
@@ -278,7 +281,8 @@ class StreamPipeline:
         self._spine_n = -1
 
     def _repetitions(self, positions, first_frame, ok) -> list:
-        """``(start, end, count, emitted_at)`` of completed repetitions, in stream frames.
+        """``(start, end, count, emitted_at, label, set_index)`` of completed repetitions, in
+        stream frames.
 
         The counter sees the frames with finite features only, so its frame numbers are
         stream frames offset by the first one; exact unless frames were lost or NaN.
@@ -292,8 +296,30 @@ class StreamPipeline:
             self.notices.append(("rep", f"repetition counting stopped: "
                                         f"{type(err).__name__}: {err}"))
             return []
+        return self._rep_tuples(reps)
+
+    def finish_reps(self) -> list:
+        """The repetitions the counter still holds at the stream's end (its ``finish``), as
+        :meth:`push` gives them."""
+        if self.reps is None or self.rep_offset is None:
+            return []
+        return self._rep_tuples(self.reps.finish())
+
+    def _rep_tuples(self, reps) -> list:
         o = self.rep_offset
-        return [(r.start + o, r.end + o, int(r.count), r.emitted_at + o) for r in reps]
+        if reps and self.rep_sets is None:
+            from streamseg.online.rep_sets import SetTracker
+
+            self.rep_sets = SetTracker()
+        w = self.previous
+        segs = _segment_triplets(w) if w is not None else []
+        out = []
+        for r in reps:
+            a, b = r.start + o, r.end + o
+            label = self.rep_sets.label_at(a, b, segs, getattr(w, "end", None), self.cut_frames)
+            count, index = self.rep_sets.assign(int(r.count), label)
+            out.append((a, b, count, r.emitted_at + o, label, index))
+        return out
 
     def finish(self) -> list:
         """Cuts the segmenter still holds at the end of the stream, in stream frames.

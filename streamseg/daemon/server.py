@@ -345,9 +345,10 @@ class Daemon:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
             st.cuts.append(ev)
             self._publish(st, ev)
-        for a, b, count, emitted in reps:
+        for a, b, count, emitted, label, index in reps:
             st.reps = count
-            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted))
+            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
+                                           label, index))
         self.latency.add(time.perf_counter() - np.array(arrivals))
         if (self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel
                 and not self.worker.pending((st.stream, st.gen))):
@@ -390,11 +391,20 @@ class Daemon:
         except Exception as err:  # never die: report, close without the final cuts
             final = []
             self._error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
+        try:
+            final_reps = st.pipeline.finish_reps()
+        except Exception as err:  # the counter is optional: report, close without them
+            final_reps = []
+            self._error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
         self._report_notices(st)
         for frame, score, emitted in final:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
             st.cuts.append(ev)
             self._publish(st, ev)
+        for a, b, count, emitted, label, index in final_reps:
+            st.reps = count
+            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
+                                           label, index))
         del self.streams[st.stream]
         if self.config.relabel_interval > 0 and self._submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)

@@ -160,6 +160,14 @@ def _num(obj, key, kind, stream, finite=True) -> float:
     return float(v)
 
 
+def _rep_label(obj):
+    """A ``rep`` event's optional action label: int or nil (absent: nil)."""
+    v = obj.get("label")
+    _need(v is None or (type(v) is int and 0 <= v < MAX_INT), "rep", "label", v,
+          "nil or an integer in [0, 2**53)", None)
+    return v
+
+
 def _announce(obj):
     s = _stream(obj, "announce")
     fps = _num(obj, "fps", "announce", s)
@@ -260,7 +268,9 @@ _BUILDERS = {
     "rep": lambda o: Rep(_stream(o, "rep"), _int(o, "start", "rep", None),
                          _int(o, "end", "rep", None), _int(o, "count", "rep", None),
                          _num(o, "time", "rep", None, finite=False),
-                         _int(o, "emitted_at", "rep", None)),
+                         _int(o, "emitted_at", "rep", None),
+                         _rep_label(o), _int(o, "set_index", "rep", None) if "set_index" in o
+                         else 0),
     "gap": lambda o: Gap(_stream(o, "gap"), _int(o, "expected", "gap", None),
                          _int(o, "got", "gap", None)),
     "error": _error,

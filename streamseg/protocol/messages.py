@@ -146,7 +146,9 @@ class Segments:
 @dataclass(frozen=True)
 class Rep:
     """Event: a repetition in frames ``[start, end)``, the ``count``-th of the current set,
-    found when frame ``emitted_at`` arrived."""
+    found when frame ``emitted_at`` arrived; ``label`` is the action label of the segment it
+    belongs to (None until a relabel covers it), ``set_index`` the set's index in the stream
+    (0-based; the count restarts at a new set)."""
 
     stream: str
     start: int
@@ -154,6 +156,8 @@ class Rep:
     count: int
     time: float
     emitted_at: int = 0
+    label: int | None = None
+    set_index: int = 0
 
     type = "rep"
 
