@@ -126,7 +126,7 @@ def run_live(args, cfg):
     delays, first_err, t_live = [], [], 0.0
     for s in seqs:
         rec = s["recording"]
-        off = RepetitionSegmenter(cfg).fit(bone_features(s, cfg), s["fps"])
+        off = RepetitionSegmenter(cfg, s["fps"]).fit(bone_features(s, cfg))
         t0 = time.perf_counter()
         ev, ev_end = live_counts(rec.positions, rec, cfg=cfg)
         t_live += time.perf_counter() - t0

@@ -54,7 +54,7 @@ def score(seqs, cfg):
     """[(alpha, count error, count)] of ``cfg`` on cached features."""
     out = []
     for s in seqs:
-        seg = RepetitionSegmenter(cfg).fit(s["X"], s["fps"])
+        seg = RepetitionSegmenter(cfg, s["fps"]).fit(s["X"])
         out.append((repetition_accuracy(seg.repetitions_, s["reps"]),
                     count_error(seg.count_, len(s["reps"])), seg.count_))
     return out

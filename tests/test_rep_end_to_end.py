@@ -15,7 +15,7 @@ from streamseg.cli import main
 from streamseg.evaluation.metrics import repetition_accuracy
 from streamseg.io import read, write_npz
 from streamseg.offline.repetition import RepetitionSegmenter
-from streamseg.online.repetition import Rep, RepetitionCounter
+from streamseg.online.repetition import RepetitionCounter, RepEvent
 from streamseg.recording import Recording
 
 TAKES = ("001", "002", "003", "004")
@@ -73,7 +73,7 @@ def test_live_counter_counts_the_squats_with_bounded_delay(squats):
     events = []
     for i in range(0, rec.n_frames, 37):  # uneven chunks, as frames arrive
         events += counter.learn_many(rec.positions[i:i + 37])
-    assert all(isinstance(e, Rep) for e in events)
+    assert all(isinstance(e, RepEvent) for e in events)
     assert [e.count for e in events] == list(range(1, len(events) + 1))
     assert len(events) >= 3  # the last repetition may end too close to the stream's end
     mean_len = np.mean([b - a for a, b in truth])

@@ -144,15 +144,22 @@ def test_segmenter_on_trajectories_with_a_known_rhythm():
     # a joint that bends and returns once per repetition, two others following it
     X = np.stack([0.5 * (1 - np.cos(phase)), 0.3 * (1 - np.cos(phase)), 0.2 * np.sin(phase),
                   0.01 * np.random.default_rng(0).normal(size=phase.size)], axis=1)
-    seg = RepetitionSegmenter().fit(X, fps=fps)
+    seg = RepetitionSegmenter(fps=fps).fit(X)
     truth = list(zip(np.cumsum([0] + lengths[:-1]), np.cumsum(lengths)))
     assert seg.count_ == 6
     assert repetition_accuracy(seg.repetitions_, truth) > 0.9
     assert seg.primary_frequency_hz_ == pytest.approx(fps / np.mean(lengths), rel=0.05)
-    labels = seg.predict()
+    segs = seg.predict()
+    assert [(s.start, s.end) for s in segs] == seg.repetitions_ and segs[-1].label == 5
+    labels = seg.labels_
     assert labels.shape == (phase.size,) and labels.max() == 5
+    assert (labels[segs[2].start:segs[2].end] == 2).all()
     with pytest.raises(ParameterError, match="fps"):
-        RepetitionSegmenter().fit(X)
+        RepetitionSegmenter(fps=0)
+    from streamseg.exceptions import NotFittedError
+
+    with pytest.raises(NotFittedError):
+        RepetitionSegmenter().predict()
 
 
 def test_config_rejects_bad_values_naming_the_field():
@@ -208,7 +215,7 @@ def test_wider_bandpass_lets_boundaries_follow_uneven_repetitions():
     true_joins = np.cumsum(lengths)[:-1]
 
     def join_error(width):
-        seg = RepetitionSegmenter(RepetitionConfig(bandpass_width_cycles=width)).fit(X, fps=fps)
+        seg = RepetitionSegmenter(RepetitionConfig(bandpass_width_cycles=width), fps).fit(X)
         assert seg.count_ == len(lengths)
         found = np.array([b for _, b in seg.repetitions_[:-1]])
         return np.mean(np.abs(found - true_joins)), repetition_accuracy(seg.repetitions_, truth)

@@ -7,10 +7,10 @@ trajectories (rows = frames, radians; ``--fps`` required). Method: Wang et al. 2
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
+from streamseg.commands.output import evaluation, segmentation, warn
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 
@@ -58,7 +58,7 @@ def _run(args, sets=False):
         if args.fps is None:
             raise ParameterError("--fps is required with a parameter matrix (.npy/.csv): "
                                  "the frame rate of its rows")
-        seg = RepetitionSegmenter(cfg).fit(read_matrix(args.file), fps=float(args.fps))
+        seg = RepetitionSegmenter(cfg, float(args.fps)).fit(read_matrix(args.file))
     else:
         from streamseg.io import read
 
@@ -103,9 +103,8 @@ def segment(args) -> dict:
 
         plot_repetitions(args.plot, whole, sets=sets)
     if not repetitive:
-        print(f"streamseg segment: warning: {Path(args.file).name} does not look repetitive "
-              f"({sets[0]['reason'] if len(sets) == 1 else 'no set is'}): count 0",
-              file=sys.stderr)
+        warn(args, f"{Path(args.file).name} does not look repetitive "
+             f"({sets[0]['reason'] if len(sets) == 1 else 'no set is'}): count 0")
     a = whole.analysis_
     params = {
         "selected": [] if a is None else [whole.param_names_[i] for i in a.selected],
@@ -117,20 +116,21 @@ def segment(args) -> dict:
         "ukf_passes": cfg.ukf_passes,
         "seconds": round(seconds, 3),
     }
-    return {
-        "n_frames": int(whole.n_frames_),
-        "fps": float(whole.fps_),
-        "method": "rep",
-        "count": int(seg.count_),
-        "repetitive": repetitive,
-        "reason": None if repetitive else (sets[0]["reason"] if len(sets) == 1
-                                           else "no set is repetitive"),
-        "repetitions": [{"start": int(s), "end": int(e)} for s, e in seg.repetitions_],
-        "sets": sets,
-        "n_actions": int(getattr(seg, "n_clusters_", 1)),
-        "primary_frequency_hz": float(whole.primary_frequency_hz_),
-        "params": params,
-    }
+    fps = float(whole.fps_)
+    return segmentation(
+        args, method="rep", n_frames=int(whole.n_frames_), fps=fps,
+        # the action sets are the segments: a routine's exercises, each counted
+        segments=[(st["start"], st["end"], st["label"]) for st in sets],
+        count=int(seg.count_),
+        repetitive=repetitive,
+        reason=None if repetitive else (sets[0]["reason"] if len(sets) == 1
+                                        else "no set is repetitive"),
+        repetitions=[{"start": int(s), "end": int(e)} for s, e in seg.repetitions_],
+        sets=sets,
+        n_actions=int(getattr(seg, "n_clusters_", 1)),
+        primary_frequency_hz=float(whole.primary_frequency_hz_),
+        params=params,
+    )
 
 
 def evaluate(args) -> dict:
@@ -151,13 +151,14 @@ def evaluate(args) -> dict:
         from streamseg.plotting.repetitions import plot_repetitions
 
         plot_repetitions(args.plot, seg, truth=truth)
-    return {
-        "alpha": repetition_accuracy(seg.repetitions_, truth),
-        "count": int(seg.count_),
-        "true_count": len(truth),
-        "count_error": count_error(seg.count_, len(truth)),
-        "primary_frequency_hz": float(seg.primary_frequency_hz_),
-        "seconds": round(seconds, 3),
-        "note": "labels are read as one row per repetition (eq. 15 compares the i-th found and "
-                "true repetition lengths)",
-    }
+    return evaluation(
+        args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
+        alpha=repetition_accuracy(seg.repetitions_, truth),
+        count=int(seg.count_),
+        true_count=len(truth),
+        count_error=count_error(seg.count_, len(truth)),
+        primary_frequency_hz=float(seg.primary_frequency_hz_),
+        seconds=round(seconds, 3),
+        note="labels are read as one row per repetition (eq. 15 compares the i-th found and "
+             "true repetition lengths)",
+    )

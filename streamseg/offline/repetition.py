@@ -18,6 +18,7 @@ from streamseg.kinematics.model import (
     observations,
 )
 from streamseg.offline import repetition_steps as steps
+from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionAnalysis", "RepetitionSegmenter", "angles_from_positions", "analyse",
            "not_repetitive_reason"]
@@ -214,17 +215,24 @@ def not_repetitive_reason(a: RepetitionAnalysis | None, config: RepetitionConfig
     return ""
 
 
-class RepetitionSegmenter:
+class RepetitionSegmenter(Estimator):
     """Cut a repetitive exercise into repetitions (offline).
 
     Parameters
     ----------
     config : RepetitionConfig, optional
+    fps : float
+        Frame rate of an array given to :meth:`fit` (a Recording brings its own).
 
     Attributes
     ----------
     repetitions_ : list of (int, int)
         0-based (start, end), end exclusive.
+    segments_ : list of Segment
+        The repetitions as ``Segment(start, end, index)`` (what :meth:`predict` returns; they
+        need not tile the take: frames outside every repetition are in none).
+    labels_ : ndarray of int64, shape (n_frames,)
+        Repetition index per frame, -1 outside every repetition.
     count_ : int
         0 when the sequence is not repetitive.
     repetitive_ : bool
@@ -246,25 +254,29 @@ class RepetitionSegmenter:
     fps_ : float
     """
 
-    def __init__(self, config: RepetitionConfig | None = None):
+    def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0):
         self.config = config or RepetitionConfig()
+        if not (np.isscalar(fps) and float(fps) > 0):
+            raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
+                                 "the arrays given to fit")
+        self.fps = float(fps)
 
-    def fit(self, X, fps: float | None = None) -> RepetitionSegmenter:
+    def fit(self, X) -> RepetitionSegmenter:
         """Segment a recording or parameter trajectories.
 
         Parameters
         ----------
         X : Recording or ndarray, shape (n_frames, n_params)
-            A recording (joint positions, Acclaim joint names) or angle trajectories.
-        fps : float, optional
-            Frame rate; required for arrays, taken from the recording otherwise.
+            A recording (joint positions, Acclaim joint names; its own frame rate) or angle
+            trajectories (at the ``fps`` given at construction).
 
         Returns
         -------
         self
         """
+        fps = self.fps
         if hasattr(X, "positions") and hasattr(X, "skeleton"):
-            fps = float(X.fps if fps is None else fps)
+            fps = float(X.fps)
             angles = angles_from_positions(X.positions, X.skeleton.names, fps, self.config)
             # Analysed: the bones' unit directions from the UKF angles. The 3-DoF shoulder's
             # Euler angles jump between equivalent branches when an arm circles through 360
@@ -305,11 +317,15 @@ class RepetitionSegmenter:
                                                          merge_edges=cfg.merge_edges)
         self.repetitive_ = not self.reason_
         self.count_ = len(self.repetitions_)
+        reps = self.repetitions_
+        self.segments_ = [Segment(int(a), int(b), i) for i, (a, b) in enumerate(reps)]
+        labels = np.full(self.n_frames_, -1, dtype=np.int64)
+        for i, (a, b) in enumerate(reps):
+            labels[a:b] = i
+        self.labels_ = labels
         return self
 
-    def predict(self) -> np.ndarray:
-        """Repetition index per frame (-1 outside every repetition), shape (n_frames,)."""
-        out = np.full(self.n_frames_, -1, dtype=np.int64)
-        for i, (a, b) in enumerate(self.repetitions_):
-            out[a:b] = i
-        return out
+    def predict(self) -> list[Segment]:
+        """The repetitions, ``Segment(start, end, index)`` (0-based, end exclusive)."""
+        self._check_fitted()
+        return list(self.segments_)

@@ -22,6 +22,7 @@ import numpy as np
 
 from streamseg.config import ACAConfig, RepetitionConfig
 from streamseg.offline.repetition import RepetitionSegmenter
+from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionSet", "RoutineSegmenter"]
 
@@ -64,18 +65,22 @@ def merge_runs(segments) -> list:
     return out
 
 
-class RoutineSegmenter:
+class RoutineSegmenter(Estimator):
     """Cut a take into action sets and count the repetitions of each.
 
     Parameters
     ----------
     config : RepetitionConfig, optional
+    fps : float
+        Kept for the common convention; a Recording brings its own frame rate.
     aca_config : ACAConfig, optional
         Default: the ``segment --method aca`` defaults for recordings (HACA, K found).
 
     Attributes
     ----------
     sets_ : list of RepetitionSet
+    segments_ : list of Segment
+        The sets as ``Segment(start, end, action label)`` (what :meth:`predict` returns).
     whole_ : RepetitionSegmenter
         The repetition segmenter fitted on the whole take.
     count_ : int
@@ -86,9 +91,10 @@ class RoutineSegmenter:
         Actions HACA found (1 when the take was one exercise).
     """
 
-    def __init__(self, config: RepetitionConfig | None = None,
+    def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0,
                  aca_config: ACAConfig | None = None):
         self.config = config or RepetitionConfig()
+        self.fps = float(fps)
         self.aca_config = aca_config or ACAConfig()
 
     def fit(self, recording) -> RoutineSegmenter:
@@ -102,7 +108,7 @@ class RoutineSegmenter:
         from streamseg.skeleton import body_features, quaternion_features
 
         cfg = self.config
-        whole = RepetitionSegmenter(cfg).fit(recording)
+        whole = RepetitionSegmenter(cfg, self.fps).fit(recording)
         self.whole_ = whole
         fps = whole.fps_
         a = whole.analysis_
@@ -122,11 +128,12 @@ class RoutineSegmenter:
             if len(runs) == 1:
                 seg = whole
             else:
-                seg = RepetitionSegmenter(cfg).fit(whole.angles_[s:e], fps)
+                seg = RepetitionSegmenter(cfg, fps).fit(whole.angles_[s:e])
             reps = [(int(a_ + s), int(b + s)) for a_, b in seg.repetitions_]
             sets.append(RepetitionSet(int(s), int(e), int(lab), len(reps), bool(seg.repetitive_),
                                       seg.reason_, reps))
         self.sets_ = sets
+        self.segments_ = [Segment(st.start, st.end, st.label) for st in sets]
         self.repetitions_ = [r for st in sets for r in st.repetitions]
         self.count_ = len(self.repetitions_)
         self.n_frames_ = whole.n_frames_

@@ -5,6 +5,6 @@ from __future__ import annotations
 from streamseg.online.events import CutEvent
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.online.lof import warmup as warmup_lof
-from streamseg.online.repetition import Rep, RepetitionCounter
+from streamseg.online.repetition import RepetitionCounter, RepEvent
 
-__all__ = ["CutEvent", "Rep", "RepetitionCounter", "StreamingLOFSegmenter", "warmup_lof"]
+__all__ = ["CutEvent", "RepEvent", "RepetitionCounter", "StreamingLOFSegmenter", "warmup_lof"]

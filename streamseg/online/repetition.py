@@ -23,7 +23,7 @@ after a minimum to place it): delay <= 0.5 period + hop. With no candidate near,
 places the boundary at last + period, reported once 0.35 period more have passed: delay <=
 0.85 period + hop. The period is at most ``buffer_seconds / (min_cycles + 0.5)`` (4.8 s by
 default), so every delay is below 4.6 s; for paces of 0.5-2 s per repetition it is about
-0.5-1.5 s. ``Rep.emitted_at`` is the frame index at which the event was made.
+0.5-1.5 s. ``RepEvent.emitted_at`` is the frame index at which the event was made.
 """
 
 from __future__ import annotations
@@ -39,11 +39,11 @@ from streamseg.kinematics.tracker import AngleTracker
 from streamseg.offline.repetition import analyse, not_repetitive_reason
 from streamseg.offline.repetition_steps import to_repetitions
 
-__all__ = ["Rep", "RepetitionCounter"]
+__all__ = ["RepEvent", "RepetitionCounter"]
 
 
 @dataclass(frozen=True)
-class Rep:
+class RepEvent:
     """One repetition found live.
 
     Attributes
@@ -110,11 +110,11 @@ class RepetitionCounter:
         self._since_repetitive = 0
         self._next_analysis = None
 
-    def learn_one(self, positions) -> list[Rep]:
+    def learn_one(self, positions) -> list[RepEvent]:
         """One frame, shape (n_joints, 3)."""
         return self.learn_many(np.asarray(positions, dtype=np.float64)[None])
 
-    def learn_many(self, positions) -> list[Rep]:
+    def learn_many(self, positions) -> list[RepEvent]:
         """Frames, shape (n, n_joints, 3); returns the repetitions completed meanwhile."""
         P = np.asarray(positions, dtype=np.float64)
         if P.ndim != 3 or P.shape[1:] != (len(self._names), 3):
@@ -169,7 +169,7 @@ class RepetitionCounter:
         d = bone_directions(self._tracker.update(Y))
         self._dirs = np.concatenate([self._dirs, d])[-self._cap:]
 
-    def _analyse(self) -> list[Rep]:
+    def _analyse(self) -> list[RepEvent]:
         cfg = self.config
         X = self._dirs
         n = X.shape[0]
@@ -229,7 +229,7 @@ class RepetitionCounter:
         ``benchmarks/repetitions.py --live``)."""
         return not not_repetitive_reason(a, self.config)
 
-    def finish(self) -> list[Rep]:
+    def finish(self) -> list[RepEvent]:
         """The stream has ended: the repetitions its last frames still hold.
 
         Live, a repetition is reported half a period after it ends; the last ones of a
@@ -281,7 +281,7 @@ class RepetitionCounter:
             out.append(self._emit(s, e))
         return out
 
-    def _emit(self, s, e) -> Rep:
+    def _emit(self, s, e) -> RepEvent:
         self.count_ += 1
         self._last_end = int(e)
-        return Rep(int(s), int(e), self.count_, self.n_seen_)
+        return RepEvent(int(s), int(e), self.count_, self.n_seen_)
