@@ -29,3 +29,4 @@ def test_python_api_example_runs():
     assert lines[0] == "[ 561 1129 1977 2492 3296 4089]"
     assert lines[1].startswith("CutEvent(frame=561, score=") and "emitted_at=809" in lines[1]
     assert lines[2].startswith("4 [Segment(start=0, end=536, label=3), ")
+    assert lines[3].startswith("4 [Segment(start=0, end=152, label=0), ")  # four squats

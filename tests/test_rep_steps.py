@@ -167,8 +167,8 @@ def test_config_rejects_bad_values_naming_the_field():
         RepetitionConfig(power_ratio=1.5)
     with pytest.raises(ParameterError, match="ukf_passes"):
         RepetitionConfig(ukf_passes=3)
-    with pytest.raises(ParameterError, match="hop_seconds"):
-        RepetitionConfig(hop_seconds=20.0, buffer_seconds=10.0)
+    with pytest.raises(ParameterError, match="hop_s"):
+        RepetitionConfig(hop_s=20.0, buffer_s=10.0)
     with pytest.raises(ParameterError, match="bandpass_width_cycles"):
         RepetitionConfig(bandpass_width_cycles=0.0)
     with pytest.raises(ParameterError, match="merge_edges"):

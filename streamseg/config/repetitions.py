@@ -92,9 +92,9 @@ class RepetitionConfig:
     live_refine_fraction : float
         Live: ``refine_fraction`` of the live counter, whose refinement always looks for
         velocity minima (a live buffer's ends are no rest pose).
-    buffer_seconds : float
+    buffer_s : float
         Live: analysed history.
-    hop_seconds : float
+    hop_s : float
         Live: analysis interval.
     repetitive_ratio : float
         Routines (:mod:`streamseg.offline.sets`): a take whose power concentration reaches
@@ -130,8 +130,8 @@ class RepetitionConfig:
     max_subharmonic: float = 0.5
     still_std: float = 0.01
     live_refine_fraction: float = 0.2
-    buffer_seconds: float = 12.0
-    hop_seconds: float = 0.5
+    buffer_s: float = 12.0
+    hop_s: float = 0.5
     repetitive_ratio: float = 0.5
 
     def __post_init__(self):
@@ -142,8 +142,8 @@ class RepetitionConfig:
             "max_frequency_hz",
             "band_width_cycles",
             "bandpass_width_cycles",
-            "buffer_seconds",
-            "hop_seconds",
+            "buffer_s",
+            "hop_s",
         ):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and v > 0, "a number > 0")
@@ -216,8 +216,8 @@ class RepetitionConfig:
             "a number >= 1",
         )
         _check(
-            "hop_seconds",
-            self.hop_seconds,
-            self.hop_seconds < self.buffer_seconds,
-            f"less than buffer_seconds={self.buffer_seconds}",
+            "hop_s",
+            self.hop_s,
+            self.hop_s < self.buffer_s,
+            f"less than buffer_s={self.buffer_s}",
         )

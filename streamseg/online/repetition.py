@@ -1,7 +1,7 @@
 """Live repetition counting: ``rep`` events a bounded delay after each repetition ends.
 
 How it works. Frames go through a causal (forward-only) kinematic UKF; the bone directions of
-the last ``buffer_seconds`` are analysed every ``hop_seconds`` with the offline steps of
+the last ``buffer_s`` are analysed every ``hop_s`` with the offline steps of
 section 4 (primary frequency, parameter selection, band-pass, candidates, adaptive k-means,
 eq. 14).
 
@@ -21,7 +21,7 @@ velocity minimum (a candidate) at frame ``e`` is reported at the first analysis 
 ``e + settle``, ``settle = ceil(0.5 * period)`` (the zero-phase band-pass needs half a cycle
 after a minimum to place it): delay <= 0.5 period + hop. With no candidate near, the rhythm
 places the boundary at last + period, reported once 0.35 period more have passed: delay <=
-0.85 period + hop. The period is at most ``buffer_seconds / (min_cycles + 0.5)`` (4.8 s by
+0.85 period + hop. The period is at most ``buffer_s / (min_cycles + 0.5)`` (4.8 s by
 default), so every delay is below 4.6 s; for paces of 0.5-2 s per repetition it is about
 0.5-1.5 s. ``RepEvent.emitted_at`` is the frame index at which the event was made.
 """
@@ -96,8 +96,8 @@ class RepetitionCounter:
                                         refine_fraction=self.config.live_refine_fraction)
         self.fps = float(fps)
         self._names = tuple(getattr(skeleton, "names", skeleton))
-        self._cap = int(round(self.config.buffer_seconds * self.fps))
-        self._hop = max(1, int(round(self.config.hop_seconds * self.fps)))
+        self._cap = int(round(self.config.buffer_s * self.fps))
+        self._hop = max(1, int(round(self.config.hop_s * self.fps)))
         self._init = max(2, int(round(0.25 * self.fps)))  # frames that fix body scale etc.
         self._pending = []
         self._dirs = np.empty((0, 30))
