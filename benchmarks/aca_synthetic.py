@@ -39,7 +39,7 @@ from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
 
 
 def run_cli(path, min_len, max_len, seed, k=4):
-    argv = ["segment", str(path), "--method", "aca", "--flat", "--kernel", "equality",
+    argv = ["segment", str(path), "--method", "aca", "--fps", "1", "--flat", "--kernel", "equality",
             "--min-len", str(min_len), "--max-len", str(max_len), "--restarts", "10",
             "--seed", str(seed), "--json"] + (["--clusters", str(k)] if k else [])
     out = io.StringIO()

@@ -30,6 +30,13 @@ def _available(table: dict) -> dict:
     return found
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line (what is wrong, where the help is), exit code 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 class _Formatter(argparse.RawDescriptionHelpFormatter):
     """Help with the default of every option that has one and does not already say it."""
 
@@ -62,8 +69,7 @@ def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> 
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="streamseg", description=__doc__,
-                                     formatter_class=_Formatter)
+    parser = _Parser(prog="streamseg", description=__doc__, formatter_class=_Formatter)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("info", help="summarize a recording (or feature matrix) and its features",

@@ -74,9 +74,18 @@ class Estimator:
             if name in fitted:
                 return _copy(fitted[name])
             cls = type(self).__name__
-            raise NotFittedError(f"{cls}.{name} is not set: call {cls}.fit(X) first"
-                                 if not fitted else f"{cls} has no fitted attribute {name!r}")
+            if not fitted:
+                raise NotFittedError(f"{cls}.{name} is not set: call {cls}.fit(X) first")
+            raise AttributeError(f"{cls} has no fitted attribute {name!r}")
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __copy__(self):
+        # a copy's fitted attributes are its own: fitting it never changes the original
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        if "_fitted" in self.__dict__:
+            new.__dict__["_fitted"] = dict(self.__dict__["_fitted"])
+        return new
 
     def _check_fitted(self) -> None:
         if not self.__dict__.get("_fitted"):

@@ -227,3 +227,35 @@ def test_lloyd_reseeds_an_empty_cluster():
     got = lloyd(X, start.copy(), 10)
     np.testing.assert_array_equal(got, naive_lloyd(X, start, 10)[0])
     assert set(got) == {0, 1, 2}
+
+
+def test_estimators_share_one_convention():
+    """fps checked at construction, NotFittedError before fit, copies out, fit_each results
+    independent of the model and of each other."""
+    import copy
+
+    from streamseg.exceptions import NotFittedError
+    from streamseg.offline import HACA, ACASegmenter, LOFSegmenter, RepetitionSegmenter
+
+    for cls in (ACASegmenter, LOFSegmenter, RepetitionSegmenter):
+        for bad in (0, -1, float("nan")):
+            with pytest.raises(ParameterError, match="fps"):
+                cls(fps=bad)
+        with pytest.raises(NotFittedError):
+            cls().predict()
+    X = np.repeat(np.eye(3), 60, axis=0) + np.random.default_rng(0).normal(0, 0.01, (180, 3))
+    seg = ACASegmenter(fps=30.0).fit(X)
+    labels = seg.labels_
+    labels[:] = -7
+    assert (seg.labels_ != -7).all()  # a copy
+    with pytest.raises(AttributeError, match="no fitted attribute"):
+        _ = seg.cuts_  # fitted, but not an attribute this estimator has
+    model = HACA(3, 20, 60, fine_clusters=4, fine_min_len_frames=5, fine_max_len_frames=15,
+                 n_init=2, random_state=0).fit(X)
+    before = model.labels_
+    fits = dict(model.fit_each(X, [2, 3]))
+    assert len(set(fits[2].labels_.tolist())) == 2 and len(set(fits[3].labels_.tolist())) == 3
+    assert (model.labels_ == before).all()  # fit_each left the fitted model alone
+    twin = copy.copy(model)
+    twin.labels_ = np.zeros(180, dtype=np.int64)
+    assert (model.labels_ == before).all()

@@ -121,9 +121,13 @@ def test_a_matrix_without_fps_is_said_and_info_reads_matrices(capsys, tmp_path):
 
     m = tmp_path / "f.csv"
     np.savetxt(m, np.repeat(np.eye(3), 40, axis=0), delimiter=",")
-    out = _json(capsys, "segment", m, "--method", "aca", "--clusters", "3", "--min-len", "20",
-                "--max-len", "40", "--json")
-    assert any("no frame rate" in w for w in out["warnings"]) and out["fps"] == 1.0
+    for method in ("aca", "lof", "rep"):  # a matrix has no frame rate: every method asks
+        assert main(["segment", str(m), "--method", method]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--fps" in err[0], err
+    out = _json(capsys, "segment", m, "--method", "aca", "--fps", "1", "--clusters", "3",
+                "--min-len", "20", "--max-len", "40", "--json")
+    assert out["fps"] == 1.0 and out["n_clusters"] == 3
     assert main(["info", str(m)]) == 0
     text = capsys.readouterr().out
     assert "frames:    120" in text and "columns:   3" in text

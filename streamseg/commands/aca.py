@@ -65,10 +65,11 @@ def _load(args):
     from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
 
     if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
-        if args.fps is None:
-            warn(args, f"{Path(args.file).name} is a feature matrix with no frame rate: "
-                 "1 row per second assumed, so --min-len/--max-len are in rows (give --fps)")
-        fps = 1.0 if args.fps is None else float(args.fps)
+        if args.fps is None:  # as lof and rep: a guessed rate would silently rescale lengths
+            raise ParameterError(f"{Path(args.file).name} is a feature matrix with no frame "
+                                 "rate: give --fps (rows per second; --min-len/--max-len are "
+                                 "in seconds)")
+        fps = float(args.fps)
         return read_matrix(args.file), fps, True
     from streamseg.io import read
     from streamseg.skeleton import quaternion_features

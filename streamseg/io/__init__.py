@@ -35,6 +35,10 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
     fps : float, optional
         Override the frame rate (AMC files carry none; default 120).
     """
+    if not Path(path).is_file():  # before anything else: a typo is not a format problem
+        raise RecordingError(Path(path), None,
+                             "no such file" if not Path(path).exists() else "not a file",
+                             "the path of a recording (.amc[.gz], .bvh, .npz)")
     suffix = base_suffix(path)
     reader = READERS.get(suffix)
     if reader is None:

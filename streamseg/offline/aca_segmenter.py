@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from streamseg.config import ACAConfig
+from streamseg.exceptions import ParameterError
 from streamseg.offline.model_selection import fit_aca
 from streamseg.segments import Estimator, segments_from_labels
 
@@ -45,6 +46,9 @@ class ACASegmenter(Estimator):
 
     def __init__(self, config: ACAConfig | None = None, fps: float = 120.0):
         self.config = ACAConfig() if config is None else config
+        if not (np.isscalar(fps) and np.isfinite(fps) and float(fps) > 0):
+            raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
+                                 "the features given to fit")
         self.fps = float(fps)
 
     def fit(self, X) -> ACASegmenter:

@@ -180,6 +180,8 @@ class LOFSegmenter(Estimator):
     def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
                  n_features: int | None = None):
         self.config = LOFConfig() if config is None else config
+        if not (np.isscalar(fps) and np.isfinite(fps) and float(fps) > 0):
+            raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
         self.fps = float(fps)
         feature_width(self.config, n_features)  # validates
         self.n_features = n_features

@@ -136,6 +136,8 @@ def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
     """
     from streamseg.offline.relabel import model_from_config
 
+    if not (np.isfinite(fps) and fps > 0):
+        raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
     X = np.asarray(X, dtype=np.float64)
     if X.ndim != 2:
         raise ParameterError(f"features must be an (n, d) array, got shape {X.shape}")
