@@ -54,8 +54,31 @@ def answer(daemon, req) -> dict:
             return {"ok": True, **daemon.closed_states[stream]}
         return {"ok": False, "error": f"no stream {stream!r}; open: "
                                       f"{', '.join(sorted(daemon.streams)[:20]) or 'none'}"}
+    if op == "since":
+        return since(daemon, req)
     if op == "shutdown":
         daemon.stop()
         return {"ok": True}
-    return {"ok": False, "error": f"unknown op {op!r}; expected ping, streams, state, stats "
-                                  "or shutdown"}
+    return {"ok": False, "error": f"unknown op {op!r}; expected ping, streams, state, since, "
+                                  "stats or shutdown"}
+
+
+SINCE_LIMIT = 10000  # events per reply at most; ask again from the last one for more
+
+
+def since(daemon, req) -> dict:
+    """The logged events of a stream with sequence numbers above ``seq`` (docs/protocol.md)."""
+    stream, seq = req.get("stream"), req.get("seq", 0)
+    limit = req.get("limit", SINCE_LIMIT)
+    if not isinstance(stream, str) or type(seq) is not int or seq < 0:
+        return {"ok": False, "error": "since needs stream (str) and seq (int >= 0): the events "
+                                      "with sequence numbers > seq"}
+    if daemon.eventlog is None:
+        return {"ok": False, "error": "this daemon keeps no event log (start it with "
+                                      "--state-dir DIR)"}
+    limit = min(limit, SINCE_LIMIT) if type(limit) is int and limit > 0 else SINCE_LIMIT
+    bodies, first = daemon.eventlog.since(stream, seq, limit)
+    events = [msgpack.unpackb(b, raw=False) for b in bodies]
+    return {"ok": True, "stream": stream, "events": events, "first": first,
+            "last": daemon.numbering.last.get(stream) or daemon.eventlog.last_seq(stream),
+            "more": len(events) == limit}

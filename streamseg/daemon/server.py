@@ -18,7 +18,9 @@ import zmq
 
 from streamseg import protocol
 from streamseg.config import DaemonConfig
+from streamseg.daemon import limits
 from streamseg.daemon.control import serve_control
+from streamseg.daemon.eventlog import Numbering, open_log
 from streamseg.daemon.ingest import Receiver
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.shutdown import shutdown
@@ -72,6 +74,9 @@ class Daemon:
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
+        self.eventlog = open_log(self.config)
+        self.numbering = Numbering(self.eventlog)
+        self.stray = limits.RateLimit(self.config.stray_errors_per_s)
         self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes,
                                     share=self.config.relabel_share)
         self.default_skeleton = None
@@ -90,6 +95,7 @@ class Daemon:
         self.ingest = self.ctx.socket(zmq.PULL)
         self.ingest.setsockopt(zmq.RCVHWM, c.ingest_hwm)
         self.ingest.setsockopt(zmq.LINGER, 0)
+        self.ingest.setsockopt(zmq.MAXMSGSIZE, c.max_message_bytes)
         self.ingest.bind(_bindable(c.ingest))
         self.pub = self.ctx.socket(zmq.PUB)
         self.pub.setsockopt(zmq.SNDHWM, c.hwm)
@@ -263,6 +269,10 @@ class Daemon:
         return None
 
     def _on_announce(self, msg: protocol.Announce, now: float) -> None:
+        problem = limits.fps_problem(msg.fps, self.config)
+        if problem:
+            self._error(msg.stream, "field", problem)
+            return
         old = self.streams.get(msg.stream)
         if old is not None:
             self._close(old, "reannounced")
@@ -282,6 +292,7 @@ class Daemon:
         self._gen += 1
         st = StreamState(stream, self._gen, fps, pipeline, now)
         st.next_relabel = int(round(self.config.relabel_interval * fps))
+        st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
         self.streams[stream] = st
         self.totals["streams_opened"] += 1
         log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
@@ -297,6 +308,13 @@ class Daemon:
                         f"(n <= {self.config.max_packet_frames}, "
                         f"{st.pipeline.skeleton.n_joints}, 3) as announced")
             return
+        problem = limits.clock_problem(timestamp) or (
+            seq > st.next_seq and limits.jump_problem(seq, st.next_seq, st.fps,
+                                                      self.config.max_seq_jump))
+        if problem:
+            st.dropped += n
+            self._error(st.stream, "seq" if seq > st.next_seq else "field", problem, n)
+            return
         if st.t0 is None:
             st.t0 = timestamp - seq / st.fps
         if seq != st.next_seq:
@@ -304,7 +322,8 @@ class Daemon:
                 self._flush(st)  # the segmenter learns contiguous runs
                 st.lost += seq - st.next_seq
                 self.errors.add(st.stream, "gap", f"frames {st.next_seq}..{seq - 1} missing")
-                self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
+                if st.gap_limit.allow(now):  # the rest are counted in the `gap` error
+                    self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
             else:
                 overlap = st.next_seq - seq
                 st.dropped += min(overlap, n)
@@ -341,8 +360,7 @@ class Daemon:
             self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
         for frame, score, emitted in cuts:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(ev)
-            self._publish(st, ev)
+            st.cuts.append(self._publish(st, ev))
         for a, b, count, emitted in reps:
             st.reps = count
             self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted))
@@ -362,16 +380,23 @@ class Daemon:
 
     # --- events ------------------------------------------------------------------------------
 
-    def _publish(self, st: StreamState | None, ev) -> None:
-        self.pub.send_multipart(protocol.encode(ev))
+    def _publish(self, st: StreamState | None, ev):
+        """Number, log and publish one event; returns it with its ``seq``."""
+        ev, parts = self.numbering.encode(ev)
+        self.pub.send_multipart(parts)
         self.totals["events"] += 1
         if st is not None:
             st.events_out += 1
+        return ev
 
     def _error(self, stream, reason: str, message: str, n: int = 1) -> None:
+        st = self.streams.get(stream) if stream else None
+        if st is None and stream and (stream, reason) not in self.errors.counts \
+                and not self.stray.allow(time.monotonic()):
+            stream = None  # a flood of unknown ids: pooled, summarised each heartbeat
         ev = self.errors.add(stream, reason, message, n)
         if ev is not None:
-            self._publish(self.streams.get(stream) if stream else None, ev)
+            self._publish(st, ev)
 
     def _report_notices(self, st: StreamState) -> None:
         """Publish the pipeline's notices (problems that do not stop the stream) as errors."""
@@ -391,8 +416,7 @@ class Daemon:
         self._report_notices(st)
         for frame, score, emitted in final:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(ev)
-            self._publish(st, ev)
+            st.cuts.append(self._publish(st, ev))
         del self.streams[st.stream]
         if self.config.relabel_interval > 0 and self._submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
@@ -431,9 +455,8 @@ class Daemon:
             st.pipeline.previous = result.window
             ev = protocol.Segments(stream, st.revision, result.start, result.end,
                                    result.segments, job.final, result.elapsed)
-            st.segments = ev
             self.totals["relabels"] += 1
-            self._publish(st, ev)
+            st.segments = self._publish(st, ev)
         if job.final and reason is not None:
             self.closing.pop(job.key, None)
             self._closed(st, reason)

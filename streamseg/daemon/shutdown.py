@@ -27,6 +27,8 @@ def shutdown(daemon) -> None:
             if sock is not None:
                 sock.close()  # default linger: final events still reach listeners
         daemon.ctx.term()
+        if daemon.eventlog is not None:
+            daemon.eventlog.close()  # after the final events: they are logged too
         log.info("daemon stopped")
 
 

@@ -23,7 +23,7 @@ class StreamState:
 
     __slots__ = ("stream", "gen", "fps", "pipeline", "next_seq", "t0", "last_seen", "frames_in",
                  "dropped", "lost", "events_out", "revision", "segments", "cuts", "reps",
-                 "next_relabel", "relabel_time", "pending", "arrivals")
+                 "next_relabel", "relabel_time", "pending", "arrivals", "gap_limit")
 
     def __init__(self, stream: str, gen: int, fps: float, pipeline, now: float):
         self.stream = stream
@@ -45,6 +45,7 @@ class StreamState:
         self.relabel_time = 0.0
         self.pending = []  # Frames packets received in this drain, contiguous
         self.arrivals = []  # perf_counter() at which each pending packet was received
+        self.gap_limit = None  # limits.RateLimit of published gap events
 
     def time_of(self, frame: int) -> float:
         return (self.t0 or 0.0) + frame / self.fps

@@ -56,6 +56,11 @@ def subscriptions(stream: str | None = None, kind: str | None = None) -> list[by
 
 # --- messages ------------------------------------------------------------------------------
 
+# The event sequence number (docs/protocol.md, "Sequence numbers"): set by the daemon when it
+# publishes, so it is not part of an event's identity (two runs' events compare equal).
+def _seq():
+    return field(default=None, compare=False)
+
 
 @dataclass(frozen=True)
 class Announce:
@@ -117,6 +122,7 @@ class Cut:
     score: float
     emitted_at: int
     provisional: bool = True
+    seq: int | None = _seq()
 
     type = "cut"
 
@@ -137,6 +143,7 @@ class Segments:
     segments: tuple[tuple[int, int, int], ...]
     final: bool = False
     elapsed: float = 0.0
+    seq: int | None = _seq()
 
     type = "segments"
 
@@ -152,6 +159,7 @@ class Rep:
     count: int
     time: float
     emitted_at: int = 0
+    seq: int | None = _seq()
 
     type = "rep"
 
@@ -163,6 +171,7 @@ class Gap:
     stream: str
     expected: int
     got: int
+    seq: int | None = _seq()
 
     type = "gap"
 
@@ -175,6 +184,7 @@ class Error:
     reason: str
     message: str
     count: int = 1
+    seq: int | None = _seq()
 
     type = "error"
 
@@ -197,6 +207,7 @@ class Closed:
     stream: str
     reason: str
     frames: int
+    seq: int | None = _seq()
 
     type = "closed"
 
