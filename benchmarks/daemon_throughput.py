@@ -113,9 +113,9 @@ def start_daemon(**overrides):
     return d, ep, t
 
 
-def daemon_run(msgs, n_frames, relabel=True) -> tuple:
+def daemon_run(msgs, n_frames, relabel=True, **overrides) -> tuple:
     """(seconds until the last frame was processed, p50, p99 latency) for one stream."""
-    d, ep, t = start_daemon(relabel_interval=5.0 if relabel else 0.0)
+    d, ep, t = start_daemon(relabel_interval=5.0 if relabel else 0.0, **overrides)
     p, go = start_sender(ep["ingest"], msgs)
     d.latency.reset()
     go.set()
@@ -166,6 +166,28 @@ def throughput(rec, n_frames, repeats, relabel):
     for batch, raw_fps, d_fps, p50, p99 in rows:
         print(f"{batch:>13} {raw_fps:>13,.0f} {d_fps:>16,.0f} {d_fps / raw_fps:>6.2f} "
               f"{d_fps / min(raw_fps, algo):>19.2f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f}")
+
+
+def event_log_cost(rec, n_frames, repeats):
+    """Daemon frames/s with the event log and checkpoints off and on, runs interleaved."""
+    import tempfile
+
+    print(f"\nevent log + checkpoints off vs on (state_dir), 1 stream, {n_frames} frames, "
+          f"relabel every 5 s, median of {repeats} interleaved runs")
+    print(f"{'frames/packet':>13} {'off frames/s':>13} {'on frames/s':>12} {'on/off':>7} "
+          f"{'off p99 ms':>11} {'on p99 ms':>10}")
+    for batch in (1, 120):
+        msgs = encoded_stream(rec, n_frames, batch)
+        off, on = [], []
+        for _ in range(repeats):
+            off.append(daemon_run(msgs, n_frames, True))
+            with tempfile.TemporaryDirectory() as state:
+                on.append(daemon_run(msgs, n_frames, True, state_dir=state))
+        f_off = n_frames / statistics.median(r[0] for r in off)
+        f_on = n_frames / statistics.median(r[0] for r in on)
+        print(f"{batch:>13} {f_off:>13,.0f} {f_on:>12,.0f} {f_on / f_off:>7.3f} "
+              f"{statistics.median(r[2] for r in off) * 1e3:>11.2f} "
+              f"{statistics.median(r[2] for r in on) * 1e3:>10.2f}")
 
 
 def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, go, stats):
@@ -253,6 +275,8 @@ def main():
     ap.add_argument("--stream-batch", type=int, default=4)
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument("--event-log", action="store_true",
+                    help="only compare the event log and checkpoints off and on")
     ap.add_argument("--relabel-processes", type=int, default=0,
                     help="DaemonConfig.relabel_processes (0: relabel in a thread)")
     ap.add_argument("--receive-thread", type=int, choices=(0, 1), default=None,
@@ -270,6 +294,9 @@ def main():
         sys.setswitchinterval(args.switch_interval)
     print(f"relabel_processes = {RELABEL_PROCESSES}, receive_thread = {RECEIVE_THREAD}")
     rec = load()
+    if args.event_log:
+        event_log_cost(rec, args.frames, args.repeats)
+        return
     if not args.skip_throughput:
         for relabel in (False, True):
             throughput(rec, args.frames, args.repeats, relabel)

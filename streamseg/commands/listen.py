@@ -1,7 +1,10 @@
 """Subscribe to a daemon's events and print them (one JSON object per line with --jsonl).
 
-With ``--control`` it first asks for the stream's current state (late-joiner catch-up) and
-then prints only newer events; ``--count N`` or ``--until-end`` make it stop, for scripts.
+With ``--control`` it first asks for the stream's current state (late-joiner catch-up), then,
+when the daemon keeps an event log, every logged event of the stream since it opened (or
+since ``--since N``), then the live events; ``--count N`` or ``--until-end`` make it stop.
+Events carry per-stream sequence numbers: a hole (events lost, e.g. to the publish
+high-water mark) is reported on stderr and, with ``--control``, filled from the log.
 """
 
 from __future__ import annotations
@@ -23,6 +26,9 @@ def add_arguments(parser) -> None:
                         help="only this event type")
     parser.add_argument("--jsonl", action="store_true", help="one JSON object per line")
     parser.add_argument("--control", metavar="ENDPOINT", help="ask for current state first")
+    parser.add_argument("--since", type=int, metavar="N",
+                        help="first print the stream's logged events with sequence numbers "
+                             "> N (needs --control and --stream; 0: all retained)")
     stop = parser.add_mutually_exclusive_group()
     stop.add_argument("--count", type=int, metavar="N", help="stop after N events")
     stop.add_argument("--until-end", action="store_true",
@@ -103,18 +109,53 @@ def format_event(ev) -> str:
     return repr(ev)
 
 
-def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None):
+def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None) -> list:
+    """The logged events of ``stream`` with sequence numbers in ``(seq, upto)`` (all after
+    ``seq`` when ``upto`` is None) from the control op ``since``, page by page; raises
+    LookupError when the daemon keeps no log."""
+    out = []
+    while True:
+        reply = request(endpoint, "since", ctx, stream=stream, seq=seq)
+        if not reply.get("ok"):
+            raise LookupError(reply.get("error"))
+        for body in reply["events"]:
+            ev = protocol.from_body(body)
+            if upto is not None and ev.seq >= upto:
+                return out
+            out.append(ev)
+            seq = ev.seq
+        if not reply.get("more"):
+            return out
+
+
+def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
+           backlog=(), on_hole=None):
     """Yield decoded events from a SUB socket until a stop condition.
 
     ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
     or before its newest cut are skipped (they are in the state already), until the stream
-    is closed (a snapshot of an already closed stream filters nothing).
+    is closed (a snapshot of an already closed stream filters nothing). ``backlog``: events
+    fetched from the event log, yielded first; live events they already hold (by sequence
+    number) are skipped. ``on_hole(key, first, end)`` is called when a stream's sequence
+    numbers skip ``[first, end)`` (only meaningful when every event type of the stream is
+    subscribed); it returns the missing events it could fetch, which are yielded then.
     """
     if since and since.get("closed"):
         since = None  # the snapshot is of a closed stream: later events are a new one
     rev = since.get("revision", 0) if since else 0
     last_cut = max((c["frame"] for c in since.get("cuts", [])), default=-1) if since else -1
     seen = 0
+    last: dict = {}  # stream id (or "*") -> last sequence number yielded
+    fetched: dict = {}  # stream id -> highest sequence number yielded from the log
+    for i, ev in enumerate(backlog):
+        key = ev.stream or protocol.DAEMON_WIDE
+        last[key] = fetched[key] = ev.seq
+        seen += 1
+        yield ev
+        if count is not None and seen >= count:
+            return
+        if until_end and ev.type == "closed" and i == len(backlog) - 1:
+            return  # the history ends with the stream closed (earlier ones: re-announced)
     poller = zmq.Poller()
     poller.register(sock, zmq.POLLIN)
     while count is None or seen < count:
@@ -130,17 +171,48 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
                 continue
             if ev.type == "closed":
                 since = None  # a re-announced stream starts its revisions and frames over
-        seen += 1
-        yield ev
-        if until_end and ev.type == "closed" and (stream is None or ev.stream == stream):
-            return
+        n = getattr(ev, "seq", None)
+        missed = ()
+        if n is not None:
+            key = ev.stream or protocol.DAEMON_WIDE
+            if n <= fetched.get(key, 0):
+                continue  # already yielded from the log
+            prev = last.get(key)
+            if prev is not None and n > prev + 1 and on_hole is not None:
+                missed = on_hole(key, prev + 1, n) or ()
+            last[key] = n
+        for e in (*missed, ev):
+            seen += 1
+            yield e
+            if until_end and e.type == "closed" and (stream is None or e.stream == stream):
+                return
+            if count is not None and seen >= count:
+                return
 
 
 def run(args) -> int:
+    if args.since is not None and not (args.control and args.stream):
+        print("streamseg listen: --since needs --control ENDPOINT and --stream ID",
+              file=sys.stderr)
+        return 2
     ctx = zmq.Context.instance()
     sock = subscriber(args.source, args.stream, args.kind, ctx)
     out = sys.stdout
-    since = None
+    since, backlog = None, []
+
+    def on_hole(key, first, end):
+        print(f"streamseg listen: hole: events {first}..{end - 1} of stream {key} were missed "
+              f"({end - first})" + (", fetching them from the event log" if args.control
+                                    else "; give --control to fetch them"), file=sys.stderr)
+        if not args.control or key == protocol.DAEMON_WIDE:
+            return ()
+        try:
+            evs = fetch_since(args.control, key, first - 1, ctx, upto=end)
+        except (LookupError, TimeoutError) as err:
+            print(f"streamseg listen: cannot fetch them: {err}", file=sys.stderr)
+            return ()
+        return [e for e in evs if args.kind is None or e.type == args.kind]
+
     try:
         if args.control:
             time.sleep(0.2)  # let the subscription reach the daemon before the snapshot
@@ -151,6 +223,12 @@ def run(args) -> int:
                                                  if k not in ("ok", "v")}}
                     text = strict_json.dumps(state) if args.jsonl else _state_line(state)
                     out.write(text + "\n")
+                    backlog = _history(args, since, ctx)
+                    if backlog is not None:
+                        since = None  # the log has every event: filter by sequence number
+                elif args.since is not None:
+                    backlog = _history(args, {"seq_base": args.since}, ctx)
+                    since = None
                 else:
                     print(f"streamseg listen: {since.get('error')}", file=sys.stderr)
                     since = None
@@ -161,7 +239,8 @@ def run(args) -> int:
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
             out.flush()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
-                         timeout=args.timeout, since=since):
+                         timeout=args.timeout, since=since, backlog=backlog or (),
+                         on_hole=on_hole if args.kind is None else None):
             text = strict_json.dumps(protocol.to_json(ev)) if args.jsonl else format_event(ev)
             out.write(text + "\n")
             out.flush()
@@ -171,6 +250,21 @@ def run(args) -> int:
     finally:
         sock.close()
     return 0
+
+
+def _history(args, state: dict, ctx):
+    """The logged events of the stream since ``--since`` (or since it opened, for a stream
+    that is open), ``--type`` applied; None when there is nothing to fetch or no log."""
+    if args.since is None and (state.get("closed") or "seq_base" not in state):
+        return None
+    try:
+        evs = fetch_since(args.control, args.stream,
+                          args.since if args.since is not None else state["seq_base"], ctx)
+    except (LookupError, TimeoutError) as err:
+        if args.since is not None:
+            print(f"streamseg listen: --since: {err}", file=sys.stderr)
+        return None
+    return [e for e in evs if args.kind is None or e.type == args.kind]
 
 
 def _state_line(state: dict) -> str:

@@ -96,6 +96,8 @@ class EventLog:
         self.deleted = 0
         self.batches = 0
         self.write_seconds = 0.0
+        self.live_bytes = 0  # measured by the last retention pass
+        self.retentions = 0
         self._next_retention = 0.0
         self._thread = threading.Thread(target=self._run, name="streamseg-eventlog", daemon=True)
         self._thread.start()
@@ -201,6 +203,8 @@ class EventLog:
                 cur = self._w.execute("DELETE FROM events WHERE id <= ?", (cut,))
                 self.deleted += cur.rowcount
             self._w.execute("PRAGMA incremental_vacuum")
+            self.live_bytes = self.size()
+            self.retentions += 1
         except sqlite3.Error as err:
             log.error("event log %s: retention failed: %s", self.path, err)
 
@@ -227,15 +231,20 @@ class Numbering:
         self.log = eventlog
         self.last: collections.OrderedDict = collections.OrderedDict()
 
-    def next(self, key: str) -> int:
+    def current(self, key: str) -> int:
+        """The last number given to ``key`` (0: none yet)."""
         n = self.last.get(key)
         if n is None:
             n = self.log.last_seq(key) if self.log is not None else 0
             if len(self.last) >= self.MAX_IDS:
                 self.last.popitem(last=False)
+            self.last[key] = n
         else:
             self.last.move_to_end(key)
-        n += 1
+        return n
+
+    def next(self, key: str) -> int:
+        n = self.current(key) + 1
         self.last[key] = n
         return n
 

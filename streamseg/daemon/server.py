@@ -293,6 +293,7 @@ class Daemon:
         st = StreamState(stream, self._gen, fps, pipeline, now)
         st.next_relabel = int(round(self.config.relabel_interval * fps))
         st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
+        st.seq_base = self.numbering.current(stream)
         self.streams[stream] = st
         self.totals["streams_opened"] += 1
         log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
