@@ -1,24 +1,41 @@
 """What any process needs to follow the daemon: pyzmq and msgpack, nothing of streamseg.
 
-    python clients/minimal_listener.py tcp://127.0.0.1:5561 [STREAM] [--max N]
+    python clients/minimal_listener.py tcp://127.0.0.1:5561 [STREAM] [--max N] [--keys DIR]
 
 Prints one line per cut and relabel (protocol v1, docs/protocol.md) until the stream closes
-(or N events). A template for clients in other processes or languages.
+(or N events). A template for clients in other processes or languages. With ``--keys DIR``
+(made by ``streamseg keys DIR``) it connects with CURVE: its pair from ``client.key_secret``,
+the daemon's public key from ``server.key``.
 """
 
 import sys
 
 import msgpack
 import zmq
+import zmq.auth
+
+
+def option(argv, name):
+    """The value after ``name`` in argv (both removed), or None."""
+    if name not in argv:
+        return None
+    i = argv.index(name)
+    value = argv[i + 1]
+    del argv[i:i + 2]
+    return value
 
 
 def main(argv):
-    args = [a for a in argv if not a.startswith("--max")]
-    limit = int(argv[argv.index("--max") + 1]) if "--max" in argv else None
-    if limit is not None:
-        args.remove(str(limit))
+    args = list(argv)
+    limit = option(args, "--max")
+    limit = int(limit) if limit is not None else None
+    keys = option(args, "--keys")
     endpoint, stream = args[0], (args[1] if len(args) > 1 else "")
     sub = zmq.Context.instance().socket(zmq.SUB)
+    if keys:  # CURVE: zmq.auth reads ZeroMQ's certificate files
+        sub.curve_publickey, sub.curve_secretkey = zmq.auth.load_certificate(
+            f"{keys}/client.key_secret")
+        sub.curve_serverkey, _ = zmq.auth.load_certificate(f"{keys}/server.key")
     sub.connect(endpoint)
     # topics are "<type>/<stream>/": one subscription per event type this client wants
     suffix = f"{stream}/" if stream else ""

@@ -31,4 +31,5 @@ TOOLS = {
     "replay": "streamseg.commands.replay",
     "listen": "streamseg.commands.listen",
     "demo": "streamseg.commands.demo",
+    "keys": "streamseg.commands.keys",
 }

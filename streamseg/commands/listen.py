@@ -33,16 +33,24 @@ def add_arguments(parser) -> None:
     stop.add_argument("--count", type=int, metavar="N", help="stop after N events")
     stop.add_argument("--until-end", action="store_true",
                       help="stop when the stream (any stream without --stream) is closed")
+    parser.add_argument("--curve-dir", metavar="DIR",
+                        help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
+                             "server.key)")
     parser.add_argument("--timeout", type=float, default=None,
                         help="give up after this many seconds without an event (exit 1)")
 
 
-def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, **fields) -> dict:
-    """One control request (``ping``, ``streams``, ``state``, ``stats``, ``shutdown``)."""
+def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
+            **fields) -> dict:
+    """One control request (``ping``, ``streams``, ``state``, ``since``, ``stats``,
+    ``shutdown``); ``curve``: :class:`~streamseg.daemon.security.ClientKeys`."""
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
     sock.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
+    sock.setsockopt(zmq.SNDTIMEO, int(timeout * 1000))
+    if curve is not None:
+        curve.apply(sock)
     sock.connect(endpoint)
     try:
         sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
@@ -53,10 +61,12 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, **fields) ->
         sock.close()
 
 
-def subscriber(endpoint: str, stream=None, kind=None, ctx=None):
+def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None):
     """A SUB socket connected to ``endpoint`` with the prefixes selecting stream/type."""
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.SUB)
+    if curve is not None:
+        curve.apply(sock)
     sock.setsockopt(zmq.LINGER, 0)
     sock.setsockopt(zmq.RCVHWM, 0)  # a listener should not lose events to its own slowness
     for prefix in protocol.subscriptions(stream, kind):
@@ -109,13 +119,13 @@ def format_event(ev) -> str:
     return repr(ev)
 
 
-def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None) -> list:
+def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None) -> list:
     """The logged events of ``stream`` with sequence numbers in ``(seq, upto)`` (all after
     ``seq`` when ``upto`` is None) from the control op ``since``, page by page; raises
     LookupError when the daemon keeps no log."""
     out = []
     while True:
-        reply = request(endpoint, "since", ctx, stream=stream, seq=seq)
+        reply = request(endpoint, "since", ctx, curve=curve, stream=stream, seq=seq)
         if not reply.get("ok"):
             raise LookupError(reply.get("error"))
         for body in reply["events"]:
@@ -195,8 +205,13 @@ def run(args) -> int:
         print("streamseg listen: --since needs --control ENDPOINT and --stream ID",
               file=sys.stderr)
         return 2
+    curve = None
+    if args.curve_dir:
+        from streamseg.daemon.security import ClientKeys
+
+        curve = ClientKeys.load(args.curve_dir)
     ctx = zmq.Context.instance()
-    sock = subscriber(args.source, args.stream, args.kind, ctx)
+    sock = subscriber(args.source, args.stream, args.kind, ctx, curve=curve)
     out = sys.stdout
     since, backlog = None, []
 
@@ -207,7 +222,7 @@ def run(args) -> int:
         if not args.control or key == protocol.DAEMON_WIDE:
             return ()
         try:
-            evs = fetch_since(args.control, key, first - 1, ctx, upto=end)
+            evs = fetch_since(args.control, key, first - 1, ctx, upto=end, curve=curve)
         except (LookupError, TimeoutError) as err:
             print(f"streamseg listen: cannot fetch them: {err}", file=sys.stderr)
             return ()
@@ -217,23 +232,23 @@ def run(args) -> int:
         if args.control:
             time.sleep(0.2)  # let the subscription reach the daemon before the snapshot
             if args.stream:
-                since = request(args.control, "state", ctx, stream=args.stream)
+                since = request(args.control, "state", ctx, curve=curve, stream=args.stream)
                 if since.get("ok"):
                     state = {"type": "state", **{k: v for k, v in since.items()
                                                  if k not in ("ok", "v")}}
                     text = strict_json.dumps(state) if args.jsonl else _state_line(state)
                     out.write(text + "\n")
-                    backlog = _history(args, since, ctx)
+                    backlog = _history(args, since, ctx, curve)
                     if backlog is not None:
                         since = None  # the log has every event: filter by sequence number
                 elif args.since is not None:
-                    backlog = _history(args, {"seq_base": args.since}, ctx)
+                    backlog = _history(args, {"seq_base": args.since}, ctx, curve)
                     since = None
                 else:
                     print(f"streamseg listen: {since.get('error')}", file=sys.stderr)
                     since = None
             else:
-                streams = request(args.control, "streams", ctx)
+                streams = request(args.control, "streams", ctx, curve=curve)
                 line = {"type": "streams", "streams": streams.get("streams", [])}
                 out.write((strict_json.dumps(line) if args.jsonl else
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
@@ -252,14 +267,15 @@ def run(args) -> int:
     return 0
 
 
-def _history(args, state: dict, ctx):
+def _history(args, state: dict, ctx, curve=None):
     """The logged events of the stream since ``--since`` (or since it opened, for a stream
     that is open), ``--type`` applied; None when there is nothing to fetch or no log."""
     if args.since is None and (state.get("closed") or "seq_base" not in state):
         return None
     try:
         evs = fetch_since(args.control, args.stream,
-                          args.since if args.since is not None else state["seq_base"], ctx)
+                          args.since if args.since is not None else state["seq_base"], ctx,
+                          curve=curve)
     except (LookupError, TimeoutError) as err:
         if args.since is not None:
             print(f"streamseg listen: --since: {err}", file=sys.stderr)

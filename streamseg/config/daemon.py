@@ -88,8 +88,9 @@ class DaemonConfig:
         stream ids that are not open (``unknown_stream`` floods), per second. Beyond them the
         occurrences are counted and summarised in the ``error`` republished each heartbeat.
     max_streams_per_client : int
-        Streams one client may hold open at once (its CURVE key, or without CURVE its
-        connection); 0: no quota beyond ``max_streams``.
+        Streams one client may hold open at once (a ``quota`` error beyond it), so one
+        sender cannot take every slot. A client is its CURVE public key; without CURVE it is
+        the peer's IP address (so all local senders share one quota). 0: no quota.
     curve_dir : str
         Directory made by ``streamseg keys``: with it every socket uses CURVE, the daemon
         takes ``server.key_secret`` and accepts only the client public keys in
@@ -130,7 +131,7 @@ class DaemonConfig:
     max_fps: float = 10000.0
     gap_events_per_s: float = 10.0
     stray_errors_per_s: float = 10.0
-    max_streams_per_client: int = 0
+    max_streams_per_client: int = 1000
     curve_dir: str = ""
     insecure: bool = False
 

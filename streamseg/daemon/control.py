@@ -14,11 +14,12 @@ def serve_control(daemon) -> None:
     """Answer every queued control request (REP: one reply per request)."""
     while True:
         try:
-            parts = daemon.control.recv_multipart(zmq.NOBLOCK)
+            parts = daemon.control.recv_multipart(zmq.NOBLOCK, copy=False)
         except zmq.Again:
             return
         try:
-            reply = answer(daemon, msgpack.unpackb(parts[-1], raw=False))
+            reply = answer(daemon, msgpack.unpackb(parts[-1].bytes, raw=False),
+                           may_change(daemon, parts[-1]))
         except Exception as err:  # a bad request gets an error reply, never a crash
             reply = {"ok": False, "error": f"bad request ({type(err).__name__}: {err}); "
                                           "send a msgpack map with op (docs/protocol.md)"}
@@ -26,12 +27,32 @@ def serve_control(daemon) -> None:
         daemon.control.send(msgpack.packb(reply, use_bin_type=True))
 
 
-def answer(daemon, req) -> dict:
+CHANGING_OPS = frozenset({"shutdown"})  # ops that change the daemon's state
+
+
+def may_change(daemon, frame) -> bool:
+    """Whether the sender of ``frame`` may use state-changing ops: with CURVE every connected
+    client holds an authorised key; without it only a loopback (or ipc) peer may."""
+    if daemon.security is not None:
+        return True
+    try:
+        peer = frame.get("Peer-Address")
+    except (zmq.ZMQError, KeyError):
+        return daemon.config.control.startswith(("ipc://", "inproc://"))
+    from streamseg.daemon.security import is_loopback
+
+    return is_loopback(f"tcp://{peer}:0")
+
+
+def answer(daemon, req, may_change: bool = True) -> dict:
     """The reply to one control request (docs/protocol.md, Control)."""
     op = req.get("op") if isinstance(req, dict) else None
     if isinstance(req, dict) and req.get("v") != protocol.PROTOCOL_VERSION:
         return {"ok": False, "error": f"protocol version {req.get('v')!r} is not supported: "
                                       f"send v={protocol.PROTOCOL_VERSION} (docs/protocol.md)"}
+    if op in CHANGING_OPS and not may_change:
+        return {"ok": False, "error": f"{op} is refused: it needs an authorised CURVE key, or "
+                                      "a loopback connection when CURVE is off"}
     if op == "ping":
         return {"ok": True}
     if op == "streams":

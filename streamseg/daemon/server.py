@@ -21,8 +21,9 @@ from streamseg.config import DaemonConfig
 from streamseg.daemon import limits
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.eventlog import Numbering, open_log
-from streamseg.daemon.ingest import Receiver
+from streamseg.daemon.ingest import Receiver, recv_message
 from streamseg.daemon.options import skeleton_from
+from streamseg.daemon.security import ServerSecurity, check_binds, peer_of
 from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
 from streamseg.daemon.worker import RelabelJob, RelabelWorker
@@ -77,6 +78,9 @@ class Daemon:
         self.eventlog = open_log(self.config)
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
+        self.clients = collections.Counter()  # open streams per client (the quota)
+        self._sender = None  # topic frame of the message being handled (its identity)
+        self.security = None
         self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes,
                                     share=self.config.relabel_share)
         self.default_skeleton = None
@@ -92,12 +96,18 @@ class Daemon:
     def bind(self) -> dict:
         """Create and bind the sockets; returns the bound endpoints (ports resolved)."""
         c = self.config
+        check_binds(c)
+        if c.curve_dir:
+            self.security = ServerSecurity(self.ctx, c.curve_dir)
+        secure = self.security.apply if self.security is not None else (lambda sock: None)
         self.ingest = self.ctx.socket(zmq.PULL)
+        secure(self.ingest)
         self.ingest.setsockopt(zmq.RCVHWM, c.ingest_hwm)
         self.ingest.setsockopt(zmq.LINGER, 0)
         self.ingest.setsockopt(zmq.MAXMSGSIZE, c.max_message_bytes)
         self.ingest.bind(_bindable(c.ingest))
         self.pub = self.ctx.socket(zmq.PUB)
+        secure(self.pub)
         self.pub.setsockopt(zmq.SNDHWM, c.hwm)
         self.pub.setsockopt(zmq.LINGER, 2000)  # final events get out at shutdown
         self.pub.bind(_bindable(c.publish))
@@ -119,6 +129,7 @@ class Daemon:
         }
         if c.control:
             self.control = self.ctx.socket(zmq.REP)
+            secure(self.control)
             self.control.setsockopt(zmq.LINGER, 0)
             self.control.bind(_bindable(c.control))
             self.poller.register(self.control, zmq.POLLIN)
@@ -172,11 +183,11 @@ class Daemon:
     # --- ingest ------------------------------------------------------------------------------
 
     def _drain(self, now: float) -> None:
-        recv, clock = self.ingest.recv_multipart, time.perf_counter
+        sock, clock = self.ingest, time.perf_counter
         stop_at = self.n_frames + self.config.drain_frames
         for _ in range(self.config.drain):
             try:
-                parts = recv(zmq.NOBLOCK)
+                parts = recv_message(sock, zmq.NOBLOCK)
             except zmq.Again:
                 break
             self._on_message(parts, now, clock())
@@ -205,6 +216,7 @@ class Daemon:
                             continue
                     self._on_frames(st, it[2], it[3], it[4], now, it[5])
                 elif it[0] == "o":
+                    self._sender = it[2]
                     self._on_body(it[1], now, 0.0)
                 else:
                     self._error(it[1], it[2], it[3])
@@ -225,6 +237,7 @@ class Daemon:
             self._error(None, "decode", f"expected 2 message parts [topic, body], got "
                         f"{len(parts)}")
             return
+        self._sender = parts[0]
         try:
             self._on_body(protocol.unpack_body(parts[1]), now, arrival)
         except protocol.WireError as err:
@@ -284,6 +297,12 @@ class Daemon:
             self._error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
                         f"configured maximum (max_streams); close one or raise the limit")
             return None
+        quota = self.config.max_streams_per_client
+        client = peer_of(self._sender) if quota and self._sender is not None else None
+        if client is not None and self.clients[client] >= quota:
+            self._error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
+                        f"streams, its quota (max_streams_per_client); end one first")
+            return None
         try:
             pipeline = StreamPipeline(skeleton, fps, self.algorithms, self.config.relabel_history)
         except Exception as err:  # e.g. a skeleton without the joints the features need
@@ -294,6 +313,9 @@ class Daemon:
         st.next_relabel = int(round(self.config.relabel_interval * fps))
         st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
         st.seq_base = self.numbering.current(stream)
+        st.client = client
+        if client is not None:
+            self.clients[client] += 1
         self.streams[stream] = st
         self.totals["streams_opened"] += 1
         log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
@@ -419,6 +441,10 @@ class Daemon:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
             st.cuts.append(self._publish(st, ev))
         del self.streams[st.stream]
+        if st.client is not None:
+            self.clients[st.client] -= 1
+            if not self.clients[st.client]:
+                del self.clients[st.client]
         if self.config.relabel_interval > 0 and self._submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
         else:
