@@ -8,6 +8,7 @@ import msgpack
 import zmq
 
 from streamseg import protocol
+from streamseg.daemon.checkpoint import checkpoint
 
 
 def serve_control(daemon) -> None:
@@ -27,7 +28,7 @@ def serve_control(daemon) -> None:
         daemon.control.send(msgpack.packb(reply, use_bin_type=True))
 
 
-CHANGING_OPS = frozenset({"shutdown"})  # ops that change the daemon's state
+CHANGING_OPS = frozenset({"shutdown", "checkpoint"})  # ops that change the daemon's state
 
 
 def may_change(daemon, frame) -> bool:
@@ -35,10 +36,12 @@ def may_change(daemon, frame) -> bool:
     client holds an authorised key; without it only a loopback (or ipc) peer may."""
     if daemon.security is not None:
         return True
+    if daemon.config.control.startswith(("ipc://", "inproc://")):
+        return True  # a local socket file: its permissions decide who connects
     try:
         peer = frame.get("Peer-Address")
     except (zmq.ZMQError, KeyError):
-        return daemon.config.control.startswith(("ipc://", "inproc://"))
+        return False
     from streamseg.daemon.security import is_loopback
 
     return is_loopback(f"tcp://{peer}:0")
@@ -77,11 +80,19 @@ def answer(daemon, req, may_change: bool = True) -> dict:
                                       f"{', '.join(sorted(daemon.streams)[:20]) or 'none'}"}
     if op == "since":
         return since(daemon, req)
+    if op == "checkpoint":
+        if daemon.checkpoints is None:
+            return {"ok": False, "error": "checkpoints are off (give --state-dir and a "
+                                          "checkpoint_interval > 0)"}
+        daemon.checkpoints.wait()
+        n = checkpoint(daemon, force=True)
+        daemon.checkpoints.wait()  # the reply says it is on disk
+        return {"ok": True, "streams": n}
     if op == "shutdown":
         daemon.stop()
         return {"ok": True}
     return {"ok": False, "error": f"unknown op {op!r}; expected ping, streams, state, since, "
-                                  "stats or shutdown"}
+                                  "stats, checkpoint or shutdown"}
 
 
 SINCE_LIMIT = 10000  # events per reply at most; ask again from the last one for more

@@ -18,7 +18,7 @@ import zmq
 
 from streamseg import protocol
 from streamseg.config import DaemonConfig
-from streamseg.daemon import limits
+from streamseg.daemon import checkpoint, limits
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.eventlog import Numbering, open_log
 from streamseg.daemon.ingest import Receiver, recv_message
@@ -81,6 +81,10 @@ class Daemon:
         self.clients = collections.Counter()  # open streams per client (the quota)
         self._sender = None  # topic frame of the message being handled (its identity)
         self.security = None
+        self.checkpoints = checkpoint.open_store(self.config)
+        self.checkpoint_seconds = 0.0  # loop time spent copying stream states
+        self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
+        self._next_ckpt = 0.0
         self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes,
                                     share=self.config.relabel_share)
         self.default_skeleton = None
@@ -155,6 +159,8 @@ class Daemon:
             if self.receiver is not None:
                 self.receiver.start()
             self._started = time.monotonic()
+            checkpoint.restore(self, self._started)
+            self._next_ckpt = self._started + self.config.checkpoint_interval
             self.ready.set()
             while not self._stop.is_set():
                 busy = self.worker.busy_key is not None or self.worker.queued()
@@ -176,6 +182,9 @@ class Daemon:
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
                     self._beat(now)
+                if self.checkpoints is not None and now >= self._next_ckpt:
+                    self._next_ckpt = now + self.config.checkpoint_interval
+                    checkpoint.checkpoint(self)
         finally:
             self._shutdown()
         return 0
@@ -451,6 +460,9 @@ class Daemon:
             self._closed(st, reason)
 
     def _closed(self, st: StreamState, reason: str) -> None:
+        if self.checkpoints is not None:  # the stream is over: nothing to resume
+            self.checkpoints.forget(st.stream)
+            self._ckpt_seen.pop(st.stream, None)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))

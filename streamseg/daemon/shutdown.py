@@ -31,6 +31,8 @@ def shutdown(daemon) -> None:
         daemon.ctx.term()
         if daemon.eventlog is not None:
             daemon.eventlog.close()  # after the final events: they are logged too
+        if daemon.checkpoints is not None:
+            daemon.checkpoints.close()
         log.info("daemon stopped")
 
 
