@@ -101,6 +101,8 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
         ctx = ctx or zmq.Context.instance()
         sock = ctx.socket(zmq.PUSH)
         sock.setsockopt(zmq.LINGER, 30000)  # deliver what is queued before closing
+        if wait is not None:  # writable only once connected: "waiting" is then visible
+            sock.setsockopt(zmq.IMMEDIATE, 1)
         if curve is not None:
             curve.apply(sock)
         sock.connect(endpoint)

@@ -345,7 +345,7 @@ class Daemon:
                                                       self.config.max_seq_jump))
         if problem:
             st.dropped += n
-            self._error(st.stream, "seq" if seq > st.next_seq else "field", problem, n)
+            self._error(st.stream, "seq" if seq > st.next_seq else "field", problem)
             return
         if st.t0 is None:
             st.t0 = timestamp - seq / st.fps
