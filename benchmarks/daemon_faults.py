@@ -310,12 +310,52 @@ def idle_memory(rec, tmp: Path, n: int = 2000) -> tuple:
         d.stop()
 
 
+def checkpoint_cost(rec, repeats: int = 20) -> None:
+    """Loop time to copy one stream's state, writer time and bytes to store it, for a stream
+    whose history is full (60 s at 120 Hz) and one that has sent 4 frames."""
+    import statistics
+    import zlib
+
+    from streamseg.config import DaemonConfig
+    from streamseg.daemon.checkpoint import snapshot
+    from streamseg.daemon.streams import StreamState
+    from streamseg.pipeline import Algorithms, StreamPipeline
+
+    alg = Algorithms()
+    alg.warmup(relabel=False)
+    hist = DaemonConfig().relabel_history
+    print(f"\ncheckpoint cost per stream (relabel_history {hist:g} s, 120 Hz), median of "
+          f"{repeats}")
+    print(f"{'stream':>22} {'loop copy ms':>13} {'writer pack+zlib ms':>20} {'stored kB':>10}")
+    for label, n in (("4 frames", 4), (f"{int(hist * 120)} frames (full)", int(hist * 120))):
+        p = StreamPipeline(rec.skeleton, rec.fps, alg, hist)
+        idx = np.arange(n) % rec.n_frames
+        p.push(rec.positions[idx], 0)
+        st = StreamState("s", 1, rec.fps, p, 0.0)
+        st.next_seq = n
+        copy, pack, size = [], [], 0
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            state = snapshot(st)
+            t1 = time.perf_counter()
+            blob = zlib.compress(msgpack.packb(state, use_bin_type=True), 1)
+            t2 = time.perf_counter()
+            copy.append(t1 - t0)
+            pack.append(t2 - t1)
+            size = len(blob)
+        print(f"{label:>22} {statistics.median(copy) * 1e3:>13.3f} "
+              f"{statistics.median(pack) * 1e3:>20.3f} {size / 1e3:>10.1f}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--faults", default=",".join(FAULTS))
     ap.add_argument("--idle-streams", type=int, default=2000)
+    ap.add_argument("--skip-checkpoint-cost", action="store_true")
     args = ap.parse_args()
     rec = read(DATA / "86_01.amc.gz", skeleton=DATA / "86.asf")
+    if not args.skip_checkpoint_cost:
+        checkpoint_cost(rec)
     base = offline_cuts(rec, rec.positions)
     rows = []
     for name in args.faults.split(","):
