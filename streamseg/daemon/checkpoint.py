@@ -7,9 +7,9 @@ A checkpoint holds the stream's bookkeeping (announce, next expected frame, coun
 the relabels read, the last relabel result (stream-wide ids). The loop thread copies the state
 (:func:`dump`: arrays become bytes, nothing is shared with the live stream) every
 ``checkpoint_interval`` seconds for the streams that received frames since their last one;
-a writer thread packs (msgpack), compresses (zlib level 1) and stores them in one
-transaction. No pickle: only plain values, numpy arrays and objects of ``streamseg`` classes
-(rebuilt field by field) are written or read.
+a writer thread packs them (msgpack; arrays as raw bytes without their trailing zeros) and
+stores them in one transaction. No pickle: only plain values, numpy arrays and objects of
+``streamseg`` classes (rebuilt field by field) are written or read.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ import logging
 import sqlite3
 import threading
 import time
-import zlib
 
 import msgpack
 import numpy as np
@@ -33,7 +32,7 @@ from streamseg.pipeline import StreamPipeline
 log = logging.getLogger("streamseg.daemon")
 
 SEQ_SKIP = 1000  # event numbers skipped after a crash (see restore)
-FORMAT = 1  # of the checkpoint blobs; another value is ignored at restore (with a warning)
+FORMAT = 2  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 SKIP = {StreamPipeline: ("algorithms", "plan"),
         StreamState: ("pipeline", "pending", "arrivals", "gap_limit")}
 
@@ -45,9 +44,8 @@ def dump(obj):
     objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``)."""
     if obj is None or isinstance(obj, (bool, int, float, str, bytes)):
         return obj
-    if isinstance(obj, np.ndarray):
-        a = np.ascontiguousarray(obj)
-        return {"__nd__": [a.dtype.str, list(a.shape), a.tobytes()]}
+    if isinstance(obj, np.ndarray):  # a copy; the writer thread turns it into bytes (trimmed)
+        return {"__nd__": [obj.dtype.str, list(obj.shape), np.array(obj, order="C")]}
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, list):
@@ -78,7 +76,11 @@ def load(obj):
         return obj
     if "__nd__" in obj:
         dtype, shape, data = obj["__nd__"]
-        return np.frombuffer(data, dtype=np.dtype(dtype)).reshape(shape).copy()
+        dtype = np.dtype(dtype)
+        out = np.zeros(int(np.prod(shape)), dtype=dtype)
+        kept = np.frombuffer(data, dtype=dtype)  # trailing zeros were not stored
+        out[:kept.shape[0]] = kept
+        return out.reshape(shape)
     if "__t__" in obj:
         return tuple(load(x) for x in obj["__t__"])
     if "__dq__" in obj:
@@ -98,6 +100,21 @@ def load(obj):
             object.__setattr__(out, k, load(v))  # also frozen dataclasses
         return out
     raise TypeError(f"unknown checkpoint value with keys {sorted(obj)[:5]}")
+
+
+def packable(obj):
+    """:func:`dump`'s output with its arrays as bytes, trailing zero elements dropped (the
+    detector's buffers are mostly unused zeros in a young or idle stream). Writer thread."""
+    if isinstance(obj, list):
+        return [packable(x) for x in obj]
+    if not isinstance(obj, dict):
+        return obj
+    if "__nd__" in obj:
+        dtype, shape, a = obj["__nd__"]
+        flat = a.reshape(-1)
+        nz = np.flatnonzero(flat)
+        return {"__nd__": [dtype, shape, flat[:nz[-1] + 1 if nz.size else 0].tobytes()]}
+    return {k: packable(v) for k, v in obj.items()}
 
 
 # --- the store ---------------------------------------------------------------------------------
@@ -147,7 +164,7 @@ class CheckpointStore:
                             FORMAT)
                 continue
             try:
-                out.append((stream, load(msgpack.unpackb(zlib.decompress(blob), raw=False,
+                out.append((stream, load(msgpack.unpackb(blob, raw=False,
                                                          strict_map_key=False))))
             except Exception as err:  # a damaged row must not stop the daemon
                 log.error("checkpoint of %s unreadable (%s: %s): not restored", stream,
@@ -208,7 +225,7 @@ class CheckpointStore:
         try:
             packed = []
             for _, stream, frame, state in rows.values():
-                blob = zlib.compress(msgpack.packb(state, use_bin_type=True), 1)
+                blob = msgpack.packb(packable(state), use_bin_type=True)
                 self.bytes += len(blob)
                 packed.append((stream, frame, time.time(), FORMAT, blob))
             self._db.execute("BEGIN")
@@ -218,7 +235,7 @@ class CheckpointStore:
                                  [(s,) for s in gone])
             self._db.execute("COMMIT")
             self.written += len(packed)
-        except (sqlite3.Error, TypeError, ValueError) as err:
+        except (sqlite3.Error, TypeError, ValueError, OverflowError) as err:
             log.error("checkpoints %s: %d not written: %s", self.path, len(rows), err)
             try:
                 self._db.execute("ROLLBACK")
