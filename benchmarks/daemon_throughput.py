@@ -226,10 +226,11 @@ def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, g
     ctx.term()
 
 
-def capacity(rec, counts, batch, seconds):
+def capacity(rec, counts, batch, seconds, state_dir=False):
     print(f"\n{seconds:g} s per row (the last {seconds - 2.5:g} s measured); 120 Hz streams of "
           f"CMU 86_01, {batch} frames/packet, relabel every {DaemonConfig().relabel_interval:g} s "
-          f"over {DaemonConfig().relabel_history:g} s (defaults)")
+          f"over {DaemonConfig().relabel_history:g} s (defaults)"
+          + ("; each count with the event log + checkpoints off, then on" if state_dir else ""))
     print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
           f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
     placeholder = ID.decode()
@@ -239,8 +240,13 @@ def capacity(rec, counts, batch, seconds):
     tmpl = [P.encode(P.Frames(placeholder, a, 0.0, pos[a:a + batch]))[1]
             for a in range(0, pos.shape[0], batch)]
     announce = P.encode(announce_of(rec, placeholder))[1]
-    for n in counts:
-        d, ep, t = start_daemon(max_streams=max(counts) + 10)
+    import tempfile
+
+    runs = [(n, on) for n in counts for on in ((False, True) if state_dir else (False,))]
+    for n, on in runs:
+        tmp = tempfile.TemporaryDirectory() if on else None
+        d, ep, t = start_daemon(max_streams=max(counts) + 10, max_streams_per_client=0,
+                                **({"state_dir": tmp.name} if on else {}))
         ctx = mp.get_context("spawn")
         go, total = ctx.Event(), ctx.Value("q", 0)
         p = ctx.Process(target=live_sender, args=(ep["ingest"], tmpl, announce, n, batch,
@@ -264,7 +270,10 @@ def capacity(rec, counts, batch, seconds):
         rel = (r1 - r0) / dt
         ok = taken >= 0.98 * offered and p99 is not None and p99 < 0.1
         print(f"{n:>8} {offered:>12,.0f} {taken:>10,.0f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f} "
-              f"{rel:>10.1f} {n / rel if rel else float('inf'):>26.1f} {'yes' if ok else 'NO':>9}")
+              f"{rel:>10.1f} {n / rel if rel else float('inf'):>26.1f} {'yes' if ok else 'NO':>9}"
+              + ((" log on" if on else " log off") if state_dir else ""))
+        if tmp is not None:
+            tmp.cleanup()
 
 
 def main():
@@ -296,6 +305,9 @@ def main():
     rec = load()
     if args.event_log:
         event_log_cost(rec, args.frames, args.repeats)
+        if args.streams:
+            capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch,
+                     args.seconds, state_dir=True)
         return
     if not args.skip_throughput:
         for relabel in (False, True):

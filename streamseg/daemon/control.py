@@ -85,7 +85,7 @@ def answer(daemon, req, may_change: bool = True) -> dict:
             return {"ok": False, "error": "checkpoints are off (give --state-dir and a "
                                           "checkpoint_interval > 0)"}
         daemon.checkpoints.wait()
-        n = checkpoint(daemon, force=True)
+        n = checkpoint(daemon)
         daemon.checkpoints.wait()  # the reply says it is on disk
         return {"ok": True, "streams": n}
     if op == "shutdown":

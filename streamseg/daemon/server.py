@@ -85,6 +85,7 @@ class Daemon:
         self.checkpoint_seconds = 0.0  # loop time spent copying stream states
         self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
         self._next_ckpt = 0.0
+        self._ckpt_round: list = []  # streams still to copy in this checkpoint round
         self.worker = RelabelWorker(self.algorithms, processes=self.config.relabel_processes,
                                     share=self.config.relabel_share)
         self.default_skeleton = None
@@ -165,7 +166,7 @@ class Daemon:
             while not self._stop.is_set():
                 busy = self.worker.busy_key is not None or self.worker.queued()
                 timeout = 0 if self.receiver is not None and self.receiver.items else \
-                    (10 if busy else 100)
+                    (1 if self._ckpt_round else 10 if busy else 100)
                 events = dict(self.poller.poll(timeout))
                 now = time.monotonic()
                 if self.receiver is not None:
@@ -182,9 +183,8 @@ class Daemon:
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
                     self._beat(now)
-                if self.checkpoints is not None and now >= self._next_ckpt:
-                    self._next_ckpt = now + self.config.checkpoint_interval
-                    checkpoint.checkpoint(self)
+                if self.checkpoints is not None and (self._ckpt_round or now >= self._next_ckpt):
+                    checkpoint.step(self, now)
         finally:
             self._shutdown()
         return 0
