@@ -220,10 +220,11 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
         return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
                               previous=previous)
 
-    # relabel_share = 1: no pause between jobs (with 0.25 the worker would rest 3 s after
-    # this 1 s job, past the 5 s shutdown_relabel bound)
+    # relabel_share = 1: no pause between jobs (with 0.25 the worker would rest 3x this job's
+    # time); shutdown_relabel = 60: on a loaded machine the running job and the final one
+    # may take more than the default 5 s bound, after which `closed` comes without them
     d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=2.0,
-                         relabel_history=6.0, relabel_share=1.0)
+                         relabel_history=6.0, relabel_share=1.0, shutdown_relabel=60.0)
     s = subscriber(ep["publish"], stream="good")
     time.sleep(0.2)
     sock = push(ep)
@@ -231,6 +232,12 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
     for a in range(0, 3000, 20):
         sock.send_multipart(P.encode(P.Frames("good", a, 0.0, rec.positions[a:a + 20])))
     assert started.wait(30)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:  # every frame taken, and a relabel running
+        st = request(ep["control"], "streams")["streams"]
+        if st and st[0]["frame"] == 3000 and d.worker.busy_key is not None:
+            break
+        time.sleep(0.01)
     d.stop()
     events = list(listen(s, stream="good", until_end=True, timeout=30))
     assert events[-1].type == "closed" and events[-1].reason == "shutdown"
