@@ -118,9 +118,9 @@ def start_daemon(**overrides):
     return d, ep, t
 
 
-def daemon_run(msgs, n_frames, relabel=True) -> tuple:
+def daemon_run(msgs, n_frames, relabel=True, **overrides) -> tuple:
     """(seconds until the last frame was processed, p50, p99 latency) for one stream."""
-    d, ep, t = start_daemon(relabel_interval=5.0 if relabel else 0.0)
+    d, ep, t = start_daemon(relabel_interval=5.0 if relabel else 0.0, **overrides)
     p, go = start_sender(ep["ingest"], msgs)
     d.latency.reset()
     go.set()
@@ -173,6 +173,28 @@ def throughput(rec, n_frames, repeats, relabel):
               f"{d_fps / min(raw_fps, algo):>19.2f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f}")
 
 
+def event_log_cost(rec, n_frames, repeats):
+    """Daemon frames/s with the event log and checkpoints off and on, runs interleaved."""
+    import tempfile
+
+    print(f"\nevent log + checkpoints off vs on (state_dir), 1 stream, {n_frames} frames, "
+          f"relabel every 5 s, median of {repeats} interleaved runs")
+    print(f"{'frames/packet':>13} {'off frames/s':>13} {'on frames/s':>12} {'on/off':>7} "
+          f"{'off p99 ms':>11} {'on p99 ms':>10}")
+    for batch in (1, 120):
+        msgs = encoded_stream(rec, n_frames, batch)
+        off, on = [], []
+        for _ in range(repeats):
+            off.append(daemon_run(msgs, n_frames, True))
+            with tempfile.TemporaryDirectory() as state:
+                on.append(daemon_run(msgs, n_frames, True, state_dir=state))
+        f_off = n_frames / statistics.median(r[0] for r in off)
+        f_on = n_frames / statistics.median(r[0] for r in on)
+        print(f"{batch:>13} {f_off:>13,.0f} {f_on:>12,.0f} {f_on / f_off:>7.3f} "
+              f"{statistics.median(r[2] for r in off) * 1e3:>11.2f} "
+              f"{statistics.median(r[2] for r in on) * 1e3:>10.2f}")
+
+
 def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, go, stats):
     """S real-time streams: each sends the recording's packets on its own 120 Hz clock."""
     ctx = zmq.Context()
@@ -209,10 +231,11 @@ def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, g
     ctx.term()
 
 
-def capacity(rec, counts, batch, seconds):
+def capacity(rec, counts, batch, seconds, state_dir=False):
     print(f"\n{seconds:g} s per row (the last {seconds - 2.5:g} s measured); 120 Hz streams of "
           f"CMU 86_01, {batch} frames/packet, relabel every {DaemonConfig().relabel_interval:g} s "
-          f"over {DaemonConfig().relabel_history:g} s (defaults)")
+          f"over {DaemonConfig().relabel_history:g} s (defaults)"
+          + ("; each count with the event log + checkpoints off, then on" if state_dir else ""))
     print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
           f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
     placeholder = ID.decode()
@@ -222,8 +245,13 @@ def capacity(rec, counts, batch, seconds):
     tmpl = [P.encode(P.Frames(placeholder, a, 0.0, pos[a:a + batch]))[1]
             for a in range(0, pos.shape[0], batch)]
     announce = P.encode(announce_of(rec, placeholder))[1]
-    for n in counts:
-        d, ep, t = start_daemon(max_streams=max(counts) + 10)
+    import tempfile
+
+    runs = [(n, on) for n in counts for on in ((False, True) if state_dir else (False,))]
+    for n, on in runs:
+        tmp = tempfile.TemporaryDirectory() if on else None
+        d, ep, t = start_daemon(max_streams=max(counts) + 10, max_streams_per_client=0,
+                                **({"state_dir": tmp.name} if on else {}))
         ctx = mp.get_context("spawn")
         go, total = ctx.Event(), ctx.Value("q", 0)
         p = ctx.Process(target=live_sender, args=(ep["ingest"], tmpl, announce, n, batch,
@@ -247,7 +275,10 @@ def capacity(rec, counts, batch, seconds):
         rel = (r1 - r0) / dt
         ok = taken >= 0.98 * offered and p99 is not None and p99 < 0.1
         print(f"{n:>8} {offered:>12,.0f} {taken:>10,.0f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f} "
-              f"{rel:>10.1f} {n / rel if rel else float('inf'):>26.1f} {'yes' if ok else 'NO':>9}")
+              f"{rel:>10.1f} {n / rel if rel else float('inf'):>26.1f} {'yes' if ok else 'NO':>9}"
+              + ((" log on" if on else " log off") if state_dir else ""))
+        if tmp is not None:
+            tmp.cleanup()
 
 
 def main():
@@ -258,6 +289,8 @@ def main():
     ap.add_argument("--stream-batch", type=int, default=4)
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument("--event-log", action="store_true",
+                    help="only compare the event log and checkpoints off and on")
     ap.add_argument("--relabel-processes", type=int, default=0,
                     help="DaemonConfig.relabel_processes (0: relabel in a thread)")
     ap.add_argument("--relabel-backend", choices=("thread", "process", "dask"), default=None,
@@ -290,6 +323,12 @@ def main():
           f"relabel backend {RELABEL_BACKEND or 'thread'}"
           + (f" ({args.dask_workers} local workers)" if cluster else ""))
     rec = load()
+    if args.event_log:
+        event_log_cost(rec, args.frames, args.repeats)
+        if args.streams:
+            capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch,
+                     args.seconds, state_dir=True)
+        return
     if not args.skip_throughput:
         for relabel in (False, True):
             throughput(rec, args.frames, args.repeats, relabel)

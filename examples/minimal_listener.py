@@ -1,12 +1,14 @@
 """What any process needs to follow the daemon: pyzmq and msgpack, nothing of streamseg.
 
     python examples/minimal_listener.py tcp://127.0.0.1:5561 [STREAM] [--max N]
-        [--control tcp://127.0.0.1:5562]
+        [--control tcp://127.0.0.1:5562] [--keys DIR]
 
 Prints one line per cut and relabel (protocol v1, docs/protocol.md) until the stream closes
 (or N events). With --control it first makes sure its subscription is live (the hello
-handshake, docs/protocol.md), so it misses nothing published after "listening on". A
-template for clients in other processes or languages.
+handshake, docs/protocol.md), so it misses nothing published after "listening on". With
+``--keys DIR`` (made by ``streamseg keys DIR``) it connects with CURVE: its pair from
+``client.key_secret``, the daemon's public key from ``server.key``. A template for clients
+in other processes or languages.
 """
 
 import os
@@ -14,10 +16,11 @@ import sys
 
 import msgpack
 import zmq
+import zmq.auth
 
 
 def option(argv, name):
-    """Value of ``--name VALUE`` in argv (removed from it), or None."""
+    """The value after ``name`` in argv (both removed), or None."""
     if name not in argv:
         return None
     i = argv.index(name)
@@ -26,13 +29,22 @@ def option(argv, name):
     return value
 
 
-def handshake(sub, control):
+def use_keys(sock, keys):
+    """CURVE on ``sock``: zmq.auth reads ZeroMQ's certificate files made by streamseg keys."""
+    sock.curve_publickey, sock.curve_secretkey = zmq.auth.load_certificate(
+        f"{keys}/client.key_secret")
+    sock.curve_serverkey, _ = zmq.auth.load_certificate(f"{keys}/server.key")
+
+
+def handshake(sub, control, keys=None):
     """Ask the daemon to publish a random token until it arrives: the subscription is live."""
     token = os.urandom(8).hex()
     topic = f"hello/{token}/".encode()
     sub.setsockopt(zmq.SUBSCRIBE, topic)
     req = zmq.Context.instance().socket(zmq.REQ)
     req.setsockopt(zmq.LINGER, 0)
+    if keys:
+        use_keys(req, keys)
     req.connect(control)
     while True:
         req.send(msgpack.packb({"v": 1, "op": "hello", "token": token}))
@@ -44,20 +56,22 @@ def handshake(sub, control):
 
 
 def main(argv):
-    argv = list(argv)
-    limit = option(argv, "--max")
+    args = list(argv)
+    limit = option(args, "--max")
     limit = int(limit) if limit is not None else None
-    control = option(argv, "--control")
-    args = argv
+    control = option(args, "--control")
+    keys = option(args, "--keys")
     endpoint, stream = args[0], (args[1] if len(args) > 1 else "")
     sub = zmq.Context.instance().socket(zmq.SUB)
+    if keys:
+        use_keys(sub, keys)
     sub.connect(endpoint)
     # topics are "<type>/<stream>/": one subscription per event type this client wants
     suffix = f"{stream}/" if stream else ""
     for kind in ("cut", "segments", "closed"):
         sub.setsockopt(zmq.SUBSCRIBE, f"{kind}/{suffix}".encode())
     if control:
-        handshake(sub, control)
+        handshake(sub, control, keys)
     print(f"listening on {endpoint}", flush=True)
     seen = 0
     while limit is None or seen < limit:

@@ -27,3 +27,9 @@ def wait_ready(daemon, thread) -> None:
     takes, failing at once if the daemon's thread died instead."""
     while not daemon.ready.wait(1.0):
         assert thread.is_alive(), "the daemon thread ended before it was ready"
+
+
+@pytest.fixture(autouse=True)
+def _private_state_home(tmp_path, monkeypatch):
+    """`streamseg serve` keeps its event log under $XDG_STATE_HOME by default: a test's own."""
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg-state"))

@@ -75,9 +75,13 @@ def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
     offline = json.loads(capsys.readouterr().out.splitlines()[-1])
     assert offline["cuts"] == [e["frame"] for e in cuts]
     assert offline["cut_latency_frames"] == [e["emitted_at"] - e["frame"] for e in cuts]
-    assert events[-1] == {"type": "closed", "stream": "x", "reason": "end", "frames": 4579}
+    # every event is numbered: 1, 2, 3, ... in publication order, the closed event last
+    assert [e["seq"] for e in events] == list(range(1, len(events) + 1))
+    assert events[-1] == {"type": "closed", "stream": "x", "reason": "end", "frames": 4579,
+                          "seq": len(events)}
     cut = next(e for e in events if e["type"] == "cut")
-    assert set(cut) == {"type", "stream", "frame", "time", "score", "emitted_at", "provisional"}
+    assert set(cut) == {"type", "stream", "frame", "time", "score", "emitted_at", "provisional",
+                        "seq"}
 
 
 def test_listen_count_type_and_control_state(daemon, data_dir, capsys):

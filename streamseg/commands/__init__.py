@@ -33,4 +33,5 @@ TOOLS = {
     "demo": "streamseg.commands.demo",
     "view": "streamseg.commands.view",
     "batch": "streamseg.commands.batch",
+    "keys": "streamseg.commands.keys",
 }

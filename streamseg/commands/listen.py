@@ -1,7 +1,10 @@
 """Subscribe to a daemon's events and print them (one JSON object per line with --jsonl).
 
-With ``--control`` it first asks for the stream's current state (late-joiner catch-up) and
-then prints only newer events; ``--count N`` or ``--until-end`` make it stop, for scripts.
+With ``--control`` it first asks for the stream's current state (late-joiner catch-up), then,
+when the daemon keeps an event log, every logged event of the stream since it opened (or
+since ``--since N``), then the live events; ``--count N`` or ``--until-end`` make it stop.
+Events carry per-stream sequence numbers: a hole (events lost, e.g. to the publish
+high-water mark) is reported on stderr and, with ``--control``, filled from the log.
 """
 
 from __future__ import annotations
@@ -23,20 +26,31 @@ def add_arguments(parser) -> None:
                         help="only this event type")
     parser.add_argument("--jsonl", action="store_true", help="one JSON object per line")
     parser.add_argument("--control", metavar="ENDPOINT", help="ask for current state first")
+    parser.add_argument("--since", type=int, metavar="N",
+                        help="first print the stream's logged events with sequence numbers "
+                             "> N (needs --control and --stream; 0: all retained)")
     stop = parser.add_mutually_exclusive_group()
     stop.add_argument("--count", type=int, metavar="N", help="stop after N events")
     stop.add_argument("--until-end", action="store_true",
                       help="stop when the stream (any stream without --stream) is closed")
+    parser.add_argument("--curve-dir", metavar="DIR",
+                        help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
+                             "server.key)")
     parser.add_argument("--timeout", type=float, default=None,
                         help="give up after this many seconds without an event (exit 1)")
 
 
-def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, **fields) -> dict:
-    """One control request (``ping``, ``streams``, ``state``, ``stats``, ``shutdown``)."""
+def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
+            **fields) -> dict:
+    """One control request (``ping``, ``streams``, ``state``, ``since``, ``stats``,
+    ``shutdown``); ``curve``: :class:`~streamseg.daemon.security.ClientKeys`."""
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
     sock.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
+    sock.setsockopt(zmq.SNDTIMEO, int(timeout * 1000))
+    if curve is not None:
+        curve.apply(sock)
     sock.connect(endpoint)
     try:
         sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
@@ -47,10 +61,12 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, **fields) ->
         sock.close()
 
 
-def subscriber(endpoint: str, stream=None, kind=None, ctx=None):
+def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None):
     """A SUB socket connected to ``endpoint`` with the prefixes selecting stream/type."""
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.SUB)
+    if curve is not None:
+        curve.apply(sock)
     sock.setsockopt(zmq.LINGER, 0)
     sock.setsockopt(zmq.RCVHWM, 0)  # a listener should not lose events to its own slowness
     for prefix in protocol.subscriptions(stream, kind):
@@ -59,7 +75,7 @@ def subscriber(endpoint: str, stream=None, kind=None, ctx=None):
     return sock
 
 
-def handshake(sock, control: str, ctx=None, timeout: float = 30.0) -> list:
+def handshake(sock, control: str, ctx=None, timeout: float = 30.0, curve=None) -> list:
     """Wait until the SUB socket ``sock`` receives what the daemon publishes.
 
     ZeroMQ gives no sign when a subscription reaches the publisher, and drops what is sent
@@ -77,7 +93,7 @@ def handshake(sock, control: str, ctx=None, timeout: float = 30.0) -> list:
     pending, deadline = [], time.monotonic() + timeout
     try:
         while time.monotonic() < deadline:
-            reply = request(control, "hello", ctx, timeout=timeout, token=token)
+            reply = request(control, "hello", ctx, timeout=timeout, curve=curve, token=token)
             if not reply.get("ok"):
                 raise TimeoutError(f"the daemon refused hello: {reply.get('error')}")
             end = time.monotonic() + 0.05
@@ -105,12 +121,12 @@ class Subscription:
 
 
 def subscribe(endpoint: str, control: str, stream=None, kind=None, ctx=None,
-              timeout: float = 30.0) -> Subscription:
+              timeout: float = 30.0, curve=None) -> Subscription:
     """:func:`subscriber` then :func:`handshake`: events published after this returns reach
     the subscription (no sleep, no slow-joiner loss)."""
-    sock = subscriber(endpoint, stream, kind, ctx)
+    sock = subscriber(endpoint, stream, kind, ctx, curve=curve)
     try:
-        return Subscription(sock, handshake(sock, control, ctx, timeout))
+        return Subscription(sock, handshake(sock, control, ctx, timeout, curve=curve))
     except BaseException:
         sock.close()
         raise
@@ -179,14 +195,37 @@ def format_event(ev) -> str:
     return repr(ev)
 
 
+def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None) -> list:
+    """The logged events of ``stream`` with sequence numbers in ``(seq, upto)`` (all after
+    ``seq`` when ``upto`` is None) from the control op ``since``, page by page; raises
+    LookupError when the daemon keeps no log."""
+    out = []
+    while True:
+        reply = request(endpoint, "since", ctx, curve=curve, stream=stream, seq=seq)
+        if not reply.get("ok"):
+            raise LookupError(reply.get("error"))
+        for body in reply["events"]:
+            ev = protocol.from_body(body)
+            if upto is not None and ev.seq >= upto:
+                return out
+            out.append(ev)
+            seq = ev.seq
+        if not reply.get("more"):
+            return out
+
+
 def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
-           pending=()):
+           backlog=(), on_hole=None, pending=()):
     """Yield decoded events from a SUB socket until a stop condition.
 
     ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
     or before its newest cut are skipped (they are in the state already), until the stream
     is closed (a snapshot of an already closed stream filters nothing). ``pending``: frames
-    received before (:func:`handshake`), yielded first.
+    received during :func:`handshake`, read before the socket. ``backlog``: events fetched
+    from the event log, yielded first; live events they already hold (by sequence number) are
+    skipped. ``on_hole(key, first, end)`` is called when a stream's sequence
+    numbers skip ``[first, end)`` (only meaningful when every event type of the stream is
+    subscribed); it returns the missing events it could fetch, which are yielded then.
     """
     if isinstance(sock, Subscription):
         pending, sock.pending = list(sock.pending) + list(pending), []
@@ -196,6 +235,17 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     rev = since.get("revision", 0) if since else 0
     last_cut = max((c["frame"] for c in since.get("cuts", [])), default=-1) if since else -1
     seen = 0
+    last: dict = {}  # stream id (or "*") -> last sequence number yielded
+    fetched: dict = {}  # stream id -> highest sequence number yielded from the log
+    for i, ev in enumerate(backlog):
+        key = ev.stream or protocol.DAEMON_WIDE
+        last[key] = fetched[key] = ev.seq
+        seen += 1
+        yield ev
+        if count is not None and seen >= count:
+            return
+        if until_end and ev.type == "closed" and i == len(backlog) - 1:
+            return  # the history ends with the stream closed (earlier ones: re-announced)
     poller = zmq.Poller()
     poller.register(sock, zmq.POLLIN)
     pending = list(pending)
@@ -218,42 +268,85 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
                 continue
             if ev.type == "closed":
                 since = None  # a re-announced stream starts its revisions and frames over
-        seen += 1
-        yield ev
-        if until_end and ev.type == "closed" and (stream is None or ev.stream == stream):
-            return
+        n = getattr(ev, "seq", None)
+        missed = ()
+        if n is not None:
+            key = ev.stream or protocol.DAEMON_WIDE
+            if n <= fetched.get(key, 0):
+                continue  # already yielded from the log
+            prev = last.get(key)
+            if prev is not None and n > prev + 1 and on_hole is not None:
+                missed = on_hole(key, prev + 1, n) or ()
+            last[key] = n
+        for e in (*missed, ev):
+            seen += 1
+            yield e
+            if until_end and e.type == "closed" and (stream is None or e.stream == stream):
+                return
+            if count is not None and seen >= count:
+                return
 
 
 def run(args) -> int:
+    if args.since is not None and not (args.control and args.stream):
+        print("streamseg listen: --since needs --control ENDPOINT and --stream ID",
+              file=sys.stderr)
+        return 2
+    curve = None
+    if args.curve_dir:
+        from streamseg.daemon.security import ClientKeys
+
+        curve = ClientKeys.load(args.curve_dir)
     ctx = zmq.Context.instance()
-    sock = subscriber(args.source, args.stream, args.kind, ctx)
+    sock = subscriber(args.source, args.stream, args.kind, ctx, curve=curve)
     out = sys.stdout
-    since, pending = None, []
+    since, backlog, pending = None, [], []
+
+    def on_hole(key, first, end):
+        print(f"streamseg listen: hole: events {first}..{end - 1} of stream {key} were missed "
+              f"({end - first})" + (", fetching them from the event log" if args.control
+                                    else "; give --control to fetch them"), file=sys.stderr)
+        if not args.control or key == protocol.DAEMON_WIDE:
+            return ()
+        try:
+            evs = fetch_since(args.control, key, first - 1, ctx, upto=end, curve=curve)
+        except (LookupError, TimeoutError) as err:
+            print(f"streamseg listen: cannot fetch them: {err}", file=sys.stderr)
+            return ()
+        return [e for e in evs if args.kind is None or e.type == args.kind]
+
     try:
         if args.control:
             # the subscription is live before the snapshot: nothing falls between them
-            pending = handshake(sock, args.control, ctx)
+            pending = handshake(sock, args.control, ctx, curve=curve)
             if args.stream:
-                since = request(args.control, "state", ctx, stream=args.stream)
+                since = request(args.control, "state", ctx, curve=curve, stream=args.stream)
                 if since.get("ok"):
                     state = {"type": "state", **{k: v for k, v in since.items()
                                                  if k not in ("ok", "v")}}
                     text = (strict_json.dumps(_json_state(state)) if args.jsonl else
                             _state_line(state))
                     out.write(text + "\n")
+                    backlog = _history(args, since, ctx, curve)
+                    if backlog is not None:
+                        since = None  # the log has every event: filter by sequence number
+                elif args.since is not None:
+                    backlog = _history(args, {"seq_base": args.since}, ctx, curve)
+                    since = None
                 else:  # not open (yet): say so where the events go, then follow it
                     state = {"type": "state", "stream": args.stream, "open": False}
                     out.write((strict_json.dumps(state) if args.jsonl else
                                f"[{args.stream}] not open yet: waiting for it") + "\n")
                     since = None
             else:
-                streams = request(args.control, "streams", ctx)
+                streams = request(args.control, "streams", ctx, curve=curve)
                 line = {"type": "streams", "streams": streams.get("streams", [])}
                 out.write((strict_json.dumps(line) if args.jsonl else
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
             out.flush()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
-                         timeout=args.timeout, since=since, pending=pending):
+                         timeout=args.timeout, since=since, backlog=backlog or (),
+                         on_hole=on_hole if args.kind is None else None, pending=pending):
             text = strict_json.dumps(json_event(ev)) if args.jsonl else format_event(ev)
             out.write(text + "\n")
             out.flush()
@@ -263,6 +356,22 @@ def run(args) -> int:
     finally:
         sock.close()
     return 0
+
+
+def _history(args, state: dict, ctx, curve=None):
+    """The logged events of the stream since ``--since`` (or since it opened, for a stream
+    that is open), ``--type`` applied; None when there is nothing to fetch or no log."""
+    if args.since is None and (state.get("closed") or "seq_base" not in state):
+        return None
+    try:
+        evs = fetch_since(args.control, args.stream,
+                          args.since if args.since is not None else state["seq_base"], ctx,
+                          curve=curve)
+    except (LookupError, TimeoutError) as err:
+        if args.since is not None:
+            print(f"streamseg listen: --since: {err}", file=sys.stderr)
+        return None
+    return [e for e in evs if args.kind is None or e.type == args.kind]
 
 
 def _state_line(state: dict) -> str:

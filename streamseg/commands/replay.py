@@ -2,11 +2,14 @@
 
 Announces the stream, sends N frames per packet at real time times ``--speed`` (``0``: as fast
 as the daemon takes them; a PUSH socket waits when the daemon's queue is full), then ends it.
+With no daemon listening it says it is waiting and gives up after ``--wait`` seconds; Ctrl-C
+(SIGINT) sends ``end`` before it exits, so the daemon closes the stream at once.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from pathlib import Path
 
@@ -26,6 +29,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--batch", type=int, default=1, metavar="N", help="frames per packet")
     parser.add_argument("--loop", action="store_true", help="start over at the end, forever")
     parser.add_argument("--float32", action="store_true", help="send float32 positions")
+    parser.add_argument("--wait", type=float, default=10.0, metavar="S",
+                        help="give up when the daemon takes no packet for S seconds "
+                             "(default 10)")
+    parser.add_argument("--curve-dir", metavar="DIR",
+                        help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
+                             "server.key)")
     parser.add_argument("--up", choices=UP_AXES,
                         help="announce this world up axis (default: the format's, y for "
                              "AMC/BVH)")
@@ -52,9 +61,28 @@ def announce_of(recording, stream: str, labels=None,
                              labels_sequence if labels is not None else None)
 
 
+class NoDaemon(TimeoutError):
+    """No daemon took a packet within the wait."""
+
+
+def _send(sock, parts, wait, endpoint, on_wait=None):
+    """Send, waiting at most ``wait`` seconds (None: forever) for the daemon to take it."""
+    if wait is not None and not sock.poll(500 if on_wait else int(wait * 1000), zmq.POLLOUT):
+        if on_wait is not None:
+            on_wait()
+            if not sock.poll(int(max(wait - 0.5, 0) * 1000), zmq.POLLOUT):
+                raise NoDaemon(f"no daemon took packets at {endpoint} for {wait:g} s: start "
+                               f"`streamseg serve` or check --to (and --curve-dir)")
+        else:
+            raise NoDaemon(f"the daemon at {endpoint} took no packet for {wait:g} s "
+                           f"(stopped or overloaded)")
+    sock.send_multipart(parts)
+
+
 def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: int = 1,
            dtype=np.float64, ctx: zmq.Context | None = None, end: bool = True,
-           sock=None, labels=None, labels_sequence: str | None = None) -> int:
+           sock=None, labels=None, labels_sequence: str | None = None,
+           wait: float | None = None, on_wait=None, curve=None) -> int:
     """Send one pass of ``recording`` to ``endpoint``; returns the number of frames sent.
 
     Parameters
@@ -70,6 +98,14 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
         An already connected PUSH socket (to interleave several streams on one).
     labels, labels_sequence : str, optional
         A human label CSV and its sequence (default: the stream id) to announce.
+    wait : float, optional
+        Seconds to wait for the daemon to take a packet before raising :class:`NoDaemon`
+        (None: wait forever). ``on_wait()`` is called once if the first packet is not taken
+        within 0.5 s (to say "waiting for the daemon").
+    curve : streamseg.daemon.security.ClientKeys, optional
+        CURVE keys for the connection.
+
+    On KeyboardInterrupt the ``end`` message is sent (best effort, 1 s) before re-raising.
     """
     if batch < 1 or speed < 0:
         raise ValueError(f"batch={batch} must be >= 1 and speed={speed} >= 0")
@@ -78,22 +114,34 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
         ctx = ctx or zmq.Context.instance()
         sock = ctx.socket(zmq.PUSH)
         sock.setsockopt(zmq.LINGER, 30000)  # deliver what is queued before closing
+        if wait is not None:  # writable only once connected: "waiting" is then visible
+            sock.setsockopt(zmq.IMMEDIATE, 1)
+        if curve is not None:
+            curve.apply(sock)
         sock.connect(endpoint)
     positions = np.ascontiguousarray(recording.positions, dtype=dtype)
     n, fps = positions.shape[0], float(recording.fps)
     try:
-        sock.send_multipart(protocol.encode(announce_of(recording, stream, labels,
-                                                        labels_sequence)))
+        _send(sock, protocol.encode(announce_of(recording, stream, labels, labels_sequence)),
+              wait, endpoint, on_wait)
         t0 = time.perf_counter()
         for a in range(0, n, batch):
             if speed > 0:
-                wait = t0 + a / (fps * speed) - time.perf_counter()
-                if wait > 0:
-                    time.sleep(wait)
-            sock.send_multipart(protocol.encode(
-                protocol.Frames(stream, a, time.time(), positions[a:a + batch])))
+                pause = t0 + a / (fps * speed) - time.perf_counter()
+                if pause > 0:
+                    time.sleep(pause)
+            _send(sock, protocol.encode(
+                protocol.Frames(stream, a, time.time(), positions[a:a + batch])), wait, endpoint)
         if end:
-            sock.send_multipart(protocol.encode(protocol.End(stream)))
+            _send(sock, protocol.encode(protocol.End(stream)), wait, endpoint)
+    except KeyboardInterrupt:
+        if end and sock.poll(1000, zmq.POLLOUT):
+            sock.send_multipart(protocol.encode(protocol.End(stream)), zmq.NOBLOCK)
+            sock.setsockopt(zmq.LINGER, 1000)
+        raise
+    except NoDaemon:
+        sock.setsockopt(zmq.LINGER, 0)
+        raise
     finally:
         if own:
             sock.close()
@@ -109,12 +157,31 @@ def run(args) -> int:
     stream = args.stream or stream_id(args.file)
     dtype = np.float32 if args.float32 else np.float64
     ctx = zmq.Context.instance()
+    curve = None
+    if args.curve_dir:
+        from streamseg.daemon.security import ClientKeys
+
+        curve = ClientKeys.load(args.curve_dir)
     passes = 0
+
+    def waiting():
+        print(f"streamseg replay: waiting for the daemon at {args.to} (up to {args.wait:g} s)",
+              file=sys.stderr, flush=True)
+
     while True:
-        sent = replay(rec, args.to, stream=stream, speed=args.speed, batch=args.batch,
-                      dtype=dtype, ctx=ctx, labels=args.labels,
-                      labels_sequence=args.labels_sequence or (stream_id(args.file)
-                                                               if args.labels else None))
+        try:
+            sent = replay(rec, args.to, stream=stream, speed=args.speed, batch=args.batch,
+                          dtype=dtype, ctx=ctx, labels=args.labels,
+                          labels_sequence=args.labels_sequence or (stream_id(args.file)
+                                                                   if args.labels else None),
+                          wait=args.wait, on_wait=waiting, curve=curve)
+        except NoDaemon as err:
+            print(f"streamseg replay: {err}", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt:
+            print(f"streamseg replay: interrupted: sent end of {stream} to {args.to}",
+                  file=sys.stderr)
+            return 130
         passes += 1
         print(f"streamseg replay: {stream}: sent {sent} frames ({passes} pass"
               f"{'es' if passes > 1 else ''}) to {args.to}", flush=True)

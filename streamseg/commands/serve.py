@@ -1,7 +1,9 @@
 """Run the live segmentation daemon (ZeroMQ ingest, events, control; see docs/protocol.md).
 
 Options come from the defaults, then ``--config FILE.toml`` (tables ``[daemon]``, ``[lof]``,
-``[aca]``), then the command line. SIGINT and SIGTERM shut down cleanly (exit code 0).
+``[aca]``), then the command line. SIGINT and SIGTERM shut down cleanly (exit code 0). The
+event log and checkpoints go to ``--state-dir`` (default ``$XDG_STATE_HOME/streamseg``;
+``none``: off).
 """
 
 from __future__ import annotations
@@ -59,6 +61,12 @@ def build(args):
     overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DaemonConfig)
                  if getattr(args, f.name, None) is not None}
     config = dataclasses.replace(config, **overrides)
+    if not config.state_dir:  # the library default is none; a service keeps its log
+        from streamseg.daemon.eventlog import default_state_dir
+
+        config = dataclasses.replace(config, state_dir=str(default_state_dir()))
+    elif config.state_dir == "none":
+        config = dataclasses.replace(config, state_dir="")
     return config, Algorithms(lof, aca, repetitions=config.repetitions, rep_config=rep)
 
 

@@ -74,6 +74,41 @@ class DaemonConfig:
         Receive and decode packets in a thread of their own, overlapping the detector's
         GIL-free kernels. Faster for one high-rate stream of small packets, slower with many
         streams (each GIL hand-back after a kernel call waits for the receiver), hence off.
+    state_dir : str
+        Directory of the event log (``events.sqlite``) and the stream checkpoints
+        (``checkpoints.sqlite``). ``""``: none (the library default); ``streamseg serve`` uses
+        ``$XDG_STATE_HOME/streamseg`` (``~/.local/state/streamseg``) unless told
+        ``--state-dir none``.
+    log_max_mb, log_max_days : float
+        Event log retention: the oldest events are deleted beyond this size (MB of live
+        pages) or age (days).
+    checkpoint_interval : float
+        Seconds between checkpoints of every open stream's state (0: none); after a crash a
+        restart with the same ``state_dir`` resumes each stream from its last checkpoint.
+    max_message_bytes : int
+        ZMQ_MAXMSGSIZE of the ingest socket: a larger message is dropped by ZeroMQ (and the
+        sender's connection closed) before it takes memory.
+    max_seq_jump : float
+        Seconds (x fps frames) a packet's ``seq`` may jump ahead of the expected frame; a
+        larger jump is an ``error`` (reason ``seq``) and the packet is dropped, so one bad
+        number cannot make every later good packet a duplicate.
+    min_fps, max_fps : float
+        Announced frame rates outside this range are refused (``field`` error).
+    gap_events_per_s, stray_errors_per_s : float
+        Rate limits: ``gap`` events per stream, and first-of-a-kind ``error`` events about
+        stream ids that are not open (``unknown_stream`` floods), per second. Beyond them the
+        occurrences are counted and summarised in the ``error`` republished each heartbeat.
+    max_streams_per_client : int
+        Streams one client may hold open at once (a ``quota`` error beyond it), so one
+        sender cannot take every slot. A client is its CURVE public key; without CURVE it is
+        the peer's IP address (so all local senders share one quota). 0: no quota.
+    curve_dir : str
+        Directory made by ``streamseg keys``: with it every socket uses CURVE, the daemon
+        takes ``server.key_secret`` and accepts only the client public keys in
+        ``authorized/``. ``""``: no encryption (then only loopback binds, unless
+        ``insecure``).
+    insecure : bool
+        Allow binding a non-loopback address without CURVE.
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
@@ -99,6 +134,19 @@ class DaemonConfig:
     relabel_scheduler: str = ""
     relabel_share: float = 0.25
     receive_thread: bool = False
+    state_dir: str = ""
+    log_max_mb: float = 256.0
+    log_max_days: float = 7.0
+    checkpoint_interval: float = 2.0
+    max_message_bytes: int = 64 << 20
+    max_seq_jump: float = 600.0
+    min_fps: float = 0.5
+    max_fps: float = 10000.0
+    gap_events_per_s: float = 10.0
+    stray_errors_per_s: float = 10.0
+    max_streams_per_client: int = 1000
+    curve_dir: str = ""
+    insecure: bool = False
 
     def __post_init__(self):
         for name in ("ingest", "publish"):
@@ -165,3 +213,20 @@ class DaemonConfig:
                f"one of {', '.join(UP_AXES)}")
         _check("repetitions", self.repetitions, isinstance(self.repetitions, bool),
                "true or false")
+        _check("insecure", self.insecure, isinstance(self.insecure, bool), "true or false")
+        for name in ("state_dir", "curve_dir"):
+            _check(name, getattr(self, name), isinstance(getattr(self, name), str),
+                   'a directory path or ""')
+        for name in ("log_max_mb", "log_max_days", "max_seq_jump", "min_fps", "max_fps",
+                     "gap_events_per_s", "stray_errors_per_s"):
+            v = getattr(self, name)
+            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
+                   "a number > 0")
+        _check("max_fps", self.max_fps, self.max_fps >= self.min_fps, "a number >= min_fps")
+        _check("checkpoint_interval", self.checkpoint_interval,
+               isinstance(self.checkpoint_interval, (int, float)) and self.checkpoint_interval >= 0,
+               "a number >= 0 (seconds; 0 turns it off)")
+        for name in ("max_message_bytes", "max_streams_per_client"):
+            v = getattr(self, name)
+            _check(name, v, type(v) is int and v >= (name == "max_message_bytes"),
+                   "an integer >= 1" if name == "max_message_bytes" else "an integer >= 0")

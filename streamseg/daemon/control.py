@@ -8,17 +8,19 @@ import msgpack
 import zmq
 
 from streamseg import protocol
+from streamseg.daemon.checkpoint import checkpoint
 
 
 def serve_control(daemon) -> None:
     """Answer every queued control request (REP: one reply per request)."""
     while True:
         try:
-            parts = daemon.control.recv_multipart(zmq.NOBLOCK)
+            parts = daemon.control.recv_multipart(zmq.NOBLOCK, copy=False)
         except zmq.Again:
             return
         try:
-            reply = answer(daemon, msgpack.unpackb(parts[-1], raw=False))
+            reply = answer(daemon, msgpack.unpackb(parts[-1].bytes, raw=False),
+                           may_change(daemon, parts[-1]))
         except Exception as err:  # a bad request gets an error reply, never a crash
             reply = {"ok": False, "error": f"bad request ({type(err).__name__}: {err}); "
                                           "send a msgpack map with op (docs/protocol.md)"}
@@ -26,12 +28,34 @@ def serve_control(daemon) -> None:
         daemon.control.send(msgpack.packb(reply, use_bin_type=True))
 
 
-def answer(daemon, req) -> dict:
+CHANGING_OPS = frozenset({"shutdown", "checkpoint"})  # ops that change the daemon's state
+
+
+def may_change(daemon, frame) -> bool:
+    """Whether the sender of ``frame`` may use state-changing ops: with CURVE every connected
+    client holds an authorised key; without it only a loopback (or ipc) peer may."""
+    if daemon.security is not None:
+        return True
+    if daemon.config.control.startswith(("ipc://", "inproc://")):
+        return True  # a local socket file: its permissions decide who connects
+    try:
+        peer = frame.get("Peer-Address")
+    except (zmq.ZMQError, KeyError):
+        return False
+    from streamseg.daemon.security import is_loopback
+
+    return is_loopback(f"tcp://{peer}:0")
+
+
+def answer(daemon, req, may_change: bool = True) -> dict:
     """The reply to one control request (docs/protocol.md, Control)."""
     op = req.get("op") if isinstance(req, dict) else None
     if isinstance(req, dict) and req.get("v") != protocol.PROTOCOL_VERSION:
         return {"ok": False, "error": f"protocol version {req.get('v')!r} is not supported: "
                                       f"send v={protocol.PROTOCOL_VERSION} (docs/protocol.md)"}
+    if op in CHANGING_OPS and not may_change:
+        return {"ok": False, "error": f"{op} is refused: it needs an authorised CURVE key, or "
+                                      "a loopback connection when CURVE is off"}
     if op == "ping":
         return {"ok": True}
     if op == "hello":
@@ -60,8 +84,39 @@ def answer(daemon, req) -> dict:
             return {"ok": True, **daemon.closed_states[stream]}
         return {"ok": False, "error": f"no stream {stream!r}; open: "
                                       f"{', '.join(sorted(daemon.streams)[:20]) or 'none'}"}
+    if op == "since":
+        return since(daemon, req)
+    if op == "checkpoint":
+        if daemon.checkpoints is None:
+            return {"ok": False, "error": "checkpoints are off (give --state-dir and a "
+                                          "checkpoint_interval > 0)"}
+        daemon.checkpoints.wait()
+        n = checkpoint(daemon)
+        daemon.checkpoints.wait()  # the reply says it is on disk
+        return {"ok": True, "streams": n}
     if op == "shutdown":
         daemon.stop()
         return {"ok": True}
     return {"ok": False, "error": f"unknown op {op!r}; expected ping, hello, streams, state, "
-                                  "stats or shutdown"}
+                                  "since, stats, checkpoint or shutdown"}
+
+
+SINCE_LIMIT = 10000  # events per reply at most; ask again from the last one for more
+
+
+def since(daemon, req) -> dict:
+    """The logged events of a stream with sequence numbers above ``seq`` (docs/protocol.md)."""
+    stream, seq = req.get("stream"), req.get("seq", 0)
+    limit = req.get("limit", SINCE_LIMIT)
+    if not isinstance(stream, str) or type(seq) is not int or seq < 0:
+        return {"ok": False, "error": "since needs stream (str) and seq (int >= 0): the events "
+                                      "with sequence numbers > seq"}
+    if daemon.eventlog is None:
+        return {"ok": False, "error": "this daemon keeps no event log (start it with "
+                                      "--state-dir DIR)"}
+    limit = min(limit, SINCE_LIMIT) if type(limit) is int and limit > 0 else SINCE_LIMIT
+    bodies, first = daemon.eventlog.since(stream, seq, limit)
+    events = [msgpack.unpackb(b, raw=False) for b in bodies]
+    return {"ok": True, "stream": stream, "events": events, "first": first,
+            "last": daemon.numbering.last.get(stream) or daemon.eventlog.last_seq(stream),
+            "more": len(events) == limit}

@@ -152,6 +152,7 @@ def _segment_triplets(window) -> list:
 
 
 RECENT_CUTS = 256  # live cuts a stream keeps for its relabels
+RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
 GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
 UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 
@@ -178,7 +179,7 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "notices", "_spine", "_spine_n", "cut_frames", "rep_sets")
+                 "notices", "_spine", "_spine_n", "cut_frames", "rep_sets", "_cap")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -196,8 +197,11 @@ class StreamPipeline:
         self._spine = np.zeros(3)
         self._spine_n = 0 if self.plan[1] is not None else -1  # -1: checked (or no need)
         cap = max(int(round(history * fps)), 2)
+        self._cap = cap
+        # the ring grows (doubling) up to ``cap`` rows as frames come: an idle or short
+        # stream does not hold the whole history's memory (547 kB at 60 s x 120 Hz)
         self._feat = None  # allocated on the first packet, when the feature width is known
-        self._frames = np.zeros(cap, dtype=np.int64)
+        self._frames = np.zeros(min(cap, RING_START), dtype=np.int64)
         self._width = self.segmenter.n_features
         self.learned = 0  # finite feature rows stored so far
         self.previous = None  # the last relabel result (algorithm's own object)
@@ -206,7 +210,7 @@ class StreamPipeline:
 
     @property
     def capacity(self) -> int:
-        return self._frames.shape[0]
+        return self._cap
 
     @property
     def fill(self) -> float:
@@ -340,8 +344,16 @@ class StreamPipeline:
         cap = self.capacity
         if self._feat is None:
             # float32 halves the per-stream memory; ACA gets float64 copies
-            self._feat = np.zeros((cap, angles.shape[1]), dtype=np.float32)
+            self._feat = np.zeros((self._frames.shape[0], angles.shape[1]), dtype=np.float32)
         m = angles.shape[0]
+        size = self._frames.shape[0]
+        if size < cap and self.learned + m > size:  # not wrapped yet: rows 0..learned-1
+            grown = min(cap, max(2 * size, self.learned + m))
+            feat = np.zeros((grown, self._feat.shape[1]), dtype=np.float32)
+            fr = np.zeros(grown, dtype=np.int64)
+            feat[:self.learned], fr[:self.learned] = self._feat[:self.learned], \
+                self._frames[:self.learned]
+            self._feat, self._frames = feat, fr
         first = self.learned
         if m > cap:  # only the newest ``cap`` rows fit
             angles, frames = angles[-cap:], frames[-cap:]

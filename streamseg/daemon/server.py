@@ -18,11 +18,14 @@ import zmq
 
 from streamseg import protocol
 from streamseg.config import DaemonConfig
+from streamseg.daemon import checkpoint, limits
 from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.control import serve_control
-from streamseg.daemon.ingest import Receiver
+from streamseg.daemon.eventlog import Numbering, open_log
+from streamseg.daemon.ingest import Receiver, recv_message
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.security import ServerSecurity, check_binds, peer_of
 from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
 from streamseg.daemon.worker import RelabelJob
@@ -73,6 +76,17 @@ class Daemon:
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
+        self.eventlog = open_log(self.config)
+        self.numbering = Numbering(self.eventlog)
+        self.stray = limits.RateLimit(self.config.stray_errors_per_s)
+        self.clients = collections.Counter()  # open streams per client (the quota)
+        self._sender = None  # topic frame of the message being handled (its identity)
+        self.security = None
+        self.checkpoints = checkpoint.open_store(self.config)
+        self.checkpoint_seconds = 0.0  # loop time spent copying stream states
+        self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
+        self._next_ckpt = 0.0
+        self._ckpt_round: list = []  # streams still to copy in this checkpoint round
         self.worker = relabel_worker(self.algorithms, self.config)
         self.default_skeleton = None
         if self.config.default_skeleton:
@@ -87,11 +101,18 @@ class Daemon:
     def bind(self) -> dict:
         """Create and bind the sockets; returns the bound endpoints (ports resolved)."""
         c = self.config
+        check_binds(c)
+        if c.curve_dir:
+            self.security = ServerSecurity(self.ctx, c.curve_dir)
+        secure = self.security.apply if self.security is not None else (lambda sock: None)
         self.ingest = self.ctx.socket(zmq.PULL)
+        secure(self.ingest)
         self.ingest.setsockopt(zmq.RCVHWM, c.ingest_hwm)
         self.ingest.setsockopt(zmq.LINGER, 0)
+        self.ingest.setsockopt(zmq.MAXMSGSIZE, c.max_message_bytes)
         self.ingest.bind(_bindable(c.ingest))
         self.pub = self.ctx.socket(zmq.PUB)
+        secure(self.pub)
         self.pub.setsockopt(zmq.SNDHWM, c.hwm)
         self.pub.setsockopt(zmq.LINGER, 2000)  # final events get out at shutdown
         self.pub.bind(_bindable(c.publish))
@@ -113,6 +134,7 @@ class Daemon:
         }
         if c.control:
             self.control = self.ctx.socket(zmq.REP)
+            secure(self.control)
             self.control.setsockopt(zmq.LINGER, 0)
             self.control.bind(_bindable(c.control))
             self.poller.register(self.control, zmq.POLLIN)
@@ -138,11 +160,13 @@ class Daemon:
             if self.receiver is not None:
                 self.receiver.start()
             self._started = time.monotonic()
+            checkpoint.restore(self, self._started)
+            self._next_ckpt = self._started + self.config.checkpoint_interval
             self.ready.set()
             while not self._stop.is_set():
                 busy = self.worker.busy_key is not None or self.worker.queued()
                 timeout = 0 if self.receiver is not None and self.receiver.items else \
-                    (10 if busy else 100)
+                    (1 if self._ckpt_round else 10 if busy else 100)
                 events = dict(self.poller.poll(timeout))
                 now = time.monotonic()
                 if self.receiver is not None:
@@ -159,6 +183,8 @@ class Daemon:
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
                     self._beat(now)
+                if self.checkpoints is not None and (self._ckpt_round or now >= self._next_ckpt):
+                    checkpoint.step(self, now)
         finally:
             self._shutdown()
         return 0
@@ -166,11 +192,11 @@ class Daemon:
     # --- ingest ------------------------------------------------------------------------------
 
     def _drain(self, now: float) -> None:
-        recv, clock = self.ingest.recv_multipart, time.perf_counter
+        sock, clock = self.ingest, time.perf_counter
         stop_at = self.n_frames + self.config.drain_frames
         for _ in range(self.config.drain):
             try:
-                parts = recv(zmq.NOBLOCK)
+                parts = recv_message(sock, zmq.NOBLOCK)
             except zmq.Again:
                 break
             self._on_message(parts, now, clock())
@@ -199,6 +225,7 @@ class Daemon:
                             continue
                     self._on_frames(st, it[2], it[3], it[4], now, it[5])
                 elif it[0] == "o":
+                    self._sender = it[2]
                     self._on_body(it[1], now, 0.0)
                 else:
                     self._error(it[1], it[2], it[3])
@@ -219,6 +246,7 @@ class Daemon:
             self._error(None, "decode", f"expected 2 message parts [topic, body], got "
                         f"{len(parts)}")
             return
+        self._sender = parts[0]
         try:
             self._on_body(protocol.unpack_body(parts[1]), now, arrival)
         except protocol.WireError as err:
@@ -263,6 +291,10 @@ class Daemon:
         return None
 
     def _on_announce(self, msg: protocol.Announce, now: float) -> None:
+        problem = limits.fps_problem(msg.fps, self.config)
+        if problem:
+            self._error(msg.stream, "field", problem)
+            return
         old = self.streams.get(msg.stream)
         if old is not None:
             self._close(old, "reannounced")
@@ -276,6 +308,12 @@ class Daemon:
             self._error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
                         f"configured maximum (max_streams); close one or raise the limit")
             return None
+        quota = self.config.max_streams_per_client
+        client = peer_of(self._sender) if quota and self._sender is not None else None
+        if client is not None and self.clients[client] >= quota:
+            self._error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
+                        f"streams, its quota (max_streams_per_client); end one first")
+            return None
         try:
             pipeline = StreamPipeline(skeleton, fps, self.algorithms, self.config.relabel_history)
         except Exception as err:  # e.g. a skeleton without the joints the features need
@@ -284,6 +322,11 @@ class Daemon:
         self._gen += 1
         st = StreamState(stream, self._gen, fps, pipeline, now)
         st.next_relabel = int(round(self.config.relabel_interval * fps))
+        st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
+        st.seq_base = self.numbering.current(stream)
+        st.client = client
+        if client is not None:
+            self.clients[client] += 1
         self.streams[stream] = st
         self.totals["streams_opened"] += 1
         log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
@@ -299,6 +342,13 @@ class Daemon:
                         f"(n <= {self.config.max_packet_frames}, "
                         f"{st.pipeline.skeleton.n_joints}, 3) as announced")
             return
+        problem = limits.clock_problem(timestamp) or (
+            seq > st.next_seq and limits.jump_problem(seq, st.next_seq, st.fps,
+                                                      self.config.max_seq_jump))
+        if problem:
+            st.dropped += n
+            self._error(st.stream, "seq" if seq > st.next_seq else "field", problem)
+            return
         if st.t0 is None:
             st.t0 = timestamp - seq / st.fps
         if seq != st.next_seq:
@@ -306,7 +356,8 @@ class Daemon:
                 self._flush(st)  # the segmenter learns contiguous runs
                 st.lost += seq - st.next_seq
                 self.errors.add(st.stream, "gap", f"frames {st.next_seq}..{seq - 1} missing")
-                self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
+                if st.gap_limit.allow(now):  # the rest are counted in the `gap` error
+                    self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
             else:
                 overlap = st.next_seq - seq
                 st.dropped += min(overlap, n)
@@ -343,8 +394,7 @@ class Daemon:
             self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
         for frame, score, emitted in cuts:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(ev)
-            self._publish(st, ev)
+            st.cuts.append(self._publish(st, ev))
         for a, b, count, emitted, label, index in reps:
             st.reps = count
             self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
@@ -365,16 +415,23 @@ class Daemon:
 
     # --- events ------------------------------------------------------------------------------
 
-    def _publish(self, st: StreamState | None, ev) -> None:
-        self.pub.send_multipart(protocol.encode(ev))
+    def _publish(self, st: StreamState | None, ev):
+        """Number, log and publish one event; returns it with its ``seq``."""
+        ev, parts = self.numbering.encode(ev)
+        self.pub.send_multipart(parts)
         self.totals["events"] += 1
         if st is not None:
             st.events_out += 1
+        return ev
 
     def _error(self, stream, reason: str, message: str, n: int = 1) -> None:
+        st = self.streams.get(stream) if stream else None
+        if st is None and stream and (stream, reason) not in self.errors.counts \
+                and not self.stray.allow(time.monotonic()):
+            stream = None  # a flood of unknown ids: pooled, summarised each heartbeat
         ev = self.errors.add(stream, reason, message, n)
         if ev is not None:
-            self._publish(self.streams.get(stream) if stream else None, ev)
+            self._publish(st, ev)
 
     def _report_notices(self, st: StreamState) -> None:
         """Publish the pipeline's notices (problems that do not stop the stream) as errors."""
@@ -399,19 +456,25 @@ class Daemon:
         self._report_notices(st)
         for frame, score, emitted in final:
             ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(ev)
-            self._publish(st, ev)
+            st.cuts.append(self._publish(st, ev))
         for a, b, count, emitted, label, index in final_reps:
             st.reps = count
             self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
                                            label, index))
         del self.streams[st.stream]
+        if st.client is not None:
+            self.clients[st.client] -= 1
+            if not self.clients[st.client]:
+                del self.clients[st.client]
         if self.config.relabel_interval > 0 and self._submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
         else:
             self._closed(st, reason)
 
     def _closed(self, st: StreamState, reason: str) -> None:
+        if self.checkpoints is not None:  # the stream is over: nothing to resume
+            self.checkpoints.forget(st.stream)
+            self._ckpt_seen.pop(st.stream, None)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
@@ -445,9 +508,8 @@ class Daemon:
             st.pipeline.previous = result.window
             ev = protocol.Segments(stream, st.revision, result.start, result.end,
                                    result.segments, job.final, result.elapsed)
-            st.segments = ev
             self.totals["relabels"] += 1
-            self._publish(st, ev)
+            st.segments = self._publish(st, ev)
         if job.final and reason is not None:
             self.closing.pop(job.key, None)
             self._closed(st, reason)

@@ -26,7 +26,13 @@ def shutdown(daemon) -> None:
                      getattr(daemon, "pub", None), getattr(daemon, "_wake", None)):
             if sock is not None:
                 sock.close()  # default linger: final events still reach listeners
+        if daemon.security is not None:
+            daemon.security.stop()
         daemon.ctx.term()
+        if daemon.eventlog is not None:
+            daemon.eventlog.close()  # after the final events: they are logged too
+        if daemon.checkpoints is not None:
+            daemon.checkpoints.close()
         log.info("daemon stopped")
 
 

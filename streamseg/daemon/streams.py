@@ -23,7 +23,8 @@ class StreamState:
 
     __slots__ = ("stream", "gen", "fps", "pipeline", "next_seq", "t0", "last_seen", "frames_in",
                  "dropped", "lost", "events_out", "revision", "segments", "cuts", "reps",
-                 "next_relabel", "relabel_time", "pending", "arrivals", "labels")
+                 "next_relabel", "relabel_time", "pending", "arrivals", "labels", "gap_limit",
+                 "seq_base", "client")
 
     def __init__(self, stream: str, gen: int, fps: float, pipeline, now: float):
         self.stream = stream
@@ -46,6 +47,9 @@ class StreamState:
         self.pending = []  # Frames packets received in this drain, contiguous
         self.arrivals = []  # perf_counter() at which each pending packet was received
         self.labels = None  # {"path", "sequence"} of human labels the announce named
+        self.gap_limit = None  # limits.RateLimit of published gap events
+        self.seq_base = 0  # the stream id's last event number before this stream opened
+        self.client = None  # who announced it (the per-client quota)
 
     def time_of(self, frame: int) -> float:
         return (self.t0 or 0.0) + frame / self.fps
@@ -60,7 +64,7 @@ class StreamState:
         """The catch-up state of the control endpoint's ``state`` request."""
         seg = self.segments
         return {"stream": self.stream, "fps": self.fps, "frame": self.next_seq,
-                "revision": self.revision,
+                "revision": self.revision, "seq_base": self.seq_base,
                 "segments": None if seg is None else protocol.to_json(seg),
                 "cuts": [protocol.to_json(c) for c in self.cuts
                          if seg is None or c.frame >= seg.end],

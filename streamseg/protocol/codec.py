@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import fields
+from dataclasses import fields, replace
 
 import msgpack
 import numpy as np
@@ -63,8 +63,12 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
 _OPTIONAL = {"announce": ("labels", "labels_sequence")}  # left out when None (older readers)
 
 
-def encode(msg) -> list[bytes]:
-    """The two frames ``[topic, body]`` of a message object."""
+def encode(msg, seq: int | None = None) -> list[bytes]:
+    """The two frames ``[topic, body]`` of a message object.
+
+    ``seq`` (the daemon's per-stream event sequence number) overrides ``msg.seq``; an event
+    without one is sent without the field.
+    """
     body = {"v": PROTOCOL_VERSION, "type": msg.type}
     optional = _OPTIONAL.get(msg.type, ())
     for f in fields(msg):
@@ -73,7 +77,11 @@ def encode(msg) -> list[bytes]:
             continue
         if isinstance(value, np.ndarray):
             value = encode_array(value)
+        elif f.name == "seq" and value is None and msg.type != "frames":
+            continue
         body[f.name] = value
+    if seq is not None:
+        body["seq"] = seq
     # a hello is routed by its token, so only the subscriber that asked receives it
     stream = msg.token if msg.type == "hello" else getattr(msg, "stream", None)
     return [topic(msg.type, stream), msgpack.packb(body, use_bin_type=True)]
@@ -115,7 +123,10 @@ def from_body(obj: dict):
     kind = obj["type"]
     stream = obj.get("stream") if isinstance(obj.get("stream"), str) else None
     try:
-        return _BUILDERS[kind](obj)
+        msg = _BUILDERS[kind](obj)
+        if kind in _NUMBERED and obj.get("seq") is not None:
+            msg = replace(msg, seq=_int(obj, "seq", kind, stream, minimum=1))
+        return msg
     except KeyError as err:
         raise WireError("field", f"{kind} message lacks field {err.args[0]!r} "
                         f"(see docs/protocol.md)", stream) from err
@@ -281,6 +292,9 @@ _BUILDERS = {
 }
 
 
+_NUMBERED = frozenset({"cut", "segments", "rep", "gap", "error", "closed"})
+
+
 def to_json(msg) -> dict:
     """A JSON-able dict of an event: its fields plus ``type`` (arrays become nested lists)."""
     out = {"type": msg.type}
@@ -288,6 +302,8 @@ def to_json(msg) -> dict:
         value = getattr(msg, f.name)
         if isinstance(value, np.ndarray):
             value = value.tolist()
+        elif f.name == "seq" and value is None and msg.type != "frames":
+            continue
         elif isinstance(value, tuple):
             value = [list(x) if isinstance(x, tuple) else x for x in value]
         out[f.name] = value

@@ -56,6 +56,11 @@ def subscriptions(stream: str | None = None, kind: str | None = None) -> list[by
 
 # --- messages ------------------------------------------------------------------------------
 
+# The event sequence number (docs/protocol.md, "Sequence numbers"): set by the daemon when it
+# publishes, so it is not part of an event's identity (two runs' events compare equal).
+def _seq():
+    return field(default=None, compare=False)
+
 
 @dataclass(frozen=True)
 class Announce:
@@ -119,6 +124,7 @@ class Cut:
     score: float
     emitted_at: int
     provisional: bool = True
+    seq: int | None = _seq()
 
     type = "cut"
 
@@ -139,6 +145,7 @@ class Segments:
     segments: tuple[tuple[int, int, int], ...]
     final: bool = False
     elapsed: float = 0.0
+    seq: int | None = _seq()
 
     type = "segments"
 
@@ -158,6 +165,7 @@ class Rep:
     emitted_at: int = 0
     label: int | None = None
     set_index: int = 0
+    seq: int | None = _seq()
 
     type = "rep"
 
@@ -169,6 +177,7 @@ class Gap:
     stream: str
     expected: int
     got: int
+    seq: int | None = _seq()
 
     type = "gap"
 
@@ -181,6 +190,7 @@ class Error:
     reason: str
     message: str
     count: int = 1
+    seq: int | None = _seq()
 
     type = "error"
 
@@ -203,6 +213,7 @@ class Closed:
     stream: str
     reason: str
     frames: int
+    seq: int | None = _seq()
 
     type = "closed"
 

@@ -1,0 +1,158 @@
+"""ZeroMQ CURVE for the daemon's three sockets, key files, and the loopback-only rule.
+
+Layout of a key directory made by :func:`generate` (``streamseg keys DIR``)::
+
+    DIR/server.key, DIR/server.key_secret   the daemon's pair (give server.key to clients)
+    DIR/client.key, DIR/client.key_secret   a client pair (replay, listen, control)
+    DIR/authorized/client.key               public keys the daemon accepts (add more here)
+
+The daemon runs pyzmq's :class:`zmq.auth.thread.ThreadAuthenticator` (ZAP): a client whose
+public key is not in ``authorized/`` never completes the handshake, so it can neither send,
+subscribe nor control. Each accepted message carries the client's key as ``User-Id``.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import shutil
+import socket as _socket
+from dataclasses import dataclass
+from pathlib import Path
+
+import zmq
+import zmq.auth
+from zmq.auth.thread import ThreadAuthenticator
+
+from streamseg.exceptions import ParameterError
+
+DOMAIN = "streamseg"  # the ZAP domain of the daemon's sockets
+
+
+def generate(directory, clients: int = 1) -> list[Path]:
+    """Write a server pair and ``clients`` client pairs (authorised) to ``directory``;
+    returns the files written. Existing server keys are kept (clients would lose access)."""
+    d = Path(directory)
+    auth = d / "authorized"
+    auth.mkdir(parents=True, exist_ok=True)
+    written = []
+    if not (d / "server.key_secret").exists():
+        written += [Path(p) for p in zmq.auth.create_certificates(str(d), "server")]
+    for k in range(clients):
+        name = "client" if k == 0 else f"client{k + 1}"
+        if (d / f"{name}.key_secret").exists():
+            continue
+        pub, sec = (Path(p) for p in zmq.auth.create_certificates(str(d), name))
+        shutil.copy(pub, auth / pub.name)
+        written += [pub, sec, auth / pub.name]
+    for p in d.glob("*.key_secret"):
+        p.chmod(0o600)
+    return written
+
+
+def _load(path: Path, secret: bool):
+    if not path.exists():
+        raise ParameterError(f"{path}: no such key file (make keys with `streamseg keys DIR`)")
+    try:
+        pub, sec = zmq.auth.load_certificate(str(path))
+    except Exception as err:
+        raise ParameterError(f"{path}: not a ZeroMQ certificate ({err})") from None
+    if secret and sec is None:
+        raise ParameterError(f"{path}: holds no secret key")
+    return pub, sec
+
+
+@dataclass(frozen=True)
+class ClientKeys:
+    """A client's CURVE pair and the server's public key."""
+
+    public: bytes
+    secret: bytes
+    server: bytes
+
+    @classmethod
+    def load(cls, directory, name: str = "client") -> ClientKeys:
+        d = Path(directory)
+        pub, sec = _load(d / f"{name}.key_secret", True)
+        server, _ = _load(d / "server.key", False)
+        return cls(pub, sec, server)
+
+    def apply(self, sock: zmq.Socket) -> None:
+        """Make ``sock`` (before connect) a CURVE client of the daemon."""
+        sock.curve_publickey = self.public
+        sock.curve_secretkey = self.secret
+        sock.curve_serverkey = self.server
+
+
+class ServerSecurity:
+    """The daemon's side: server keys, the authenticator, and CURVE on each bound socket."""
+
+    def __init__(self, ctx: zmq.Context, directory):
+        d = Path(directory)
+        self.public, self.secret = _load(d / "server.key_secret", True)
+        self.authorized = d / "authorized"
+        if not self.authorized.is_dir():
+            raise ParameterError(f"{self.authorized}: no such directory of authorised client "
+                                 f"public keys (make keys with `streamseg keys {d}`)")
+        self.auth = ThreadAuthenticator(ctx)
+        self.auth.start()
+        self.auth.configure_curve(domain=DOMAIN, location=str(self.authorized))
+
+    def apply(self, sock: zmq.Socket) -> None:
+        """Make ``sock`` (before bind) a CURVE server accepting only authorised keys."""
+        sock.curve_secretkey = self.secret
+        sock.curve_publickey = self.public
+        sock.curve_server = True
+        sock.zap_domain = DOMAIN.encode()
+
+    def reload(self) -> None:
+        """Re-read ``authorized/`` (a key added or removed takes effect for new connections)."""
+        self.auth.configure_curve(domain=DOMAIN, location=str(self.authorized))
+
+    def stop(self) -> None:
+        self.auth.stop()
+
+
+def is_loopback(endpoint: str) -> bool:
+    """True for ``ipc://``, ``inproc://`` and TCP endpoints on a loopback address."""
+    if not endpoint.startswith("tcp://"):
+        return endpoint.startswith(("ipc://", "inproc://"))
+    host = endpoint[len("tcp://"):].rsplit(":", 1)[0].strip("[]")
+    if ";" in host:  # "source;destination" form (connect only): judge the destination
+        host = host.split(";")[-1]
+    if host in ("*", ""):
+        return False
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:  # an interface name or a host name: resolve it
+        try:
+            return all(ipaddress.ip_address(a[4][0]).is_loopback
+                       for a in _socket.getaddrinfo(host, None))
+        except (OSError, ValueError):
+            return False
+
+
+def check_binds(config) -> None:
+    """Refuse non-loopback endpoints without CURVE unless ``insecure`` (ParameterError)."""
+    if config.curve_dir or config.insecure:
+        return
+    for name in ("ingest", "publish", "control"):
+        ep = getattr(config, name)
+        if ep and not is_loopback(ep):
+            raise ParameterError(
+                f"{name}={ep} is not a loopback address and CURVE is off: anyone who can "
+                f"reach it could send, listen and shut the daemon down. Give --curve-dir DIR "
+                f"(keys from `streamseg keys DIR`), or --insecure if the network is trusted")
+
+
+def peer_of(frame) -> str | None:
+    """Who sent a received ``zmq.Frame``: the CURVE key (``User-Id``), else the peer address."""
+    for prop in ("User-Id", "Peer-Address"):
+        try:
+            v = frame.get(prop)
+        except (zmq.ZMQError, KeyError):
+            continue
+        if v and v != "anonymous":
+            return v
+    return None

@@ -1,0 +1,177 @@
+"""CURVE on all three sockets, key files, the loopback rule, and the per-client quota."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+import zmq
+from zmq.utils.monitor import recv_monitor_message
+
+from streamseg import protocol as P
+from streamseg.cli import main
+from streamseg.commands.listen import listen, request, subscriber
+from streamseg.commands.replay import announce_of, replay
+from streamseg.config import DaemonConfig
+from streamseg.daemon import Daemon
+from streamseg.daemon.security import ClientKeys, generate, is_loopback
+from streamseg.exceptions import ParameterError
+from streamseg.io import read
+from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.skeleton import bone_angles
+
+pytestmark = pytest.mark.daemon
+LOOP = "tcp://127.0.0.1:0"
+
+
+@pytest.fixture(scope="module")
+def rec(data_dir):
+    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+
+
+@pytest.fixture
+def keys(tmp_path, capsys):
+    assert main(["keys", str(tmp_path / "keys"), "--clients", "2"]) == 0
+    assert "authorized" in capsys.readouterr().out
+    return tmp_path / "keys"
+
+
+@pytest.fixture
+def secure_daemon(keys):
+    running = []
+
+    def start(**overrides):
+        cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0,
+                   curve_dir=str(keys))
+        cfg.update(overrides)
+        d = Daemon(DaemonConfig(**cfg))
+        ep = d.bind()
+        t = threading.Thread(target=d.run, daemon=True)
+        t.start()
+        assert d.ready.wait(30)
+        running.append((d, t))
+        return d, ep
+
+    yield start
+    for d, t in running:
+        d.stop()
+        t.join(10)
+        assert not t.is_alive()
+
+
+def handshake(sock, endpoint) -> int:
+    """Connect ``sock`` and return the first handshake outcome its monitor reports."""
+    mon = sock.get_monitor_socket(zmq.EVENT_HANDSHAKE_SUCCEEDED
+                                  | zmq.EVENT_HANDSHAKE_FAILED_AUTH
+                                  | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+                                  | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL)
+    sock.connect(endpoint)
+    try:
+        assert mon.poll(20000), "no handshake event"
+        return recv_monitor_message(mon)["event"]
+    finally:
+        sock.disable_monitor()
+        mon.close(linger=0)
+
+
+def offline_cuts(rec):
+    seg = StreamingLOFSegmenter(fps=rec.fps)
+    ang = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    return [c.frame for c in seg.learn_many(ang) + seg.finish()]
+
+
+def test_curve_end_to_end_and_a_stranger_is_refused(secure_daemon, keys, rec, tmp_path):
+    d, ep = secure_daemon()
+    me = ClientKeys.load(keys)
+    ctx = zmq.Context.instance()
+    # an authorised client: replay, listen and control all work over CURVE
+    s = subscriber(ep["publish"], stream="safe", curve=me)
+    assert handshake(s, ep["publish"]) == zmq.EVENT_HANDSHAKE_SUCCEEDED
+    assert request(ep["control"], "ping", curve=me)["ok"]
+    replay(rec, ep["ingest"], stream="safe", speed=0, batch=50, curve=me, wait=20)
+    events = list(listen(s, stream="safe", until_end=True, timeout=30))
+    assert [e.frame for e in events if e.type == "cut"] == offline_cuts(rec)
+    # a stranger: keys of its own, not in authorized/: every socket refuses the handshake
+    generate(tmp_path / "stranger")
+    own = ClientKeys.load(tmp_path / "stranger")
+    stranger = ClientKeys(own.public, own.secret, me.server)  # it knows the server's key
+    for name, kind in (("ingest", zmq.PUSH), ("publish", zmq.SUB), ("control", zmq.REQ)):
+        sock = ctx.socket(kind)
+        stranger.apply(sock)
+        assert handshake(sock, ep[name]) == zmq.EVENT_HANDSHAKE_FAILED_AUTH, name
+        sock.close(linger=0)
+    # and a plain (no CURVE) client does not get through either
+    plain = ctx.socket(zmq.PUSH)
+    assert handshake(plain, ep["ingest"]) != zmq.EVENT_HANDSHAKE_SUCCEEDED
+    plain.close(linger=0)
+    with pytest.raises(TimeoutError):
+        request(ep["control"], "shutdown", curve=stranger, timeout=1)
+    assert not d._stop.is_set()
+    assert request(ep["control"], "stats", curve=me)["totals"]["streams_opened"] == 1
+    # the authorised key may shut the daemon down
+    assert request(ep["control"], "shutdown", curve=me)["ok"]
+    assert d._stop.wait(10)
+
+
+def test_cli_replay_and_listen_take_keys(secure_daemon, keys, data_dir, capsys, tmp_path):
+    d, ep = secure_daemon(state_dir=str(tmp_path / "state"))
+    files = [str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
+             str(data_dir / "cmu86" / "86.asf")]
+    assert main(["replay", *files, "--to", ep["ingest"], "--speed", "0", "--batch", "50",
+                 "--stream", "k", "--curve-dir", str(keys)]) == 0
+    assert main(["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "k",
+                 "--since", "0", "--curve-dir", str(keys), "--until-end", "--timeout",
+                 "30"]) == 0
+    printed = capsys.readouterr().out
+    assert "sent 4579 frames" in printed and "closed   (end)" in printed
+    assert "] cut " in printed
+
+
+def test_non_loopback_bind_needs_curve_or_insecure(keys):
+    cfg = DaemonConfig(ingest="tcp://0.0.0.0:0", publish=LOOP, control=LOOP)
+    with pytest.raises(ParameterError, match="not a loopback address and CURVE is off"):
+        Daemon(cfg).bind()
+    for ok in (dict(insecure=True), dict(curve_dir=str(keys))):
+        d = Daemon(DaemonConfig(ingest="tcp://0.0.0.0:0", publish=LOOP, control=LOOP, **ok))
+        assert d.bind()["ingest"].startswith("tcp://0.0.0.0:")
+        d._shutdown()
+    assert is_loopback("tcp://127.0.0.1:5560") and is_loopback("tcp://[::1]:5560")
+    assert is_loopback("tcp://localhost:1") and is_loopback("ipc:///tmp/x")
+    assert not is_loopback("tcp://*:5560") and not is_loopback("tcp://0.0.0.0:5560")
+    assert not is_loopback("tcp://10.1.2.3:5560")
+
+
+def test_cli_refuses_a_public_bind_in_one_line(capsys):
+    assert main(["serve", "--ingest", "tcp://0.0.0.0:0", "--publish", LOOP, "--control",
+                 LOOP, "--state-dir", "none"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--insecure" in err[0]
+
+
+def test_quota_keeps_a_slot_for_another_client(secure_daemon, keys, rec):
+    """One key announces 10 streams; with a quota of 3 and 5 slots the second key's stream
+    is still accepted and cut."""
+    d, ep = secure_daemon(max_streams=5, max_streams_per_client=3)
+    flood, other = ClientKeys.load(keys), ClientKeys.load(keys, "client2")
+    ctx = zmq.Context.instance()
+    s = subscriber(ep["publish"], curve=other)
+    assert handshake(s, ep["publish"]) == zmq.EVENT_HANDSHAKE_SUCCEEDED
+    a = ctx.socket(zmq.PUSH)
+    flood.apply(a)
+    a.connect(ep["ingest"])
+    for k in range(10):
+        a.send_multipart(P.encode(announce_of(rec, f"flood{k}")))
+    a.close(linger=5000)
+    seen = []
+    for e in listen(s, timeout=20):
+        seen.append(e)
+        if sum(x.type == "error" and x.reason == "quota" for x in seen) >= 1:
+            break
+    replay(rec, ep["ingest"], stream="legit", speed=0, batch=50, curve=other, wait=20)
+    events = [e for e in listen(s, stream="legit", until_end=True, timeout=30)]
+    legit = [e for e in events if e.stream == "legit"]
+    assert [e.frame for e in legit if e.type == "cut"] == offline_cuts(rec)
+    streams = {x["stream"] for x in request(ep["control"], "streams", curve=other)["streams"]}
+    assert streams == {"flood0", "flood1", "flood2"}
+    errs = request(ep["control"], "stats", curve=other)["totals"]["errors_by_reason"]
+    assert errs["quota"] == 7

@@ -1,0 +1,68 @@
+"""``streamseg replay`` without a daemon, and Ctrl-C (SIGINT) mid-stream, as a subprocess."""
+
+from __future__ import annotations
+
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from streamseg.commands.listen import listen, request, subscriber
+from streamseg.config import DaemonConfig
+from streamseg.daemon import Daemon
+
+pytestmark = pytest.mark.daemon
+LOOP = "tcp://127.0.0.1:0"
+
+
+def replay_cmd(data_dir, to, *extra):
+    return [sys.executable, "-m", "streamseg.cli", "replay",
+            str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
+            str(data_dir / "cmu86" / "86.asf"), "--to", to, *extra]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_no_daemon_waits_then_gives_up_in_one_line(data_dir):
+    proc = subprocess.run(replay_cmd(data_dir, f"tcp://127.0.0.1:{free_port()}", "--wait", "1"),
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    err = proc.stderr.strip().splitlines()
+    assert err[0].startswith("streamseg replay: waiting for the daemon at tcp://127.0.0.1:")
+    assert len(err) == 2 and "no daemon took packets" in err[1] and "streamseg serve" in err[1]
+
+
+def test_ctrl_c_sends_end(data_dir):
+    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
+                            heartbeat=0))
+    ep = d.bind()
+    t = threading.Thread(target=d.run, daemon=True)
+    t.start()
+    assert d.ready.wait(30)
+    try:
+        s = subscriber(ep["publish"], stream="cc")
+        proc = subprocess.Popen(replay_cmd(data_dir, ep["ingest"], "--speed", "1", "--stream",
+                                           "cc"), stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:  # the stream is open and taking frames
+            st = request(ep["control"], "streams")["streams"]
+            if st and st[0]["frame"] > 0:
+                break
+            time.sleep(0.02)
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(30) == 130
+        assert "interrupted: sent end of cc" in proc.stderr.read()
+        closed = [e for e in listen(s, stream="cc", until_end=True, timeout=20)
+                  if e.type == "closed"]
+        assert closed[0].reason == "end" and 0 < closed[0].frames < 4579
+    finally:
+        d.stop()
+        t.join(10)
