@@ -30,6 +30,14 @@ def field_help(cls) -> dict:
     return out
 
 
+def _plain(text: str) -> str:
+    """Docstring markup out of a help text (``x`` -> x, :mod:`a.b` -> a.b)."""
+    import re
+
+    text = re.sub(r":\w+:`~?([^`]+)`", r"\1", text)
+    return text.replace("``", "")
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("--config", metavar="FILE.toml",
                         help="TOML file with tables [daemon], [lof], [aca]")
@@ -39,9 +47,15 @@ def add_arguments(parser) -> None:
                         help="also serve the live web page (streamseg view) at this address, "
                              "e.g. 127.0.0.1:8765 (needs the view extra)")
     described = field_help(DaemonConfig)
+    said: dict = {}  # a paragraph shared by several options is printed once, at the first
     for f in dataclasses.fields(DaemonConfig):
         kind = type(f.default)
-        text = f"{described.get(f.name, '')} (default {f.default!r})".strip().replace("%", "%%")
+        para = _plain(described.get(f.name, ""))
+        if para in said:
+            para = f"see --{said[para].replace('_', '-')}"
+        else:
+            said[para] = f.name
+        text = f"{para} (default {f.default!r})".strip().replace("%", "%%")
         if kind is bool:
             parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
                                 action=argparse.BooleanOptionalAction, help=text)
