@@ -200,7 +200,7 @@ class CheckpointStore:
 
     def _run(self) -> None:
         while True:
-            self._wake.wait(0.5)
+            self._wake.wait()  # until put, forget or close
             self._wake.clear()
             with self._lock:
                 batch, self._queue = self._queue, []

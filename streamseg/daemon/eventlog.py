@@ -105,8 +105,13 @@ class EventLog:
     # --- the loop's side ---------------------------------------------------------------------
 
     def append(self, stream: str, seq: int, kind: str, body: bytes) -> None:
-        """Queue one event (no I/O)."""
-        self._pending.append((stream, seq, kind, time.time(), body))
+        """Queue one event (no I/O). The lock keeps an append from landing in a batch the
+        writer has already taken; the first event of a batch wakes the writer."""
+        with self._swap:
+            self._pending.append((stream, seq, kind, time.time(), body))
+            first = len(self._pending) == 1
+        if first:
+            self._wake.set()
 
     def last_seq(self, stream: str) -> int:
         """The highest sequence number logged for ``stream`` (0: none)."""
@@ -154,9 +159,14 @@ class EventLog:
     # --- the writer thread -------------------------------------------------------------------
 
     def _run(self) -> None:
+        self._retain()
         while True:
+            # until an event is queued; while idle only once per retention interval
+            self._wake.wait(self.retention_interval)
+            self._wake.clear()
             stopping = self._stopping.is_set()
-            self._wake.wait(self.flush_interval)
+            if not stopping:
+                time.sleep(self.flush_interval)  # gather a batch
             with self._swap:
                 self._inflight, self._pending = self._pending, []
             if self._inflight:
