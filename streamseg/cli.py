@@ -266,7 +266,7 @@ def _failure(args, err: BaseException) -> int:
                 "endpoints look like tcp://127.0.0.1:5560" if err.errno == zmq.EINVAL else
                 "check the endpoints and that the daemon runs")
         print(f"{where}: error: {err.strerror}: {hint}", file=sys.stderr)
-        return 1
+        return 2 if err.errno == zmq.EINVAL else 1  # a malformed endpoint is a usage error
     if isinstance(err, (StreamsegError, OSError)):
         print(f"{where}: error: {err}", file=sys.stderr)
         return 1

@@ -17,6 +17,7 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
+from streamseg.exceptions import ParameterError
 from streamseg.recording import UP_AXES
 
 
@@ -107,8 +108,11 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
 
     On KeyboardInterrupt the ``end`` message is sent (best effort, 1 s) before re-raising.
     """
-    if batch < 1 or speed < 0:
-        raise ValueError(f"batch={batch} must be >= 1 and speed={speed} >= 0")
+    if batch < 1:
+        raise ParameterError(f"--batch {batch} is invalid: expected frames per packet >= 1")
+    if not speed >= 0:
+        raise ParameterError(f"--speed {speed} is invalid: expected times real time >= 0 "
+                             "(0: as fast as the daemon takes the frames)")
     own = sock is None
     if own:
         ctx = ctx or zmq.Context.instance()
