@@ -228,6 +228,7 @@ class CheckpointStore:
                 blob = msgpack.packb(packable(state), use_bin_type=True)
                 self.bytes += len(blob)
                 packed.append((stream, frame, time.time(), FORMAT, blob))
+                time.sleep(0)  # packing holds the GIL: let the loop thread in between streams
             self._db.execute("BEGIN")
             self._db.executemany("INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)",
                                  packed)
