@@ -33,3 +33,34 @@ def wait_ready(daemon, thread) -> None:
 def _private_state_home(tmp_path, monkeypatch):
     """`streamseg serve` keeps its event log under $XDG_STATE_HOME by default: a test's own."""
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "xdg-state"))
+
+
+@pytest.fixture
+def start_daemon(warm_kernels):
+    """``start(algorithms=None, **DaemonConfig overrides) -> (daemon, endpoints)``: a daemon on
+    free loopback ports in a thread, ready (kernels warm); every one started is stopped and
+    joined at the end of the test."""
+    import threading
+
+    from streamseg.config import DaemonConfig
+    from streamseg.daemon import Daemon
+
+    running = []
+
+    def start(algorithms=None, **overrides):
+        loop = "tcp://127.0.0.1:0"
+        cfg = dict(ingest=loop, publish=loop, control=loop, relabel_interval=0, heartbeat=0.2)
+        cfg.update(overrides)
+        d = Daemon(DaemonConfig(**cfg), algorithms)
+        ep = d.bind()
+        t = threading.Thread(target=d.run, daemon=True, name="streamseg-daemon-under-test")
+        t.start()
+        wait_ready(d, t)
+        running.append((d, t))
+        return d, ep
+
+    yield start
+    for d, t in running:
+        d.stop()
+        t.join(10)
+        assert not t.is_alive()

@@ -20,7 +20,6 @@ from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
-from tests.conftest import wait_ready
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -39,26 +38,6 @@ def offline_cuts(rec, positions=None):
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 
-@pytest.fixture
-def start_daemon(warm_kernels):
-    running = []
-
-    def start(algorithms=None, **overrides):
-        cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0.2)
-        cfg.update(overrides)
-        d = Daemon(DaemonConfig(**cfg), algorithms)
-        ep = d.bind()
-        t = threading.Thread(target=d.run, daemon=True, name="streamseg-daemon-under-test")
-        t.start()
-        wait_ready(d, t)
-        running.append((d, t))
-        return d, ep
-
-    yield start
-    for d, t in running:
-        d.stop()
-        t.join(10)
-        assert not t.is_alive()
 
 
 def sub(ep, **kw):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import sqlite3
 import threading
@@ -13,10 +14,8 @@ import zmq
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.commands.listen import fetch_since, handshake, listen, request, subscriber
+from streamseg.commands.listen import fetch_since, handshake, listen, request, subscribe
 from streamseg.commands.replay import announce_of, replay
-from streamseg.config import DaemonConfig
-from streamseg.daemon import Daemon
 from streamseg.daemon.eventlog import EventLog
 from streamseg.io import read
 
@@ -30,26 +29,9 @@ def rec(data_dir):
 
 
 @pytest.fixture
-def start_daemon(tmp_path):
-    running = []
-
-    def start(**overrides):
-        cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0.2,
-                   state_dir=str(tmp_path / "state"))
-        cfg.update(overrides)
-        d = Daemon(DaemonConfig(**cfg))
-        ep = d.bind()
-        t = threading.Thread(target=d.run, daemon=True)
-        t.start()
-        assert d.ready.wait(30)
-        running.append((d, t))
-        return d, ep
-
-    yield start
-    for d, t in running:
-        d.stop()
-        t.join(10)
-        assert not t.is_alive()
+def start_daemon(start_daemon, tmp_path):
+    """The shared daemon starter, with an event log in this test's own folder."""
+    return functools.partial(start_daemon, state_dir=str(tmp_path / "state"))
 
 
 def wait_closed(ep, stream, timeout=30):
@@ -64,8 +46,7 @@ def wait_closed(ep, stream, timeout=30):
 
 def test_events_are_numbered_and_logged(start_daemon, rec, tmp_path):
     d, ep = start_daemon(relabel_interval=5.0, relabel_history=10.0)
-    s = subscriber(ep["publish"], stream="n1")
-    time.sleep(0.2)  # the subscription reaches PUB
+    s = subscribe(ep["publish"], ep["control"], stream="n1")
     replay(rec, ep["ingest"], stream="n1", speed=0, batch=20)
     live = list(listen(s, stream="n1", until_end=True, timeout=30))
     assert [e.seq for e in live] == list(range(1, len(live) + 1))
@@ -75,8 +56,7 @@ def test_events_are_numbered_and_logged(start_daemon, rec, tmp_path):
     tail = fetch_since(ep["control"], "n1", 5)
     assert [e.seq for e in tail] == list(range(6, len(live) + 1))
     # a re-announced stream keeps counting: numbers never repeat for one id
-    s2 = subscriber(ep["publish"], stream="n1")
-    time.sleep(0.2)
+    s2 = subscribe(ep["publish"], ep["control"], stream="n1")
     replay(dataclasses.replace(rec, positions=rec.positions[:600]), ep["ingest"],
            stream="n1", speed=0, batch=20)
     again = list(listen(s2, stream="n1", until_end=True, timeout=30))
@@ -170,8 +150,7 @@ def test_late_joiner_gets_every_cut_of_the_stream(start_daemon, rec, capsys):
     """Joining mid-stream, `listen --control --stream` prints every cut since the stream
     opened (from the log), then the live ones, each once."""
     d, ep = start_daemon(heartbeat=0)
-    early = subscriber(ep["publish"], stream="lj")
-    time.sleep(0.2)
+    early = subscribe(ep["publish"], ep["control"], stream="lj")
     ctx = zmq.Context.instance()
     sock = ctx.socket(zmq.PUSH)
     sock.connect(ep["ingest"])

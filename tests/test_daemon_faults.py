@@ -4,6 +4,7 @@ log holds every event published (benchmarks/daemon_faults.py measures the same f
 
 from __future__ import annotations
 
+import functools
 import sqlite3
 import threading
 import time
@@ -14,10 +15,8 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import fetch_since, listen, request, subscriber
+from streamseg.commands.listen import fetch_since, listen, request, subscribe
 from streamseg.commands.replay import announce_of
-from streamseg.config import DaemonConfig
-from streamseg.daemon import Daemon
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
@@ -40,26 +39,9 @@ def want(rec):
 
 
 @pytest.fixture
-def start_daemon(tmp_path):
-    running = []
-
-    def start(algorithms=None, **overrides):
-        cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0.2,
-                   state_dir=str(tmp_path / "state"))
-        cfg.update(overrides)
-        d = Daemon(DaemonConfig(**cfg), algorithms)
-        ep = d.bind()
-        t = threading.Thread(target=d.run, daemon=True)
-        t.start()
-        assert d.ready.wait(30)
-        running.append((d, t))
-        return d, ep
-
-    yield start
-    for d, t in running:
-        d.stop()
-        t.join(10)
-        assert not t.is_alive()
+def start_daemon(start_daemon, tmp_path):
+    """The shared daemon starter, with an event log in this test's own folder."""
+    return functools.partial(start_daemon, state_dir=str(tmp_path / "state"))
 
 
 def good_stream(sock, rec, stream="good", step=20, between=None):
@@ -92,8 +74,7 @@ def test_huge_message_is_dropped_by_zeromq(start_daemon, rec, want):
     """A 40 MB message over a 1 MB cap never reaches the daemon (ZMQ_MAXMSGSIZE closes that
     connection); the good stream on another connection is untouched."""
     d, ep = start_daemon(max_message_bytes=1 << 20)
-    s = subscriber(ep["publish"], stream="good")
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"], stream="good")
     evil = push(ep)
     evil.send_multipart([b"frames/x/", b"\x00" * (40 << 20)])
     good = push(ep)
@@ -107,8 +88,7 @@ def test_huge_message_is_dropped_by_zeromq(start_daemon, rec, want):
 
 def test_poisoned_seq_is_an_error_not_a_gap(start_daemon, rec, want):
     d, ep = start_daemon()
-    s = subscriber(ep["publish"], stream="good")
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"], stream="good")
     sock = push(ep)
     poison = P.encode(P.Frames("good", 2**53 - 2, 0.0, rec.positions[:3]))
 
@@ -128,8 +108,7 @@ def test_poisoned_seq_is_an_error_not_a_gap(start_daemon, rec, want):
 
 def test_fps_and_clock_limits(start_daemon, rec):
     d, ep = start_daemon()
-    s = subscriber(ep["publish"])
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"])
     sock = push(ep)
     tiny = P.encode(announce_of(rec, "tiny"))
     body = msgpack.unpackb(tiny[1])
@@ -154,8 +133,7 @@ def test_fps_and_clock_limits(start_daemon, rec):
 
 def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want):
     d, ep = start_daemon(gap_events_per_s=5, stray_errors_per_s=5, heartbeat=0.1)
-    s = subscriber(ep["publish"])
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"])
     sock = push(ep)
     n_ids = 2000
     for k in range(n_ids):
@@ -192,8 +170,7 @@ def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want)
 
 def test_alternating_gaps_relabel_without_errors(start_daemon, rec):
     d, ep = start_daemon(relabel_interval=1.0, relabel_history=10.0, gap_events_per_s=1e6)
-    s = subscriber(ep["publish"], stream="alt")
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"], stream="alt")
     sock = push(ep)
     sock.send_multipart(P.encode(announce_of(rec, "alt")))
     for a in range(0, rec.n_frames, 5):
@@ -225,8 +202,7 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
     # may take more than the default 5 s bound, after which `closed` comes without them
     d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=2.0,
                          relabel_history=6.0, relabel_share=1.0, shutdown_relabel=60.0)
-    s = subscriber(ep["publish"], stream="good")
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"], stream="good")
     sock = push(ep)
     sock.send_multipart(P.encode(announce_of(rec, "good")))
     for a in range(0, 3000, 20):
@@ -258,8 +234,7 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
 
 def test_nan_and_garbage_keep_every_good_frame_with_the_log_on(start_daemon, rec, want):
     d, ep = start_daemon()
-    s = subscriber(ep["publish"], stream="good")
-    time.sleep(0.2)
+    s = subscribe(ep["publish"], ep["control"], stream="good")
     sock = push(ep)
     rng = np.random.default_rng(0)
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import threading
+import functools
 
 import pytest
 import zmq
@@ -37,26 +37,9 @@ def keys(tmp_path, capsys):
 
 
 @pytest.fixture
-def secure_daemon(keys):
-    running = []
-
-    def start(**overrides):
-        cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0,
-                   curve_dir=str(keys))
-        cfg.update(overrides)
-        d = Daemon(DaemonConfig(**cfg))
-        ep = d.bind()
-        t = threading.Thread(target=d.run, daemon=True)
-        t.start()
-        assert d.ready.wait(30)
-        running.append((d, t))
-        return d, ep
-
-    yield start
-    for d, t in running:
-        d.stop()
-        t.join(10)
-        assert not t.is_alive()
+def secure_daemon(keys, start_daemon):
+    """The shared daemon starter with CURVE on, keys from ``keys``."""
+    return functools.partial(start_daemon, heartbeat=0, curve_dir=str(keys))
 
 
 def handshake(sock, endpoint) -> int:
