@@ -1,0 +1,243 @@
+"""How the daemon's loop turns ingest packets into stream work (a part of :class:`Daemon`).
+
+Draining the PULL socket, decoding, announce and the stream table, frame sequencing (gaps,
+duplicates, limits) and the vectorised per-stream flush that publishes cuts and repetitions.
+The loop, sockets, publication, relabel results and shutdown stay in
+:mod:`streamseg.daemon.server`.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+import zmq
+
+from streamseg import protocol
+from streamseg.daemon import limits
+from streamseg.daemon.ingest import recv_message
+from streamseg.daemon.options import skeleton_from
+from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.security import peer_of
+from streamseg.daemon.streams import StreamState
+
+log = logging.getLogger("streamseg.daemon")
+
+
+class Intake:
+    """The ingest half of :class:`~streamseg.daemon.server.Daemon` (a mixin: it uses the
+    daemon's sockets, stream table, counters and publication methods)."""
+
+    def _drain(self, now: float) -> None:
+        sock, clock = self.ingest, time.perf_counter
+        stop_at = self.n_frames + self.config.drain_frames
+        for _ in range(self.config.drain):
+            try:
+                parts = recv_message(sock, zmq.NOBLOCK)
+            except zmq.Again:
+                break
+            self._on_message(parts, now, clock())
+            if self.n_frames >= stop_at:  # bounds the latency of big packets
+                break
+        for st in self._dirty:
+            self._flush(st)
+        self._dirty.clear()
+
+    def _take(self, now: float) -> None:
+        """Like :meth:`_drain`, from the receiver thread's queue of decoded messages."""
+        items = self.receiver.items
+        stop_at = self.n_frames + self.config.drain_frames
+        for _ in range(self.config.drain):
+            if not items:
+                break
+            it = items.popleft()
+            self.n_packets += 1
+            try:
+                if it[0] == "f":
+                    self.receiver.taken += it[4].shape[0]
+                    st = self.streams.get(it[1])
+                    if st is None:
+                        st = self._unannounced(it[1], now)
+                        if st is None:
+                            continue
+                    self._on_frames(st, it[2], it[3], it[4], now, it[5])
+                elif it[0] == "o":
+                    self._sender = it[2]
+                    self._on_body(it[1], now, 0.0)
+                else:
+                    self._error(it[1], it[2], it[3])
+            except protocol.WireError as err:
+                self._error(err.stream, err.kind, str(err))
+            except Exception as err:  # a packet validation missed must not stop the daemon
+                self._error(None, "decode", f"packet could not be handled "
+                            f"({type(err).__name__}: {err})")
+            if self.n_frames >= stop_at:
+                break
+        for st in self._dirty:
+            self._flush(st)
+        self._dirty.clear()
+
+    def _on_message(self, parts, now: float, arrival: float = 0.0) -> None:
+        self.n_packets += 1
+        if len(parts) != 2:
+            self._error(None, "decode", f"expected 2 message parts [topic, body], got "
+                        f"{len(parts)}")
+            return
+        self._sender = parts[0]
+        try:
+            self._on_body(protocol.unpack_body(parts[1]), now, arrival)
+        except protocol.WireError as err:
+            self._error(err.stream, err.kind, str(err))
+        except Exception as err:  # a packet validation missed must not stop the daemon
+            self._error(None, "decode", f"packet could not be handled "
+                        f"({type(err).__name__}: {err})")
+
+    def _on_body(self, obj: dict, now: float, arrival: float) -> None:
+        """Dispatch one unpacked ingest body (envelope checked); raises WireError."""
+        kind = obj["type"]
+        stream = obj.get("stream")
+        if kind == "frames":
+            st = self.streams.get(stream) if type(stream) is str else None
+            if st is None:
+                st = self._unannounced(stream, now)
+                if st is None:
+                    return
+            self._on_frames(st, *protocol.frames_fields(obj, stream), now, arrival)
+        elif kind == "announce":
+            self._on_announce(protocol.from_body(obj), now)
+        elif kind == "end":
+            msg = protocol.from_body(obj)
+            st = self.streams.get(msg.stream)
+            if st is None:
+                self._error(msg.stream, "unknown_stream", "end of a stream that is not open")
+            else:
+                self._close(st, "end")
+        else:
+            self._error(stream if isinstance(stream, str) else None, "type",
+                        f"{kind} is an event type; the ingest socket takes "
+                        f"{', '.join(protocol.INGEST_TYPES)}")
+
+    def _unannounced(self, stream, now):
+        if not protocol.valid_stream_id(stream):
+            self._error(None, "field", f"frames.stream={stream!r} is not a valid stream id")
+        elif self.default_skeleton is not None:
+            return self._open(stream, self.config.default_fps, self.default_skeleton, now)
+        else:
+            self._error(stream, "unknown_stream", "frames for a stream that was not announced "
+                        "(send an announce message first, or configure default_skeleton)")
+        return None
+
+    def _on_announce(self, msg: protocol.Announce, now: float) -> None:
+        problem = limits.fps_problem(msg.fps, self.config)
+        if problem:
+            self._error(msg.stream, "field", problem)
+            return
+        old = self.streams.get(msg.stream)
+        if old is not None:
+            self._close(old, "reannounced")
+        skeleton = skeleton_from(msg.joints, msg.parents, msg.units, msg.up)
+        st = self._open(msg.stream, msg.fps, skeleton, now)
+        if st is not None and msg.labels:  # passed on to subscribers through `state`
+            st.labels = {"path": msg.labels, "sequence": msg.labels_sequence or msg.stream}
+
+    def _open(self, stream, fps, skeleton, now):
+        if len(self.streams) >= self.config.max_streams:
+            self._error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
+                        f"configured maximum (max_streams); close one or raise the limit")
+            return None
+        quota = self.config.max_streams_per_client
+        client = peer_of(self._sender) if quota and self._sender is not None else None
+        if client is not None and self.clients[client] >= quota:
+            self._error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
+                        f"streams, its quota (max_streams_per_client); end one first")
+            return None
+        try:
+            pipeline = StreamPipeline(skeleton, fps, self.algorithms, self.config.relabel_history)
+        except Exception as err:  # e.g. a skeleton without the joints the features need
+            self._error(stream, "skeleton", f"cannot segment this stream: {err}")
+            return None
+        self._gen += 1
+        st = StreamState(stream, self._gen, fps, pipeline, now)
+        st.next_relabel = int(round(self.config.relabel_interval * fps))
+        st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
+        st.seq_base = self.numbering.current(stream)
+        st.client = client
+        if client is not None:
+            self.clients[client] += 1
+        self.streams[stream] = st
+        self.totals["streams_opened"] += 1
+        log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
+        return st
+
+    def _on_frames(self, st: StreamState, seq: int, timestamp: float, pos: np.ndarray,
+                   now: float, arrival: float) -> None:
+        n, n_joints = pos.shape[0], pos.shape[1]
+        st.last_seen = now
+        if n_joints != st.pipeline.skeleton.n_joints or n > self.config.max_packet_frames:
+            st.dropped += n
+            self._error(st.stream, "array", f"packet of shape {list(pos.shape)}: expected "
+                        f"(n <= {self.config.max_packet_frames}, "
+                        f"{st.pipeline.skeleton.n_joints}, 3) as announced")
+            return
+        problem = limits.clock_problem(timestamp) or (
+            seq > st.next_seq and limits.jump_problem(seq, st.next_seq, st.fps,
+                                                      self.config.max_seq_jump))
+        if problem:
+            st.dropped += n
+            self._error(st.stream, "seq" if seq > st.next_seq else "field", problem)
+            return
+        if st.t0 is None:
+            st.t0 = timestamp - seq / st.fps
+        if seq != st.next_seq:
+            if seq > st.next_seq:
+                self._flush(st)  # the segmenter learns contiguous runs
+                st.lost += seq - st.next_seq
+                self.errors.add(st.stream, "gap", f"frames {st.next_seq}..{seq - 1} missing")
+                if st.gap_limit.allow(now):  # the rest are counted in the `gap` error
+                    self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
+            else:
+                overlap = st.next_seq - seq
+                st.dropped += min(overlap, n)
+                self._error(st.stream, "duplicate", f"packet at frame {seq} repeats frames "
+                            f"already received (next expected {st.next_seq})", min(overlap, n))
+                if overlap >= n:
+                    return
+                pos = pos[overlap:]
+                n -= overlap
+        st.pending.append(pos)
+        st.arrivals.append(arrival)
+        st.next_seq = st.next_seq + n if seq < st.next_seq else seq + n
+        st.frames_in += n
+        self.n_frames += n
+        self._dirty[st] = None
+
+    def _flush(self, st: StreamState) -> None:
+        if not st.pending:
+            return
+        arrays, arrivals = st.pending, st.arrivals
+        st.pending, st.arrivals = [], []
+        pos = arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+        first = st.next_seq - pos.shape[0]
+        try:
+            cuts, reps, bad = st.pipeline.push(pos, first)
+        except Exception as err:  # never die on input: report and drop these frames
+            st.dropped += pos.shape[0]
+            self._error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
+                        f"processed: {type(err).__name__}: {err}", pos.shape[0])
+            return
+        self._report_notices(st)
+        if bad:
+            st.dropped += bad
+            self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
+        for frame, score, emitted in cuts:
+            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
+            st.cuts.append(self._publish(st, ev))
+        for a, b, count, emitted, label, index in reps:
+            st.reps = count
+            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
+                                           label, index))
+        self.latency.add(time.perf_counter() - np.array(arrivals))
+        if (self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel
+                and not self.worker.pending((st.stream, st.gen))):
+            self._submit(st, final=False)
