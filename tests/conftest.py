@@ -14,6 +14,14 @@ def data_dir() -> Path:
 
 
 @pytest.fixture(scope="session")
+def rec(data_dir):
+    """CMU 86_01 (walk, jump, punch, kick; 4579 frames at 120 Hz), read once per session."""
+    from streamseg.io import read
+
+    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+
+
+@pytest.fixture(scope="session")
 def warm_kernels() -> None:
     """Every numba kernel compiled (or loaded from the cache) once per session, so that no
     test's waits include compilation: a daemon started after this is ready at once."""

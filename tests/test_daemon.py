@@ -25,11 +25,6 @@ pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
 
 
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
-
-
 def offline_cuts(rec, positions=None):
     """Cut frames of the streaming segmenter run over the whole file in one call."""
     seg = StreamingLOFSegmenter(fps=rec.fps)

@@ -17,15 +17,9 @@ from streamseg.cli import main
 from streamseg.commands.listen import fetch_since, handshake, listen, request, subscribe
 from streamseg.commands.replay import announce_of, replay
 from streamseg.daemon.eventlog import EventLog
-from streamseg.io import read
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
-
-
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
 
 
 @pytest.fixture

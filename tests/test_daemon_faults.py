@@ -18,17 +18,11 @@ from streamseg import protocol as P
 from streamseg.commands.listen import fetch_since, listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.daemon.pipeline import Algorithms
-from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
-
-
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
 
 
 @pytest.fixture(scope="module")

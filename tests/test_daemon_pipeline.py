@@ -3,18 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
-from streamseg.io import read
 from streamseg.offline.relabel import WindowSegmentation
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
-
-
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
 
 
 def test_cached_angles_are_bone_angles(rec):

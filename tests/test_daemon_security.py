@@ -16,17 +16,11 @@ from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 from streamseg.daemon.security import ClientKeys, generate, is_loopback
 from streamseg.exceptions import ParameterError
-from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
-
-
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
 
 
 @pytest.fixture

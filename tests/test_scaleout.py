@@ -23,15 +23,9 @@ from streamseg.commands.replay import replay  # noqa: E402
 from streamseg.config import DaemonConfig  # noqa: E402
 from streamseg.daemon import Daemon  # noqa: E402
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel  # noqa: E402
-from streamseg.io import read  # noqa: E402
 from streamseg.scaleout import local_cluster  # noqa: E402
 
 LOOP = "tcp://127.0.0.1:0"
-
-
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
 
 
 @pytest.fixture(scope="module")

@@ -52,11 +52,6 @@ def browser():
     shutil.rmtree(profile, ignore_errors=True)
 
 
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
-
-
 class Live:
     """A daemon, a view of it and a listener that records every event of the daemon."""
 

@@ -14,16 +14,10 @@ from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 from streamseg.evaluation.labels import read_labels
-from streamseg.io import read
 from streamseg.view.agreement import HumanLabels
 from streamseg.view.model import Hub
 
 LOOP = "tcp://127.0.0.1:0"
-
-
-@pytest.fixture(scope="module")
-def rec(data_dir):
-    return read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
 
 
 def test_announce_labels_is_optional_and_checked(rec, data_dir):

@@ -230,13 +230,7 @@ class Intake:
         if bad:
             st.dropped += bad
             self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
-        for frame, score, emitted in cuts:
-            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(self._publish(st, ev))
-        for a, b, count, emitted, label, index in reps:
-            st.reps = count
-            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
-                                           label, index))
+        self._publish_results(st, cuts, reps)
         self.latency.add(time.perf_counter() - np.array(arrivals))
         if (self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel
                 and not self.worker.pending((st.stream, st.gen))):

@@ -211,6 +211,17 @@ class Daemon(Intake):
             st.events_out += 1
         return ev
 
+    def _publish_results(self, st: StreamState, cuts, reps) -> None:
+        """Publish a pipeline step's ``(frame, score, emitted)`` cuts and ``(start, end,
+        count, emitted, label, set)`` repetitions (live, and the final ones at close)."""
+        for frame, score, emitted in cuts:
+            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
+            st.cuts.append(self._publish(st, ev))
+        for a, b, count, emitted, label, index in reps:
+            st.reps = count
+            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
+                                           label, index))
+
     def _error(self, stream, reason: str, message: str, n: int = 1) -> None:
         st = self.streams.get(stream) if stream else None
         if st is None and stream and (stream, reason) not in self.errors.counts \
@@ -241,13 +252,7 @@ class Daemon(Intake):
             final_reps = []
             self._error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
         self._report_notices(st)
-        for frame, score, emitted in final:
-            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(self._publish(st, ev))
-        for a, b, count, emitted, label, index in final_reps:
-            st.reps = count
-            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
-                                           label, index))
+        self._publish_results(st, final, final_reps)
         del self.streams[st.stream]
         if st.client is not None:
             self.clients[st.client] -= 1
