@@ -363,8 +363,10 @@ def idle_memory(rec, tmp: Path, n: int = 2000, ring_start=None) -> tuple:
 
 
 def checkpoint_cost(rec, repeats: int = 20) -> None:
-    """Loop time to copy one stream's state, writer time and bytes to store it, for a stream
-    whose history is full (60 s at 120 Hz) and one that has sent 4 frames."""
+    """Loop time to copy one stream's state, writer time to pack it, and bytes a round
+    stores, for a stream that has sent 4 frames and one whose history is full (60 s at
+    120 Hz): its first checkpoint (every chunk new) and the next ones, one checkpoint interval
+    of frames apart (only the chunks that changed are stored)."""
     import statistics
 
     from streamseg.config import DaemonConfig
@@ -375,27 +377,52 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
     alg = Algorithms()
     alg.warmup(relabel=False)
     hist = DaemonConfig().relabel_history
+    step = int(DaemonConfig().checkpoint_interval * 120)
     print(f"\ncheckpoint cost per stream (relabel_history {hist:g} s, 120 Hz), median of "
           f"{repeats}")
-    print(f"{'stream':>22} {'loop copy ms':>13} {'writer pack ms':>20} {'stored kB':>10}")
-    for label, n in (("4 frames", 4), (f"{int(hist * 120)} frames (full)", int(hist * 120))):
+    print(f"{'stream':>36} {'loop copy ms':>13} {'writer pack ms':>15} {'state kB':>9} "
+          f"{'stored kB':>10}")
+    full = int(hist * 120)
+    for label, n, more in (("4 frames", 4, 0), (f"{full} frames (full), first", full, 0),
+                           (f"{full} frames, each next {step}", full, step)):
         p = StreamPipeline(rec.skeleton, rec.fps, alg, hist)
-        idx = np.arange(n) % rec.n_frames
-        p.push(rec.positions[idx], 0)
+        p.push(rec.positions[np.arange(n) % rec.n_frames], 0)
         st = StreamState("s", 1, rec.fps, p, 0.0)
         st.next_seq = n
-        copy, pack, size = [], [], 0
+        copy, pack, stored, previous = [], [], [], set()
         for _ in range(repeats):
+            if more:  # the next interval's frames
+                p.push(rec.positions[np.arange(n, n + more) % rec.n_frames], n)
+                n += more
+                st.next_seq = n
             t0 = time.perf_counter()
             state = snapshot(st)
             t1 = time.perf_counter()
-            blob = msgpack.packb(packable(state), use_bin_type=True)
+            chunks = {}
+            blob = msgpack.packb(packable(state, chunks), use_bin_type=True)
             t2 = time.perf_counter()
             copy.append(t1 - t0)
             pack.append(t2 - t1)
-            size = len(blob)
-        print(f"{label:>22} {statistics.median(copy) * 1e3:>13.3f} "
-              f"{statistics.median(pack) * 1e3:>20.3f} {size / 1e3:>10.1f}")
+            stored.append(len(blob) + sum(len(chunks[d]) for d in chunks.keys() - previous))
+            if more:
+                previous = set(chunks)
+        state_kb = sum(a.nbytes for a in _arrays(state)) / 1e3
+        print(f"{label:>36} {statistics.median(copy) * 1e3:>13.3f} "
+              f"{statistics.median(pack) * 1e3:>15.3f} {state_kb:>9.1f} "
+              f"{statistics.median(stored if not more else stored[1:]) / 1e3:>10.1f}")
+
+
+def _arrays(tree):
+    """The arrays of a :func:`streamseg.daemon.checkpoint.dump` tree."""
+    if isinstance(tree, list):
+        for x in tree:
+            yield from _arrays(x)
+    elif isinstance(tree, dict):
+        if "__nd__" in tree:
+            yield tree["__nd__"][2]
+        else:
+            for v in tree.values():
+                yield from _arrays(v)
 
 
 def main():

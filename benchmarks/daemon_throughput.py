@@ -235,11 +235,12 @@ def live_sender(endpoint, templates, announce, n_streams, batch, fps, seconds, g
     ctx.term()
 
 
-def capacity(rec, counts, batch, seconds, state_dir=False):
-    print(f"\n{seconds:g} s per row (the last {seconds - 2.5:g} s measured); 120 Hz streams of "
+def capacity(rec, counts, batch, seconds, state_dir=False, repeats=1):
+    print(f"\n{seconds:g} s per run (the last {seconds - 2.5:g} s measured); 120 Hz streams of "
           f"CMU 86_01, {batch} frames/packet, relabel every {DaemonConfig().relabel_interval:g} s "
-          f"over {DaemonConfig().relabel_history:g} s (defaults)"
-          + ("; each count with the event log + checkpoints off, then on" if state_dir else ""))
+          f"over {DaemonConfig().relabel_history:g} s (defaults); median of {repeats} run(s)"
+          + ("; the event log + checkpoints off and on, runs interleaved (the order "
+             "alternating)" if state_dir else ""))
     print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
           f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
     placeholder = ID.decode()
@@ -249,40 +250,59 @@ def capacity(rec, counts, batch, seconds, state_dir=False):
     tmpl = [P.encode(P.Frames(placeholder, a, 0.0, pos[a:a + batch]))[1]
             for a in range(0, pos.shape[0], batch)]
     announce = P.encode(announce_of(rec, placeholder))[1]
+    for n in counts:
+        runs = {False: [], True: []}
+        for k in range(repeats):
+            for on in (((False, True) if k % 2 == 0 else (True, False)) if state_dir
+                       else (False,)):
+                runs[on].append(capacity_run(rec, tmpl, announce, n, batch, seconds, on,
+                                             max(counts) + 10))
+        for on in ((False, True) if state_dir else (False,)):
+            taken, p50, p99, rel = (statistics.median(r[i] for r in runs[on]) for i in range(4))
+            offered = n * rec.fps
+            ok = taken >= 0.98 * offered and p99 < 0.1
+            print(f"{n:>8} {offered:>12,.0f} {taken:>10,.0f} {p50 * 1e3:>8.2f} "
+                  f"{p99 * 1e3:>8.2f} {rel:>10.2f} {n / rel if rel else float('inf'):>26.1f} "
+                  f"{'yes' if ok else 'NO':>9}"
+                  + ((" log on" if on else " log off") if state_dir else ""))
+        if state_dir:
+            med = {on: [statistics.median(r[i] for r in runs[on]) for i in range(4)]
+                   for on in runs}
+            ratio = [a / b for a, b in zip(med[True], med[False])]
+            print(f"{'':>8} on/off: taken {ratio[0]:.3f}, relabels/s {ratio[3]:.3f}, "
+                  f"p50 {ratio[1]:.3f}, p99 {ratio[2]:.3f}")
+
+
+def capacity_run(rec, tmpl, announce, n, batch, seconds, on, max_streams):
+    """(taken frames/s, p50 s, p99 s, relabels/s) of one run of ``n`` real-time streams."""
     import tempfile
 
-    runs = [(n, on) for n in counts for on in ((False, True) if state_dir else (False,))]
-    for n, on in runs:
-        tmp = tempfile.TemporaryDirectory() if on else None
-        d, ep, t = start_daemon(max_streams=max(counts) + 10, max_streams_per_client=0,
-                                **({"state_dir": tmp.name} if on else {}))
-        ctx = mp.get_context("spawn")
-        go, total = ctx.Event(), ctx.Value("q", 0)
-        p = ctx.Process(target=live_sender, args=(ep["ingest"], tmpl, announce, n, batch,
-                                                  rec.fps, seconds, go, total))
-        p.start()
-        time.sleep(1.5)
-        go.set()
-        time.sleep(2.0)  # all streams started and the buffers filling
-        f0, r0 = d.n_frames, d.totals["relabels"]
-        d.latency.reset()
-        t0 = time.perf_counter()
-        time.sleep(seconds - 2.5)
-        dt = time.perf_counter() - t0
-        f1, r1 = d.n_frames, d.totals["relabels"]
-        p50, p99 = d.latency.percentiles()
-        p.join()
-        d.stop()
-        t.join()
-        offered = n * rec.fps
-        taken = (f1 - f0) / dt
-        rel = (r1 - r0) / dt
-        ok = taken >= 0.98 * offered and p99 is not None and p99 < 0.1
-        print(f"{n:>8} {offered:>12,.0f} {taken:>10,.0f} {p50 * 1e3:>8.2f} {p99 * 1e3:>8.2f} "
-              f"{rel:>10.1f} {n / rel if rel else float('inf'):>26.1f} {'yes' if ok else 'NO':>9}"
-              + ((" log on" if on else " log off") if state_dir else ""))
-        if tmp is not None:
-            tmp.cleanup()
+    tmp = tempfile.TemporaryDirectory() if on else None
+    d, ep, t = start_daemon(max_streams=max_streams, max_streams_per_client=0,
+                            **({"state_dir": tmp.name} if on else {}))
+    ctx = mp.get_context("spawn")
+    go, total = ctx.Event(), ctx.Value("q", 0)
+    p = ctx.Process(target=live_sender, args=(ep["ingest"], tmpl, announce, n, batch,
+                                              rec.fps, seconds, go, total))
+    p.start()
+    time.sleep(1.5)
+    go.set()
+    time.sleep(2.0)  # all streams started and the buffers filling
+    f0, r0 = d.n_frames, d.totals["relabels"]
+    d.latency.reset()
+    t0 = time.perf_counter()
+    time.sleep(seconds - 2.5)
+    dt = time.perf_counter() - t0
+    f1, r1 = d.n_frames, d.totals["relabels"]
+    p50, p99 = d.latency.percentiles()
+    p.join()
+    d.stop()
+    t.join()
+    if tmp is not None:
+        tmp.cleanup()
+    nan = float("nan")
+    return ((f1 - f0) / dt, nan if p50 is None else p50, nan if p99 is None else p99,
+            (r1 - r0) / dt)
 
 
 def main():
@@ -293,6 +313,8 @@ def main():
     ap.add_argument("--stream-batch", type=int, default=4)
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--skip-throughput", action="store_true")
+    ap.add_argument("--capacity-repeats", type=int, default=1,
+                    help="runs per stream count (interleaved off/on with --event-log)")
     ap.add_argument("--event-log", action="store_true",
                     help="only compare the event log and checkpoints off and on")
     ap.add_argument("--relabel-processes", type=int, default=0,
@@ -331,13 +353,14 @@ def main():
         event_log_cost(rec, args.frames, args.repeats)
         if args.streams:
             capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch,
-                     args.seconds, state_dir=True)
+                     args.seconds, state_dir=True, repeats=args.capacity_repeats)
         return
     if not args.skip_throughput:
         for relabel in (False, True):
             throughput(rec, args.frames, args.repeats, relabel)
     if args.streams:
-        capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch, args.seconds)
+        capacity(rec, [int(x) for x in args.streams.split(",")], args.stream_batch, args.seconds,
+                 repeats=args.capacity_repeats)
     if cluster is not None:
         cluster.close()
 

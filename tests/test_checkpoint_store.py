@@ -1,0 +1,130 @@
+"""The checkpoint store on a real SQLite file: a stream's state round-trips exactly, a round
+stores only the chunks that changed, and no chunk outlives the checkpoints that use it."""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pytest
+
+from streamseg.daemon.checkpoint import CHUNK, CheckpointStore, snapshot
+from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.streams import StreamState
+
+STEP = 240  # 2 s at 120 Hz: the frames between two periodic checkpoints
+
+
+@pytest.fixture(scope="module")
+def algorithms(warm_kernels):
+    return Algorithms()
+
+
+def stream(rec, algorithms, n, name="s"):
+    """A stream that has taken frames ``0 .. n - 1`` of ``rec`` (looped)."""
+    p = StreamPipeline(rec.skeleton, rec.fps, algorithms, 60.0)
+    p.push(rec.positions[np.arange(n) % rec.n_frames], 0)
+    st = StreamState(name, 1, rec.fps, p, 0.0)
+    st.next_seq = n
+    return st
+
+
+def more(st, rec, n):
+    """Feed the next ``n`` frames; returns the cuts they gave."""
+    a = st.next_seq
+    cuts, _, _ = st.pipeline.push(rec.positions[np.arange(a, a + n) % rec.n_frames], a)
+    st.next_seq = a + n
+    return cuts
+
+
+def store_bytes(store, items):
+    before = store.bytes
+    store.put(items)
+    assert store.wait()
+    return store.bytes - before
+
+
+def chunk_rows(path):
+    con = sqlite3.connect(path)
+    try:
+        return con.execute("SELECT stream, count(*) FROM chunks GROUP BY stream").fetchall()
+    finally:
+        con.close()
+
+
+def test_a_restored_stream_continues_exactly_as_the_original(tmp_path, rec, algorithms):
+    st = stream(rec, algorithms, 7200)
+    store = CheckpointStore(tmp_path)
+    store.put([(st.stream, st.next_seq, snapshot(st))])
+    assert store.wait()
+    store.close()
+
+    (name, state), = CheckpointStore(tmp_path).read_all()
+    back = state["pipeline"]
+    back.algorithms, back.plan = algorithms, algorithms.prepare(back.skeleton)
+    assert name == "s" and state["stream"].next_seq == 7200
+    np.testing.assert_array_equal(back._feat, st.pipeline._feat)
+    np.testing.assert_array_equal(back._frames, st.pipeline._frames)
+    twin = StreamState("s", 1, rec.fps, back, 0.0)
+    twin.next_seq = st.next_seq
+    # the detector's whole state came back: the next 10 s give the same cuts
+    cuts = more(st, rec, 1200)
+    assert cuts and more(twin, rec, 1200) == cuts
+
+
+def test_a_round_stores_only_the_chunks_that_changed(tmp_path, rec, algorithms):
+    st = stream(rec, algorithms, 7200)
+    store = CheckpointStore(tmp_path)
+    first = store_bytes(store, [("s", st.next_seq, snapshot(st))])
+    more(st, rec, STEP)
+    second = store_bytes(store, [("s", st.next_seq, snapshot(st))])
+    # the full state is ~700 kB; 2 s of frames change the ring's newest rows and part of
+    # the detector (measured 113 kB, benchmarks/daemon_faults.py)
+    assert first > 600_000
+    assert second < first / 4
+    # the old chunks that no checkpoint uses any more went in the same transaction
+    rows = chunk_rows(store.path)
+    con = sqlite3.connect(store.path)
+    stored = {d for (d,) in con.execute("SELECT digest FROM chunks WHERE stream = 's'")}
+    con.close()
+    assert rows == [("s", len(stored))] and stored == store._stored["s"]
+    store.close()
+    (_, state), = CheckpointStore(tmp_path).read_all()
+    np.testing.assert_array_equal(state["pipeline"]._feat, st.pipeline._feat)
+
+
+def test_a_young_stream_stores_little(tmp_path, rec, algorithms):
+    # its buffers are unused zeros: not stored
+    st = stream(rec, algorithms, 4)
+    store = CheckpointStore(tmp_path)
+    assert store_bytes(store, [("s", st.next_seq, snapshot(st))]) < 4 * CHUNK
+    store.close()
+
+
+def test_forget_removes_the_stream_and_its_chunks(tmp_path, rec, algorithms):
+    a, b = stream(rec, algorithms, 2400, "a"), stream(rec, algorithms, 2400, "b")
+    store = CheckpointStore(tmp_path)
+    store.put([("a", a.next_seq, snapshot(a)), ("b", b.next_seq, snapshot(b))])
+    store.forget("a")
+    assert store.wait()
+    assert [s for s, _ in chunk_rows(store.path)] == ["b"]
+    store.close()
+    assert [s for s, _ in CheckpointStore(tmp_path).read_all()] == ["b"]
+
+
+def test_stray_chunks_go_at_open_and_a_damaged_row_is_skipped(tmp_path, rec, algorithms):
+    st = stream(rec, algorithms, 2400)
+    store = CheckpointStore(tmp_path)
+    store.put([("s", st.next_seq, snapshot(st))])
+    assert store.wait()
+    store.close()
+    con = sqlite3.connect(tmp_path / "checkpoints.sqlite")
+    with con:
+        con.execute("INSERT INTO chunks VALUES ('gone', x'00', x'01')")  # no checkpoint row
+        con.execute("DELETE FROM chunks WHERE rowid = (SELECT min(rowid) FROM chunks "
+                    "WHERE stream = 's')")
+    con.close()
+    store = CheckpointStore(tmp_path)
+    assert [s for s, _ in chunk_rows(store.path)] == ["s"]
+    assert store.read_all() == []  # a chunk is missing: not restored, no exception
+    store.close()
