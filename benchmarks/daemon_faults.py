@@ -370,8 +370,9 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
     import statistics
 
     from streamseg.config import DaemonConfig
-    from streamseg.daemon.checkpoint import packable, snapshot
+    from streamseg.daemon.checkpoint import snapshot
     from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+    from streamseg.daemon.state_codec import packable
     from streamseg.daemon.streams import StreamState
 
     alg = Algorithms()
@@ -413,7 +414,7 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
 
 
 def _arrays(tree):
-    """The arrays of a :func:`streamseg.daemon.checkpoint.dump` tree."""
+    """The arrays of a :func:`streamseg.daemon.state_codec.dump` tree."""
     if isinstance(tree, list):
         for x in tree:
             yield from _arrays(x)

@@ -8,8 +8,10 @@ import sqlite3
 import numpy as np
 import pytest
 
-from streamseg.daemon.checkpoint import CHUNK, CheckpointStore, snapshot
+from streamseg.daemon.checkpoint import snapshot
+from streamseg.daemon.checkpoint_store import CheckpointStore
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.state_codec import CHUNK
 from streamseg.daemon.streams import StreamState
 
 STEP = 240  # 2 s at 120 Hz: the frames between two periodic checkpoints

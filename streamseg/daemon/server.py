@@ -17,7 +17,7 @@ import zmq
 
 from streamseg import protocol
 from streamseg.config import DaemonConfig
-from streamseg.daemon import checkpoint, limits
+from streamseg.daemon import checkpoint, checkpoint_store, limits
 from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.eventlog import Numbering, open_log
@@ -82,7 +82,7 @@ class Daemon(Intake):
         self.clients = collections.Counter()  # open streams per client (the quota)
         self._sender = None  # topic frame of the message being handled (its identity)
         self.security = None
-        self.checkpoints = checkpoint.open_store(self.config)
+        self.checkpoints = checkpoint_store.open_store(self.config)
         self.checkpoint_seconds = 0.0  # loop time spent copying stream states
         self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
         self._next_ckpt = 0.0

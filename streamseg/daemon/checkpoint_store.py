@@ -1,0 +1,181 @@
+"""``<state_dir>/checkpoints.sqlite``: one row per open stream (its state, packed by
+:mod:`streamseg.daemon.state_codec`) and the stream's array chunks, written by a thread.
+
+A round inserts only the chunks the store does not hold yet for the stream and deletes, in
+the same transaction, those its new state no longer uses; a stream forgotten loses its row
+and its chunks together.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import sqlite3
+import threading
+import time
+
+import msgpack
+
+from streamseg.daemon.eventlog import connect
+from streamseg.daemon.state_codec import load, packable
+
+log = logging.getLogger("streamseg.daemon")
+
+FORMAT = 3  # of the checkpoint blobs; another value is ignored at restore (with a warning)
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS checkpoints (
+    stream TEXT PRIMARY KEY,
+    frame INTEGER NOT NULL,
+    t REAL NOT NULL,
+    format INTEGER NOT NULL,
+    blob BLOB NOT NULL
+);
+CREATE TABLE IF NOT EXISTS chunks (
+    stream TEXT NOT NULL,
+    digest BLOB NOT NULL,
+    data BLOB NOT NULL,
+    PRIMARY KEY (stream, digest)
+);
+"""
+
+
+class CheckpointStore:
+    """``<state_dir>/checkpoints.sqlite``: one row per open stream, written by a thread."""
+
+    def __init__(self, state_dir):
+        from pathlib import Path
+
+        d = Path(state_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        self.path = d / "checkpoints.sqlite"
+        self._db = connect(self.path)
+        self._db.executescript(SCHEMA)
+        self._db.execute("DELETE FROM chunks WHERE stream NOT IN (SELECT stream FROM checkpoints)")
+        # the digests stored per stream (writer thread): a round inserts only the others
+        self._stored: dict[str, set] = collections.defaultdict(set)
+        for stream, digest in self._db.execute("SELECT stream, digest FROM chunks"):
+            self._stored[stream].add(digest)
+        self._queue: list = []  # ("put", stream, frame, state) or ("del", stream)
+        self._lock = threading.Lock()
+        self._wake = threading.Event()
+        self._idle = threading.Event()
+        self._idle.set()
+        self._stopping = threading.Event()
+        self.rounds = 0
+        self.written = 0
+        self.bytes = 0
+        self.write_seconds = 0.0
+        self._thread = threading.Thread(target=self._run, name="streamseg-checkpoint",
+                                        daemon=True)
+        self._thread.start()
+
+    def read_all(self) -> list:
+        """``[(stream, state)]`` of every stored checkpoint (unreadable ones skipped)."""
+        out = []
+        for stream, fmt, blob in self._db.execute("SELECT stream, format, blob FROM checkpoints"):
+            if fmt != FORMAT:
+                log.warning("checkpoint of %s has format %s, not %s: not restored", stream, fmt,
+                            FORMAT)
+                continue
+            try:
+                chunks = dict(self._db.execute("SELECT digest, data FROM chunks WHERE stream = ?",
+                                               (stream,)))
+                out.append((stream, load(msgpack.unpackb(blob, raw=False,
+                                                         strict_map_key=False), chunks)))
+            except Exception as err:  # a damaged row must not stop the daemon
+                log.error("checkpoint of %s unreadable (%s: %s): not restored", stream,
+                          type(err).__name__, err)
+        return out
+
+    def put(self, items: list) -> None:
+        """Queue ``[(stream, frame, state)]`` (states from :func:`dump`) for writing."""
+        with self._lock:
+            self._queue += [("put", *it) for it in items]
+            self._idle.clear()
+        self._wake.set()
+
+    def forget(self, stream: str) -> None:
+        with self._lock:
+            self._queue.append(("del", stream))
+            self._idle.clear()
+        self._wake.set()
+
+    def busy(self) -> bool:
+        return not self._idle.is_set()
+
+    def wait(self, timeout: float = 30.0) -> bool:
+        """Block until everything queued is committed."""
+        return self._idle.wait(timeout)
+
+    def close(self, timeout: float = 30.0) -> None:
+        self._stopping.set()
+        self._wake.set()
+        self._thread.join(timeout)
+        if not self._thread.is_alive():
+            self._db.close()
+
+    def _run(self) -> None:
+        while True:
+            self._wake.wait()  # until put, forget or close
+            self._wake.clear()
+            with self._lock:
+                batch, self._queue = self._queue, []
+            if batch:
+                self._write(batch)
+            with self._lock:
+                if not self._queue:
+                    self._idle.set()
+            if self._stopping.is_set() and not self._queue:
+                return
+
+    def _write(self, batch: list) -> None:
+        t0 = time.perf_counter()
+        rows, gone = {}, set()
+        for op in batch:  # the newest state of each stream wins; a forget after it too
+            if op[0] == "put":
+                rows[op[1]] = op
+                gone.discard(op[1])
+            else:
+                rows.pop(op[1], None)
+                gone.add(op[1])
+        try:
+            packed, new_chunks, dead, stored = [], [], [], {}
+            for _, stream, frame, state in rows.values():
+                chunks: dict = {}
+                blob = msgpack.packb(packable(state, chunks), use_bin_type=True)
+                old = self._stored.get(stream, set())
+                fresh = [(stream, d, chunks[d]) for d in chunks.keys() - old]
+                new_chunks += fresh
+                dead += [(stream, d) for d in old - chunks.keys()]
+                stored[stream] = set(chunks)
+                self.bytes += len(blob) + sum(len(c[2]) for c in fresh)
+                packed.append((stream, frame, time.time(), FORMAT, blob))
+                time.sleep(0)  # packing holds the GIL: let the loop thread in between streams
+            self._db.execute("BEGIN")
+            self._db.executemany("INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)",
+                                 packed)
+            self._db.executemany("INSERT OR IGNORE INTO chunks VALUES (?, ?, ?)", new_chunks)
+            self._db.executemany("DELETE FROM chunks WHERE stream = ? AND digest = ?", dead)
+            self._db.executemany("DELETE FROM checkpoints WHERE stream = ?",
+                                 [(s,) for s in gone])
+            self._db.executemany("DELETE FROM chunks WHERE stream = ?", [(s,) for s in gone])
+            self._db.execute("COMMIT")
+            self._stored.update(stored)
+            for s in gone:
+                self._stored.pop(s, None)
+            self.written += len(packed)
+        except (sqlite3.Error, TypeError, ValueError, OverflowError) as err:
+            log.error("checkpoints %s: %d not written: %s", self.path, len(rows), err)
+            try:
+                self._db.execute("ROLLBACK")
+            except sqlite3.Error:
+                pass
+        self.rounds += 1
+        self.write_seconds += time.perf_counter() - t0
+
+
+def open_store(config) -> CheckpointStore | None:
+    if not config.state_dir or config.state_dir == "none" or not config.checkpoint_interval:
+        return None
+    return CheckpointStore(config.state_dir)

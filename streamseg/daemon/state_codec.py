@@ -1,0 +1,117 @@
+"""The checkpoints' serialisation: a small, closed format (no pickle).
+
+:func:`dump` copies a stream's state in the loop thread (arrays become private copies,
+nothing is shared with the live stream); :func:`packable` turns the copy into msgpack-able
+values in the writer thread, an array of more than :data:`CHUNK` bytes as the digests of its
+content-addressed chunks (SHA-1 of :data:`CHUNK` bytes each, trailing zero bytes not
+stored); :func:`load` rebuilds it. Only plain values, numpy arrays, tuples, deques, dicts and
+objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``, rebuilt field by field)
+are written or read.
+"""
+
+from __future__ import annotations
+
+import collections
+import hashlib
+import importlib
+
+import numpy as np
+
+from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.streams import StreamState
+
+CHUNK = 4096  # bytes of an array chunk: smaller ones store less per round, more rows
+# fields rebuilt at restore instead of stored (shared algorithms, per-drain buffers)
+SKIP = {StreamPipeline: ("algorithms", "plan"),
+        StreamState: ("pipeline", "pending", "arrivals", "gap_limit")}
+
+def dump(obj):
+    """A msgpack-able copy of ``obj``: plain values, arrays (as bytes), deques, tuples and
+    objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``)."""
+    if obj is None or isinstance(obj, (bool, int, float, str, bytes)):
+        return obj
+    if isinstance(obj, np.ndarray):  # a copy; the writer thread turns it into bytes (trimmed)
+        return {"__nd__": [obj.dtype.str, list(obj.shape), np.array(obj, order="C")]}
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, list):
+        return [dump(x) for x in obj]
+    if isinstance(obj, tuple):
+        return {"__t__": [dump(x) for x in obj]}
+    if isinstance(obj, collections.deque):
+        return {"__dq__": [obj.maxlen, [dump(x) for x in obj]]}
+    if isinstance(obj, dict):
+        return {"__d__": [[dump(k), dump(v)] for k, v in obj.items()]}
+    cls = type(obj)
+    if not cls.__module__.startswith("streamseg."):
+        raise TypeError(f"cannot checkpoint a {cls.__module__}.{cls.__qualname__}")
+    skip = SKIP.get(cls, ())
+    names = [n for c in cls.__mro__ for n in getattr(c, "__slots__", ())]
+    if hasattr(obj, "__dict__"):
+        names += list(vars(obj))
+    state = {n: dump(getattr(obj, n)) for n in dict.fromkeys(names)
+             if n not in skip and hasattr(obj, n)}
+    return {"__obj__": f"{cls.__module__}:{cls.__qualname__}", "s": state}
+
+
+def load(obj, chunks=None):
+    """Inverse of :func:`dump` (and of :func:`packable`, given the stream's ``chunks``:
+    a mapping of digest to bytes)."""
+    if isinstance(obj, list):
+        return [load(x, chunks) for x in obj]
+    if not isinstance(obj, dict):
+        return obj
+    if "__nd__" in obj:
+        dtype, shape, data = obj["__nd__"]
+        if isinstance(data, np.ndarray):  # straight from dump
+            return data.copy()
+        dtype = np.dtype(dtype)
+        n = int(np.prod(shape)) * dtype.itemsize
+        if isinstance(data, list):  # chunk digests (packable), each without trailing zeros
+            data = b"".join(chunks[d].ljust(min(CHUNK, n - i * CHUNK), b"\0")
+                            for i, d in enumerate(data))
+        return np.frombuffer(data.ljust(n, b"\0"), dtype=dtype).reshape(shape).copy()
+    if "__t__" in obj:
+        return tuple(load(x, chunks) for x in obj["__t__"])
+    if "__dq__" in obj:
+        maxlen, items = obj["__dq__"]
+        return collections.deque((load(x, chunks) for x in items), maxlen=maxlen)
+    if "__d__" in obj:
+        return {load(k, chunks): load(v, chunks) for k, v in obj["__d__"]}
+    if "__obj__" in obj:
+        module, qual = obj["__obj__"].split(":")
+        if not module.startswith("streamseg."):
+            raise TypeError(f"refusing to build {module}.{qual} from a checkpoint")
+        cls = importlib.import_module(module)
+        for part in qual.split("."):
+            cls = getattr(cls, part)
+        out = cls.__new__(cls)
+        for k, v in obj["s"].items():
+            object.__setattr__(out, k, load(v, chunks))  # also frozen dataclasses
+        return out
+    raise TypeError(f"unknown checkpoint value with keys {sorted(obj)[:5]}")
+
+
+def packable(obj, chunks: dict):
+    """:func:`dump`'s output with its arrays as bytes; an array of more than :data:`CHUNK`
+    bytes becomes the list of its chunks' digests, and ``chunks`` gains ``{digest: bytes}``
+    (trailing zero bytes dropped). Writer thread."""
+    if isinstance(obj, list):
+        return [packable(x, chunks) for x in obj]
+    if not isinstance(obj, dict):
+        return obj
+    if "__nd__" in obj:
+        dtype, shape, a = obj["__nd__"]
+        raw = memoryview(a.reshape(-1)).cast("B")
+        if raw.nbytes <= CHUNK:
+            return {"__nd__": [dtype, shape, raw.tobytes().rstrip(b"\0")]}
+        digests = []
+        for i in range(0, raw.nbytes, CHUNK):
+            # trailing zero bytes are not stored: a young stream's buffers are mostly unused
+            part = raw[i:i + CHUNK].tobytes().rstrip(b"\0")
+            # content addressing, not security: a changed chunk gets a new key
+            d = hashlib.sha1(part, usedforsecurity=False).digest()
+            chunks[d] = part
+            digests.append(d)
+        return {"__nd__": [dtype, shape, digests]}
+    return {k: packable(v, chunks) for k, v in obj.items()}
