@@ -69,10 +69,14 @@ def snapshots(angles, config: LOFConfig, fps: float) -> Snapshots:
 
 def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=None,
            mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
-           novelty=0.0, min_seg=0, contrast2=0, min_contrast2=0.0, fb=None):
+           novelty=0.0, min_seg=0, contrast2=0, min_contrast2=0.0,
+           adaptive_k=None, fb=None):
     """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
 
     ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score).
+    ``adaptive_k = (snaps_by_k, alpha, k_max)``: each decision reads the LOF curve of
+    ``k = clip(round(alpha * median segment length so far / step), config.k, k_max)`` (the
+    segments the stream's own cuts closed; ``config.k`` before the first cut).
     """
     c = config
     g = c.frames(fps)
@@ -96,11 +100,19 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
         cum = np.vstack([np.zeros((1, onehot.shape[1]), dtype=np.int64), np.cumsum(onehot, 0)])
     recent = None if recent_s is None else max(3, int(round(recent_s * fps / step)))
 
+    def k_now():
+        if not cuts:
+            return c.k
+        durs = np.diff([0] + cuts)
+        k = int(round(adaptive_k[1] * float(np.median(durs)) / step))
+        return min(max(k, c.k), adaptive_k[2])
+
     def one(w, hi, i, seen, emitted):
         if w <= st["last_decided"]:
             return
         st["last_decided"] = w
-        curve = snaps.lof[i]
+        src = snaps if adaptive_k is None else adaptive_k[0][k_now()]
+        curve = src.lof[i]
         size = curve.shape[0]
         oldest = snaps.seq[i] - size + 1
         if w < oldest or w - st["last_seq"] < min_gap:
@@ -119,7 +131,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
                 and is_peak(curve, lo - oldest, hi - oldest, w - oldest, c.dp_tolerance, keep,
                             stack)):
             return
-        cf = int(snaps.centres[i][w - oldest])
+        cf = int(src.centres[i][w - oldest])
         ring_old = max(0, seen - history)
         if g["refine"] > 0:
             cf = refine_cut(bins_, valid, n, cf, g["refine"], window, c.bins, seen, ring_old,
@@ -170,3 +182,16 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
         for w in range(max(last - size + 1, last - delay + 1), last + 1):
             one(w, last, i, n, n - 1)
     return cuts, lats
+
+
+def merge_causal(detections, gap):
+    """Cuts of several detectors ``[(cuts, lats), ...]`` merged in emission order: a cut within
+    ``gap`` frames of one already emitted is dropped (so the union is itself causal)."""
+    events = sorted((c + lat, c, lat) for cuts, lats in detections for c, lat in zip(cuts, lats))
+    out, out_lat = [], []
+    for _, c, lat in events:
+        if all(abs(c - o) >= gap for o in out):
+            out.append(c)
+            out_lat.append(lat)
+    order = np.argsort(out, kind="stable")
+    return [out[i] for i in order], [out_lat[i] for i in order]
