@@ -49,8 +49,9 @@ by 0.5 s (flat +-0.5 s without a window) and with a flat 1 s tolerance, as in lo
    novelty test of the whole current segment with a minimum segment duration. Choice on a NEW
    pair, fixed before any part-6 figure: 02_walk_punch_sword_wash (the CMU 02 set fails) and
    hdm_bk_0; every other recording, 86_01 and hdm_bd_0 included, is held out, and each
-   family winner (and their combination) is scored once on it. ``--part 6`` runs only this
-   part (a few seconds).
+   family winner (and their combination) is scored once on it. Diagnoses: the LOF curve's own
+   ceiling (every peak, no threshold: how many true cuts any decision could find) and what
+   happens at a CMU 02 join. ``--part 6`` runs only this part (about a minute, Pelt's share).
 
 Parts 1 and 2 were measured on the paper's 8 bone angles, before part 4, and are kept so;
 parts 1-4 run with today's defaults where they say "defaults".
@@ -386,8 +387,13 @@ def part6():
                 cuts, lat = merge_causal([(cuts, lat), decide(a, c2, FPS, snaps(n, c2))],
                                          int(cfg.min_gap_s * FPS))
             out[n] = f1s(cuts, t, w)[0]
+            half = int(0.5 * FPS)
+            counts[n] = cut_scores(cuts, t, windows=w, tolerance=None if w else half,
+                                   margin=half if w else 0)
             lats += lat
         return out, (float(np.median(lats)) / FPS if lats else float("nan"))
+
+    counts = {}  # the last run's cut_scores per recording (pooled counts of the table)
 
     # the replay must be the library's decision before it can stand for variants of it
     for n, (a, _, _) in recs.items():
@@ -462,7 +468,8 @@ def part6():
     print("\n  candidates, scored once on the held-out recordings (F1, held-out mean per set: cmu "
           "= 86_01, 14_14, 14_20; cmu02 = 02_wash_sword_walk_punch; hdm = 8 joins; worst over "
           "all 14 recordings; median latency over all, s)")
-    print(f"  {'candidate':28s} train   cmu  cmu02   hdm  held  worst (all)         lat")
+    print(f"  {'candidate':28s} train   cmu  cmu02   hdm  held  worst (all)                   lat  "
+          "held-out pooled: cuts / correct / true")
     for label, kw in cands.items():
         tr, _ = run(TRAIN_6, **kw)
         he, lat = run(list(recs), **kw)
@@ -471,8 +478,35 @@ def part6():
         worst = min((he[n], n) for n in recs)
         print(f"  {label:28s} {np.mean(list(tr.values())):5.2f}  {mean['cmu']:4.2f}  "
               f"{mean['cmu02']:4.2f}  {mean['hdm']:4.2f}  "
-              f"{np.mean([he[n] for n in held_names]):4.2f}  {worst[0]:4.2f} {worst[1]:14s} "
-              f"{lat:4.2f}")
+              f"{np.mean([he[n] for n in held_names]):4.2f}  {worst[0]:4.2f} {worst[1]:24s} "
+              f"{lat:4.2f}  {sum(counts[n]['n_pred'] for n in held_names):3d} / "
+              f"{sum(counts[n]['tp'] for n in held_names):2d} / "
+              f"{sum(counts[n]['n_true'] for n in held_names)}")
+
+
+def part6_ceiling():
+    """How many true cuts any decision on this LOF curve could find (part 6, diagnosis; pooled
+    over all 14 recordings, not used for choosing): every peak of the curve, no threshold, no
+    contrast, with the 1 s gap and with a 0.2 s gap."""
+    from dataclasses import replace
+
+    from _lof_replay import decide, snapshots
+
+    raw = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
+    d = LOFConfig()
+    every = replace(d, threshold_mads=0.0, min_score=0.0, min_contrast=0.0)
+    half = int(0.5 * FPS)
+    print("\n6c. the LOF curve's own ceiling, pooled over all 14 recordings: cuts / correct / "
+          "true (label window + 0.5 s)")
+    for label, cfg in (("defaults", d), ("every peak (1 s gap)", every),
+                       ("every peak (0.2 s gap)", replace(every, min_gap_s=0.2))):
+        tot = np.zeros(3, dtype=int)
+        for r, t, w in raw.values():
+            a = np.ascontiguousarray(features(r, True))
+            s = cut_scores(decide(a, cfg, FPS, snapshots(a, cfg, FPS))[0], t, windows=w,
+                           tolerance=None if w else half, margin=half if w else 0)
+            tot += (s["n_pred"], s["tp"], s["n_true"])
+        print(f"  {label:24s} {tot[0]:4d} / {tot[1]:3d} / {tot[2]}")
 
 
 def part6_joins():
@@ -513,6 +547,7 @@ def main():
     t0 = time.perf_counter()
     if "--part" in sys.argv and sys.argv[sys.argv.index("--part") + 1] == "6":
         part6()
+        part6_ceiling()
         part6_joins()
         print(f"\n[{time.perf_counter() - t0:.0f} s]")
         return
