@@ -496,7 +496,7 @@ def part6_ceiling():
     d = LOFConfig()
     every = replace(d, threshold_mads=0.0, min_score=0.0, min_contrast=0.0)
     half = int(0.5 * FPS)
-    print("\n6c. the LOF curve's own ceiling, pooled over all 14 recordings: cuts / correct / "
+    print("\n6b. the LOF curve's own ceiling, pooled over all 14 recordings: cuts / correct / "
           "true (label window + 0.5 s)")
     for label, cfg in (("defaults", d), ("every peak (1 s gap)", every),
                        ("every peak (0.2 s gap)", replace(every, min_gap_s=0.2))):
@@ -520,7 +520,7 @@ def part6_joins():
     from lof_accuracy import Pelt
 
     raw = recordings()
-    print("\n6b. the CMU 02 joins: one-frame pose step at the join / largest step within 1 s of "
+    print("\n6c. the CMU 02 joins: one-frame pose step at the join / largest step within 1 s of "
           "it (mean joint, skeleton units); mean joint speed 1 s before | after the join")
     for name in CMU02_SEQUENCES:
         r, truth, _ = raw[name]
