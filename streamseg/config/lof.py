@@ -53,6 +53,13 @@ class LOFConfig:
       around the new point (0.5-2 MADs, 1-2 s gaps, 0.2 s radius, 8 bins): none scored higher
       on the train pair.
 
+    Rules tried on top of these and not adopted (``lof_variants.py --part 6``, chosen on another
+    pair, 02_walk_punch_sword_wash + hdm_bk_0): a robust z-score over the recent 10-40 s, a
+    second window scale (confirming or adding cuts), k as a span in seconds or from the stream's
+    segment lengths, the contrast at a second length, a novelty test of the whole current
+    segment. None generalised (held-out F1 0.62-0.68 against 0.66; 35-38 of 51 held-out true
+    cuts found, 38 with these defaults).
+
     Offline segmentation (:class:`streamseg.offline.LOFSegmenter`) applies this same causal
     decision to a whole file, so online and offline cuts are equal.
 

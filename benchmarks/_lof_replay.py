@@ -1,0 +1,197 @@
+"""Replay of the streaming LOF decision in Python, for trying decision rules (lof_variants part 6).
+
+The library's streaming detector maintains the LOF buffer; its values do not depend on the
+decision parameters, so :func:`snapshots` records the buffer (LOF values and window centres)
+after every window insertion. :func:`decide` then re-makes the library's causal decision window
+by window from those snapshots, calling the same numba pieces (``robust_threshold``,
+``dominates``, ``is_peak``, ``refine_cut``, ``contrast_at``), and optional extra rules:
+
+- ``recent_s``: the threshold is the robust z-score of the LOF over the last ``recent_s``
+  seconds of windows only (the stream's recent level), not the whole 75 s buffer;
+- ``confirm``: a second scale (another window length's snapshots) must support the cut: some
+  window of it centred within ``confirm_r`` frames of the cut, complete when the cut is
+  decided, has LOF at least its own robust threshold (``confirm_mads``);
+- ``contrast2``: the confirming contrast again at a second length (``contrast2`` frames each
+  side, the before side since the previous cut, the after side clipped to the frames seen),
+  which must reach ``min_contrast2``: a change must hold at two time scales;
+- ``novelty``: the histogram of the whole current segment (previous cut .. cut frame) and the
+  after side (``contrast`` frames, clipped to the frames seen) differ by at least ``novelty``
+  (cosine distance), and the current segment has lasted at least ``min_seg`` frames.
+
+Frame ring: the replay holds the whole recording's frame bins; every read is clipped to the
+frames the streaming detector still holds (its ``history``), so with no extra rule the replay
+gives the library's cuts exactly (checked in part 6 before any variant is scored).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from streamseg._kernels.histogram import contrast_at, refine_cut
+from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
+from streamseg.config import LOFConfig
+from streamseg.offline.lof import frame_bins
+from streamseg.online.lof import StreamingLOFSegmenter
+
+
+@dataclass
+class Snapshots:
+    seq: np.ndarray      # (m,) sequence number of the newest window at each snapshot
+    seen: np.ndarray     # (m,) frames seen at each snapshot
+    lof: list            # m arrays: buffered LOF values, oldest first
+    centres: list        # m arrays: buffered window centres, oldest first
+    n_frames: int
+
+
+def snapshots(angles, config: LOFConfig, fps: float) -> Snapshots:
+    """The streaming detector's LOF buffer after each inserted window of ``angles`` (n, d)."""
+    det = StreamingLOFSegmenter(config, fps, n_features=angles.shape[1])
+    g = det.geometry
+    seq, seen, lofs, cents = [], [], [], []
+    bounds = [g["window"]] + list(range(g["window"] + g["step"], len(angles) + 1, g["step"]))
+    start = 0
+    for end in bounds:
+        if end > len(angles):
+            break
+        before = det.n_windows_
+        det.learn_many(angles[start:end])
+        start = end
+        if det.n_windows_ > before:
+            seq.append(det.n_windows_ - 1)
+            seen.append(det.n_frames_)
+            lofs.append(det.buffer_lof())
+            cents.append(det.buffer_centres())
+    return Snapshots(np.array(seq, dtype=np.int64), np.array(seen, dtype=np.int64), lofs, cents,
+                     len(angles))
+
+
+def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=None,
+           mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
+           novelty=0.0, min_seg=0, contrast2=0, min_contrast2=0.0,
+           adaptive_k=None, fb=None):
+    """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
+
+    ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score).
+    ``adaptive_k = (snaps_by_k, alpha, k_max)``: each decision reads the LOF curve of
+    ``k = clip(round(alpha * median segment length so far / step), config.k, k_max)`` (the
+    segments the stream's own cuts closed; ``config.k`` before the first cut).
+    """
+    c = config
+    g = c.frames(fps)
+    delay, min_gap, step, window = g["delay"], g["min_gap"], g["step"], g["window"]
+    history, n = g["history"], snaps.n_frames
+    n_mads = c.threshold_mads if mads is None else mads
+    if fb is None:
+        fb = frame_bins(angles, c.bins)
+    bins_, valid = fb
+    left = np.zeros(bins_.shape[1] * c.bins, dtype=np.int64)
+    right = left.copy()
+    keep = np.zeros(2 * delay + 1, dtype=np.uint8)
+    stack = np.zeros(4 * (2 * delay + 1) + 4, dtype=np.int64)
+    st = dict(last_decided=-1, last_seq=-(1 << 40), last_frame=-(1 << 40))
+    cuts, lats = [], []
+    cum = None
+    if novelty > 0:
+        onehot = np.zeros((n, bins_.shape[1] * c.bins), dtype=np.int64)
+        cols = np.arange(bins_.shape[1]) * c.bins + bins_.astype(np.int64)
+        onehot[np.arange(n)[:, None], cols] = valid[:, None]
+        cum = np.vstack([np.zeros((1, onehot.shape[1]), dtype=np.int64), np.cumsum(onehot, 0)])
+    recent = None if recent_s is None else max(3, int(round(recent_s * fps / step)))
+
+    def k_now():
+        if not cuts:
+            return c.k
+        durs = np.diff([0] + cuts)
+        k = int(round(adaptive_k[1] * float(np.median(durs)) / step))
+        return min(max(k, c.k), adaptive_k[2])
+
+    def one(w, hi, i, seen, emitted):
+        if w <= st["last_decided"]:
+            return
+        st["last_decided"] = w
+        src = snaps if adaptive_k is None else adaptive_k[0][k_now()]
+        curve = src.lof[i]
+        size = curve.shape[0]
+        oldest = snaps.seq[i] - size + 1
+        if w < oldest or w - st["last_seq"] < min_gap:
+            return
+        if recent is None:
+            ref = curve
+        else:
+            ref = np.ascontiguousarray(curve[max(0, size - recent):])
+        thr = max(c.min_score, robust_threshold(ref, ref.shape[0], n_mads,
+                                                np.empty(max(1, ref.shape[0]))))
+        yw = curve[w - oldest]
+        if yw < thr:
+            return
+        lo = max(oldest, w - delay)
+        if not (dominates(curve, lo - oldest, hi - oldest, w - oldest, min_gap)
+                and is_peak(curve, lo - oldest, hi - oldest, w - oldest, c.dp_tolerance, keep,
+                            stack)):
+            return
+        cf = int(src.centres[i][w - oldest])
+        ring_old = max(0, seen - history)
+        if g["refine"] > 0:
+            cf = refine_cut(bins_, valid, n, cf, g["refine"], window, c.bins, seen, ring_old,
+                            st["last_frame"] + min_gap * step, left, right)
+        if c.min_contrast > 0:
+            if seen - cf < window:
+                return
+            con = contrast_at(bins_, valid, n, cf, g["contrast"], c.bins, seen,
+                              max(ring_old, st["last_frame"]), left, right)
+            if con < c.min_contrast:
+                return
+        if contrast2 > 0:
+            con = contrast_at(bins_, valid, n, cf, contrast2, c.bins, seen,
+                              max(ring_old, st["last_frame"]), left, right)
+            if con < min_contrast2:
+                return
+        if min_seg and cf - max(0, st["last_frame"]) < min_seg:
+            return
+        if novelty > 0:
+            # the before side is the whole current segment, the after side clipped to seen
+            seg0 = max(ring_old, st["last_frame"], 0)
+            a, b = cum[cf] - cum[seg0], cum[min(cf + g["contrast"], seen)] - cum[cf]
+            den = np.sqrt(float(a @ a) * float(b @ b))
+            if den == 0 or 1.0 - float(a @ b) / den < novelty:
+                return
+        if confirm is not None:
+            j = int(np.searchsorted(confirm.seen, seen, side="right")) - 1
+            if j < 0:
+                return
+            cv, cc = confirm.lof[j], confirm.centres[j]
+            near = np.abs(cc - cf) <= confirm_r
+            if not near.any():
+                return
+            thr2 = robust_threshold(cv, cv.shape[0], confirm_mads, np.empty(cv.shape[0]))
+            if cv[near].max() < max(c.min_score, thr2):
+                return
+        st["last_frame"] = cf
+        st["last_seq"] = w
+        cuts.append(cf)
+        lats.append(emitted - cf)
+
+    for i in range(len(snaps.seq)):
+        seq, seen = int(snaps.seq[i]), int(snaps.seen[i])
+        one(seq - delay, seq, i, seen, seen - 1)
+    if len(snaps.seq):
+        i = len(snaps.seq) - 1
+        last, size = int(snaps.seq[i]), snaps.lof[i].shape[0]
+        for w in range(max(last - size + 1, last - delay + 1), last + 1):
+            one(w, last, i, n, n - 1)
+    return cuts, lats
+
+
+def merge_causal(detections, gap):
+    """Cuts of several detectors ``[(cuts, lats), ...]`` merged in emission order: a cut within
+    ``gap`` frames of one already emitted is dropped (so the union is itself causal)."""
+    events = sorted((c + lat, c, lat) for cuts, lats in detections for c, lat in zip(cuts, lats))
+    out, out_lat = [], []
+    for _, c, lat in events:
+        if all(abs(c - o) >= gap for o in out):
+            out.append(c)
+            out_lat.append(lat)
+    order = np.argsort(out, kind="stable")
+    return [out[i] for i in order], [out_lat[i] for i in order]
