@@ -34,6 +34,7 @@ from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
 from streamseg.config import LOFConfig
 from streamseg.offline.lof import frame_bins
 from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.online.speed_features import lof_columns
 
 
 @dataclass
@@ -83,8 +84,8 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     delay, min_gap, step, window = g["delay"], g["min_gap"], g["step"], g["window"]
     history, n = g["history"], snaps.n_frames
     n_mads = c.threshold_mads if mads is None else mads
-    if fb is None:
-        fb = frame_bins(angles, c.bins)
+    if fb is None:  # the columns the library histograms (the features and their speeds)
+        fb = frame_bins(lof_columns(angles, c, fps), c.bins)
     bins_, valid = fb
     left = np.zeros(bins_.shape[1] * c.bins, dtype=np.int64)
     right = left.copy()

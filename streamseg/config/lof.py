@@ -137,6 +137,8 @@ class LOFConfig:
     inclinations: bool = True
     min_contrast: float = 0.15
     contrast_s: float = 2.0
+    speed_max: float = 2.0
+    speed_lag_s: float = 0.1
 
     def __post_init__(self):
         _check("window_s", self.window_s, self.window_s > 0, "a window length > 0 seconds")
@@ -177,11 +179,18 @@ class LOFConfig:
                "a contrast window > 0 seconds")
         _check("inclinations", self.inclinations, isinstance(self.inclinations, bool),
                "true or false")
+        _check("speed_max", self.speed_max, self.speed_max >= 0,
+               "a speed >= 0 rad/s (0: no speed columns)")
+        _check("speed_lag_s", self.speed_lag_s, self.speed_lag_s > 0, "a lag > 0 seconds")
 
     @property
     def n_features(self) -> int:
         """Columns of a feature frame: 8 bone angles, plus 9 inclinations when enabled."""
         return 17 if self.inclinations else 8
+
+    def histogram_columns(self, n_features: int) -> int:
+        """Columns histogrammed for ``n_features`` input columns: doubled by the speeds."""
+        return 2 * n_features if self.speed_max > 0 else n_features
 
     @classmethod
     def paper(cls, **overrides) -> LOFConfig:
@@ -194,7 +203,7 @@ class LOFConfig:
         """
         values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0,
                       refine_s=0.0, inclinations=False, min_contrast=0.0, delay_s=2.5,
-                      min_score=1.3)
+                      min_score=1.3, speed_max=0.0)
         values.update(overrides)
         return cls(**values)
 
@@ -205,8 +214,9 @@ class LOFConfig:
         -------
         dict
             ``window``, ``step`` (frames), ``capacity``, ``delay``, ``min_gap`` (windows),
-            ``min_valid``, ``exclusion``, ``refine`` (frames) and ``history`` (frames the
-            streaming detector keeps: the last window plus what cut localisation may look at).
+            ``min_valid``, ``exclusion``, ``refine`` (frames), ``history`` (frames the
+            streaming detector keeps: the last window plus what cut localisation may look at)
+            and ``speed_lag`` (frames).
         """
 
         _check("fps", fps, fps > 0, "a frame rate > 0")
@@ -232,6 +242,7 @@ class LOFConfig:
             refine=refine,
             contrast=contrast,
             history=history,
+            speed_lag=max(1, int(round(self.speed_lag_s * fps))),
         )
 
 

@@ -199,7 +199,10 @@ class LOFSegmenter(Estimator):
         angles = lof_features(recording_or_angles, c, self.n_features)
         self.n_frames_ = int(angles.shape[0])
         self.n_nan_frames_ = int((~np.isfinite(angles)).any(axis=1).sum())
-        fb, valid = frame_bins(angles, c.bins)
+        from streamseg.online.speed_features import lof_columns
+
+        # the histogrammed columns, as the streaming detector makes them (speeds appended)
+        fb, valid = frame_bins(lof_columns(angles, c, self.fps), c.bins)
         counts, n_valid = window_counts(fb, valid, c.bins, g["window"], g["step"])
         keep = n_valid >= g["min_valid"]
         centres = (np.arange(counts.shape[0], dtype=np.int64) * g["step"] + g["window"] // 2)[keep]

@@ -9,6 +9,7 @@ from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
 from streamseg.online.events import CutEvent
+from streamseg.online.speed_features import SpeedColumns
 
 
 class StreamingLOFSegmenter:
@@ -74,7 +75,10 @@ class StreamingLOFSegmenter:
         self.fps = float(fps)
         g = self.geometry = self.config.frames(self.fps)
         c = self.config
-        n, k, d, w = g["capacity"], c.k, self.n_features * c.bins, g["window"]
+        # the histogrammed columns: the features, then their angular speeds (speed_max > 0)
+        self._cols = c.histogram_columns(self.n_features)
+        self._speeds = SpeedColumns(c, self.fps, self.n_features) if c.speed_max > 0 else None
+        n, k, d, w = g["capacity"], c.k, self._cols * c.bins, g["window"]
         # in the order of the kernel's GEO_* and P_* slots
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"], g["contrast"]], dtype=np.int64)
@@ -85,7 +89,7 @@ class StreamingLOFSegmenter:
         self._st = _ks.new_state()
         # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
         # cut localisation reads back to refine + w frames before a peak window's centre
-        self._rb = np.zeros((g["history"], self.n_features), dtype=np.int8)
+        self._rb = np.zeros((g["history"], self._cols), dtype=np.int8)
         self._rv = np.zeros(g["history"], dtype=np.uint8)
         self._cur = np.zeros(d, dtype=np.int64)
         self._left = np.zeros(d, dtype=np.int64)
@@ -143,6 +147,8 @@ class StreamingLOFSegmenter:
         return self._events(n, ev_f, ev_s, ev_e)
 
     def _run(self, a: np.ndarray) -> list[CutEvent]:
+        if self._speeds is not None:
+            a = self._speeds(a)
         m = a.shape[0] // self.geometry["step"] + 2
         ev_f = np.empty(m, dtype=np.int64)
         ev_s = np.empty(m)
@@ -194,7 +200,8 @@ class StreamingLOFSegmenter:
         return np.arange(nxt - size, nxt) % self._seqs.shape[0]
 
     def buffer_vectors(self) -> np.ndarray:
-        """Count vectors of the buffered windows, oldest first, shape (size, n_features * bins)."""
+        """Count vectors of the buffered windows, oldest first, shape (size, columns * bins):
+        ``columns`` is ``config.histogram_columns(n_features)`` (the speeds double it)."""
         return self._vecs[self._order()].astype(np.float64)
 
     def buffer_lof(self) -> np.ndarray:
