@@ -38,7 +38,6 @@ Run: nice -n 5 .venv/bin/python benchmarks/lof_curves.py      (several minutes)
 
 from __future__ import annotations
 
-import itertools
 import sys
 import time
 from dataclasses import replace

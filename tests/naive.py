@@ -45,6 +45,29 @@ def naive_inclinations(positions, points, up):
     return out
 
 
+def naive_speed_columns(x, lag, speed_max, fps):
+    """The features and their angular speeds by the definition (``LOFConfig.speed_max``):
+    ``pi * min(|x[t] - x[r]| / (speed_max * lag / fps), 1)`` with ``r`` the latest frame
+    without NaN at least ``lag`` frames before ``t``, else the first frame without NaN; NaN
+    speeds for a frame with a NaN."""
+    import math
+
+    x = np.asarray(x, dtype=float)
+    n, d = x.shape
+    finite = [all(math.isfinite(v) for v in row) for row in x]
+    out = np.full((n, 2 * d), np.nan)
+    out[:, :d] = x
+    for t in range(n):
+        if not finite[t]:
+            continue
+        earlier = [r for r in range(t - lag + 1) if finite[r]]
+        r = earlier[-1] if earlier else min(r for r in range(t + 1) if finite[r])
+        for a in range(d):
+            change = abs(x[t, a] - x[r, a]) / (speed_max * lag / fps)
+            out[t, d + a] = math.pi * min(change, 1.0)
+    return out
+
+
 # --- LOF, sliding histograms, peaks ------------------------------------------------
 
 

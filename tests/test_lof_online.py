@@ -12,6 +12,7 @@ from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import LOFSegmenter
 from streamseg.online.events import CutEvent
 from streamseg.online.lof import StreamingLOFSegmenter, warmup
+from streamseg.online.speed_features import lof_columns
 from tests.naive import naive_contrast, naive_refine_cut
 
 FAST = LOFConfig(window_s=0.5, step_s=0.1, k=5, buffer_s=6.0, delay_s=0.5)
@@ -180,6 +181,7 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
     keep = np.zeros(2 * delay + 1, dtype=np.uint8)
     stack = np.zeros(8 * delay + 8, dtype=np.int64)
     replay, last, rejected = [], -(1 << 40), 0
+    cols = lof_columns(angles_86_01, cfg, 120)  # what is histogrammed: features and speeds
     for w in range(m - delay):
         t = w + delay
         y = lof_batch(off.counts_[:t + 1], cfg.k, off.centres_[:t + 1], 0)[0]
@@ -190,12 +192,12 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
                 y, lo, t, w, g["min_gap"]) and is_peak(y, lo, t, w, cfg.dp_tolerance, keep, stack):
             n_avail = int(off.centres_[t]) - g["window"] // 2 + g["window"]
             first = replay[-1] + g["min_gap"] * g["step"] if replay else 0
-            cut = naive_refine_cut(angles_86_01, cfg.bins, int(off.centres_[w]), g["refine"],
+            cut = naive_refine_cut(cols, cfg.bins, int(off.centres_[w]), g["refine"],
                                    g["window"], n_avail, first)
             # the confirming two-sample contrast, with the frames seen at the decision
             since = replay[-1] if replay else 0  # the before side starts at the last cut
             if n_avail - cut < g["window"] or naive_contrast(
-                    angles_86_01, cfg.bins, cut, g["contrast"], n_avail, since) \
+                    cols, cfg.bins, cut, g["contrast"], n_avail, since) \
                     < cfg.min_contrast:
                 rejected += 1
                 continue

@@ -51,10 +51,11 @@ class StreamingLOFSegmenter:
     ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
 
     Memory: fixed at construction, ``capacity * (2 * d * bins + 40 * k + 73)`` +
-    ``(d + 1) * history`` bytes, ``d = n_features``, ``history = delay * step + window +
-    refine + max(window, contrast) + 1`` frames (defaults at 120 Hz, d = 17: 375 windows and
-    691 frames, 195 kB per stream, 195 MB for 1,000 streams; the ``2 * k`` candidates take 30
-    kB of that).
+    ``(d + 1) * history`` bytes, ``d`` the histogrammed columns (``n_features``, doubled by
+    the speed columns of ``config.speed_max``: 34 by default), ``history = delay * step +
+    window + refine + max(window, contrast) + 1`` frames, plus ``(lag + 2) * n_features``
+    floats for the speeds (defaults at 120 Hz: 375 windows and 691 frames, 287 kB per stream,
+    287 MB for 1,000 streams; without speeds 195 kB; the ``2 * k`` candidates take 30 kB).
 
     Parameters
     ----------
