@@ -1,7 +1,8 @@
 """Offline LOF segmentation (Xing, Sun, Wei 2015), one small function per step.
 
 Pipeline: 8 bone angles per frame (the paper; by default followed by the 9 bones' inclinations
-from the up axis, ``LOFConfig.inclinations``) -> sliding windows -> per-angle histograms of
+from the up axis, ``LOFConfig.inclinations``, and by every feature's angular speed,
+``LOFConfig.speed_max``) -> sliding windows -> per-angle histograms of
 ``bins`` equal bins over [0, pi] (normalized by the window's valid frames) -> one
 ``n_features * bins`` vector per window (the paper: 80) -> cosine distance ``1 - cos`` -> LOF
 with ``k`` neighbours -> peaks of the LOF curve by Douglas-Peucker simplification and a robust
@@ -165,8 +166,10 @@ class LOFSegmenter(Estimator):
     ----------
     n_frames_ : int
     n_nan_frames_ : int
-    counts_ : ndarray, shape (m, n_features * bins), window count vectors
-    vectors_ : ndarray, shape (m, n_features * bins), normalized histograms
+    counts_ : ndarray, shape (m, columns * bins), window count vectors; ``columns`` is
+        ``config.histogram_columns(n_features)``: the features and, with ``speed_max > 0``
+        (the default), their angular speeds
+    vectors_ : ndarray, shape (m, columns * bins), normalized histograms
     centres_ : ndarray of int64, shape (m,), window centre frames
     lof_ : ndarray, shape (m,), the LOF curve of the whole recording (for inspection)
     threshold_ : float, the adaptive threshold of that whole curve
