@@ -17,8 +17,12 @@
   same for 15 and 30 s buffers; median of 3 runs. This is the per-stream cost a long-running
   daemon pays.
 
+* speed columns (``--speed-columns``): the defaults against ``LOFConfig(speed_max=0)`` (the
+  detector without the angular-speed columns), interleaved run by run, median of 9.
+
 Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
      .venv/bin/python benchmarks/lof_speed.py --steady      (about 20 s)
+     .venv/bin/python benchmarks/lof_speed.py --speed-columns      (about a minute)
 """
 
 from __future__ import annotations
@@ -172,11 +176,57 @@ def steady_state(buffers=(15.0, 30.0, 75.0), n=60_000, runs=3):
               f"{1e6 / per_full:14,.0f} {det.n_lof_updates_ / det.n_windows_:19.1f}")
 
 
+def speed_columns_cost(runs=9, n=60_000):
+    """The angular-speed columns' cost: the defaults against ``speed_max = 0`` (the detector
+    without them, the same code path otherwise), interleaved run by run so machine load hits
+    both alike; the ratio is of medians."""
+    rec = recording()
+    angles = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
+    a86 = bone_angles(*(lambda r: (r.positions, r.skeleton))(read(
+        DATA / "cmu86" / "86_01.amc.gz", skeleton=DATA / "cmu86" / "86.asf")),
+        inclinations=INCL)
+    cyc = np.ascontiguousarray(np.tile(a86, (n // len(a86) + 1, 1))[:n])
+    warmup()
+    cfgs = {"speeds (defaults)": LOFConfig(), "no speeds": LOFConfig(speed_max=0.0)}
+
+    def full_buffer(cfg):  # us/frame with the 75 s buffer full
+        det = StreamingLOFSegmenter(cfg, rec.fps)
+        g = det.geometry
+        full_at = g["capacity"] * g["step"] + g["window"]
+        det.learn_many(cyc[:full_at])
+        t = time.perf_counter()
+        for i in range(full_at, n, PACKET):
+            det.learn_many(cyc[i:i + PACKET])
+        return (time.perf_counter() - t) / (n - full_at) * 1e6
+
+    tasks = {"learn_many(120) from positions, frames/s": lambda c: N / median_time(
+                 lambda: stream_many(rec, c), 1),
+             "learn_one, angles given, frames/s": lambda c: N / median_time(
+                 lambda: stream_one(rec, c, angles), 1),
+             "offline, features included, ms": lambda c: 1e3 * median_time(
+                 lambda: offline_ours(rec, c), 1),
+             "75 s buffer full, us/frame": full_buffer}
+    res = {(t, k): [] for t in tasks for k in cfgs}
+    for _ in range(runs):
+        for t, fn in tasks.items():
+            for k, c in cfgs.items():
+                res[t, k].append(fn(c))
+    print(f"speed columns on/off, interleaved, median of {runs} runs ({N} frames; buffer "
+          f"full: 86_01 cycled to {n})")
+    print(f"{'computation':44s} {'speeds':>12s} {'no speeds':>12s} {'ratio':>6s}")
+    for t in tasks:
+        on, off = (float(np.median(res[t, k])) for k in cfgs)
+        print(f"{t:44s} {on:12,.2f} {off:12,.2f} {on / off:6.2f}")
+
+
 def main():
     import warnings
 
     if "--steady" in sys.argv[1:]:
         steady_state()
+        return
+    if "--speed-columns" in sys.argv[1:]:
+        speed_columns_cost()
         return
 
     warnings.filterwarnings("ignore")
