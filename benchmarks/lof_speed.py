@@ -18,7 +18,7 @@
   daemon pays.
 
 * speed columns (``--speed-columns``): the defaults against ``LOFConfig(speed_max=0)`` (the
-  detector without the angular-speed columns), interleaved run by run, median of 9.
+  detector without the angular-speed columns), interleaved run by run, median of 25.
 
 Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
      .venv/bin/python benchmarks/lof_speed.py --steady      (about 20 s)
@@ -176,7 +176,7 @@ def steady_state(buffers=(15.0, 30.0, 75.0), n=60_000, runs=3):
               f"{1e6 / per_full:14,.0f} {det.n_lof_updates_ / det.n_windows_:19.1f}")
 
 
-def speed_columns_cost(runs=9, n=60_000):
+def speed_columns_cost(runs=25, n=60_000):
     """The angular-speed columns' cost: the defaults against ``speed_max = 0`` (the detector
     without them, the same code path otherwise), interleaved run by run so machine load hits
     both alike; the ratio is of medians."""
