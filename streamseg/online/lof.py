@@ -15,8 +15,10 @@ from streamseg.online.speed_features import SpeedColumns
 class StreamingLOFSegmenter:
     """Online version of :class:`streamseg.offline.LOFSegmenter`, bounded memory.
 
-    Per frame, the window histogram is updated in O(bins) (the entering frame is added, the
-    leaving one removed). Each completed window's count vector enters a ring buffer of
+    Each frame's features are followed by their angular speeds (``config.speed_max``,
+    :mod:`streamseg.online.speed_features`, causal), and both are histogrammed. Per frame, the
+    window histogram is updated in O(bins) (the entering frame is added, the leaving one
+    removed). Each completed window's count vector enters a ring buffer of
     ``capacity`` windows (``config.buffer_s`` seconds) whose LOF values are maintained
     incrementally (Pokrajac et al. 2007): on insert and on evicting the oldest window only the
     points whose neighbour list, reachability or lrd change are recomputed (once per window,
