@@ -21,7 +21,7 @@ from streamseg.daemon.state_codec import load, packable
 
 log = logging.getLogger("streamseg.daemon")
 
-FORMAT = 3  # of the checkpoint blobs; another value is ignored at restore (with a warning)
+FORMAT = 4  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS checkpoints (
