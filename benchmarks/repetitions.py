@@ -49,6 +49,13 @@ GRID = {
     "bandpass_width_cycles": (4.0, 6.0, 8.0),
 }
 
+#: The second stage, chosen on the same actor after GRID: the DTW re-cut of the repetitions
+#: against a template (``RepetitionConfig.align``; issue 14, round 3). ``align_stretch`` (2)
+#: and ``align_rate_hz`` (30) stay fixed: stretch 1.5-3 scored alike on bd.
+ALIGN_GRID = [{"align": "none"}] + [
+    {"align": "dtw", "align_features": f, "align_max_slope": m, "align_snap": sn}
+    for f in ("selected", "all") for m in (2, 3) for sn in (0.0, 0.3)]
+
 
 def score(seqs, cfg):
     """[(alpha, count error, count)] of ``cfg`` on cached features."""
@@ -60,16 +67,23 @@ def score(seqs, cfg):
     return out
 
 
-def choose(seqs, base):
-    """The grid point of the best mean alpha + share of exact counts on ``seqs``."""
+def _best(seqs, candidates):
+    """(cfg, changes) of the best mean alpha + share of exact counts on ``seqs``."""
     best = None
-    for vals in itertools.product(*GRID.values()):
-        cfg = replace(base, **dict(zip(GRID, vals)))
+    for cfg, changes in candidates:
         r = np.array(score(seqs, cfg))
         value = r[:, 0].mean() + np.mean(r[:, 1] == 0)
         if best is None or value > best[0] + 1e-12:
-            best = (value, cfg, dict(zip(GRID, vals)))
+            best = (value, cfg, changes)
     return best[1], best[2]
+
+
+def choose(seqs, base):
+    """GRID, then ALIGN_GRID on its choice: the best mean alpha + share of exact counts."""
+    cfg, chosen = _best(seqs, [(replace(base, **dict(zip(GRID, v))), dict(zip(GRID, v)))
+                               for v in itertools.product(*GRID.values())])
+    cfg, more = _best(seqs, [(replace(cfg, **g), g) for g in ALIGN_GRID])
+    return cfg, {**chosen, **more}
 
 
 def summary(rows):
@@ -98,11 +112,12 @@ def run_hdm05(args, base):
             pool += more
     cfg, chosen = choose(pool, base)
     print(f"chosen on {on} alone ({len(pool) // 2} sequences, seeds {seeds or [args.seed]}; "
-          f"{len(list(itertools.product(*GRID.values())))} grid points, "
+          f"{len(list(itertools.product(*GRID.values())))} + {len(ALIGN_GRID)} grid points, "
           f"{time.perf_counter() - t0:.0f} s): {chosen}")
     if cfg != base:
+        keys = list(GRID) + sorted({k for g in ALIGN_GRID for k in g})
         print(f"  NOTE: differs from the RepetitionConfig defaults (they hold "
-              f"{ {k: getattr(base, k) for k in GRID} })")
+              f"{ {k: getattr(base, k) for k in keys} })")
     res = score(seqs, cfg)
     table = defaultdict(list)
     for s, r in zip(seqs, res):
@@ -129,6 +144,9 @@ def run_hdm05(args, base):
             print(f"{cond:9s} {'  ' + actor:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
     others = [("the previous boundaries (refined to velocity minima, 0.2 period)",
                replace(cfg, refine_to="speed", refine_fraction=0.2))]
+    if cfg.align != "none":
+        others.append(("the same without the DTW re-cut (align='none')",
+                       replace(cfg, align="none")))
     if cfg != base:  # another draw of sequences (--seed) may choose otherwise
         others.append(("the RepetitionConfig defaults (chosen on bd, seed 0), held", base))
     for title, other in others:
@@ -153,7 +171,8 @@ def run_hdm05(args, base):
                 rows = [x for s, x in zip(seqs, r) if s["cond"] == cond and s["actor"] != actor]
                 a, e, _, _ = summary(rows)
                 out += [a, e]
-            desc = ", ".join(f"{k}={v}" for k, v in ch.items())
+            desc = ", ".join(f"{k}={v}" for k, v in ch.items()
+                             if v != getattr(base, k)) or "the defaults"
             print(f"{actor:9s} {desc[:60]:60s} {out[0]:7.3f} {out[1]:5.2f} {out[2]:8.3f} "
                   f"{out[3]:5.2f}")
     return cfg
