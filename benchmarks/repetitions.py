@@ -180,6 +180,48 @@ def run_hdm05(args, base):
     return cfg
 
 
+def run_clips(args, base):
+    """Every single HDM05 clip (one repetition or one action) of every actor: counted as
+    repetitive or not (the truth: not), clean and Kinect-like."""
+    import csv
+
+    from rep_data import DATA, KINECT_FPS_STEP, kinectify
+
+    from streamseg.io import read
+    from streamseg.recording import Recording
+
+    others = [("defaults", base)]
+    rows = defaultdict(lambda: defaultdict(list))
+    rng = np.random.default_rng(args.seed + 7)
+    with open(DATA / "hdm05_reps" / "clips.csv", newline="") as fh:
+        table = list(csv.DictReader(fh))
+    t0 = time.perf_counter()
+    for row in table:
+        root = DATA / "hdm05_reps"
+        rec = read(root / row["class"] / (row["file"] + ".gz"),
+                   skeleton=root / "asf" / f"HDM_{row['actor']}.asf")
+        kind = "repetition" if row["class"] in HDM05_REPETITIVE else "action"
+        for cond in ("clean", "kinect"):
+            pos, fps = rec.positions, rec.fps
+            if cond == "kinect":
+                pos = kinectify(pos, [], rng)[0]
+                fps = rec.fps / KINECT_FPS_STEP
+            seq = {"recording": Recording(fps, rec.skeleton, pos, source=row["file"]),
+                   "key": f"clip/{row['file']}/{cond}/{args.seed}"}
+            X = bone_features(seq, base)
+            for name, cfg in others:
+                seg = RepetitionSegmenter(cfg, fps).fit(X)
+                rows[(cond, row["actor"], kind)][name].append(seg.repetitive_)
+    print(f"\nsingle clips (one repetition or one action; truth: not repetitive), share counted "
+          f"repetitive ({time.perf_counter() - t0:.0f} s)")
+    print(f"{'condition':9s} {'actor':5s} {'clip':10s} {'n':>3s} " +
+          " ".join(f"{name:>16s}" for name, _ in others))
+    for key in sorted(rows):
+        v = rows[key]
+        print(f"{key[0]:9s} {key[1]:5s} {key[2]:10s} {len(v['defaults']):3d} " +
+              " ".join(f"{np.mean(v[name]):16.2f}" for name, _ in others))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--per-pair", type=int, default=3, help="sequences per actor and class")
@@ -191,11 +233,15 @@ def main(argv=None):
     ap.add_argument("--rotate", action="store_true", help="choose on each actor in turn")
     ap.add_argument("--routines", action="store_true", help="part 2: whole routines")
     ap.add_argument("--live", action="store_true", help="part 3: the live counter")
+    ap.add_argument("--clips", action="store_true",
+                    help="single clips of every actor: false 'repetitive' answers")
     ap.add_argument("--skip-hdm05", action="store_true", help="skip part 1")
     args = ap.parse_args(argv)
     base = RepetitionConfig()
     if not args.skip_hdm05:
         run_hdm05(args, base)
+    if args.clips:
+        run_clips(args, base)
     if args.routines or args.live:
         import rep_routines
 
