@@ -12,6 +12,7 @@ import json
 import pytest
 
 from streamseg.cli import main
+from streamseg.commands.output import format_evaluation
 from streamseg.commands.rep import score_sets, true_sets
 from streamseg.evaluation.datasets import concatenate, hdm05_clips
 from streamseg.evaluation.labels import LabelSegment
@@ -66,3 +67,6 @@ def test_cli_scores_a_labelled_routine_per_set(data_dir, tmp_path, capsys):
             assert s["count"] == 0, s  # an action take holds no repetition
     assert int(out["exact_sets"].split()[0]) >= 2  # measured 2 of 4 (squats, elbow-to-knee)
     assert out["actions_counted_zero"] == "3 of 3"
+    text = format_evaluation(out).splitlines()  # the readable form: one line per set
+    first = text.index("  sets:") + 2
+    assert [ln.split()[-1] for ln in text[first:first + 7]] == [c for c, _ in ROUTINE]
