@@ -362,3 +362,44 @@ def naive_lloyd(X, centres, n_iter):
             if np.any(labels == c):  # an empty cluster keeps its centre
                 centres[c] = X[labels == c].mean(0)
     return labels, centres
+
+
+# --- repetitions: slope-constrained DTW against a template, best tiling ----------------------
+
+
+def naive_template_dtw(dist, a, m, max_slope):
+    """Weighted path mean of ``streamseg._kernels.rep_align.open_end_costs`` for one (a, m),
+    by enumerating every path: steps (1, 1) weigh the cell 2; (2, 1) and (1, k), k <= max_slope,
+    add every crossed cell once and the reached cell twice; inf when no path exists."""
+    L = dist.shape[0]
+
+    def c(i, j):  # 1-based template frame i, sequence frame j of the stretch
+        return dist[i - 1, a + j - 1]
+
+    memo = {}
+
+    def D(i, j):
+        if (i, j) == (0, 0):
+            return 0.0
+        if i <= 0 or j <= 0:
+            return float("inf")
+        if (i, j) not in memo:
+            steps = [D(i - 1, j - 1) + 2 * c(i, j)]
+            if i >= 2:
+                steps.append(D(i - 2, j - 1) + c(i - 1, j) + 2 * c(i, j))
+            for k in range(2, max_slope + 1):
+                if j - k >= 0:
+                    steps.append(D(i - 1, j - k) + sum(c(i, j - t) for t in range(1, k))
+                                 + 2 * c(i, j))
+            memo[(i, j)] = min(steps)
+        return memo[(i, j)]
+
+    return D(L, m) / (L + m)
+
+
+def naive_best_tiling_cost(C, n, lo, hi):
+    """Least sum of ``m * C[a, m]`` over every tiling of [0, n) by pieces of lo..hi frames."""
+    best = float("inf")
+    for tiling in all_tilings(n, lo, hi):
+        best = min(best, sum((e - s) * C[s, e - s] for s, e in tiling))
+    return best

@@ -214,8 +214,9 @@ def test_wider_bandpass_lets_boundaries_follow_uneven_repetitions():
     truth = list(zip(np.cumsum([0] + lengths[:-1]), np.cumsum(lengths)))
     true_joins = np.cumsum(lengths)[:-1]
 
-    def join_error(width):
-        seg = RepetitionSegmenter(RepetitionConfig(bandpass_width_cycles=width), fps).fit(X)
+    def join_error(width, align="none"):  # the spectral boundaries alone
+        cfg = RepetitionConfig(bandpass_width_cycles=width, align=align)
+        seg = RepetitionSegmenter(cfg, fps).fit(X)
         assert seg.count_ == len(lengths)
         found = np.array([b for _, b in seg.repetitions_[:-1]])
         return np.mean(np.abs(found - true_joins)), repetition_accuracy(seg.repetitions_, truth)
@@ -224,3 +225,6 @@ def test_wider_bandpass_lets_boundaries_follow_uneven_repetitions():
     err_paper, alpha_paper = join_error(3.0)  # the paper's band: near-even spacing
     assert err_default < 3.0 < err_paper
     assert alpha_default > 0.94 > alpha_paper
+    # the DTW re-cut (the default, align="dtw") follows them even from the paper's band
+    err_dtw, alpha_dtw = join_error(3.0, align="dtw")
+    assert err_dtw < 3.0 and alpha_dtw > 0.94

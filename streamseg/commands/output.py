@@ -96,6 +96,11 @@ def format_evaluation(result: dict) -> str:
         if key == "confusion":
             lines.append(f"  {key}:")
             lines += ["    " + " ".join(f"{v:6d}" for v in row) for row in value]
+        elif key == "sets" and value and isinstance(value[0], dict):  # eval --rep-sets
+            lines += [f"  {key}:", f"    {'start':>7} {'end':>7} {'true':>5} {'found':>5} "
+                                    f"{'alpha':>6}  label"]
+            lines += [f"    {st['start']:>7} {st['end']:>7} {st['true_count']:>5} "
+                      f"{st['count']:>5} {_cell(st['alpha']):>6}  {st['label']}" for st in value]
         elif isinstance(value, list) and len(value) > 12:
             lines.append(f"  {key}: [{len(value)} items] {value[:12]} ...")
         else:

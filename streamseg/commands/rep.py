@@ -36,6 +36,11 @@ def add_arguments(group) -> None:
                        help=f"UKF passes (default {_D.ukf_passes})")
     group.add_argument("--rep-seed", type=int, default=_D.seed, metavar="N",
                        help="k-means seed (default 0)")
+    group.add_argument("--rep-sets", action="store_true",
+                       help="eval: the take is a routine; cut it into sets as segment does and "
+                            "score each labelled set (label rows: one per repetition, "
+                            "consecutive rows of one label are a set; a lone row is an action "
+                            "or a single repetition, true count 0)")
 
 
 def _config(args) -> RepetitionConfig:
@@ -144,6 +149,8 @@ def evaluate(args) -> dict:
     from streamseg.evaluation.labels import read_labels
     from streamseg.evaluation.metrics import count_error, repetition_accuracy
 
+    if getattr(args, "rep_sets", False):
+        return _evaluate_sets(args)
     cfg, seg, seconds = _run(args)
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     truth = [(s.start, s.end) for s in read_labels(args.labels, sequence)]
@@ -161,4 +168,76 @@ def evaluate(args) -> dict:
         seconds=round(seconds, 3),
         note="labels are read as one row per repetition (eq. 15 compares the i-th found and "
              "true repetition lengths)",
+    )
+
+
+def true_sets(rows) -> list:
+    """Label rows (one per repetition, in time order) as sets: ``(start, end, label, reps)``.
+
+    Consecutive rows of one label are one set; a set of one row is an action take or a
+    single repetition, whose true count is 0 (one movement is not counted; see
+    :func:`streamseg.offline.repetition.not_repetitive_reason`).
+    """
+    out = []
+    for r in rows:
+        if out and out[-1][2] == r.label:
+            out[-1][3].append((r.start, r.end))
+        else:
+            out.append([r.start, r.end, r.label, [(r.start, r.end)]])
+    return [(reps[0][0], reps[-1][1], label, reps) for _, _, label, reps in out]
+
+
+def score_sets(found, sets) -> list:
+    """Per true set: the found repetitions whose middle frame lies in it, scored.
+
+    Parameters
+    ----------
+    found : sequence of (int, int)
+        Every found repetition of the take (0-based, end exclusive).
+    sets : list
+        :func:`true_sets`.
+
+    Returns
+    -------
+    list of dict
+        ``start``, ``end``, ``label``, ``true_count``, ``count``, ``count_error`` and
+        ``alpha`` (eq. 15 against the set's true repetitions; None for a true count of 0).
+    """
+    from streamseg.evaluation.metrics import count_error, repetition_accuracy
+
+    out = []
+    for start, end, label, reps in sets:
+        mine = [(a, b) for a, b in found if start <= (a + b) // 2 < end]
+        n_true = len(reps) if len(reps) >= 2 else 0
+        out.append({"start": int(start), "end": int(end), "label": label,
+                    "true_count": n_true, "count": len(mine),
+                    "count_error": count_error(len(mine), n_true),
+                    "alpha": repetition_accuracy(mine, reps) if n_true else None})
+    return out
+
+
+def _evaluate_sets(args) -> dict:
+    """``eval --method rep --rep-sets``: a routine scored per labelled set."""
+    import numpy as np
+
+    from streamseg.evaluation.labels import read_labels
+
+    cfg, seg, seconds = _run(args, sets=True)
+    whole = getattr(seg, "whole_", seg)
+    sequence = args.sequence or Path(args.file).name.split(".")[0]
+    scored = score_sets(seg.repetitions_, true_sets(read_labels(args.labels, sequence)))
+    rep = [s for s in scored if s["true_count"]]
+    act = [s for s in scored if not s["true_count"]]
+    return evaluation(
+        args, method="rep", n_frames=int(whole.n_frames_), fps=float(whole.fps_),
+        alpha=float(np.mean([s["alpha"] for s in rep])) if rep else None,
+        count=int(seg.count_),
+        true_count=int(sum(s["true_count"] for s in rep)),
+        count_error=int(seg.count_) - int(sum(s["true_count"] for s in rep)),
+        exact_sets=f"{sum(s['count_error'] == 0 for s in rep)} of {len(rep)}",
+        actions_counted_zero=f"{sum(s['count'] == 0 for s in act)} of {len(act)}",
+        sets=scored,
+        seconds=round(seconds, 3),
+        note="per labelled set: the found repetitions whose middle frame lies in it; alpha "
+             "is the mean over the sets of two or more repetitions",
     )

@@ -18,6 +18,7 @@ from streamseg.kinematics.model import (
     observations,
 )
 from streamseg.offline import repetition_steps as steps
+from streamseg.offline.rep_align import align_repetitions
 from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionAnalysis", "RepetitionSegmenter", "angles_from_positions", "analyse",
@@ -151,8 +152,7 @@ def analyse(X, fps, config: RepetitionConfig | None = None) -> RepetitionAnalysi
         group, bounds = -1, cand
     else:
         # The rest pose: the raw parameters at the sequence's ends (see select_group).
-        ends = max(1, int(round(0.05 * period)))
-        rest = 0.5 * (X[:ends, selected].mean(axis=0) + X[-ends:, selected].mean(axis=0))
+        rest = _rest_pose(X[:, selected], period)
         raw = X[cand][:, selected]
         dist = np.full(int(labels.max()) + 1, np.inf)
         for k in np.unique(labels):
@@ -176,12 +176,12 @@ def _refine(bounds, Xs, fps, f_hz, period, cfg, rest=None):
     low-passed at ``refine_band`` times the primary frequency, within ``refine_fraction``
     periods of where it was.
     """
-    wide = steps.bandpass(Xs, fps, 0.0, cfg.refine_band * f_hz, cfg.filter_order)
     if cfg.refine_to == "rest" and rest is not None:
-        # the pose nearest the rest pose (the low-pass detrends: the trend is put back)
-        smooth = wide + (Xs - detrend(Xs, axis=0))
-        s2 = np.sum((smooth - rest) ** 2, axis=1)
+        # the pose nearest the rest pose
+        s2 = np.sum((_smooth(Xs, fps, cfg.refine_band * f_hz, cfg.filter_order) - rest) ** 2,
+                    axis=1)
     else:
+        wide = steps.bandpass(Xs, fps, 0.0, cfg.refine_band * f_hz, cfg.filter_order)
         s2 = np.sum(np.gradient(wide, axis=0) ** 2, axis=1)
     r = max(1, int(round(cfg.refine_fraction * period)))
     out = []
@@ -189,6 +189,32 @@ def _refine(bounds, Xs, fps, f_hz, period, cfg, rest=None):
         a, z = max(0, int(b) - r), min(s2.shape[0], int(b) + r + 1)
         out.append(a + int(np.argmin(s2[a:z])))
     return np.array(out, dtype=np.int64)
+
+
+def _rest_pose(Xs, period):
+    """The mean of ``Xs`` over the first and last 5 % of a period (where a set starts/ends)."""
+    ends = max(1, int(round(0.05 * period)))
+    return 0.5 * (Xs[:ends].mean(axis=0) + Xs[-ends:].mean(axis=0))
+
+
+def _snap(reps, curve, fraction):
+    """Move each inner cut of consecutive ``reps`` to the minimum of ``curve`` nearby.
+
+    Within ``fraction`` of the shorter neighbouring piece, so cuts keep their order.
+    """
+    cuts = [a for a, _ in reps] + [reps[-1][1]]
+    out = list(cuts)
+    for i in range(1, len(cuts) - 1):
+        r = int(fraction * min(cuts[i] - cuts[i - 1], cuts[i + 1] - cuts[i]))
+        if r > 0:
+            a, z = max(out[i - 1] + 1, cuts[i] - r), cuts[i] + r + 1
+            out[i] = a + int(np.argmin(curve[a:z]))
+    return list(zip(out[:-1], out[1:]))
+
+
+def _smooth(Xs, fps, cutoff_hz, order):
+    """``Xs`` low-passed at ``cutoff_hz`` (the filter detrends: the trend is put back)."""
+    return steps.bandpass(Xs, fps, 0.0, cutoff_hz, order) + (Xs - detrend(Xs, axis=0))
 
 
 def not_repetitive_reason(a: RepetitionAnalysis | None, config: RepetitionConfig) -> str:
@@ -315,6 +341,8 @@ class RepetitionSegmenter(Estimator):
                 self.repetitions_ = steps.to_repetitions(a.boundaries, self.n_frames_,
                                                          a.period, cfg.edge_fraction, a.speed2,
                                                          merge_edges=cfg.merge_edges)
+                if cfg.align == "dtw" and len(self.repetitions_) >= 2:
+                    self.repetitions_ = self._align(a)
         self.repetitive_ = not self.reason_
         self.count_ = len(self.repetitions_)
         reps = self.repetitions_
@@ -324,6 +352,22 @@ class RepetitionSegmenter(Estimator):
             labels[a:b] = i
         self.labels_ = labels
         return self
+
+    def _align(self, a):
+        """The repetitions re-cut by DTW against a template (``align="dtw"``)."""
+        cfg = self.config
+        cols = a.selected if cfg.align_features == "selected" else np.arange(self.angles_.shape[1])
+        F = _smooth(self.angles_[:, cols], self.fps_, cfg.refine_band * a.primary_hz,
+                    cfg.filter_order)
+        reps = align_repetitions(F, self.repetitions_, self.fps_, rate_hz=cfg.align_rate_hz,
+                                 stretch=cfg.align_stretch, iterations=cfg.align_iterations,
+                                 max_slope=cfg.align_max_slope)
+        if cfg.align_snap > 0:
+            # a template starts and ends at the rest pose, so a cut may sit anywhere in a
+            # pause: it goes to the frame nearest that pose, as the spectral boundaries do
+            rest = _rest_pose(self.angles_[:, cols], a.period)
+            reps = _snap(reps, np.sum((F - rest) ** 2, axis=1), cfg.align_snap)
+        return reps
 
     def predict(self) -> list[Segment]:
         """The repetitions, ``Segment(start, end, index)`` (0-based, end exclusive)."""
