@@ -1,0 +1,192 @@
+"""A bounded memory of a stream's actions, so an action that returns after the relabel history
+gets its old id.
+
+Each relabel clusters only the last H seconds (``DaemonConfig.relabel_history``); ids are
+carried between revisions by the frames two windows share (:mod:`streamseg.offline.identity`).
+An action last seen before the window would otherwise come back with a new id.
+
+:class:`ExemplarMemory` keeps, for each of the stream's last ``max_ids`` ids, ``per_id``
+*exemplars*: actual feature frames of the id (at most ``exemplar_s`` seconds each, every
+``round(fps / rate_hz)``-th frame), cut from the middle of its longest run in the revision
+where the id covered the most frames. At the next relabel the exemplars of every remembered
+id that the previous revision did not show inside the new window are appended to the window
+(:func:`fit_with_exemplars`) and clustered *with* it, by the same (H)ACA fit, kernel and
+bandwidth: the DTAK then compares the new segments with the old ones inside one clustering
+(each cluster against the others), instead of against an absolute threshold, which is what
+made the earlier prototype memory fail (the identity module's docstring). The number of
+actions is searched in ``[2, k_max + n]`` for ``n`` appended ids, since the window may hold
+``k_max`` actions besides them. An exemplar's vote is the cluster holding most of its id's
+exemplar frames, when that is more than half of them; a window cluster the overlap does not
+explain then takes the id with the most exemplar frames in it
+(:func:`streamseg.offline.identity.stable_labels`); a cluster without exemplars or overlap
+gets a new id.
+
+The joins between the window and the exemplars, and between exemplars, are abrupt; a
+segment of the fit that straddles one is cut there (window segments end at the window's end).
+
+Memory per stream: at most ``LabelMemoryConfig.max_bytes(d)`` (65 kB for 17 features with the
+defaults); a relabel with n remembered ids absent from the window clusters up to
+``n * per_id * exemplar_s`` seconds more frames (at most 32 s with the defaults).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+
+@dataclass
+class ExemplarMemory:
+    """The exemplars of one stream (module docstring). Treated as immutable:
+    :meth:`updated` returns a new memory, so a relabel job can run on a copy.
+
+    Attributes
+    ----------
+    stride : int
+        Exemplars keep every ``stride``-th frame.
+    exemplars : dict
+        Stream id -> tuple of ``(m, d)`` float32 arrays.
+    weight : dict
+        Stream id -> frames the id covered in the revision its exemplars come from.
+    last_seen : dict
+        Stream id -> end frame (exclusive) of its last segment seen.
+    """
+
+    stride: int = 1
+    exemplars: dict = field(default_factory=dict)
+    weight: dict = field(default_factory=dict)
+    last_seen: dict = field(default_factory=dict)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the exemplar frames."""
+        return int(sum(a.nbytes for ex in self.exemplars.values() for a in ex))
+
+    def absent(self, previous_segments, window_start: int) -> list:
+        """Remembered ids with no frame at or after ``window_start`` in the previous revision's
+        ``previous_segments`` (the ones the overlap cannot carry into the new window)."""
+        present = {int(lab) for _, e, lab in previous_segments if int(e) > window_start}
+        return sorted(i for i in self.exemplars if i not in present)
+
+    def pieces(self, ids) -> list:
+        """``[(id, (L, d) float64 frames), ...]`` for ``ids``, back at the stream's frame rate
+        (each kept frame repeated ``stride`` times)."""
+        out = []
+        for i in ids:
+            for a in self.exemplars.get(i, ()):
+                out.append((int(i), np.repeat(a.astype(np.float64), self.stride, axis=0)))
+        return out
+
+    def updated(self, segments, features, frames, config, fps: float) -> ExemplarMemory:
+        """The memory after one revision.
+
+        Parameters
+        ----------
+        segments : list of (start, end, id)
+            The revision in stream frames and stream ids.
+        features : (m, d) array
+            The window's feature rows; ``frames`` (m,) their stream frame numbers.
+        config : LabelMemoryConfig
+        fps : float
+        """
+        frames = np.asarray(frames)
+        ex, weight, seen = dict(self.exemplars), dict(self.weight), dict(self.last_seen)
+        runs: dict = {}
+        cover: dict = {}
+        for a, b, lab in _runs(segments):
+            runs.setdefault(lab, []).append((a, b))
+            cover[lab] = cover.get(lab, 0) + (b - a)
+            seen[lab] = max(seen.get(lab, 0), b)
+        keep = max(1, int(round(config.exemplar_s * fps)))
+        for lab, rs in runs.items():
+            if cover[lab] < weight.get(lab, 0):
+                continue  # the id was seen better before: keep those exemplars
+            a, b = max(rs, key=lambda r: r[1] - r[0])
+            r0, r1 = np.searchsorted(frames, [a, b])
+            if r1 - r0 < max(2, keep):
+                continue  # too short to stand for the action
+            parts = np.linspace(r0, r1, config.per_id + 1).astype(np.int64)
+            new = []
+            for p0, p1 in zip(parts[:-1], parts[1:], strict=True):
+                mid, half = (p0 + p1) // 2, min(keep, p1 - p0) // 2
+                rows = np.asarray(features[mid - half:mid + half:self.stride], dtype=np.float32)
+                rows = rows[np.isfinite(rows).all(axis=1)]
+                if rows.shape[0] >= 2:
+                    new.append(rows)
+            if new:
+                ex[lab] = tuple(new)
+                weight[lab] = cover[lab]
+        if len(ex) > config.max_ids:
+            # forget first the ids this revision does not hold that covered the fewest
+            # frames (short-lived ids of unstable revisions), then the ones seen longest ago
+            order = sorted(ex, key=lambda i: (i in runs, weight.get(i, 0), seen.get(i, 0), i))
+            for lab in order[:len(ex) - config.max_ids]:
+                ex.pop(lab)
+                weight.pop(lab, None)
+        seen = {i: seen[i] for i in ex}
+        return ExemplarMemory(self.stride, ex, weight, seen)
+
+
+def new_memory(config, fps: float) -> ExemplarMemory:
+    """An empty memory for a stream at ``fps``."""
+    return ExemplarMemory(stride=max(1, int(round(fps / config.rate_hz))))
+
+
+def _runs(segments):
+    """Maximal runs ``(start, end, id)`` of consecutive segments with one id."""
+    out = []
+    for a, b, lab in sorted((int(a), int(b), int(c)) for a, b, c in segments):
+        if out and out[-1][2] == lab and out[-1][1] == a:
+            out[-1] = (out[-1][0], b, lab)
+        else:
+            out.append((a, b, lab))
+    return out
+
+
+def fit_with_exemplars(X, pieces, config, fps: float):
+    """(H)ACA of the window ``X`` (n, d) clustered together with exemplar ``pieces``.
+
+    Parameters
+    ----------
+    X : (n, d) array
+    pieces : list of (id, (L, d) array), from :meth:`ExemplarMemory.pieces`
+    config : ACAConfig
+    fps : float
+
+    Returns
+    -------
+    fitted : model_selection.Fitted
+        Labels and segments of the window's ``n`` rows only (segments cut at ``n``).
+    votes : dict
+        Window cluster -> {stream id: exemplar frames}: for each id, the cluster holding more
+        than half of its exemplar frames (ids without such a cluster do not vote).
+    """
+    from streamseg.offline.model_selection import Fitted, fit_aca
+
+    X = np.asarray(X, dtype=np.float64)
+    n = X.shape[0]
+    if not pieces:
+        return fit_aca(X, config, fps), {}
+    ids = sorted({i for i, _ in pieces})
+    cfg = config if config.n_clusters is not None else replace(
+        config, k_max=config.k_max + len(ids))
+    Xc = np.vstack([X] + [p for _, p in pieces])
+    fitted = fit_aca(Xc, cfg, fps)
+    labels = np.asarray(fitted.labels_)
+    counts: dict = {}
+    o = n
+    for i, p in pieces:
+        lab = np.bincount(labels[o:o + p.shape[0]], minlength=labels.max() + 1)
+        counts[i] = counts.get(i, 0) + lab
+        o += p.shape[0]
+    window_clusters = set(np.unique(labels[:n]).tolist())
+    votes: dict = {}
+    for i, c in counts.items():
+        best = int(np.argmax(c))
+        if best in window_clusters and c[best] * 2 > c.sum():
+            votes.setdefault(best, {})[i] = int(c[best])
+    segs = [(s, min(e, n), lab) for s, e, lab in fitted.segments_ if s < n]
+    k = len(np.unique(labels[:n]))
+    out = Fitted(labels[:n].copy(), segs, k, fitted.scores_, fitted.objective_, fitted.reason)
+    return out, votes
