@@ -7,8 +7,9 @@ An action last seen before the window would otherwise come back with a new id.
 
 :class:`ExemplarMemory` keeps, for each of the stream's last ``max_ids`` ids, ``per_id``
 *exemplars*: actual feature frames of the id (at most ``exemplar_s`` seconds each, every
-``round(fps / rate_hz)``-th frame), cut from the middle of its longest run in the revision
-where the id covered the most frames. At the next relabel the exemplars of every remembered
+``round(fps / rate_hz)``-th frame), cut from equal parts of its longest run (without a
+quarter of ``exemplar_s`` at either end, near the neighbours) in the last revision where that
+run began and ended inside the window (the first view, until there is a whole one). At the next relabel the exemplars of every remembered
 id that the previous revision did not show inside the new window are appended to the window
 (:func:`fit_with_exemplars`) and clustered *with* it, by the same (H)ACA fit, kernel and
 bandwidth: the DTAK then compares the new segments with the old ones inside one clustering
@@ -48,7 +49,7 @@ class ExemplarMemory:
     exemplars : dict
         Stream id -> tuple of ``(m, d)`` float32 arrays.
     weight : dict
-        Stream id -> frames the id covered in the revision its exemplars come from.
+        Stream id -> length in frames of the run its exemplars come from.
     last_seen : dict
         Stream id -> end frame (exclusive) of its last segment seen.
     """
@@ -93,18 +94,20 @@ class ExemplarMemory:
         frames = np.asarray(frames)
         ex, weight, seen = dict(self.exemplars), dict(self.weight), dict(self.last_seen)
         runs: dict = {}
-        cover: dict = {}
         for a, b, lab in _runs(segments):
             runs.setdefault(lab, []).append((a, b))
-            cover[lab] = cover.get(lab, 0) + (b - a)
             seen[lab] = max(seen.get(lab, 0), b)
         keep = max(1, int(round(config.exemplar_s * fps)))
+        margin = keep // 4  # frames at each end of a run, near its neighbours, left out
+        lo, hi = int(frames[0]), int(frames[-1]) + 1
         for lab, rs in runs.items():
-            if cover[lab] < weight.get(lab, 0):
-                continue  # the id was seen better before: keep those exemplars
             a, b = max(rs, key=lambda r: r[1] - r[0])
+            whole = lo < a and b < hi  # the run begins and ends inside the window
+            if lab in ex and not whole:
+                continue  # a view cut by the window's edge: keep the last whole one
             r0, r1 = np.searchsorted(frames, [a, b])
-            if r1 - r0 < max(2, keep):
+            r0, r1 = r0 + margin, r1 - margin
+            if r1 - r0 < keep:
                 continue  # too short to stand for the action
             parts = np.linspace(r0, r1, config.per_id + 1).astype(np.int64)
             new = []
@@ -116,7 +119,7 @@ class ExemplarMemory:
                     new.append(rows)
             if new:
                 ex[lab] = tuple(new)
-                weight[lab] = cover[lab]
+                weight[lab] = int(b - a)
         if len(ex) > config.max_ids:
             # forget first the ids this revision does not hold that covered the fewest
             # frames (short-lived ids of unstable revisions), then the ones seen longest ago
