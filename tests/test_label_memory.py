@@ -99,3 +99,78 @@ def test_exemplars_of_ids_still_in_the_window_are_not_appended():
 def test_bad_memory_settings_are_refused(field, value):
     with pytest.raises(ParameterError, match=field):
         LabelMemoryConfig(**{field: value})
+
+
+def _replay_in_steps(rec, endpoint, sub, stream, step):
+    """Send ``rec`` ``step`` frames at a time, each time waiting for the revision that covers
+    them (a handshake: the daemon relabels every ``step`` frames), then end the stream.
+    Returns every ``segments`` event of the stream."""
+    import zmq
+
+    from streamseg import protocol
+    from streamseg.commands.listen import listen
+    from streamseg.commands.replay import announce_of
+
+    push = zmq.Context.instance().socket(zmq.PUSH)
+    push.setsockopt(zmq.LINGER, 5000)
+    push.connect(endpoint)
+    events = []
+    try:
+        push.send_multipart(protocol.encode(announce_of(rec, stream)))
+        pos = rec.positions
+        for a in range(0, rec.n_frames, step):
+            b = min(a + step, rec.n_frames)
+            for c in range(a, b, 60):
+                push.send_multipart(protocol.encode(
+                    protocol.Frames(stream, c, 0.0, pos[c:min(c + 60, b)])))
+            if b - a < step:
+                break  # the last revision comes with the end of the stream
+            for e in listen(sub, stream=stream, timeout=120):
+                if e.type == "segments":
+                    events.append(e)
+                    if e.end >= b:
+                        break
+        push.send_multipart(protocol.encode(protocol.End(stream)))
+        events += [e for e in listen(sub, stream=stream, until_end=True, timeout=120)
+                   if e.type == "segments"]
+    finally:
+        push.close()
+    return events
+
+
+@pytest.mark.daemon
+@pytest.mark.slow
+@pytest.mark.parametrize("memory", [True, False])
+def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start_daemon,
+                                                                 memory):
+    """Real daemon over loopback, 15 s history: CMU 14_14's jumping jacks, jog, squats and
+    knee raises (19 s), then the jumping jacks of another take (14_20; an abrupt join). The
+    returning jumping jacks start 15.4 s after the first ones ended, beyond the history: with
+    the memory they get the first ones' id; without it, a new one."""
+    from streamseg.commands.listen import listen, subscriber
+    from streamseg.evaluation.datasets import _cmu_take, _slice, concatenate
+
+    a, _ = _cmu_take(data_dir, "14_14")
+    b, _ = _cmu_take(data_dir, "14_20")
+    cut = 2280  # 14_14 up to the end of its knee raises; 14_20 frames 0-431 are jumping jacks
+    rec = concatenate([_slice(a, 0, cut), _slice(b, 0, 432)])[0]
+    d, ep = start_daemon(relabel_interval=2.5, relabel_history=15.0, relabel_share=1.0,
+                         heartbeat=0.05, label_memory=memory)
+    sub = subscriber(ep["publish"])
+    try:
+        next(e for e in listen(sub, timeout=30) if e.type == "stats")  # subscribed
+        events = _replay_in_steps(rec, ep["ingest"], sub, "ret", int(2.5 * rec.fps))
+    finally:
+        sub.close()
+    assert events and events[-1].final
+    live = np.full(rec.n_frames, -1)
+    for e in events:
+        for s, t, lab in e.segments:
+            live[s:t] = lab
+    first = np.bincount(live[:456]).argmax()  # 14_14 jumping jacks: frames 0-455
+    back = live[cut:]
+    assert events[-1].start > 456  # the last revisions no longer hold the first ones
+    if memory:
+        assert np.mean(back == first) >= 0.9
+    else:
+        assert np.mean(back == first) == 0.0
