@@ -1,4 +1,4 @@
-"""The exemplar memory that keeps ids beyond the relabel history (streamseg.offline.label_memory)."""
+"""The exemplar memory that keeps ids beyond the relabel history (offline.label_memory)."""
 
 from __future__ import annotations
 

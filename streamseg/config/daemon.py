@@ -26,10 +26,11 @@ class DaemonConfig:
         (``relabel_interval=0`` turns relabelling off). H also bounds each stream's buffer:
         H x fps x 17 float32 features + int64 frame numbers, 60 s at 120 Hz = 547 kB. A take
         no longer than H is relabelled whole each time, so its last revision is offline HACA
-        of the whole take; an action that returns after H gets a new id
-        (:mod:`streamseg.offline.identity`). With H = 20 s the live frame accuracy over the
-        14 labelled recordings was 0.725 against 0.749 with 60 s (14_20: 0.744 against
-        0.872; ``benchmarks/live_relabel.py --speeds 4 --history 20``).
+        of the whole take; an action that returns after H gets a new id unless the exemplar
+        memory (``label_memory``) recognises it (:mod:`streamseg.offline.identity`). With
+        H = 20 s the live frame accuracy over the 14 labelled recordings was 0.725 against
+        0.749 with 60 s (14_20: 0.744 against 0.872; ``benchmarks/live_relabel.py --speeds 4
+        --history 20``).
     label_memory : bool
         Keep a bounded memory of each stream's actions (a few exemplar segments per id,
         :class:`streamseg.config.memory.LabelMemoryConfig`, at most 130 kB per stream) and

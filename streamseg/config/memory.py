@@ -14,7 +14,8 @@ class LabelMemoryConfig:
     Attributes
     ----------
     max_ids : int
-        Stream ids remembered at most; the one seen longest ago is forgotten first.
+        Stream ids remembered at most; beyond it, ids the current revision does not hold
+        are forgotten, the shortest-lived first (:mod:`streamseg.offline.label_memory`).
     per_id : int
         Exemplar segments kept per id.
     exemplar_s : float
@@ -23,7 +24,8 @@ class LabelMemoryConfig:
         Exemplars keep every ``round(fps / rate_hz)``-th frame (at least every frame).
 
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
-    rows of float32: with the defaults and 17 features, 8 x 2 x 60 x 17 x 4 B = 65 kB.
+    rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB.
+    The defaults were chosen on two streams of ``benchmarks/label_memory.py``.
     """
 
     max_ids: int = 16
