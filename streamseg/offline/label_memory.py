@@ -60,12 +60,16 @@ class ExemplarMemory:
         Stream id -> length in frames of the run its exemplars come from.
     last_seen : dict
         Stream id -> end frame (exclusive) of its last segment seen.
+    origin : int
+        The first frame of the stream's first relabel window: while windows still begin
+        there, nothing has left the history and the memory stays out of the fit.
     """
 
     stride: int = 1
     exemplars: dict = field(default_factory=dict)
     weight: dict = field(default_factory=dict)
     last_seen: dict = field(default_factory=dict)
+    origin: int = 0
 
     @property
     def nbytes(self) -> int:
@@ -75,6 +79,8 @@ class ExemplarMemory:
     def absent(self, previous_segments, window_start: int) -> list:
         """Remembered ids with no frame at or after ``window_start`` in the previous revision's
         ``previous_segments`` (the ones the overlap cannot carry into the new window)."""
+        if window_start <= self.origin:
+            return []  # the window holds the whole stream: the overlap carries every id
         present = {int(lab) for _, e, lab in previous_segments if int(e) > window_start}
         return sorted(i for i in self.exemplars if i not in present)
 
@@ -136,12 +142,13 @@ class ExemplarMemory:
                 ex.pop(lab)
                 weight.pop(lab, None)
         seen = {i: seen[i] for i in ex}
-        return ExemplarMemory(self.stride, ex, weight, seen)
+        return ExemplarMemory(self.stride, ex, weight, seen, self.origin)
 
 
-def new_memory(config, fps: float) -> ExemplarMemory:
-    """An empty memory for a stream at ``fps``."""
-    return ExemplarMemory(stride=max(1, int(round(fps / config.rate_hz))))
+def new_memory(config, fps: float, origin: int = 0) -> ExemplarMemory:
+    """An empty memory for a stream at ``fps`` whose first relabel window begins at frame
+    ``origin``."""
+    return ExemplarMemory(stride=max(1, int(round(fps / config.rate_hz))), origin=int(origin))
 
 
 def _runs(segments):
