@@ -174,3 +174,33 @@ def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start
         assert np.mean(back == first) >= 0.9
     else:
         assert np.mean(back == first) == 0.0
+
+
+def test_a_take_within_the_history_relabels_as_without_the_memory():
+    X = _blocks([0.5, 1.5, 2.5, 0.5], seconds=2.0)  # 8 s, history 10 s
+    with_memory, last = _stream_ids(X, memory=True, history=10.0, interval=2.0)
+    without, _ = _stream_ids(X, memory=False, history=10.0, interval=2.0)
+    assert np.array_equal(with_memory, without)
+    assert last.memory is not None and last.memory.exemplars  # remembered all the same
+
+
+def test_memory_survives_a_checkpoint():
+    import msgpack
+
+    from streamseg.daemon.checkpoint import dump, load, packable
+    from streamseg.offline.relabel import WindowSegmentation
+
+    cfg = LabelMemoryConfig()
+    rng = np.random.default_rng(1)
+    feats = rng.random((1200, 17)).astype(np.float32)
+    mem = new_memory(cfg, FPS, 0).updated([(0, 10, 0), (10, 600, 1), (600, 1190, 2),
+                                           (1190, 1200, 0)], feats, np.arange(1200), cfg, FPS)
+    w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
+    blob = msgpack.packb(packable(dump(w)), use_bin_type=True)
+    back = load(msgpack.unpackb(blob, raw=False, strict_map_key=False))
+    assert back.segments == w.segments and back.next_id == 3
+    assert sorted(back.memory.exemplars) == sorted(mem.exemplars) == [1, 2]
+    for i in mem.exemplars:
+        for a, b in zip(mem.exemplars[i], back.memory.exemplars[i], strict=True):
+            assert np.array_equal(a, b)
+    assert back.memory.last_seen == mem.last_seen and back.memory.stride == mem.stride
