@@ -34,9 +34,12 @@ class DaemonConfig:
     label_memory : bool
         Keep a bounded memory of each stream's actions (a few exemplar segments per id,
         :class:`streamseg.config.memory.LabelMemoryConfig`, at most 130 kB per stream) and
-        cluster it with every relabel, so an action that returns after ``relabel_history``
-        gets its old id (:mod:`streamseg.offline.label_memory`). Off: ids are carried only by
-        the overlap of successive windows.
+        cluster it with every relabel once the window has left the stream's start, so an
+        action that returns after ``relabel_history`` can get its old id
+        (:mod:`streamseg.offline.label_memory`). Off by default: on streams whose actions
+        return it kept returning ids on 3 of 5, but lowered the whole-stream accuracy on 2
+        of the 3 streams it was not tuned on (``benchmarks/label_memory.py``). Off, ids are
+        carried only by the overlap of successive windows.
     heartbeat : float
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int
@@ -125,7 +128,7 @@ class DaemonConfig:
     idle_timeout: float = 60.0
     relabel_interval: float = 5.0
     relabel_history: float = 60.0
-    label_memory: bool = True
+    label_memory: bool = False
     heartbeat: float = 1.0
     max_packet_frames: int = 12000
     drain: int = 16000

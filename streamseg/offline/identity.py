@@ -9,16 +9,28 @@ life of the stream. A take no longer than the history (``DaemonConfig.relabel_hi
 60 s) is relabelled whole every revision, so all its actions keep their ids.
 
 An action that returns after the window has moved past its last occurrence has no overlap to
-carry its id. With the daemon's exemplar memory (``DaemonConfig.label_memory``, on by
-default; :mod:`streamseg.offline.label_memory`) a few feature segments of each id are
-clustered with every window, and a cluster the overlap does not explain takes the id whose
-exemplars it holds (``votes`` of :func:`stable_labels`); without it such an action gets a new
-id. Measured on streams whose actions return after the 60 s history
-(``benchmarks/label_memory.py``, parameters chosen on two of its five streams), the memory
-raised the whole-stream frame accuracy on all five (mean 0.651 to 0.712) and kept the id of
-returning actions on four (share of their frames with their first id, mean 0.049 to 0.551),
-not on ret_hdm_bk. A new action can still take an old id when the clustering puts it with old
-exemplars (on ret_14_86_14, toe touches took the squats' id for a while).
+carry its id, and gets a new one. The exemplar memory (``DaemonConfig.label_memory``, off by
+default; :mod:`streamseg.offline.label_memory`) clusters a few feature segments of each
+remembered id with every window once the window has left the stream's start, and a cluster
+the overlap does not explain takes the id whose exemplars it holds (``votes`` of
+:func:`stable_labels`). Measured on five streams whose actions return after the 60 s history
+(``benchmarks/label_memory.py``, revisions of the daemon's job function every 5 s; the
+settings chosen on ret_14_86_14 and ret_hdm_bd), whole-stream frame accuracy without / with
+the memory, and the share of returning frames that keep their first id:
+
+* tuning streams: ret_14_86_14 0.633 / 0.743 (0 / 0.376), ret_hdm_bd 0.620 / 0.738 (0 / 0.617);
+* held out: ret_86_14_14_86 0.718 / 0.791 (0 / 0.947), ret_hdm_bk 0.554 / 0.514
+  (0 / 0.315), ret_hdm_dg 0.728 / 0.639 (0.243 / 0).
+
+It does not generalise reliably, hence off: a new action can take an old id when the
+clustering puts it with old exemplars (toe touches took the squats' id for a while), and the
+exemplars change the window's own clustering (K is searched up to ``k_max`` plus the number of
+appended ids), for better or worse. A variant that also appends exemplars while the window
+still holds the whole stream (of ids a revision dropped) raised the accuracy on all five
+streams (mean 0.651 to 0.712; returning share 0.551) but lowered live 14_20 from 0.872 to
+0.770 in ``benchmarks/live_relabel.py --speeds 4``, so it was not kept. Its results moved a
+lot with small changes (on the tuning streams, one exemplar per id instead of two: 0.853 and
+0.635 against 0.774 and 0.738; exemplars of 1.5 s or 3 s: 0.711 / 0.601 and 0.713 / 0.619).
 
 An earlier memory was measured and left out (revisions simulated every 5 s over the last
 20 s of CMU 14_14, whose six actions never return): prototypes of each id (its mean

@@ -29,13 +29,18 @@ exemplars or overlap gets a new id.
 The joins between the window and the exemplars, and between exemplars, are abrupt; a
 segment of the fit that straddles one is cut there (window segments end at the window's end).
 
+While the window still begins at the stream's first frame nothing is appended: a take within
+the history is relabelled exactly as without the memory (tested).
+
 Measured (``benchmarks/label_memory.py``; the settings were chosen on ret_14_86_14 and
 ret_hdm_bd among per_id 1-3 and exemplar_s 1.5-3 s): see the identity module's docstring.
+It is off by default in the daemon.
 
 Memory per stream: at most ``LabelMemoryConfig.max_bytes(d)`` (130 kB for 17 features with
 the defaults). A relabel with n remembered ids absent from the window clusters up to
 ``n * per_id * exemplar_s`` seconds more frames (at most 64 s with the defaults; the
-relabel's median time on the return streams went from 0.26-0.50 s to 0.28-0.81 s).
+relabel's median time on the return streams went from 0.25-0.60 s to 0.34-1.22 s on the
+shared machine).
 """
 
 from __future__ import annotations
