@@ -63,9 +63,9 @@ class Daemon(Intake):
         if self.config.label_memory and self.algorithms.memory_config is None:
             from streamseg.config.memory import LabelMemoryConfig
 
+            # the switch turns the memory on with its defaults; Algorithms(memory_config=...)
+            # sets other ones (and turns it on by itself)
             self.algorithms.memory_config = LabelMemoryConfig()
-        elif not self.config.label_memory:
-            self.algorithms.memory_config = None
         self.ctx = zmq.Context()
         self.streams: dict[str, StreamState] = {}
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
