@@ -204,3 +204,22 @@ def test_memory_survives_a_checkpoint():
         for a, b in zip(mem.exemplars[i], back.memory.exemplars[i], strict=True):
             assert np.array_equal(a, b)
     assert back.memory.last_seen == mem.last_seen and back.memory.stride == mem.stride
+
+
+@pytest.mark.slow
+def test_return_streams_bring_actions_back_after_the_history(data_dir):
+    from streamseg.evaluation.datasets import return_streams
+
+    streams = return_streams(data_dir)
+    assert set(streams) == {"ret_14_86_14", "ret_86_14_14_86", "ret_hdm_bd", "ret_hdm_bk",
+                            "ret_hdm_dg"}
+    for name, (rec, names) in streams.items():
+        assert names.shape == (rec.n_frames,) and (names != "").all(), name
+        back = []
+        for action in np.unique(names):
+            idx = np.flatnonzero(names == action)
+            if (np.diff(idx) > 60 * rec.fps).any():
+                back.append(action)
+        assert back, f"{name}: no action returns after 60 s"
+        if name.startswith("ret_hdm"):
+            assert set(back) == {"squat1Reps", "hopBothLegs1hops"}, name
