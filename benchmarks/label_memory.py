@@ -86,7 +86,7 @@ def daemon_labels(rec, name, speed, memory, history, interval):
                        relabel_history=history, relabel_interval=interval,
                        label_memory=memory)
     lab, n_rev, times = live(rec, name, speed, cfg)
-    return lab, times, 0
+    return lab, times, 0  # the daemon's memory size is not read here ("-")
 
 
 def main():
@@ -128,7 +128,8 @@ def main():
         rows.append((a, b))
         print(f"| {name} | {rec.n_frames / rec.fps:.0f} | {len(np.unique(truth))} | "
               f"{a['acc']:.3f} | {b['acc']:.3f} | {a['ret']:.3f} | {b['ret']:.3f} | "
-              f"{a['ids']} / {b['ids']} | {a['med']:.2f} / {b['med']:.2f} | {b['kb']:.0f} |",
+              f"{a['ids']} / {b['ids']} | {a['med']:.2f} / {b['med']:.2f} | "
+              f"{'-' if args.daemon else format(b['kb'], '.0f')} |",
               flush=True)
     print()
     print(f"mean acc no memory {np.mean([a['acc'] for a, _ in rows]):.3f}, memory "
