@@ -36,10 +36,11 @@ class DaemonConfig:
         :class:`streamseg.config.memory.LabelMemoryConfig`, at most 130 kB per stream) and
         cluster it with every relabel once the window has left the stream's start, so an
         action that returns after ``relabel_history`` can get its old id
-        (:mod:`streamseg.offline.label_memory`). Off by default: on streams whose actions
-        return it kept returning ids on 3 of 5, but lowered the whole-stream accuracy on 2
-        of the 3 streams it was not tuned on (``benchmarks/label_memory.py``). Off, ids are
-        carried only by the overlap of successive windows.
+        (:mod:`streamseg.offline.label_memory`). Off by default: on five streams whose
+        actions return (``benchmarks/label_memory.py``) it kept more returning frames' ids on
+        4 of 5 in simulated revisions, 2 of 5 in the real daemon, and lowered the
+        whole-stream accuracy on 2 of the 3 streams it was not tuned on (the real daemon: on
+        3 of 5). Off, ids are carried only by the overlap of successive windows.
     heartbeat : float
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int

@@ -22,6 +22,11 @@ the memory, and the share of returning frames that keep their first id:
 * held out: ret_86_14_14_86 0.718 / 0.791 (0 / 0.947), ret_hdm_bk 0.554 / 0.514
   (0 / 0.315), ret_hdm_dg 0.728 / 0.639 (0.243 / 0).
 
+The real daemon at real time (``--daemon 1``: live cuts move boundaries, revisions are timed
+by arrival) gave other figures: ret_14_86_14 0.636 / 0.735 (0 / 0.331), ret_hdm_bd 0.621 /
+0.601 (0 / 0), ret_86_14_14_86 0.727 / 0.661 (0 / 0.373), ret_hdm_bk 0.507 / 0.570 (0 / 0),
+ret_hdm_dg 0.733 / 0.677 (0.276 / 0); mean 0.645 / 0.649 (0.055 / 0.141).
+
 It does not generalise reliably, hence off: a new action can take an old id when the
 clustering puts it with old exemplars (toe touches took the squats' id for a while), and the
 exemplars change the window's own clustering (K is searched up to ``k_max`` plus the number of
