@@ -426,8 +426,8 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous,
                            votes=getattr(window, "votes", None))
     if mcfg is not None:
-        memory = (memory or new_memory(mcfg, fps, start)).updated(stable.segments, features, frames,
-                                                           mcfg, fps)
+        memory = memory or new_memory(mcfg, fps, start)
+        memory = memory.updated(stable.segments, features, frames, mcfg, fps)
         stable = replace(stable, memory=memory)
     elapsed = time.perf_counter() - t
     return Relabelled(stable.start, stable.end, tuple(stable.segments), stable, elapsed)
