@@ -14,7 +14,8 @@ cut features), once with K found and once given the true K:
 * ``K``: distinct labels of the live answer / of offline HACA (K found) / true.
 
 The daemon runs with its defaults (``DaemonConfig()``, ``ACAConfig()``) unless
-``--history`` or ``--interval`` are given. Relabelling needs no K: it is found per revision.
+``--history``, ``--interval`` or ``--[no-]label-memory`` are given. Relabelling needs no K:
+it is found per revision.
 
 Run: .venv/bin/python benchmarks/live_relabel.py [--speeds 1,4] [--only 86_01,hdm_bd_0]
      (real time for every recording: about 8 minutes; --speeds 4: about 2 minutes)
@@ -121,6 +122,8 @@ def main():
     ap.add_argument("--only", default="")
     ap.add_argument("--history", type=float, default=None)
     ap.add_argument("--interval", type=float, default=None)
+    ap.add_argument("--label-memory", action=argparse.BooleanOptionalAction, default=None,
+                    help="the daemon's exemplar memory (default: DaemonConfig's)")
     args = ap.parse_args()
     speeds = [float(s) for s in args.speeds.split(",")]
     loop = "tcp://127.0.0.1:0"
@@ -129,12 +132,14 @@ def main():
         over["relabel_history"] = args.history
     if args.interval is not None:
         over["relabel_interval"] = args.interval
+    if args.label_memory is not None:
+        over["label_memory"] = args.label_memory
     config = DaemonConfig(ingest=loop, publish=loop, control=loop, heartbeat=0, **over)
     recs = recordings()
     if args.only:
         recs = {k: v for k, v in recs.items() if k in args.only.split(",")}
     print(f"daemon: relabel every {config.relabel_interval:g} s over the last "
-          f"{config.relabel_history:g} s; ACA: {ACAConfig()}")
+          f"{config.relabel_history:g} s; label memory {config.label_memory}; ACA: {ACAConfig()}")
     print("| recording | speed | live acc | live ari | offline HACA acc (K found) | ari | "
           "HACA acc (K true) | K live / found / true | revisions | relabel s med |")
     print("|---|---|---|---|---|---|---|---|---|---|")

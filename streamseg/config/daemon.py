@@ -26,10 +26,21 @@ class DaemonConfig:
         (``relabel_interval=0`` turns relabelling off). H also bounds each stream's buffer:
         H x fps x 17 float32 features + int64 frame numbers, 60 s at 120 Hz = 547 kB. A take
         no longer than H is relabelled whole each time, so its last revision is offline HACA
-        of the whole take; an action that returns after H gets a new id
-        (:mod:`streamseg.offline.identity`). With H = 20 s the live frame accuracy over the
-        14 labelled recordings was 0.725 against 0.749 with 60 s (14_20: 0.744 against
-        0.872; ``benchmarks/live_relabel.py --speeds 4 --history 20``).
+        of the whole take; an action that returns after H gets a new id unless the exemplar
+        memory (``label_memory``) recognises it (:mod:`streamseg.offline.identity`). With
+        H = 20 s the live frame accuracy over the 14 labelled recordings was 0.725 against
+        0.749 with 60 s (14_20: 0.744 against 0.872; ``benchmarks/live_relabel.py --speeds 4
+        --history 20``).
+    label_memory : bool
+        Keep a bounded memory of each stream's actions (a few exemplar segments per id,
+        :class:`streamseg.config.memory.LabelMemoryConfig`, at most 130 kB per stream) and
+        cluster it with every relabel once the window has left the stream's start, so an
+        action that returns after ``relabel_history`` can get its old id
+        (:mod:`streamseg.offline.label_memory`). Off by default: on five streams whose
+        actions return (``benchmarks/label_memory.py``) it kept more returning frames' ids on
+        4 of 5 in simulated revisions, 2 of 5 in the real daemon, and lowered the
+        whole-stream accuracy on 2 of the 3 streams it was not tuned on (the real daemon: on
+        3 of 5). Off, ids are carried only by the overlap of successive windows.
     heartbeat : float
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int
@@ -118,6 +129,7 @@ class DaemonConfig:
     idle_timeout: float = 60.0
     relabel_interval: float = 5.0
     relabel_history: float = 60.0
+    label_memory: bool = False
     heartbeat: float = 1.0
     max_packet_frames: int = 12000
     drain: int = 16000
@@ -212,6 +224,8 @@ class DaemonConfig:
         _check("default_up", self.default_up, self.default_up in UP_AXES,
                f"one of {', '.join(UP_AXES)}")
         _check("repetitions", self.repetitions, isinstance(self.repetitions, bool),
+               "true or false")
+        _check("label_memory", self.label_memory, isinstance(self.label_memory, bool),
                "true or false")
         _check("insecure", self.insecure, isinstance(self.insecure, bool), "true or false")
         for name in ("state_dir", "curve_dir"):

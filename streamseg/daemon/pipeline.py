@@ -50,15 +50,19 @@ class Algorithms:
     relabel : callable or None
         Replaces :func:`streamseg.offline.relabel_window` (same signature); tests use it to
         make a relabel slow.
+    memory_config : LabelMemoryConfig or None
+        The exemplar memory that keeps ids beyond the relabel history
+        (:mod:`streamseg.offline.label_memory`); None: off (ids carried by overlap only).
     """
 
     def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
-                 rep_config=None):
+                 rep_config=None, memory_config=None):
         self.lof_config = lof_config
         self.aca_config = aca_config
         self._relabel = relabel
         self.repetitions = repetitions
         self.rep_config = rep_config
+        self.memory_config = memory_config
 
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
@@ -86,18 +90,20 @@ class Algorithms:
 
         return StreamingLOFSegmenter(self.lof_config or LOFConfig(), fps)
 
-    def relabel(self, features: np.ndarray, start_frame: int, fps: float):
+    def relabel(self, features: np.ndarray, start_frame: int, fps: float, exemplars=None):
         """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
 
         Cluster ids are the window's own; :func:`relabel` maps the rows to stream frames and
         then makes the ids consistent with the previous relabel (:func:`stable_labels`),
-        because rows and stream frames differ wherever frames were missing.
+        because rows and stream frames differ wherever frames were missing. ``exemplars``:
+        remembered exemplars clustered with the window (:mod:`streamseg.offline.label_memory`).
         """
         from streamseg.offline import relabel_window
 
         fn = self._relabel or relabel_window
+        extra = {"exemplars": exemplars} if exemplars else {}
         return fn(features, start_frame=start_frame, fps=fps, config=self.relabel_config,
-                  previous=None)
+                  previous=None, **extra)
 
     @property
     def relabel_config(self):
@@ -389,13 +395,23 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     is row ``b - frames[0]``, mapped back through ``frames`` (the identity without dropped
     frames). Boundaries between actions then move to a live cut (``cuts``, stream frames)
     within the shortest segment length, ``min_len`` (:func:`snap_to_cuts`), and ids are made
-    stream-wide (:func:`stable_labels`: the overlap with ``previous``; never a reused id).
+    stream-wide (:func:`stable_labels`: the overlap with ``previous``; never a reused id;
+    with ``algorithms.memory_config``, also the exemplars of ids the window no longer holds,
+    clustered with it: :mod:`streamseg.offline.label_memory`).
     """
+    from dataclasses import replace
+
+    from streamseg.offline.label_memory import new_memory
     from streamseg.offline.relabel import WindowSegmentation
 
     t = time.perf_counter()
     start = int(frames[0])
-    window = algorithms.relabel(features, start, fps)
+    mcfg = algorithms.memory_config
+    memory = getattr(previous, "memory", None) if mcfg is not None else None
+    pieces = []
+    if memory is not None:
+        pieces = memory.pieces(memory.absent(previous.segments, start))
+    window = algorithms.relabel(features, start, fps, exemplars=pieces)
     m = frames.shape[0]
     segs = []
     for a, b, label in _segment_triplets(window):
@@ -407,6 +423,11 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     radius = int(round(algorithms.relabel_config.min_len_s * fps))
     segs = snap_to_cuts(segs, [c for c in cuts if start < c < int(frames[-1])], radius)
     k = int(getattr(window, "n_clusters", 0))
-    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous)
+    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous,
+                           votes=getattr(window, "votes", None))
+    if mcfg is not None:
+        memory = memory or new_memory(mcfg, fps, start)
+        memory = memory.updated(stable.segments, features, frames, mcfg, fps)
+        stable = replace(stable, memory=memory)
     elapsed = time.perf_counter() - t
     return Relabelled(stable.start, stable.end, tuple(stable.segments), stable, elapsed)

@@ -60,6 +60,12 @@ class Daemon(Intake):
     def __init__(self, config: DaemonConfig | None = None, algorithms: Algorithms | None = None):
         self.config = config or DaemonConfig()
         self.algorithms = algorithms or Algorithms(repetitions=self.config.repetitions)
+        if self.config.label_memory and self.algorithms.memory_config is None:
+            from streamseg.config.memory import LabelMemoryConfig
+
+            # the switch turns the memory on with its defaults; Algorithms(memory_config=...)
+            # sets other ones (and turns it on by itself)
+            self.algorithms.memory_config = LabelMemoryConfig()
         self.ctx = zmq.Context()
         self.streams: dict[str, StreamState] = {}
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel

@@ -200,3 +200,88 @@ def hdm05_action_sequences(data_dir, per_actor: int = 3, seed: int = 0) -> dict:
         rec, cuts = hdm05_sequence(data_dir, actor, parts)
         out[name] = (rec, cuts, parts)
     return out
+
+
+# --- streams where actions return after the relabel history -----------------------------------
+
+#: Streams joined from labelled CMU takes so that actions come back more than 60 s (the
+#: daemon's default history) after they were last seen; fixed before any result. The joins
+#: are ABRUPT. ``(take, first, end)`` parts; ``end`` None = to the take's end. 14_14 and 14_20
+#: are two takes of one subject doing partly the same exercises (jumping jacks, knee raises,
+#: arm circles, twists); 86_01 is split at its fourth action (frame 2500) so that its walk and
+#: punch return after both exercise takes.
+RETURN_CMU_STREAMS = {
+    "ret_14_86_14": (("14_14", 0, None), ("86_01", 0, None), ("14_20", 0, None)),
+    "ret_86_14_14_86": (("86_01", 0, 2500), ("14_14", 0, None), ("14_20", 0, None),
+                        ("86_01", 2500, None)),
+}
+#: HDM05 return streams, one per actor: the first half of the clips of each returning class,
+#: then every clip of the other classes (at least 70 s), then the second half.
+HDM05_RETURNING = ("squat1Reps", "hopBothLegs1hops")
+HDM05_BETWEEN = ("depositFloorR", "grabHighR", "lieDownFloor", "throwBasketball",
+                 "kickLFront1Reps", "elbowToKnee1RepsLelbowStart")
+
+
+def _cmu_take(data_dir, name):
+    from streamseg.evaluation.labels import read_labels
+    from streamseg.io import read
+
+    root = Path(data_dir)
+    if name == "86_01":
+        rec = read(root / "cmu86/86_01.amc.gz", skeleton=root / "cmu86/86.asf")
+        labels = read_labels(root / "cmu86/labels_86_01.csv", name)
+    else:
+        rec = read(root / f"cmu_exercise/{name}.amc.gz", skeleton=root / "cmu86/86.asf")
+        labels = read_labels(root / "cmu_exercise/labels.csv", name)
+    names = np.full(rec.n_frames, "", dtype=object)
+    for seg in labels:
+        names[seg.start:min(seg.end, rec.n_frames)] = seg.label
+    return rec, names
+
+
+def _slice(rec, a, b):
+    rot = None if rec.rotations is None else rec.rotations[a:b]
+    return replace(rec, positions=rec.positions[a:b], rotations=rot)
+
+
+def return_streams(data_dir) -> dict:
+    """Long labelled streams whose actions return after the relabel history (joins abrupt).
+
+    Returns
+    -------
+    dict
+        ``name -> (recording, names)``: ``names`` (n_frames,) object array, the human action
+        name of every frame ("" where unlabelled); one name means one action across parts
+        (e.g. ``JumpJack`` in 14_14 and 14_20; an HDM05 class).
+    """
+    from streamseg.io import read
+
+    out = {}
+    takes = {}
+    for name, parts in RETURN_CMU_STREAMS.items():
+        recs, names = [], []
+        for take, a, b in parts:
+            if take not in takes:
+                takes[take] = _cmu_take(data_dir, take)
+            rec, lab = takes[take]
+            b = rec.n_frames if b is None else b
+            recs.append(_slice(rec, a, b))
+            names.append(lab[a:b])
+        out[name] = (concatenate(recs)[0], np.concatenate(names))
+    clips = hdm05_clips(data_dir)
+    for actor in HDM05_ACTORS:
+        asf = Path(data_dir) / "hdm05_reps" / "asf" / f"HDM_{actor}.asf"
+        order = []
+        for c in HDM05_RETURNING:
+            p = clips[actor, c]
+            order += [(c, q) for q in p[:len(p) // 2]]
+        for c in HDM05_BETWEEN:
+            order += [(c, q) for q in clips[actor, c]]
+        for c in HDM05_RETURNING:
+            p = clips[actor, c]
+            order += [(c, q) for q in p[len(p) // 2:]]
+        recs = [read(q, skeleton=asf) for _, q in order]
+        names = np.concatenate([np.full(r.n_frames, c, dtype=object)
+                                for (c, _), r in zip(order, recs, strict=True)])
+        out[f"ret_hdm_{actor}"] = (concatenate(recs)[0], names)
+    return out

@@ -1,0 +1,55 @@
+"""The per-stream memory of actions that keeps ids beyond the relabel history."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from streamseg.config._base import _check
+
+
+@dataclass(frozen=True)
+class LabelMemoryConfig:
+    """Exemplar memory of a stream's actions (:mod:`streamseg.offline.label_memory`).
+
+    Attributes
+    ----------
+    max_ids : int
+        Stream ids remembered at most; beyond it, ids the current revision does not hold
+        are forgotten, the shortest-lived first (:mod:`streamseg.offline.label_memory`).
+    per_id : int
+        Exemplar segments kept per id.
+    exemplar_s : float
+        Seconds of features in one exemplar at most.
+    rate_hz : float
+        Exemplars keep every ``round(fps / rate_hz)``-th frame (at least every frame).
+
+    Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
+    rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB.
+    The defaults were chosen on two streams of ``benchmarks/label_memory.py``.
+    """
+
+    max_ids: int = 16
+    per_id: int = 2
+    exemplar_s: float = 2.0
+    rate_hz: float = 30.0
+
+    def __post_init__(self):
+        def is_int(v):
+            return isinstance(v, int) and not isinstance(v, bool)
+
+        _check("max_ids", self.max_ids, is_int(self.max_ids) and self.max_ids >= 1,
+               "an integer >= 1")
+        _check("per_id", self.per_id, is_int(self.per_id) and self.per_id >= 1,
+               "an integer >= 1")
+        _check("exemplar_s", self.exemplar_s, isinstance(self.exemplar_s, (int, float))
+               and not isinstance(self.exemplar_s, bool) and self.exemplar_s > 0,
+               "a length > 0 seconds")
+        _check("rate_hz", self.rate_hz, isinstance(self.rate_hz, (int, float))
+               and not isinstance(self.rate_hz, bool) and self.rate_hz > 0, "a rate > 0 Hz")
+
+    def max_bytes(self, n_features: int) -> int:
+        """Upper bound of one stream's memory in bytes for ``n_features`` features."""
+        import math
+
+        rows = math.ceil(self.exemplar_s * self.rate_hz)
+        return self.max_ids * self.per_id * rows * n_features * 4

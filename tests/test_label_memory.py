@@ -1,0 +1,225 @@
+"""The exemplar memory that keeps ids beyond the relabel history (offline.label_memory)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from streamseg.config.memory import LabelMemoryConfig
+from streamseg.daemon.pipeline import Algorithms, relabel
+from streamseg.exceptions import ParameterError
+from streamseg.offline.label_memory import new_memory
+
+FPS = 120.0
+
+
+def _blocks(levels, seconds=4.0, seed=0, d=6):
+    """Blocks of a noisy cyclic motion around each level (radians), one block per level."""
+    rng = np.random.default_rng(seed)
+    n = int(seconds * FPS)
+    t = np.arange(n)[:, None]
+    return np.concatenate([lv + 0.3 * np.sin(2 * np.pi * t / 60 + np.arange(d))
+                           + rng.normal(0, 0.02, (n, d)) for lv in levels])
+
+
+def _stream_ids(X, memory, history=6.0, interval=1.0):
+    """Revisions as the daemon runs them; per-frame ids of the newest revision."""
+    algos = Algorithms(memory_config=LabelMemoryConfig() if memory else None)
+    n = X.shape[0]
+    step, span = int(interval * FPS), int(history * FPS)
+    lab = np.full(n, -1)
+    previous = None
+    for t in list(range(step, n, step)) + [n]:
+        s = max(0, t - span)
+        res = relabel(algos, X[s:t], np.arange(s, t), FPS, previous)
+        previous = res.window
+        for a, b, c in res.segments:
+            lab[a:b] = c
+    return lab, previous
+
+
+def _block_id(lab, i, seconds=4.0):
+    n = int(seconds * FPS)
+    part = lab[i * n:(i + 1) * n]
+    return np.bincount(part).argmax()
+
+
+def test_an_action_back_after_the_history_keeps_its_id():
+    # A, B, C, A: the second A starts 8 s after the first ended, the history is 6 s
+    X = _blocks([0.5, 1.5, 2.5, 0.5])
+    without, _ = _stream_ids(X, memory=False)
+    assert _block_id(without, 3) != _block_id(without, 0)  # the hole the memory fills
+    lab, last = _stream_ids(X, memory=True)
+    ids = [_block_id(lab, i) for i in range(4)]
+    assert ids[3] == ids[0] and len(set(ids[:3])) == 3
+    assert last.memory is not None and ids[0] in last.memory.exemplars
+
+
+def test_a_new_action_after_the_history_gets_a_new_id():
+    X = _blocks([0.5, 1.5, 2.5, 3.5])
+    lab, last = _stream_ids(X, memory=True)
+    ids = [_block_id(lab, i) for i in range(4)]
+    assert len(set(ids)) == 4
+    assert ids[3] >= max(ids[:3])  # a fresh id, never one the stream used
+    assert last.next_id > ids[3]
+
+
+def test_memory_is_bounded_in_ids_and_bytes():
+    cfg = LabelMemoryConfig(max_ids=3, per_id=2, exemplar_s=1.0, rate_hz=30.0)
+    mem = new_memory(cfg, FPS)
+    rng = np.random.default_rng(0)
+    d = 17
+    for rev in range(12):  # each revision holds two new ids of 3 s
+        start = rev * 720
+        frames = np.arange(start, start + 720)
+        feats = rng.random((720, d))
+        segs = [(start, start + 360, 2 * rev), (start + 360, start + 720, 2 * rev + 1)]
+        mem = mem.updated(segs, feats, frames, cfg, FPS)
+        assert len(mem.exemplars) <= cfg.max_ids
+        assert mem.nbytes <= cfg.max_bytes(d)
+    assert {22, 23} <= set(mem.exemplars)  # the ids this revision holds are kept
+    for ex in mem.exemplars.values():
+        assert len(ex) <= cfg.per_id
+        assert all(a.dtype == np.float32 and a.shape[0] <= 30 for a in ex)
+    assert cfg.max_bytes(17) == 3 * 2 * 30 * 17 * 4
+
+
+def test_exemplars_of_ids_still_in_the_window_are_not_appended():
+    cfg = LabelMemoryConfig()
+    mem = new_memory(cfg, FPS).updated([(0, 600, 0), (600, 1200, 1)], np.ones((1200, 4)),
+                                       np.arange(1200), cfg, FPS)
+    assert mem.absent([(0, 600, 0), (600, 1200, 1)], 700) == [0]
+    assert mem.absent([(0, 600, 0), (600, 1200, 1)], 500) == []
+    pieces = mem.pieces([0])
+    assert len(pieces) == cfg.per_id and all(p.shape[1] == 4 for _, p in pieces)
+
+
+@pytest.mark.parametrize("field,value", [("max_ids", 0), ("per_id", 1.5), ("exemplar_s", 0),
+                                         ("rate_hz", -1)])
+def test_bad_memory_settings_are_refused(field, value):
+    with pytest.raises(ParameterError, match=field):
+        LabelMemoryConfig(**{field: value})
+
+
+def _replay_in_steps(rec, endpoint, sub, stream, step):
+    """Send ``rec`` ``step`` frames at a time, each time waiting for the revision that covers
+    them (a handshake: the daemon relabels every ``step`` frames), then end the stream.
+    Returns every ``segments`` event of the stream."""
+    import zmq
+
+    from streamseg import protocol
+    from streamseg.commands.listen import listen
+    from streamseg.commands.replay import announce_of
+
+    push = zmq.Context.instance().socket(zmq.PUSH)
+    push.setsockopt(zmq.LINGER, 5000)
+    push.connect(endpoint)
+    events = []
+    try:
+        push.send_multipart(protocol.encode(announce_of(rec, stream)))
+        pos = rec.positions
+        for a in range(0, rec.n_frames, step):
+            b = min(a + step, rec.n_frames)
+            for c in range(a, b, 60):
+                push.send_multipart(protocol.encode(
+                    protocol.Frames(stream, c, 0.0, pos[c:min(c + 60, b)])))
+            if b - a < step:
+                break  # the last revision comes with the end of the stream
+            for e in listen(sub, stream=stream, timeout=120):
+                if e.type == "segments":
+                    events.append(e)
+                    if e.end >= b:
+                        break
+        push.send_multipart(protocol.encode(protocol.End(stream)))
+        events += [e for e in listen(sub, stream=stream, until_end=True, timeout=120)
+                   if e.type == "segments"]
+    finally:
+        push.close()
+    return events
+
+
+@pytest.mark.daemon
+@pytest.mark.slow
+@pytest.mark.parametrize("memory", [True, False])
+def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start_daemon,
+                                                                 memory):
+    """Real daemon over loopback, 15 s history: CMU 14_14's jumping jacks, jog, squats and
+    knee raises (19 s), then the jumping jacks of another take (14_20; an abrupt join). The
+    returning jumping jacks start 15.4 s after the first ones ended, beyond the history: with
+    the memory they get the first ones' id; without it, a new one."""
+    from streamseg.commands.listen import listen, subscriber
+    from streamseg.evaluation.datasets import _cmu_take, _slice, concatenate
+
+    a, _ = _cmu_take(data_dir, "14_14")
+    b, _ = _cmu_take(data_dir, "14_20")
+    cut = 2280  # 14_14 up to the end of its knee raises; 14_20 frames 0-431 are jumping jacks
+    rec = concatenate([_slice(a, 0, cut), _slice(b, 0, 432)])[0]
+    d, ep = start_daemon(relabel_interval=2.5, relabel_history=15.0, relabel_share=1.0,
+                         heartbeat=0.05, label_memory=memory)
+    sub = subscriber(ep["publish"])
+    try:
+        next(e for e in listen(sub, timeout=30) if e.type == "stats")  # subscribed
+        events = _replay_in_steps(rec, ep["ingest"], sub, "ret", int(2.5 * rec.fps))
+    finally:
+        sub.close()
+    assert events and events[-1].final
+    live = np.full(rec.n_frames, -1)
+    for e in events:
+        for s, t, lab in e.segments:
+            live[s:t] = lab
+    first = np.bincount(live[:456]).argmax()  # 14_14 jumping jacks: frames 0-455
+    back = live[cut:]
+    assert events[-1].start > 456  # the last revisions no longer hold the first ones
+    if memory:
+        assert np.mean(back == first) >= 0.9
+    else:
+        assert np.mean(back == first) == 0.0
+
+
+def test_a_take_within_the_history_relabels_as_without_the_memory():
+    X = _blocks([0.5, 1.5, 2.5, 0.5], seconds=2.0)  # 8 s, history 10 s
+    with_memory, last = _stream_ids(X, memory=True, history=10.0, interval=2.0)
+    without, _ = _stream_ids(X, memory=False, history=10.0, interval=2.0)
+    assert np.array_equal(with_memory, without)
+    assert last.memory is not None and last.memory.exemplars  # remembered all the same
+
+
+def test_memory_survives_a_checkpoint():
+    import msgpack
+
+    from streamseg.daemon.checkpoint import dump, load, packable
+    from streamseg.offline.relabel import WindowSegmentation
+
+    cfg = LabelMemoryConfig()
+    rng = np.random.default_rng(1)
+    feats = rng.random((1200, 17)).astype(np.float32)
+    mem = new_memory(cfg, FPS, 0).updated([(0, 10, 0), (10, 600, 1), (600, 1190, 2),
+                                           (1190, 1200, 0)], feats, np.arange(1200), cfg, FPS)
+    w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
+    blob = msgpack.packb(packable(dump(w)), use_bin_type=True)
+    back = load(msgpack.unpackb(blob, raw=False, strict_map_key=False))
+    assert back.segments == w.segments and back.next_id == 3
+    assert sorted(back.memory.exemplars) == sorted(mem.exemplars) == [1, 2]
+    for i in mem.exemplars:
+        for a, b in zip(mem.exemplars[i], back.memory.exemplars[i], strict=True):
+            assert np.array_equal(a, b)
+    assert back.memory.last_seen == mem.last_seen and back.memory.stride == mem.stride
+
+
+@pytest.mark.slow
+def test_return_streams_bring_actions_back_after_the_history(data_dir):
+    from streamseg.evaluation.datasets import return_streams
+
+    streams = return_streams(data_dir)
+    assert set(streams) == {"ret_14_86_14", "ret_86_14_14_86", "ret_hdm_bd", "ret_hdm_bk",
+                            "ret_hdm_dg"}
+    for name, (rec, names) in streams.items():
+        assert names.shape == (rec.n_frames,) and (names != "").all(), name
+        back = []
+        for action in np.unique(names):
+            idx = np.flatnonzero(names == action)
+            if (np.diff(idx) > 60 * rec.fps).any():
+                back.append(action)
+        assert back, f"{name}: no action returns after 60 s"
+        if name.startswith("ret_hdm"):
+            assert set(back) == {"squat1Reps", "hopBothLegs1hops"}, name
