@@ -373,6 +373,7 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
     from streamseg.daemon.checkpoint import snapshot
     from streamseg.daemon.pipeline import Algorithms, StreamPipeline
     from streamseg.daemon.state_codec import packable
+    from streamseg.daemon.state_codec import stored as stored_bytes
     from streamseg.daemon.streams import StreamState
 
     alg = Algorithms()
@@ -401,10 +402,11 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
             t1 = time.perf_counter()
             chunks = {}
             blob = msgpack.packb(packable(state, chunks), use_bin_type=True)
+            fresh = [stored_bytes(chunks[d]) for d in chunks.keys() - previous]
             t2 = time.perf_counter()
             copy.append(t1 - t0)
             pack.append(t2 - t1)
-            stored.append(len(blob) + sum(len(chunks[d]) for d in chunks.keys() - previous))
+            stored.append(len(blob) + sum(len(c) for c in fresh))
             if more:
                 previous = set(chunks)
         state_kb = sum(a.nbytes for a in _arrays(state)) / 1e3

@@ -17,10 +17,11 @@ import time
 import msgpack
 
 from streamseg.daemon.eventlog import connect
-from streamseg.daemon.state_codec import load, packable
+from streamseg.daemon.state_codec import load, packable, stored
 
 log = logging.getLogger("streamseg.daemon")
 
+PACE = 1.0
 FORMAT = 4  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
@@ -140,18 +141,21 @@ class CheckpointStore:
                 rows.pop(op[1], None)
                 gone.add(op[1])
         try:
-            packed, new_chunks, dead, stored = [], [], [], {}
+            packed, new_chunks, dead, kept = [], [], [], {}
             for _, stream, frame, state in rows.values():
+                t1 = time.perf_counter()
                 chunks: dict = {}
                 blob = msgpack.packb(packable(state, chunks), use_bin_type=True)
                 old = self._stored.get(stream, set())
-                fresh = [(stream, d, chunks[d]) for d in chunks.keys() - old]
+                fresh = [(stream, d, stored(chunks[d])) for d in chunks.keys() - old]
                 new_chunks += fresh
                 dead += [(stream, d) for d in old - chunks.keys()]
-                stored[stream] = set(chunks)
+                kept[stream] = set(chunks)
                 self.bytes += len(blob) + sum(len(c[2]) for c in fresh)
                 packed.append((stream, frame, time.time(), FORMAT, blob))
-                time.sleep(0)  # packing holds the GIL: let the loop thread in between streams
+                # packing holds the GIL and a core: as long a pause as the packing took, so a
+                # round of many streams never takes the loop's core in one burst
+                time.sleep(min(time.perf_counter() - t1, 0.005) * PACE)
             self._db.execute("BEGIN")
             self._db.executemany("INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)",
                                  packed)
@@ -161,7 +165,7 @@ class CheckpointStore:
                                  [(s,) for s in gone])
             self._db.executemany("DELETE FROM chunks WHERE stream = ?", [(s,) for s in gone])
             self._db.execute("COMMIT")
-            self._stored.update(stored)
+            self._stored.update(kept)
             for s in gone:
                 self._stored.pop(s, None)
             self.written += len(packed)
