@@ -184,10 +184,9 @@ def test_a_take_within_the_history_relabels_as_without_the_memory():
     assert last.memory is not None and last.memory.exemplars  # remembered all the same
 
 
-def test_memory_survives_a_checkpoint():
-    import msgpack
-
-    from streamseg.daemon.checkpoint import dump, load, packable
+def test_memory_survives_a_checkpoint(tmp_path):
+    from streamseg.daemon.checkpoint_store import CheckpointStore
+    from streamseg.daemon.state_codec import dump
     from streamseg.offline.relabel import WindowSegmentation
 
     cfg = LabelMemoryConfig()
@@ -196,8 +195,11 @@ def test_memory_survives_a_checkpoint():
     mem = new_memory(cfg, FPS, 0).updated([(0, 10, 0), (10, 600, 1), (600, 1190, 2),
                                            (1190, 1200, 0)], feats, np.arange(1200), cfg, FPS)
     w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
-    blob = msgpack.packb(packable(dump(w)), use_bin_type=True)
-    back = load(msgpack.unpackb(blob, raw=False, strict_map_key=False))
+    store = CheckpointStore(tmp_path)  # the real SQLite file, chunks and all
+    store.put([("s", 1200, dump(w))])
+    assert store.wait()
+    store.close()
+    (_, back), = CheckpointStore(tmp_path).read_all()
     assert back.segments == w.segments and back.next_id == 3
     assert sorted(back.memory.exemplars) == sorted(mem.exemplars) == [1, 2]
     for i in mem.exemplars:

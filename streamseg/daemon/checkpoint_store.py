@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import collections
 import logging
+import os
 import sqlite3
 import threading
 import time
@@ -22,6 +23,7 @@ from streamseg.daemon.state_codec import load, packable, stored
 log = logging.getLogger("streamseg.daemon")
 
 PACE = 1.0
+NICE = 10  # the writer thread's niceness (absolute; a lower one is never asked for)
 FORMAT = 4  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
@@ -117,6 +119,12 @@ class CheckpointStore:
             self._db.close()
 
     def _run(self) -> None:
+        # below the loop and the relabels in the OS scheduler (Linux: nice is per thread): when
+        # the cores are saturated, checkpoints come later instead of delaying packets
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), NICE)
+        except (AttributeError, OSError):
+            pass
         while True:
             self._wake.wait()  # until put, forget or close
             self._wake.clear()
