@@ -52,14 +52,17 @@ def checkpoint(daemon) -> int:
 
 
 STEP_BUDGET = 0.002  # seconds of loop time per step of a checkpoint round
+DUTY = 0.02  # at most this share of the loop's time goes to copying states
 
 
 def step(daemon, now: float) -> int:
     """One step of the periodic checkpoint: a round starts every ``checkpoint_interval`` s
     (unless the writer is still busy with the last one) with the streams that took frames
-    since their last checkpoint; each step copies streams for at most ``STEP_BUDGET`` s, so
-    with many streams the copying is spread over loop iterations instead of one long pause
-    (500 streams x 0.1 ms would be 50 ms of added latency). Returns the streams copied."""
+    since their last checkpoint; each step copies streams for at most ``STEP_BUDGET`` s and
+    the next step waits until the copying is at most ``DUTY`` of the loop's time, so the
+    copying never delays packets by more than a step and never takes more than DUTY of the
+    loop: 250 full streams (0.1 ms each) are copied in 1.25 s, 1,000 in 5 s, which is then
+    the interval between their checkpoints. Returns the streams copied."""
     store = daemon.checkpoints
     if not daemon._ckpt_round:
         if now < daemon._next_ckpt:
@@ -70,6 +73,8 @@ def step(daemon, now: float) -> int:
         seen = daemon._ckpt_seen
         daemon._ckpt_round = [s for s, st in daemon.streams.items()
                               if st.frames_in != seen.get(s)]
+    elif now < daemon._ckpt_resume:
+        return 0
     t0 = time.perf_counter()
     items = []
     while daemon._ckpt_round and time.perf_counter() - t0 < STEP_BUDGET:
@@ -78,8 +83,10 @@ def step(daemon, now: float) -> int:
             _copy(daemon, st, items)
     if items:
         store.put(items)
+    dt = time.perf_counter() - t0
+    daemon._ckpt_resume = now + dt / DUTY
     daemon.totals["checkpoints"] += len(items)
-    daemon.checkpoint_seconds += time.perf_counter() - t0
+    daemon.checkpoint_seconds += dt
     return len(items)
 
 

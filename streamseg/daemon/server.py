@@ -93,6 +93,7 @@ class Daemon(Intake):
         self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
         self._next_ckpt = 0.0
         self._ckpt_round: list = []  # streams still to copy in this checkpoint round
+        self._ckpt_resume = 0.0  # monotonic time of the round's next step
         self.worker = relabel_worker(self.algorithms, self.config)
         self.default_skeleton = None
         if self.config.default_skeleton:
