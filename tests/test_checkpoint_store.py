@@ -130,3 +130,16 @@ def test_stray_chunks_go_at_open_and_a_damaged_row_is_skipped(tmp_path, rec, alg
     assert [s for s, _ in chunk_rows(store.path)] == ["s"]
     assert store.read_all() == []  # a chunk is missing: not restored, no exception
     store.close()
+
+
+def test_a_damaged_file_is_moved_aside_and_the_store_starts_empty(tmp_path, rec, algorithms):
+    (tmp_path / "checkpoints.sqlite").write_bytes(b"not a database" * 1000)
+    store = CheckpointStore(tmp_path)
+    assert store.read_all() == []
+    st = stream(rec, algorithms, 240)
+    store.put([("s", st.next_seq, snapshot(st))])
+    assert store.wait()
+    store.close()
+    assert [s for s, _ in CheckpointStore(tmp_path).read_all()] == ["s"]
+    aside = list(tmp_path.glob("checkpoints.corrupt-*.sqlite"))
+    assert len(aside) == 1 and aside[0].read_bytes().startswith(b"not a database")

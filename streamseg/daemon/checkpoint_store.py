@@ -52,13 +52,20 @@ class CheckpointStore:
         d = Path(state_dir)
         d.mkdir(parents=True, exist_ok=True)
         self.path = d / "checkpoints.sqlite"
-        self._db = connect(self.path)
-        self._db.executescript(SCHEMA)
-        self._db.execute("DELETE FROM chunks WHERE stream NOT IN (SELECT stream FROM checkpoints)")
-        # the digests stored per stream (writer thread): a round inserts only the others
-        self._stored: dict[str, set] = collections.defaultdict(set)
-        for stream, digest in self._db.execute("SELECT stream, digest FROM chunks"):
-            self._stored[stream].add(digest)
+        self._db = None
+        try:
+            self._open()
+        except sqlite3.DatabaseError as err:  # e.g. torn by a power loss (synchronous OFF)
+            aside = self.path.with_name(f"checkpoints.corrupt-{int(time.time())}.sqlite")
+            log.warning("%s is damaged (%s): moved to %s, no stream restored", self.path, err,
+                        aside.name)
+            if self._db is not None:
+                self._db.close()
+            for suffix in ("", "-wal", "-shm"):
+                src = Path(str(self.path) + suffix)
+                if src.exists():
+                    src.rename(str(aside) + suffix)
+            self._open()
         self._queue: list = []  # ("put", stream, frame, state) or ("del", stream)
         self._lock = threading.Lock()
         self._wake = threading.Event()
@@ -72,6 +79,22 @@ class CheckpointStore:
         self._thread = threading.Thread(target=self._run, name="streamseg-checkpoint",
                                         daemon=True)
         self._thread.start()
+
+    def _open(self) -> None:
+        self._db = None
+        self._db = connect(self.path)
+        # a checkpoint is rewritten every few seconds and only matters after a crash of the
+        # process, which synchronous OFF survives (the OS holds the writes); skipping the
+        # fsyncs of the WAL checkpoints took the store's p99 cost at 250 streams from +45 %
+        # to +9 % (benchmarks/daemon_throughput.py). A power loss may tear the file: it is
+        # then moved aside at the next start. The event log keeps synchronous NORMAL.
+        self._db.execute("PRAGMA synchronous=OFF")
+        self._db.executescript(SCHEMA)
+        self._db.execute("DELETE FROM chunks WHERE stream NOT IN (SELECT stream FROM checkpoints)")
+        # the digests stored per stream (writer thread): a round inserts only the others
+        self._stored: dict[str, set] = collections.defaultdict(set)
+        for stream, digest in self._db.execute("SELECT stream, digest FROM chunks"):
+            self._stored[stream].add(digest)
 
     def read_all(self) -> list:
         """``[(stream, state)]`` of every stored checkpoint (unreadable ones skipped)."""
