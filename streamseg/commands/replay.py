@@ -66,6 +66,14 @@ class NoDaemon(TimeoutError):
     """No daemon took a packet within the wait."""
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C during a replay; ``sent_end``: whether the ``end`` message went out."""
+
+    def __init__(self, sent_end: bool):
+        super().__init__(sent_end)
+        self.sent_end = sent_end
+
+
 def _send(sock, parts, wait, endpoint, on_wait=None):
     """Send, waiting at most ``wait`` seconds (None: forever) for the daemon to take it."""
     if wait is not None and not sock.poll(500 if on_wait else int(wait * 1000), zmq.POLLOUT):
@@ -106,7 +114,8 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
     curve : streamseg.daemon.security.ClientKeys, optional
         CURVE keys for the connection.
 
-    On KeyboardInterrupt the ``end`` message is sent (best effort, 1 s) before re-raising.
+    On KeyboardInterrupt the ``end`` message is sent (best effort, 1 s) and :class:`Interrupted`
+    raised.
     """
     if batch < 1:
         raise ParameterError(f"--batch {batch} is invalid: expected frames per packet >= 1")
@@ -139,10 +148,12 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
         if end:
             _send(sock, protocol.encode(protocol.End(stream)), wait, endpoint)
     except KeyboardInterrupt:
-        if end and sock.poll(1000, zmq.POLLOUT):
+        # Ctrl-C means now: at most 1 s to hand over what is queued, never the 30 s linger
+        sock.setsockopt(zmq.LINGER, 1000)
+        sent_end = bool(end and sock.poll(1000, zmq.POLLOUT))
+        if sent_end:
             sock.send_multipart(protocol.encode(protocol.End(stream)), zmq.NOBLOCK)
-            sock.setsockopt(zmq.LINGER, 1000)
-        raise
+        raise Interrupted(sent_end) from None
     except NoDaemon:
         sock.setsockopt(zmq.LINGER, 0)
         raise
@@ -182,9 +193,14 @@ def run(args) -> int:
         except NoDaemon as err:
             print(f"streamseg replay: {err}", file=sys.stderr)
             return 1
-        except KeyboardInterrupt:
-            print(f"streamseg replay: interrupted: sent end of {stream} to {args.to}",
-                  file=sys.stderr)
+        except KeyboardInterrupt as err:
+            if getattr(err, "sent_end", False):
+                print(f"streamseg replay: interrupted: sent end of {stream} to {args.to}",
+                      file=sys.stderr)
+            else:
+                print(f"streamseg replay: interrupted: could not send end of {stream} (the "
+                      f"daemon at {args.to} took no packet for 1 s); it closes the stream "
+                      "when idle", file=sys.stderr)
             return 130
         passes += 1
         print(f"streamseg replay: {stream}: sent {sent} frames ({passes} pass"
