@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import socket
 import subprocess
@@ -50,15 +51,25 @@ def test_ctrl_c_sends_end(data_dir):
     try:
         s = subscriber(ep["publish"], stream="cc")
         proc = subprocess.Popen(replay_cmd(data_dir, ep["ingest"], "--speed", "1", "--stream",
-                                           "cc"), stderr=subprocess.PIPE, text=True)
+                                           "cc"), stderr=subprocess.PIPE, text=True,
+                                env={**os.environ, "PYTHONFAULTHANDLER": "1"})
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:  # the stream is open and taking frames
+        # the stream is open and has taken 2 s of frames: the replay is in its sending loop
+        # (past imports and first-use compilation, which are slow on a fresh clone)
+        while time.monotonic() < deadline:
             st = request(ep["control"], "streams")["streams"]
-            if st and st[0]["frame"] > 0:
+            if st and st[0]["frame"] >= 240:
                 break
             time.sleep(0.02)
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(30) == 130
+        try:
+            proc.wait(30)
+        except subprocess.TimeoutExpired:  # say where it hangs (faulthandler's dump)
+            proc.send_signal(signal.SIGABRT)
+            proc.wait(10)
+            raise AssertionError("replay still running 30 s after SIGINT:\n"
+                                 + proc.stderr.read()[-4000:]) from None
+        assert proc.returncode == 130
         assert "interrupted: sent end of cc" in proc.stderr.read()
         closed = [e for e in listen(s, stream="cc", until_end=True, timeout=20)
                   if e.type == "closed"]
