@@ -41,6 +41,13 @@ def test_no_daemon_waits_then_gives_up_in_one_line(data_dir):
     assert len(err) == 2 and "no daemon took packets" in err[1] and "streamseg serve" in err[1]
 
 
+def _default_sigint():
+    # as from a terminal: an earlier test of the session can leave SIGINT ignored in this
+    # process (seen on a fresh clone: the replay then slept through the signal), and an
+    # ignored SIGINT is inherited across exec, where Python then installs no handler
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_sends_end(data_dir):
     d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
                             heartbeat=0))
@@ -52,7 +59,8 @@ def test_ctrl_c_sends_end(data_dir):
         s = subscriber(ep["publish"], stream="cc")
         proc = subprocess.Popen(replay_cmd(data_dir, ep["ingest"], "--speed", "1", "--stream",
                                            "cc"), stderr=subprocess.PIPE, text=True,
-                                env={**os.environ, "PYTHONFAULTHANDLER": "1"})
+                                env={**os.environ, "PYTHONFAULTHANDLER": "1"},
+                                preexec_fn=_default_sigint)
         deadline = time.monotonic() + 60
         # the stream is open and has taken 2 s of frames: the replay is in its sending loop
         # (past imports and first-use compilation, which are slow on a fresh clone)
