@@ -81,7 +81,6 @@ class CheckpointStore:
         self._thread.start()
 
     def _open(self) -> None:
-        self._db = None
         self._db = connect(self.path)
         # a checkpoint is rewritten every few seconds and only matters after a crash of the
         # process, which synchronous OFF survives (the OS holds the writes); skipping the

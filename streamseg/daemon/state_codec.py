@@ -55,16 +55,14 @@ def dump(obj):
 
 
 def load(obj, chunks=None):
-    """Inverse of :func:`dump` (and of :func:`packable`, given the stream's ``chunks``:
-    a mapping of digest to bytes)."""
+    """Inverse of :func:`packable` after msgpack, given the stream's ``chunks`` (a mapping
+    of digest to stored bytes)."""
     if isinstance(obj, list):
         return [load(x, chunks) for x in obj]
     if not isinstance(obj, dict):
         return obj
     if "__nd__" in obj:
         dtype, shape, data = obj["__nd__"]
-        if isinstance(data, np.ndarray):  # straight from dump
-            return data.copy()
         dtype = np.dtype(dtype)
         n = int(np.prod(shape)) * dtype.itemsize
         if isinstance(data, list):  # chunk digests (packable), each without trailing zeros
