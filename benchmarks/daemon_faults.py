@@ -372,7 +372,7 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
     from streamseg.config import DaemonConfig
     from streamseg.daemon.checkpoint import snapshot
     from streamseg.daemon.pipeline import Algorithms, StreamPipeline
-    from streamseg.daemon.state_codec import packable
+    from streamseg.daemon.state_codec import load, packable
     from streamseg.daemon.state_codec import stored as stored_bytes
     from streamseg.daemon.streams import StreamState
 
@@ -383,7 +383,7 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
     print(f"\ncheckpoint cost per stream (relabel_history {hist:g} s, 120 Hz), median of "
           f"{repeats}")
     print(f"{'stream':>36} {'loop copy ms':>13} {'writer pack ms':>15} {'state kB':>9} "
-          f"{'stored kB':>10}")
+          f"{'stored kB':>10} {'restore ms':>11}")
     full = int(hist * 120)
     for label, n, more in (("4 frames", 4, 0), (f"{full} frames (full), first", full, 0),
                            (f"{full} frames, each next {step}", full, step)):
@@ -391,7 +391,7 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
         p.push(rec.positions[np.arange(n) % rec.n_frames], 0)
         st = StreamState("s", 1, rec.fps, p, 0.0)
         st.next_seq = n
-        copy, pack, stored, previous = [], [], [], set()
+        copy, pack, stored, restore, previous = [], [], [], [], set()
         for _ in range(repeats):
             if more:  # the next interval's frames
                 p.push(rec.positions[np.arange(n, n + more) % rec.n_frames], n)
@@ -404,6 +404,10 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
             blob = msgpack.packb(packable(state, chunks), use_bin_type=True)
             fresh = [stored_bytes(chunks[d]) for d in chunks.keys() - previous]
             t2 = time.perf_counter()
+            held = {d: stored_bytes(c) for d, c in chunks.items()}
+            t3 = time.perf_counter()  # what a restart does: unpack, rebuild derived arrays
+            load(msgpack.unpackb(blob, raw=False), held)
+            restore.append(time.perf_counter() - t3)
             copy.append(t1 - t0)
             pack.append(t2 - t1)
             stored.append(len(blob) + sum(len(c) for c in fresh))
@@ -412,7 +416,8 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
         state_kb = sum(a.nbytes for a in _arrays(state)) / 1e3
         print(f"{label:>36} {statistics.median(copy) * 1e3:>13.3f} "
               f"{statistics.median(pack) * 1e3:>15.3f} {state_kb:>9.1f} "
-              f"{statistics.median(stored if not more else stored[1:]) / 1e3:>10.1f}")
+              f"{statistics.median(stored if not more else stored[1:]) / 1e3:>10.1f} "
+              f"{statistics.median(restore) * 1e3:>11.2f}")
 
 
 def _arrays(tree):

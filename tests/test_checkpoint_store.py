@@ -67,6 +67,12 @@ def test_a_restored_stream_continues_exactly_as_the_original(tmp_path, rec, algo
     assert name == "s" and state["stream"].next_seq == 7200
     np.testing.assert_array_equal(back._feat, st.pipeline._feat)
     np.testing.assert_array_equal(back._frames, st.pipeline._frames)
+    # the detector's neighbour lists, lrd and LOF are not stored but rebuilt, bit for bit
+    assert "_nn_d" not in snapshot(st)["__d__"][1][1]["s"]["segmenter"]["s"]
+    live, again = st.pipeline.segmenter, back.segmenter
+    assert again.buffer_lof().size == live.buffer_lof().size > 100
+    np.testing.assert_array_equal(again.buffer_lof(), live.buffer_lof())
+    np.testing.assert_array_equal(again._lrd, live._lrd)
     twin = StreamState("s", 1, rec.fps, back, 0.0)
     twin.next_seq = st.next_seq
     # the detector's whole state came back: the next 10 s give the same cuts
@@ -81,7 +87,7 @@ def test_a_round_stores_only_the_chunks_that_changed(tmp_path, rec, algorithms):
     more(st, rec, STEP)
     second = store_bytes(store, [("s", st.next_seq, snapshot(st))])
     # the full state is ~700 kB; 2 s of frames change the ring's newest rows and part of
-    # the detector (measured 113 kB, benchmarks/daemon_faults.py)
+    # the detector (measured 62 kB, benchmarks/daemon_faults.py)
     assert first > 600_000
     assert second < first / 4
     # the old chunks that no checkpoint uses any more went in the same transaction

@@ -340,6 +340,36 @@ def ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, 
 
 
 @njit(cache=True, nogil=True)
+def ext_rebuild(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
+                centres, k, excl):
+    """Recompute everything :func:`ext_insert` derives from ``vecs``, ``seqs`` and
+    ``centres``: norms, full candidate lists (``nn_idx.shape[1]`` nearest eligible points),
+    ``trunc``, lrd and LOF; the other slots' lists, lrd and LOF are zero (as after an
+    eviction). The arrays must be zero on entry (fresh).
+
+    The first ``k`` candidates of every list are the exact ``k`` nearest (ties by age) in the
+    incremental state as in this one, and lrd/LOF sum the same values in the same order, so
+    the result equals the incrementally maintained state in lrd and LOF bit for bit and in
+    every later update; only the candidates beyond ``k`` may differ (they are then complete).
+
+    Returns the number of points whose LOF was computed.
+    """
+    n_slots = seqs.shape[0]
+    for p in range(n_slots):
+        if seqs[p] < 0:
+            continue
+        s = 0.0  # the same float operations as ext_insert
+        for d in range(vecs.shape[1]):
+            s += float(vecs[p, d]) * float(vecs[p, d])
+        norms[p] = s
+    for p in range(n_slots):
+        if seqs[p] >= 0:
+            _scan(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, centres, p, excl)
+            mark[p] = 1
+    return _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k)
+
+
+@njit(cache=True, nogil=True)
 def ext_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
                slot, k, excl):
     """:func:`ext_evict` followed by the lrd/LOF update.

@@ -24,7 +24,7 @@ log = logging.getLogger("streamseg.daemon")
 
 PACE = 1.0
 NICE = 10  # the writer thread's niceness (absolute; a lower one is never asked for)
-FORMAT = 4  # of the checkpoint blobs; another value is ignored at restore (with a warning)
+FORMAT = 5  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS checkpoints (

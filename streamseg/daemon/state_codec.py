@@ -6,7 +6,9 @@ values in the writer thread, an array of more than :data:`CHUNK` bytes as the di
 content-addressed chunks (XXH3-128 of :data:`CHUNK` bytes each, trailing zero bytes not
 stored); :func:`load` rebuilds it. Only plain values, numpy arrays, tuples, deques, dicts and
 objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``, rebuilt field by field)
-are written or read.
+are written or read. A class may name fields it can recompute from the others in
+``_derived_state``: they are not written, and :func:`load` calls the object's
+``_rebuild_derived()`` once its other fields are set (the cut detector's neighbour lists).
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ def dump(obj):
     cls = type(obj)
     if not cls.__module__.startswith("streamseg."):
         raise TypeError(f"cannot checkpoint a {cls.__module__}.{cls.__qualname__}")
-    skip = SKIP.get(cls, ())
+    skip = SKIP.get(cls, ()) + getattr(cls, "_derived_state", ())
     names = [n for c in cls.__mro__ for n in getattr(c, "__slots__", ())]
     if hasattr(obj, "__dict__"):
         names += list(vars(obj))
@@ -86,6 +88,8 @@ def load(obj, chunks=None):
         out = cls.__new__(cls)
         for k, v in obj["s"].items():
             object.__setattr__(out, k, load(v, chunks))  # also frozen dataclasses
+        if hasattr(cls, "_derived_state"):
+            out._rebuild_derived()
         return out
     raise TypeError(f"unknown checkpoint value with keys {sorted(obj)[:5]}")
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from streamseg._kernels import lof as _kl
 from streamseg._kernels import lof_stream as _ks
 from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
@@ -95,14 +96,26 @@ class StreamingLOFSegmenter:
         self._rb = np.zeros((g["history"], self._cols), dtype=np.int8)
         self._rv = np.zeros(g["history"], dtype=np.uint8)
         self._cur = np.zeros(d, dtype=np.int64)
-        self._left = np.zeros(d, dtype=np.int64)
-        self._right = np.zeros(d, dtype=np.int64)
         if w > np.iinfo(np.uint16).max:
             raise ParameterError(f"window of {w} frames is too long: at most 65535 frames "
                                  "(lower window_s)")
         self._vecs = np.zeros((n, d), dtype=np.uint16)  # integer counts <= window frames
-        self._norms = np.zeros(n)
         self._seqs = np.full(n, -1, dtype=np.int64)
+        self._centres = np.zeros(n, dtype=np.int64)
+        self._allocate_derived()
+
+    # Recomputed from the rest (the window vectors, their sequence numbers and centres) or
+    # scratch: a checkpoint need not store them (streamseg.daemon.state_codec), and they are
+    # half of what changes between two checkpoints of a full stream (scattered list updates)
+    _derived_state = ("_norms", "_nn_idx", "_nn_d", "_nn_key", "_nn_cnt", "_trunc", "_lrd",
+                      "_lof", "_mark", "_work", "_curve", "_keep", "_stack", "_left", "_right")
+
+    def _allocate_derived(self) -> None:
+        g, k, n = self.geometry, self.config.k, self._seqs.shape[0]
+        d = self._vecs.shape[1]
+        self._left = np.zeros(d, dtype=np.int64)
+        self._right = np.zeros(d, dtype=np.int64)
+        self._norms = np.zeros(n)
         # 2k nearest candidates per window: an eviction then almost never empties a list below
         # k, which would force an O(n d) rescan of the buffer (on 86_01, about 9 rescans per
         # window with k candidates, 0.8 with 1.5k, 0.002 with 2k)
@@ -115,11 +128,19 @@ class StreamingLOFSegmenter:
         self._lrd = np.zeros(n)
         self._lof = np.zeros(n)
         self._mark = np.zeros(n, dtype=np.int64)
-        self._centres = np.zeros(n, dtype=np.int64)
         self._work = np.zeros(n)
         self._curve = np.zeros(n)
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
         self._stack = np.zeros(4 * (2 * g["delay"] + 1) + 4, dtype=np.int64)
+
+    def _rebuild_derived(self) -> None:
+        """Recompute :attr:`_derived_state` from the buffered windows (after a restore):
+        the same LOF values and the same later cuts as the state it was saved from
+        (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
+        self._allocate_derived()
+        _kl.ext_rebuild(self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d,
+                        self._nn_key, self._nn_cnt, self._trunc, self._lrd, self._lof,
+                        self._mark, self._centres, self.config.k, int(self._geo[_ks.GEO_EXCLUSION]))
 
     # ---- feeding ---------------------------------------------------------------------------
     def learn_one(self, angles_row) -> list[CutEvent]:
