@@ -14,7 +14,8 @@ Run: ``.venv/bin/python benchmarks/daemon_throughput.py [--frames 60000] [--repe
 2. Capacity: S streams of CMU 86_01 at real time (120 Hz, ``--stream-batch`` frames per
    packet, starts staggered over 1 s; the recording repeated when a row lasts longer than
    it), relabelling on; for each S the received and offered
-   frame rates, packet latency p50/p99, relabels per second. A count is "sustained" when the
+   frame rates, packet latency p50/p99, relabels per second, and the share of one core the
+   event log and checkpoints took (``durability CPU %``). A count is "sustained" when the
    daemon takes >= 98% of the offered frames and p99 latency stays < 100 ms.
 """
 
@@ -242,7 +243,8 @@ def capacity(rec, counts, batch, seconds, state_dir=False, repeats=1):
           + ("; the event log + checkpoints off and on, runs interleaved (the order "
              "alternating)" if state_dir else ""))
     print(f"{'streams':>8} {'offered f/s':>12} {'taken f/s':>10} {'p50 ms':>8} {'p99 ms':>8} "
-          f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9}")
+          f"{'relabels/s':>10} {'s between relabels/stream':>26} {'sustained':>9} "
+          f"{'durability CPU %':>16}")
     placeholder = ID.decode()
     # the recording repeated (an abrupt join) so that no stream ends before the row does
     reps = int(np.ceil((seconds + 2) * rec.fps / rec.n_frames))
@@ -258,23 +260,25 @@ def capacity(rec, counts, batch, seconds, state_dir=False, repeats=1):
                 runs[on].append(capacity_run(rec, tmpl, announce, n, batch, seconds, on,
                                              max(counts) + 10))
         for on in ((False, True) if state_dir else (False,)):
-            taken, p50, p99, rel = (statistics.median(r[i] for r in runs[on]) for i in range(4))
+            taken, p50, p99, rel, cpu = (statistics.median(r[i] for r in runs[on])
+                                         for i in range(5))
             offered = n * rec.fps
             ok = taken >= 0.98 * offered and p99 < 0.1
             print(f"{n:>8} {offered:>12,.0f} {taken:>10,.0f} {p50 * 1e3:>8.2f} "
                   f"{p99 * 1e3:>8.2f} {rel:>10.2f} {n / rel if rel else float('inf'):>26.1f} "
-                  f"{'yes' if ok else 'NO':>9}"
+                  f"{'yes' if ok else 'NO':>9} {100 * cpu:>16.1f}"
                   + ((" log on" if on else " log off") if state_dir else ""))
         if state_dir:
             med = {on: [statistics.median(r[i] for r in runs[on]) for i in range(4)]
                    for on in runs}
-            ratio = [a / b for a, b in zip(med[True], med[False])]
+            ratio = [a / b if b else float("nan") for a, b in zip(med[True][:4], med[False][:4])]
             print(f"{'':>8} on/off: taken {ratio[0]:.3f}, relabels/s {ratio[3]:.3f}, "
                   f"p50 {ratio[1]:.3f}, p99 {ratio[2]:.3f}")
 
 
 def capacity_run(rec, tmpl, announce, n, batch, seconds, on, max_streams):
-    """(taken frames/s, p50 s, p99 s, relabels/s) of one run of ``n`` real-time streams."""
+    """(taken frames/s, p50 s, p99 s, relabels/s, durability CPU s/s) of one run of ``n``
+    real-time streams."""
     import tempfile
 
     tmp = tempfile.TemporaryDirectory() if on else None
@@ -288,12 +292,12 @@ def capacity_run(rec, tmpl, announce, n, batch, seconds, on, max_streams):
     time.sleep(1.5)
     go.set()
     time.sleep(2.0)  # all streams started and the buffers filling
-    f0, r0 = d.n_frames, d.totals["relabels"]
+    f0, r0, c0 = d.n_frames, d.totals["relabels"], durability_cpu(d)
     d.latency.reset()
     t0 = time.perf_counter()
     time.sleep(seconds - 2.5)
     dt = time.perf_counter() - t0
-    f1, r1 = d.n_frames, d.totals["relabels"]
+    f1, r1, c1 = d.n_frames, d.totals["relabels"], durability_cpu(d)
     p50, p99 = d.latency.percentiles()
     p.join()
     d.stop()
@@ -302,7 +306,16 @@ def capacity_run(rec, tmpl, announce, n, batch, seconds, on, max_streams):
         tmp.cleanup()
     nan = float("nan")
     return ((f1 - f0) / dt, nan if p50 is None else p50, nan if p99 is None else p99,
-            (r1 - r0) / dt)
+            (r1 - r0) / dt, (c1 - c0) / dt)
+
+
+def durability_cpu(d) -> float:
+    """Seconds the daemon has spent on durability: the loop's time copying states and the
+    checkpoint and event-log writer threads' own CPU time (not their pauses; little
+    affected by other load on the machine)."""
+    return (d.checkpoint_seconds
+            + (d.checkpoints.cpu_seconds if d.checkpoints is not None else 0.0)
+            + (d.eventlog.cpu_seconds if d.eventlog is not None else 0.0))
 
 
 def main():

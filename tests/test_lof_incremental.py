@@ -6,8 +6,14 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from streamseg._kernels.lof import (ext_delete, ext_evict, ext_insert, ext_rebuild, inc_delete,
-                                    inc_insert)
+from streamseg._kernels.lof import (
+    ext_delete,
+    ext_evict,
+    ext_insert,
+    ext_rebuild,
+    inc_delete,
+    inc_insert,
+)
 from streamseg._kernels.peaks import robust_threshold, select_kth
 from tests.naive import naive_cosine_lof, naive_robust_threshold, naive_sorted_neighbours
 

@@ -76,6 +76,7 @@ class CheckpointStore:
         self.written = 0
         self.bytes = 0
         self.write_seconds = 0.0
+        self.cpu_seconds = 0.0
         self._thread = threading.Thread(target=self._run, name="streamseg-checkpoint",
                                         daemon=True)
         self._thread.start()
@@ -161,7 +162,7 @@ class CheckpointStore:
                 return
 
     def _write(self, batch: list) -> None:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.thread_time()
         rows, gone = {}, set()
         for op in batch:  # the newest state of each stream wins; a forget after it too
             if op[0] == "put":
@@ -207,6 +208,7 @@ class CheckpointStore:
                 pass
         self.rounds += 1
         self.write_seconds += time.perf_counter() - t0
+        self.cpu_seconds += time.thread_time() - c0  # the writer's own CPU, not its pauses
 
 
 def open_store(config) -> CheckpointStore | None:

@@ -96,6 +96,7 @@ class EventLog:
         self.deleted = 0
         self.batches = 0
         self.write_seconds = 0.0
+        self.cpu_seconds = 0.0  # the writer thread's CPU time (batches and retention)
         self.live_bytes = 0  # measured by the last retention pass
         self.retentions = 0
         self._next_retention = 0.0
@@ -169,6 +170,7 @@ class EventLog:
                 time.sleep(self.flush_interval)  # gather a batch
             with self._swap:
                 self._inflight, self._pending = self._pending, []
+            c0 = time.thread_time()
             if self._inflight:
                 self._write(self._inflight)
             with self._swap:
@@ -177,6 +179,7 @@ class EventLog:
             if now >= self._next_retention:
                 self._next_retention = now + self.retention_interval
                 self._retain()
+            self.cpu_seconds += time.thread_time() - c0
             if stopping and not self._pending:
                 return
 
