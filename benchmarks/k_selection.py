@@ -20,6 +20,8 @@ Criteria (``piece`` = ``max_len_s / 2`` = 1 s at the defaults, as the library's 
 * ``sil1``: the library's default, the best silhouette under the DTAK distance ``2 - 2
   DTAK`` on pieces of 1 s (every 0.5 s), a piece labelled by its most frequent label;
 * ``sil2``: the same on pieces of 2 s (``max_len_s``);
+* ``silpiece(f)``: the same on pieces of f x ``max_len_s`` (the piece length chosen on the
+  train pair);
 * ``silfine``: the same with HACA's fine segments (primitives) as the pieces;
 * ``merge(tau)``: the largest K whose clusters are all distinct: for every pair, the mean
   between-cluster DTAK similarity of the 1 s pieces over the geometric mean of the two
@@ -303,6 +305,7 @@ def crit_consensus(case, _=None):
 CRITERIA = {
     "sil1": (crit_sil, [0.5]),
     "sil2": (crit_sil, [1.0]),
+    "silpiece": (crit_sil, [0.25, 0.5, 1.0, 1.5, 2.0, 3.0]),
     "silfine": (crit_silfine, [None]),
     "merge": (crit_merge, [0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.95]),
     "mindur": (crit_mindur, [0.5, 1.0, 1.5, 2.0, 3.0]),
