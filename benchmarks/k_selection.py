@@ -34,6 +34,7 @@ Criteria (``piece`` = ``max_len_s / 2`` = 1 s at the defaults, as the library's 
 * ``margin(delta)``: the smallest K whose ``sil1`` is within delta of the best
   (``relmargin``: at least the fraction r of the best);
 * ``silsigma(f)``: ``sil1`` under a frame kernel f x the default bandwidth;
+* ``ch``: the Calinski-Harabasz index of the 1 s pieces in the DTAK kernel's feature space;
 * ``consensus``: the K whose labelling agrees best (mean ARI) with those of the other K;
 * ``stab(S)``: the K whose coarse labelling agrees best (mean pairwise ARI) over S coarse
   seeds, the smallest K within 0.02 of the best.
@@ -293,6 +294,24 @@ def crit_silsigma(case, factor):
                      for k in case.fits})
 
 
+def crit_ch(case, _=None):
+    """Calinski-Harabasz in the feature space of the 1 s piece DTAK kernel."""
+    starts, p, S = case.pieces(case.config.max_len_s * 0.5)
+    n = S.shape[0]
+    total = n - S.sum() / n
+    scores = {}
+    for k in case.fits:
+        lab = _piece_labels(case.labels(k), starts, p)
+        ids = np.unique(lab)
+        if ids.size < 2 or ids.size >= n:
+            continue
+        within = sum((lab == c).sum() - S[np.ix_(lab == c, lab == c)].sum() / (lab == c).sum()
+                     for c in ids)
+        c = ids.size
+        scores[k] = ((total - within) / (c - 1)) / max(within / (n - c), 1e-12)
+    return _argbest(scores) if scores else min(case.fits)
+
+
 def crit_consensus(case, _=None):
     """The K whose labelling agrees best (mean ARI) with the labellings of every other K."""
     ks = sorted(case.fits)
@@ -316,6 +335,7 @@ CRITERIA = {
     "relmargin": (crit_margin, ["r0.95", "r0.9", "r0.85", "r0.8"]),
     "consensus": (crit_consensus, [None]),
     "silsigma": (crit_silsigma, [0.5, 2.0, 4.0, 8.0]),
+    "ch": (crit_ch, [None]),
 }
 
 
