@@ -40,6 +40,7 @@ Criteria (``piece`` = ``max_len_s / 2`` = 1 s at the defaults, as the library's 
   seeds, the smallest K within 0.02 of the best.
 
 Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]``
+(every criterion: about 2 minutes on the shared 2-core machine; ``stab`` refits twice more)
 """
 
 from __future__ import annotations
@@ -100,14 +101,16 @@ class Case:
     def labels(self, k):
         return np.asarray(self.fits[k].labels_)
 
-    def dtak(self, bounds):
-        """(m, m) DTAK between frame ranges [(s, e)] on the strided frame kernel."""
-        m = self.Kf.shape[0]
+    def dtak(self, bounds, Kf=None):
+        """(m, m) DTAK between frame ranges [(s, e)] on the strided frame kernel ``Kf``
+        (default: the configured one)."""
+        Kf = self.Kf if Kf is None else Kf
+        m = Kf.shape[0]
         b = []
         for s, e in bounds:
             a = min(s // self.stride, m - 1)
             b.append((a, max(a + 1, min(e // self.stride, m))))
-        return segment_dtak(self.Kf, b)
+        return segment_dtak(Kf, b)
 
     def pieces(self, seconds_or_frames, frames=False):
         """(starts, length, S) for equal pieces every length // 2."""
@@ -283,12 +286,8 @@ def crit_silsigma(case, factor):
                           else None)
         p = max(2, min(int(round(case.config.max_len_s * 0.5 * case.fps)), n))
         starts = np.arange(0, n - p + 1, max(1, p // 2))
-        m = Kf.shape[0]
-        b = []
-        for s in starts:
-            a = min(s // case.stride, m - 1)
-            b.append((a, max(a + 1, min((s + p) // case.stride, m))))
-        case._pieces[key] = (starts, p, np.clip(2.0 - 2.0 * segment_dtak(Kf, b), 0.0, None))
+        S = case.dtak([(s, s + p) for s in starts], Kf)
+        case._pieces[key] = (starts, p, np.clip(2.0 - 2.0 * S, 0.0, None))
     starts, p, D = case._pieces[key]
     return _argbest({k: silhouette(D, _piece_labels(case.labels(k), starts, p))
                      for k in case.fits})
