@@ -146,6 +146,12 @@ class LOFConfig:
         frame), over ``speed_lag_s``; causal, so online and offline columns are equal.
     speed_lag_s : float
         Lag of the speed columns, seconds.
+    novelty : float
+        Second confirmation (0 disables it): the histograms of the whole current segment (the
+        frames since the previous cut, as far back as the detector's frame ring reaches:
+        ``history`` frames before the decision, about 3.3 s before the cut with the defaults
+        at 120 Hz) and of the ``contrast_s`` seconds after the cut (clipped to the frames seen)
+        must differ by at least this cosine distance.
     """
 
     window_s: float = 1.75
@@ -166,6 +172,7 @@ class LOFConfig:
     contrast_s: float = 2.0
     speed_max: float = 2.0
     speed_lag_s: float = 0.1
+    novelty: float = 0.15
 
     def __post_init__(self):
         _check("window_s", self.window_s, self.window_s > 0, "a window length > 0 seconds")
@@ -209,6 +216,8 @@ class LOFConfig:
         _check("speed_max", self.speed_max, self.speed_max >= 0,
                "a speed >= 0 rad/s (0: no speed columns)")
         _check("speed_lag_s", self.speed_lag_s, self.speed_lag_s > 0, "a lag > 0 seconds")
+        _check("novelty", self.novelty, 0 <= self.novelty <= 1,
+               "a cosine distance in [0, 1] (0: no novelty check)")
 
     @property
     def n_features(self) -> int:
@@ -225,12 +234,13 @@ class LOFConfig:
 
         The paper states no peak threshold or delay; the adaptive rule is kept with the
         values it had before the defaults moved to short actions (2.5 s delay, LOF floor 1.3).
-        The cut is the peak window's centre (``refine_s = 0``), no contrast confirmation, and
+        The cut is the peak window's centre (``refine_s = 0``), no contrast or novelty
+        confirmation, and
         the features are the 8 bone angles (no inclinations, no speeds), as in the paper.
         """
         values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0,
                       refine_s=0.0, inclinations=False, min_contrast=0.0, delay_s=2.5,
-                      min_score=1.3, speed_max=0.0)
+                      min_score=1.3, speed_max=0.0, novelty=0.0)
         values.update(overrides)
         return cls(**values)
 

@@ -86,7 +86,7 @@ class StreamingLOFSegmenter:
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"], g["contrast"]], dtype=np.int64)
         self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
-                            g["min_gap"], c.min_contrast], dtype=np.float64)
+                            g["min_gap"], c.min_contrast, c.novelty], dtype=np.float64)
         assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
         self._st = _ks.new_state()
