@@ -209,6 +209,23 @@ def naive_contrast(angles, bins, g, window, n_avail, oldest=0):
     return max(0.0, 1.0 - float(a @ b) / np.sqrt(float(a @ a) * float(b @ b)))
 
 
+def naive_span_contrast(angles, bins, lo, g, hi):
+    """``1 - cos`` between the per-angle histogram counts of the frames ``[lo, g)`` and
+    ``[g, hi)`` (frames without NaN only); -1 when a side has no valid frame."""
+    angles = np.asarray(angles, dtype=float)
+
+    def hist(block):
+        block = block[np.isfinite(block).all(axis=1)]
+        if len(block) == 0:
+            return None
+        return naive_window_counts(block, len(block), 1, bins)[0][0]
+
+    a, b = hist(angles[lo:g]), hist(angles[g:hi])
+    if a is None or b is None:
+        return -1.0
+    return max(0.0, 1.0 - float(a @ b) / np.sqrt(float(a @ a) * float(b @ b)))
+
+
 def naive_sorted_neighbours(x, times=None, exclusion=0):
     """Every row's eligible neighbours (itself and rows closer than ``exclusion`` in time
     excluded) as ``(distance, index)`` pairs sorted by distance then index."""
