@@ -135,6 +135,9 @@ def test_bad_input_raises():
         own.learn_many(np.ones((10, 8)))
     with pytest.raises(ParameterError, match="fps"):
         StreamingLOFSegmenter(FAST, fps=0)
+    for bad in (-0.1, 1.5):
+        with pytest.raises(ParameterError, match="novelty"):
+            LOFConfig(novelty=bad)
 
 
 def test_warmup_and_cheap_creation():
