@@ -33,8 +33,10 @@ class StreamingLOFSegmenter:
     count histograms of the ``window`` frames before and after it differ most (cosine distance),
     among the frames already seen, and confirmed when at least ``window`` frames after it have
     been seen and the histograms of the ``contrast`` frames before it (since the previous cut at
-    most) and after it differ by ``min_contrast`` (see :class:`LOFConfig`). The offline segmenter
-    makes these same decisions over a whole file.
+    most) and after it differ by ``min_contrast``, and when the histograms of the whole current
+    segment (since the previous cut, as far back as the frame ring holds) and of the
+    ``contrast`` frames after it differ by ``novelty`` (see :class:`LOFConfig`). The offline
+    segmenter makes these same decisions over a whole file.
     (The frame ring holds ``history`` frames, enough without NaN-dropped windows; after drops
     the search may be clipped to the frames still held.)
 
