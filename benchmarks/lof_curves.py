@@ -247,7 +247,7 @@ def counts_of(cuts, truth, windows):
     return s
 
 
-EVERY = dict(threshold_mads=0.0, min_score=0.0, min_contrast=0.0)
+EVERY = dict(threshold_mads=0.0, min_score=0.0, min_contrast=0.0, novelty=0.0)
 
 
 class Candidate:

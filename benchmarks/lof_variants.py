@@ -566,7 +566,7 @@ def part6_ceiling():
 
     raw = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
     d = LOFConfig()
-    every = replace(d, threshold_mads=0.0, min_score=0.0, min_contrast=0.0)
+    every = replace(d, threshold_mads=0.0, min_score=0.0, min_contrast=0.0, novelty=0.0)
     half = int(0.5 * FPS)
     print("\n6b. the LOF curve's own ceiling, pooled over all 14 recordings: cuts / correct / "
           "true (label window + 0.5 s)")

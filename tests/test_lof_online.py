@@ -165,10 +165,10 @@ def test_online_lof_equals_offline_on_86_01(angles_86_01):
     np.testing.assert_array_equal(s.buffer_centres(), off.centres_)
 
 
-def _naive_replay(angles):
+def _naive_replay(angles, cfg=None):
     """The live cuts of ``angles`` (shorter than the buffer) and their naive replay:
     (online, replay, peaks the contrast rejected, peaks the novelty check rejected)."""
-    cfg = LOFConfig()
+    cfg = LOFConfig() if cfg is None else cfg
     s = StreamingLOFSegmenter(cfg, fps=120)
     online = [c.frame for c in s.learn_many(angles)]
     off = LOFSegmenter(cfg, fps=120).fit(angles)
@@ -192,9 +192,8 @@ def _naive_replay(angles):
                                    g["window"], n_avail, first)
             # the confirming two-sample contrast, with the frames seen at the decision
             since = replay[-1] if replay else 0  # the before side starts at the last cut
-            if n_avail - cut < g["window"] or naive_contrast(
-                    cols, cfg.bins, cut, g["contrast"], n_avail, since) \
-                    < cfg.min_contrast:
+            if cfg.min_contrast > 0 and (n_avail - cut < g["window"] or naive_contrast(
+                    cols, cfg.bins, cut, g["contrast"], n_avail, since) < cfg.min_contrast):
                 rejected += 1
                 continue
             # novelty: the whole current segment, as far back as the frame ring holds
@@ -227,8 +226,13 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01, data_d
     assert online == replay and len(online) >= 5 and rejected >= 1
     rec = io.read(data_dir / "cmu_exercise" / "14_14.amc.gz",
                   skeleton=data_dir / "cmu86" / "86.asf")
-    online, replay, _, novel = _naive_replay(skel.bone_angles(rec.positions, rec.skeleton,
-                                                              inclinations=True))
+    a = skel.bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    online, replay, _, novel = _naive_replay(a)
+    assert online == replay and len(online) >= 5 and novel >= 1
+    # the novelty check alone, cuts at window centres: the frame ring still holds its sides
+    alone = LOFConfig(refine_s=0.0, min_contrast=0.0)
+    assert alone.frames(120)["history"] > alone.frames(120)["window"]
+    online, replay, _, novel = _naive_replay(a, alone)
     assert online == replay and len(online) >= 5 and novel >= 1
 
 

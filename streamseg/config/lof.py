@@ -286,7 +286,9 @@ class LOFConfig:
         # a cut is decided delay * step + window - 1 - window // 2 frames after its window's
         # centre; localisation looks refine + window frames before that centre
         contrast = max(1, int(round(self.contrast_s * fps)))
-        back = max(window if refine else 0, contrast if self.min_contrast > 0 else 0)
+        # the contrast and the novelty check read contrast frames before/after the cut: held
+        back = max(window if refine else 0,
+                   contrast if self.min_contrast > 0 or self.novelty > 0 else 0)
         history = window if back == 0 else delay * step + window + refine + back + 1
         return dict(
             window=window,
