@@ -16,7 +16,8 @@ by window from those snapshots, calling the same numba pieces (``robust_threshol
   which must reach ``min_contrast2``: a change must hold at two time scales;
 - ``novelty``: the histogram of the whole current segment (previous cut .. cut frame) and the
   after side (``contrast`` frames, clipped to the frames seen) differ by at least ``novelty``
-  (cosine distance), and the current segment has lasted at least ``min_seg`` frames.
+  (cosine distance), and the current segment has lasted at least ``min_seg`` frames (adopted
+  in round 4, ``lof_variants.py --part 7``: ``LOFConfig.novelty``, default from the config).
 
 Frame ring: the replay holds the whole recording's frame bins; every read is clipped to the
 frames the streaming detector still holds (its ``history``), so with no extra rule the replay
@@ -70,11 +71,12 @@ def snapshots(angles, config: LOFConfig, fps: float) -> Snapshots:
 
 def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=None,
            mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
-           novelty=0.0, min_seg=0, contrast2=0, min_contrast2=0.0,
+           novelty=None, min_seg=0, contrast2=0, min_contrast2=0.0,
            adaptive_k=None, fb=None):
     """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
 
-    ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score).
+    ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score), ``novelty``
+    ``config.novelty`` (the library's check since round 4; None: the config's).
     ``adaptive_k = (snaps_by_k, alpha, k_max)``: each decision reads the LOF curve of
     ``k = clip(round(alpha * median segment length so far / step), config.k, k_max)`` (the
     segments the stream's own cuts closed; ``config.k`` before the first cut).
@@ -84,6 +86,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     delay, min_gap, step, window = g["delay"], g["min_gap"], g["step"], g["window"]
     history, n = g["history"], snaps.n_frames
     n_mads = c.threshold_mads if mads is None else mads
+    novelty = c.novelty if novelty is None else novelty
     if fb is None:  # the columns the library histograms (the features and their speeds)
         fb = frame_bins(lof_columns(angles, c, fps), c.bins)
     bins_, valid = fb

@@ -68,8 +68,8 @@ from streamseg.evaluation.metrics import cut_scores  # noqa: E402
 from streamseg.offline.lof import frame_bins  # noqa: E402
 
 HALF = int(0.5 * FPS)
-#: the detector this round started from (round 2's defaults: no speed columns)
-BASE = LOFConfig(speed_max=0.0)
+#: the detector this round started from (round 2's defaults: no speed columns, no novelty)
+BASE = LOFConfig(speed_max=0.0, novelty=0.0)
 LRD_EPS = 1e-10
 
 
@@ -247,7 +247,7 @@ def counts_of(cuts, truth, windows):
     return s
 
 
-EVERY = dict(threshold_mads=0.0, min_score=0.0, min_contrast=0.0)
+EVERY = dict(threshold_mads=0.0, min_score=0.0, min_contrast=0.0, novelty=0.0)
 
 
 class Candidate:

@@ -19,10 +19,12 @@
 
 * speed columns (``--speed-columns``): the defaults against ``LOFConfig(speed_max=0)`` (the
   detector without the angular-speed columns), interleaved run by run, median of 25.
+* novelty check (``--novelty``): the defaults against ``LOFConfig(novelty=0)``, the same way.
 
 Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
      .venv/bin/python benchmarks/lof_speed.py --steady      (about 20 s)
      .venv/bin/python benchmarks/lof_speed.py --speed-columns      (about a minute)
+     .venv/bin/python benchmarks/lof_speed.py --novelty      (about a minute)
 """
 
 from __future__ import annotations
@@ -176,10 +178,11 @@ def steady_state(buffers=(15.0, 30.0, 75.0), n=60_000, runs=3):
               f"{1e6 / per_full:14,.0f} {det.n_lof_updates_ / det.n_windows_:19.1f}")
 
 
-def speed_columns_cost(runs=25, n=60_000):
+def speed_columns_cost(runs=25, n=60_000, cfgs=None, what="speed columns"):
     """The angular-speed columns' cost: the defaults against ``speed_max = 0`` (the detector
     without them, the same code path otherwise), interleaved run by run so machine load hits
-    both alike; the ratio is of medians."""
+    both alike; the ratio is of medians. ``cfgs`` (two labelled configs, the first measured
+    against the second) compares another option the same way (``--novelty``)."""
     rec = recording()
     angles = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
     a86 = bone_angles(*(lambda r: (r.positions, r.skeleton))(read(
@@ -187,7 +190,8 @@ def speed_columns_cost(runs=25, n=60_000):
         inclinations=INCL)
     cyc = np.ascontiguousarray(np.tile(a86, (n // len(a86) + 1, 1))[:n])
     warmup()
-    cfgs = {"speeds (defaults)": LOFConfig(), "no speeds": LOFConfig(speed_max=0.0)}
+    if cfgs is None:
+        cfgs = {"speeds (defaults)": LOFConfig(), "no speeds": LOFConfig(speed_max=0.0)}
 
     def full_buffer(cfg):  # us/frame with the 75 s buffer full
         det = StreamingLOFSegmenter(cfg, rec.fps)
@@ -211,9 +215,10 @@ def speed_columns_cost(runs=25, n=60_000):
         for t, fn in tasks.items():
             for k, c in cfgs.items():
                 res[t, k].append(fn(c))
-    print(f"speed columns on/off, interleaved, median of {runs} runs ({N} frames; buffer "
+    print(f"{what} on/off, interleaved, median of {runs} runs ({N} frames; buffer "
           f"full: 86_01 cycled to {n})")
-    print(f"{'computation':44s} {'speeds':>12s} {'no speeds':>12s} {'ratio':>6s}")
+    on_label, off_label = (k.split(" (")[0] for k in cfgs)
+    print(f"{'computation':44s} {on_label:>12s} {off_label:>12s} {'ratio':>6s}")
     for t in tasks:
         on, off = (float(np.median(res[t, k])) for k in cfgs)
         print(f"{t:44s} {on:12,.2f} {off:12,.2f} {on / off:6.2f}")
@@ -227,6 +232,10 @@ def main():
         return
     if "--speed-columns" in sys.argv[1:]:
         speed_columns_cost()
+        return
+    if "--novelty" in sys.argv[1:]:
+        speed_columns_cost(cfgs={"novelty (defaults)": LOFConfig(),
+                                 "no novelty": LOFConfig(novelty=0.0)}, what="novelty check")
         return
 
     warnings.filterwarnings("ignore")

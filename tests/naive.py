@@ -190,23 +190,35 @@ def naive_refine_cut(angles, bins, centre, radius, window, n_avail, first=0):
     return at
 
 
-def naive_contrast(angles, bins, g, window, n_avail, oldest=0):
-    """``1 - cos`` between the per-angle histogram counts of the frames ``[g - window, g)``
-    and ``[g, g + window)``, each clipped to ``[oldest, n_avail)`` (frames without NaN only);
-    -1 when a side has no valid frame."""
-    angles = np.asarray(angles, dtype=float)
-
+def _sides_distance(left, right, bins):
+    """``1 - cos`` between the per-angle histogram counts of two blocks of frames (frames
+    without NaN only); -1 when a block has no valid frame."""
     def hist(block):
         block = block[np.isfinite(block).all(axis=1)]
         if len(block) == 0:
             return None
         return naive_window_counts(block, len(block), 1, bins)[0][0]
 
-    a = hist(angles[max(oldest, g - window):min(g, n_avail)])
-    b = hist(angles[max(oldest, g):min(g + window, n_avail)])
+    a, b = hist(left), hist(right)
     if a is None or b is None:
         return -1.0
     return max(0.0, 1.0 - float(a @ b) / np.sqrt(float(a @ a) * float(b @ b)))
+
+
+def naive_contrast(angles, bins, g, window, n_avail, oldest=0):
+    """``1 - cos`` between the per-angle histogram counts of the frames ``[g - window, g)``
+    and ``[g, g + window)``, each clipped to ``[oldest, n_avail)`` (frames without NaN only);
+    -1 when a side has no valid frame."""
+    angles = np.asarray(angles, dtype=float)
+    return _sides_distance(angles[max(oldest, g - window):min(g, n_avail)],
+                           angles[max(oldest, g):min(g + window, n_avail)], bins)
+
+
+def naive_span_contrast(angles, bins, lo, g, hi):
+    """``1 - cos`` between the per-angle histogram counts of the frames ``[lo, g)`` and
+    ``[g, hi)`` (frames without NaN only); -1 when a side has no valid frame."""
+    angles = np.asarray(angles, dtype=float)
+    return _sides_distance(angles[lo:g], angles[g:hi], bins)
 
 
 def naive_sorted_neighbours(x, times=None, exclusion=0):

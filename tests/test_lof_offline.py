@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from sklearn.neighbors import LocalOutlierFactor as sklearn_lof  # the test oracle
 
-from streamseg._kernels.histogram import contrast_at, refine_cut
+from streamseg._kernels.histogram import contrast_at, refine_cut, span_contrast
 from streamseg._kernels.peaks import dp_keep, peak_windows
 from streamseg.config import LOFConfig
 from streamseg.exceptions import NotFittedError, ParameterError
@@ -26,6 +26,7 @@ from tests.naive import (
     naive_douglas_peucker,
     naive_peak_windows,
     naive_refine_cut,
+    naive_span_contrast,
     naive_window_counts,
 )
 
@@ -255,6 +256,26 @@ def test_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, w
         contrast_at(fb, valid, n, g, window, bins, n_avail, oldest, left, right)
 
 
+@settings(max_examples=80, deadline=None)
+@given(data=st.data(), n=st.integers(1, 120), bins=st.integers(2, 6))
+def test_span_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, bins):
+    """The novelty check's statistic: sides of any length, as the naive twin computes them."""
+    a = data.draw(arrays(np.float64, (n, 8), elements=st.one_of(
+        st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan))))
+    hi = data.draw(st.integers(0, n))
+    g = data.draw(st.integers(0, hi))
+    lo = data.draw(st.integers(0, g))
+    fb, valid = frame_bins(a, bins)
+    left, right = np.zeros(8 * bins, dtype=np.int64), np.zeros(8 * bins, dtype=np.int64)
+    got = span_contrast(fb, valid, n, lo, g, hi, bins, left, right)
+    assert got == pytest.approx(naive_span_contrast(a, bins, lo, g, hi), abs=1e-12)
+    size = data.draw(st.integers(max(1, hi - lo), max(1, n)))
+    ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
+    for f in range(lo, hi):
+        ring[f % size], rv[f % size] = fb[f], valid[f]
+    assert span_contrast(ring, rv, size, lo, g, hi, bins, left, right) == got
+
+
 def test_contrast_hand_derived_values():
     """Two angles, 2 bins: [0.1, 0.1] x 10 then [3.0, 0.1] x 10."""
     a = np.array([[0.1] * 8] * 10 + [[3.0] + [0.1] * 7] * 10)
@@ -266,3 +287,10 @@ def test_contrast_hand_derived_values():
     assert contrast_at(fb, valid, 20, 5, 5, 2, 20, 0, left, right) == 0.0
     # no frame on the right yet: undefined
     assert contrast_at(fb, valid, 20, 10, 10, 2, 10, 0, left, right) == -1.0
+    # sides of any length: 5 frames of the first half against the 10 of the second (the same
+    # 1/8); a segment of 10 + 5 frames against the last 5 (angle 0: (10, 5) . (0, 5))
+    assert span_contrast(fb, valid, 20, 5, 10, 20, 2, left, right) == pytest.approx(1 / 8)
+    assert span_contrast(fb, valid, 20, 0, 15, 20, 2, left, right) == pytest.approx(
+        1 - (10 * 0 + 5 * 5 + 7 * 15 * 5) / np.sqrt((10 ** 2 + 5 ** 2 + 7 * 15 ** 2)
+                                                    * (5 ** 2 + 7 * 5 ** 2)))
+    assert span_contrast(fb, valid, 20, 10, 10, 20, 2, left, right) == -1.0

@@ -13,7 +13,7 @@ from streamseg.offline.lof import LOFSegmenter
 from streamseg.online.events import CutEvent
 from streamseg.online.lof import StreamingLOFSegmenter, warmup
 from streamseg.online.speed_features import lof_columns
-from tests.naive import naive_contrast, naive_refine_cut
+from tests.naive import naive_contrast, naive_refine_cut, naive_span_contrast
 
 FAST = LOFConfig(window_s=0.5, step_s=0.1, k=5, buffer_s=6.0, delay_s=0.5)
 D = LOFConfig().n_features  # 8 bone angles + 9 inclinations
@@ -135,6 +135,9 @@ def test_bad_input_raises():
         own.learn_many(np.ones((10, 8)))
     with pytest.raises(ParameterError, match="fps"):
         StreamingLOFSegmenter(FAST, fps=0)
+    for bad in (-0.1, 1.5):
+        with pytest.raises(ParameterError, match="novelty"):
+            LOFConfig(novelty=bad)
 
 
 def test_warmup_and_cheap_creation():
@@ -162,26 +165,19 @@ def test_online_lof_equals_offline_on_86_01(angles_86_01):
     np.testing.assert_array_equal(s.buffer_centres(), off.centres_)
 
 
-def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
-    """Each streaming decision equals the offline LOF + peak rule on the windows it had.
-
-    Window w is decided when window w + delay arrives, so its LOF is the offline LOF of the
-    prefix of windows 0..w+delay, and its threshold uses that prefix's curve; the cut frame is
-    localised with the frames up to the end of window w + delay and confirmed by the contrast
-    of the frames before and after it seen by then. Recomputing that offline (naive
-    localisation and contrast) for every window reproduces the emitted cuts exactly, and the
-    confirmation rejects at least one peak.
-    """
-    cfg = LOFConfig()
+def _naive_replay(angles, cfg=None):
+    """The live cuts of ``angles`` (shorter than the buffer) and their naive replay:
+    (online, replay, peaks the contrast rejected, peaks the novelty check rejected)."""
+    cfg = LOFConfig() if cfg is None else cfg
     s = StreamingLOFSegmenter(cfg, fps=120)
-    online = [c.frame for c in s.learn_many(angles_86_01)]
-    off = LOFSegmenter(cfg, fps=120).fit(angles_86_01)
+    online = [c.frame for c in s.learn_many(angles)]
+    off = LOFSegmenter(cfg, fps=120).fit(angles)
     g = s.geometry
     delay, m = g["delay"], len(off.lof_)
     keep = np.zeros(2 * delay + 1, dtype=np.uint8)
     stack = np.zeros(8 * delay + 8, dtype=np.int64)
-    replay, last, rejected = [], -(1 << 40), 0
-    cols = lof_columns(angles_86_01, cfg, 120)  # what is histogrammed: features and speeds
+    replay, last, rejected, novel = [], -(1 << 40), 0, 0
+    cols = lof_columns(angles, cfg, 120)  # what is histogrammed: features and speeds
     for w in range(m - delay):
         t = w + delay
         y = lof_batch(off.counts_[:t + 1], cfg.k, off.centres_[:t + 1], 0)[0]
@@ -196,14 +192,48 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01):
                                    g["window"], n_avail, first)
             # the confirming two-sample contrast, with the frames seen at the decision
             since = replay[-1] if replay else 0  # the before side starts at the last cut
-            if n_avail - cut < g["window"] or naive_contrast(
-                    cols, cfg.bins, cut, g["contrast"], n_avail, since) \
-                    < cfg.min_contrast:
+            if cfg.min_contrast > 0 and (n_avail - cut < g["window"] or naive_contrast(
+                    cols, cfg.bins, cut, g["contrast"], n_avail, since) < cfg.min_contrast):
                 rejected += 1
+                continue
+            # novelty: the whole current segment, as far back as the frame ring holds
+            ring_old = max(0, n_avail - g["history"])
+            if naive_span_contrast(cols, cfg.bins, max(since, ring_old), cut,
+                                   min(cut + g["contrast"], n_avail)) < cfg.novelty:
+                novel += 1
                 continue
             replay.append(cut)
             last = w
+    return online, replay, rejected, novel
+
+
+def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01, data_dir):
+    """Each streaming decision equals the offline LOF + peak rule on the windows it had.
+
+    Window w is decided when window w + delay arrives, so its LOF is the offline LOF of the
+    prefix of windows 0..w+delay, and its threshold uses that prefix's curve; the cut frame is
+    localised with the frames up to the end of window w + delay and confirmed by the contrast
+    of the frames before and after it seen by then, and by the novelty of the whole current
+    segment (since the last cut, as far back as the frame ring holds) against the after side.
+    Recomputing that offline (naive localisation, contrast and novelty) for every window
+    reproduces the emitted cuts exactly on 86_01 and 14_14; the contrast rejects a peak on
+    86_01, the novelty check one on 14_14 (a false cut at frame 4348, inside the twists).
+    """
+    from streamseg import io
+    from streamseg import skeleton as skel
+
+    online, replay, rejected, _ = _naive_replay(angles_86_01)
     assert online == replay and len(online) >= 5 and rejected >= 1
+    rec = io.read(data_dir / "cmu_exercise" / "14_14.amc.gz",
+                  skeleton=data_dir / "cmu86" / "86.asf")
+    a = skel.bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    online, replay, _, novel = _naive_replay(a)
+    assert online == replay and len(online) >= 5 and novel >= 1
+    # the novelty check alone, cuts at window centres: the frame ring still holds its sides
+    alone = LOFConfig(refine_s=0.0, min_contrast=0.0)
+    assert alone.frames(120)["history"] > alone.frames(120)["window"]
+    online, replay, _, novel = _naive_replay(a, alone)
+    assert online == replay and len(online) >= 5 and novel >= 1
 
 
 def test_offline_cuts_are_the_live_decisions(angles_86_01):

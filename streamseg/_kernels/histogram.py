@@ -200,3 +200,31 @@ def contrast_at(ring, valid, size, g, window, bins, n_avail, oldest, left, right
     if d == UNDEFINED:
         return -1.0
     return 0.0 if d < 0.0 else d
+
+
+@njit(cache=True, nogil=True)
+def span_contrast(ring, valid, size, lo, g, hi, bins, left, right):
+    """Cosine distance ``1 - cos`` between the count vectors of frames ``[lo, g)`` and
+    ``[g, hi)`` (valid frames only): :func:`contrast_at` with sides of any length, e.g. the
+    whole current segment against what follows it (the novelty check).
+
+    Returns -1.0 when a side holds no valid frame.
+
+    Parameters
+    ----------
+    ring, valid, size, bins : as :func:`refine_cut`
+    lo, g, hi : int
+        The two sides are ``[lo, g)`` and ``[g, hi)``; every frame in them must be held.
+    left, right : int64 (n_angles * bins,), scratch
+    """
+    for d in range(left.shape[0]):
+        left[d] = 0
+        right[d] = 0
+    for f in range(lo, g):
+        _add_frame(left, ring, valid, size, f, bins, 1)
+    for f in range(g, hi):
+        _add_frame(right, ring, valid, size, f, bins, 1)
+    d = _cos_distance(left, right)
+    if d == UNDEFINED:
+        return -1.0
+    return 0.0 if d < 0.0 else d

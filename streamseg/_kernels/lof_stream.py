@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from streamseg._kernels.histogram import contrast_at, refine_cut
+from streamseg._kernels.histogram import contrast_at, refine_cut, span_contrast
 from streamseg._kernels.lof import ext_evict, ext_insert
 from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
 
@@ -44,7 +44,8 @@ P_MADS = 2
 P_MIN_SCORE = 3
 P_MIN_GAP = 4
 P_MIN_CONTRAST = 5
-P_SIZE = 6
+P_NOVELTY = 6
+P_SIZE = 7
 
 NO_CUT = -(1 << 40)
 
@@ -83,7 +84,11 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
     ``p[P_MIN_CONTRAST] > 0`` the cut is
     confirmed only when at least ``window`` frames after it have been seen and the contrast of
     the ``geo[GEO_CONTRAST]`` frames before (since the previous cut at most) and after it
-    (:func:`contrast_at`) reaches ``p[P_MIN_CONTRAST]``.
+    (:func:`contrast_at`) reaches ``p[P_MIN_CONTRAST]``. With ``p[P_NOVELTY] > 0`` the
+    current segment must also differ from what follows: the histograms of the frames since the
+    previous cut (at most the frames the ring still holds) and of the ``geo[GEO_CONTRAST]``
+    frames after the cut (clipped to those seen) differ by at least ``p[P_NOVELTY]``
+    (:func:`span_contrast`).
     """
     rb, rv, _, left, right = frames
     seqs, lof, centres = lofs[2], lofs[9], lofs[11]
@@ -128,6 +133,15 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
                               max(0, st[ST_FRAMES] - size, st[ST_LAST_CUT_FRAME]), left, right)
             if con < p[P_MIN_CONTRAST]:
                 return n_ev
+        if p[P_NOVELTY] > 0.0:
+            # the whole current segment, not only its last contrast frames: a change that only
+            # undoes a brief excursion inside the segment does not start a new one
+            size = rb.shape[0]
+            seen = st[ST_FRAMES]
+            nov = span_contrast(rb, rv, size, max(0, seen - size, st[ST_LAST_CUT_FRAME]), c,
+                                min(c + geo[GEO_CONTRAST], seen), geo[GEO_BINS], left, right)
+            if nov < p[P_NOVELTY]:
+                return n_ev
         st[ST_LAST_CUT_FRAME] = c
         ev_frame[n_ev] = c
         ev_score[n_ev] = yw
@@ -143,7 +157,7 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events):
 
     ``geo`` (int64, slots ``GEO_*``) = (bins, window, step, min_valid, k, exclusion frames,
     refine radius frames, contrast frames); ``p`` (float64, slots ``P_*``) = (delay, tol,
-    n_mads, min_score, min_gap, min_contrast). The arrays come in groups (tuples):
+    n_mads, min_score, min_gap, min_contrast, novelty). The arrays come in groups (tuples):
     ``frames = (rb, rv, cur, left, right)``, ``lofs = (vecs, norms, seqs, nn_idx, nn_d, nn_key,
     nn_cnt, trunc, lrd, lof, mark, centres)``, ``scratch = (work, curve, keep, stack)``,
     ``events = (ev_frame, ev_score, ev_emit)``. ``rb``/``rv`` are a ring of

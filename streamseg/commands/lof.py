@@ -26,7 +26,7 @@ _FIELDS = {"window": "window_s", "step": "step_s", "bins": "bins", "k": "k",
            "buffer": "buffer_s", "delay": "delay_s", "threshold": "threshold_mads",
            "min_score": "min_score", "exclusion": "exclusion", "refine": "refine_s",
            "inclinations": "inclinations", "min_contrast": "min_contrast",
-           "contrast": "contrast_s"}
+           "contrast": "contrast_s", "novelty": "novelty"}
 
 
 def add_arguments(group) -> None:
@@ -65,6 +65,10 @@ def add_arguments(group) -> None:
     group.add_argument("--contrast", type=float, metavar="S",
                        help=f"seconds on each side of the confirming contrast (default "
                             f"{_D.contrast_s:g})")
+    group.add_argument("--novelty", type=float, metavar="D",
+                       help="confirm a cut only when the whole current segment and the "
+                            "contrast seconds after the cut differ by this cosine distance "
+                            f"(default {_D.novelty:g}; 0: no novelty check, as in the paper)")
     group.add_argument("--inclinations", choices=("on", "off"), type=str.lower,
                        help="add each bone's inclination from the up axis to the 8 bone "
                             "angles (default on; the paper preset: off)")

@@ -34,8 +34,10 @@ class StreamingLOFSegmenter:
     count histograms of the ``window`` frames before and after it differ most (cosine distance),
     among the frames already seen, and confirmed when at least ``window`` frames after it have
     been seen and the histograms of the ``contrast`` frames before it (since the previous cut at
-    most) and after it differ by ``min_contrast`` (see :class:`LOFConfig`). The offline segmenter
-    makes these same decisions over a whole file.
+    most) and after it differ by ``min_contrast``, and when the histograms of the whole current
+    segment (since the previous cut, as far back as the frame ring holds) and of the
+    ``contrast`` frames after it differ by ``novelty`` (see :class:`LOFConfig`). The offline
+    segmenter makes these same decisions over a whole file.
     (The frame ring holds ``history`` frames, enough without NaN-dropped windows; after drops
     the search may be clipped to the frames still held.)
 
@@ -87,7 +89,7 @@ class StreamingLOFSegmenter:
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"], g["contrast"]], dtype=np.int64)
         self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
-                            g["min_gap"], c.min_contrast], dtype=np.float64)
+                            g["min_gap"], c.min_contrast, c.novelty], dtype=np.float64)
         assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
         self._st = _ks.new_state()
