@@ -23,7 +23,7 @@ from streamseg.daemon.state_codec import load, packable, stored
 log = logging.getLogger("streamseg.daemon")
 
 PACE = 1.0
-NICE = 10  # the writer thread's niceness (absolute; a lower one is never asked for)
+NICE = 10  # the writer thread runs this many nice levels below the daemon (at most 19)
 FORMAT = 5  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
@@ -145,7 +145,9 @@ class CheckpointStore:
         # below the loop and the relabels in the OS scheduler (Linux: nice is per thread): when
         # the cores are saturated, checkpoints come later instead of delaying packets
         try:
-            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), NICE)
+            tid = threading.get_native_id()
+            os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid)
+                                                     + NICE))
         except (AttributeError, OSError):
             pass
         while True:
