@@ -26,7 +26,7 @@ segmenter at 30 Hz without the UKF running at 30 Hz). The UKF output is cached
 (``.bench_cache/``, see ``benchmarks/rep_data.py``).
 
 Run: ``nice -n 5 .venv/bin/python benchmarks/rep_diagnosis.py [--actors bd] [--seeds 0,1]
-[--degradations] [--aggregate] [--set align_snap_pull=0.1]``. Choose on one actor (bd); for
+[--degradations] [--aggregate] [--set refine_band=4.0]``. Choose on one actor (bd); for
 the held-out actors look at ``--aggregate`` only.
 """
 
@@ -223,7 +223,7 @@ def main(argv=None):
                     help="no per-class table (for actors held out of the choice)")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="a RepetitionConfig field changed for the analysis (not the UKF cache "
-                         "key's fields), e.g. --set align_snap_pull=0.1; repeatable")
+                         "key's fields), e.g. --set refine_band=3.0; repeatable")
     args = ap.parse_args(argv)
     actors = args.actors.split(",")
     base = RepetitionConfig()
