@@ -94,7 +94,7 @@ def snap_to_cuts(segs, cuts, radius: int) -> list:
     return [tuple(s) for s in out]
 
 
-def stable_labels(window, previous, votes=None):
+def stable_labels(window, previous):
     """``window`` with its cluster ids mapped onto the stream's ids (module docstring).
 
     Parameters
@@ -103,10 +103,6 @@ def stable_labels(window, previous, votes=None):
         This revision, in stream frames, with its own cluster ids.
     previous : WindowSegmentation or None
         The stream's previous revision (stream ids, and the stream's next free id).
-    votes : dict, optional
-        Window cluster -> {stream id: exemplar frames} from the exemplar memory
-        (:mod:`streamseg.offline.label_memory`): a cluster the overlap does not explain takes
-        the voted id with the most frames that no other cluster has taken.
 
     Returns
     -------
@@ -130,29 +126,6 @@ def stable_labels(window, previous, votes=None):
         seen = max(previous.next_id, 1 + max((lab for _, _, lab in old_segs), default=-1))
         # every id the stream has used is taken: a new cluster gets the next one
         mapping = match_labels(a[both], b[both], set(range(seen)), new_ids=new_ids)
-        if votes:
-            mapping = _recall(mapping, votes, seen)
         next_id = max([seen] + [v + 1 for v in mapping.values()])
     out = [(a, b, mapping[lab]) for a, b, lab in segs]
     return WindowSegmentation(window.start, window.end, out, window.n_clusters, next_id)
-
-
-def _recall(mapping: dict, votes: dict, seen: int) -> dict:
-    """Clusters that got a fresh id (>= ``seen``) take a remembered id they hold the most
-    exemplar frames of, if no other cluster took it; the remaining fresh ids are renumbered
-    from ``seen`` so no id is skipped."""
-    mapping = dict(mapping)
-    fresh = [u for u in sorted(mapping) if mapping[u] >= seen]
-    taken = {v for v in mapping.values() if v < seen}
-    order = sorted(fresh, key=lambda u: -max(votes.get(u, {}).values(), default=0))
-    recalled = set()
-    for u in order:
-        cands = [(cnt, -i) for i, cnt in votes.get(u, {}).items() if i not in taken]
-        if cands:
-            mapping[u] = -max(cands)[1]
-            taken.add(mapping[u])
-            recalled.add(u)
-    rest = [u for u in fresh if u not in recalled]
-    for j, u in enumerate(sorted(rest, key=lambda u: mapping[u])):
-        mapping[u] = seen + j
-    return mapping
