@@ -93,7 +93,8 @@ def _own(S: np.ndarray) -> float:
 
 def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
     """``{(candidate, id): (ratio, best other ratio)}`` for every candidate and remembered id
-    (module docstring)."""
+    (module docstring); the other ids are every remembered one but ``id`` and the candidate
+    itself."""
     ids = sorted(memory.exemplars)
     ex = {j: [np.asarray(a, dtype=np.float64) for a in memory.exemplars[j]] for j in ids}
     own_j = {j: _own(dtak_between(ex[j], ex[j], sigma)) for j in ids}
@@ -106,7 +107,8 @@ def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
             ref = np.nanmax([own_c, own_j[j]]) if np.isfinite([own_c, own_j[j]]).any() else 0.0
             ratios[j] = cross / ref if ref > 0 else 0.0
         for j in ids:
-            other = max((r for i, r in ratios.items() if i != j), default=0.0)
+            # the candidate's own exemplars (a young id remembered last revision) compete not
+            other = max((r for i, r in ratios.items() if i not in (j, c)), default=0.0)
             out[c, j] = (ratios[j], other)
     return out
 
@@ -151,7 +153,7 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     present = sorted({c for _, _, c in segs})
     seen = previous.next_id if previous is not None else 0
     cands = [c for c in present
-             if c >= seen or born.get(c, rev) >= rev - config.recall_within + 1]
+             if c >= seen or born.get(c, -1) >= rev - config.recall_within + 1]
     absent = [j for j in memory.exemplars if j not in present]
     recalled: dict = {}
     proposals: dict = {}
@@ -188,8 +190,15 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
         born.setdefault(mapping[c], rev)
     for j in recalled.values():
         born[j] = -1  # an old id: never a candidate again
-    keep_ids = {mapping[c] for c in present} | set(memory.exemplars)
+    keep_ids = ({mapping[c] for c in present} | set(memory.exemplars)) - set(recalled)
     born = {i: r for i, r in born.items() if i in keep_ids}
     pending = {mapping[c]: j for c, j in proposals.items() if c not in recalled}
-    memory = replace(memory, born=born, pending=pending, revisions=rev + 1)
+    # a young id merged into an old one is gone for good: forget its exemplars too (else they
+    # would compete with the old id's, or be recalled in its place)
+    gone = set(recalled)
+    ex = {i: v for i, v in memory.exemplars.items() if i not in gone}
+    weight = {i: v for i, v in memory.weight.items() if i not in gone}
+    last_seen = {i: v for i, v in memory.last_seen.items() if i not in gone}
+    memory = replace(memory, exemplars=ex, weight=weight, last_seen=last_seen, born=born,
+                     pending=pending, revisions=rev + 1)
     return replace(stable, segments=out, next_id=next_id), memory, recalled
