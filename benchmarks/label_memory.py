@@ -1,5 +1,5 @@
 """Stream-wide ids for actions that return after the relabel history: no memory vs the
-exemplar memory (:mod:`streamseg.offline.label_memory`).
+label memory (:mod:`streamseg.offline.label_memory`, :mod:`streamseg.offline.recall`).
 
 Streams: :func:`streamseg.evaluation.datasets.return_streams`: CMU takes and HDM05 clips
 joined (ABRUPT joins) so that actions come back more than 60 s after they were last seen.
@@ -14,9 +14,16 @@ The final live segmentation (for every frame, the newest revision covering it) i
 against the human action names over the WHOLE stream: Hungarian frame accuracy (a returning
 action that gets a new id is a second cluster, matched to nothing or to another action, so it
 is penalised), and ``returning``: of the frames of actions seen again after a gap longer than
-the history, the share whose id is the id their action had most at its first occurrence.
+the history, the share whose id is the id their action had most at its first occurrence;
+``recalls true:false``: occurrences of an id after a gap longer than the history (only the
+memory joins those) whose majority action is / is not the one of the id's first occurrence
+(false: a new or other action given an old id); ``ids of 2+ actions``: ids whose runs of 1 s
+or more are mostly of different actions (false recalls, or the overlap handing an id on).
 
-Run: .venv/bin/python benchmarks/label_memory.py [--only ret_14_86_14] [--daemon 4]
+``--grid`` sweeps the recall's settings on the two tuning streams (ret_14_86_14, ret_hdm_bd)
+only, the window fits computed once per stream (the memory never changes them).
+
+Run: .venv/bin/python benchmarks/label_memory.py [--only ret_14_86_14] [--daemon 1] [--grid]
 """
 
 from __future__ import annotations
@@ -97,6 +104,20 @@ def recalls(lab, names, fps, history):
     return good, bad, bad_frames
 
 
+def mixed_ids(lab, names, fps, min_s=1.0):
+    """Ids whose runs of at least ``min_s`` seconds are mostly of two or more different human
+    actions (an id that means two actions: a false recall, or the overlap handing an id on)."""
+    edges = np.flatnonzero(np.diff(lab)) + 1
+    starts, ends = np.r_[0, edges], np.r_[edges, lab.size]
+    actions: dict = {}
+    for a, b in zip(starts, ends, strict=True):
+        if lab[a] < 0 or b - a < min_s * fps:
+            continue
+        vals, cnt = np.unique(names[a:b], return_counts=True)
+        actions.setdefault(int(lab[a]), set()).add(vals[cnt.argmax()])
+    return sum(len(v) > 1 for v in actions.values())
+
+
 def returning_share(lab, names, fps, history):
     """Share of frames of returning actions (back after a gap > history) whose id is the one
     their action held most at its first occurrence; and how many such frames."""
@@ -136,7 +157,7 @@ def score(lab, truth, names, fps, history, times, nbytes):
     ret, n_ret = returning_share(lab, names, fps, history)
     good, bad, bad_frames = recalls(lab, names, fps, history)
     return dict(acc=acc, ret=ret, n_ret=n_ret, ids=len(np.unique(lab[lab >= 0])),
-                good=good, bad=bad, bad_s=bad_frames / fps,
+                good=good, bad=bad, bad_s=bad_frames / fps, mixed=mixed_ids(lab, names, fps),
                 med=float(np.median(times)) if times else 0.0, kb=nbytes / 1e3)
 
 
@@ -193,9 +214,9 @@ def main():
     print(f"{mode}; relabel every {args.interval:g} s over the last {args.history:g} s; "
           f"memory {LabelMemoryConfig()}")
     print("| stream | split | s | K true | acc no / memory | returning no / memory | "
-          "ids no / memory | recalls true:false (false s) | relabel s med no / memory | "
-          "memory kB |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "ids no / memory | recalls true:false (false s) | ids of 2+ actions no / memory | "
+          "relabel s med no / memory | memory kB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     for name, (rec, names) in streams.items():
         feats = bone_angles(rec.positions, rec.skeleton, inclinations=True).astype(np.float32)
@@ -216,7 +237,8 @@ def main():
               f"{rec.n_frames / rec.fps:.0f} | {len(np.unique(truth))} | "
               f"{a['acc']:.3f} / {b['acc']:.3f} | {a['ret']:.3f} / {b['ret']:.3f} | "
               f"{a['ids']} / {b['ids']} | {a['good']}:{a['bad']} / {b['good']}:{b['bad']} "
-              f"({b['bad_s']:.1f}) | {a['med']:.2f} / {b['med']:.2f} | "
+              f"({b['bad_s']:.1f}) | {a['mixed']} / {b['mixed']} | "
+              f"{a['med']:.2f} / {b['med']:.2f} | "
               f"{'-' if args.daemon else format(b['kb'], '.0f')} |",
               flush=True)
     print()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -231,6 +233,7 @@ def test_memory_survives_a_checkpoint(tmp_path):
     feats = rng.random((1200, 17)).astype(np.float32)
     mem = new_memory(cfg, FPS, 0).updated([(0, 10, 0), (10, 600, 1), (600, 1190, 2),
                                            (1190, 1200, 0)], feats, np.arange(1200), cfg, FPS)
+    mem = replace(mem, born={1: 0, 2: -1}, pending={2: 1}, revisions=3)  # recall's state
     w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
     store = CheckpointStore(tmp_path)  # the real SQLite file, chunks and all
     store.put([("s", 1200, dump(w))])
@@ -243,6 +246,8 @@ def test_memory_survives_a_checkpoint(tmp_path):
         for a, b in zip(mem.exemplars[i], back.memory.exemplars[i], strict=True):
             assert np.array_equal(a, b)
     assert back.memory.last_seen == mem.last_seen and back.memory.stride == mem.stride
+    assert (back.memory.born, back.memory.pending, back.memory.revisions) == ({1: 0, 2: -1},
+                                                                              {2: 1}, 3)
 
 
 @pytest.mark.slow
