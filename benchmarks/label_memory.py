@@ -23,7 +23,10 @@ or more are mostly of different actions (false recalls, or the overlap handing a
 ``--grid`` sweeps the recall's settings on the two tuning streams (ret_14_86_14, ret_hdm_bd)
 only, the window fits computed once per stream (the memory never changes them).
 
+``--overhead`` times a revision with its window fit cached: what the memory adds.
+
 Run: .venv/bin/python benchmarks/label_memory.py [--only ret_14_86_14] [--daemon 1] [--grid]
+     [--overhead]
 """
 
 from __future__ import annotations
@@ -196,6 +199,25 @@ def grid(streams, args):
             + f" | {np.mean([b['acc'] for b in row]):.3f} |", flush=True)
 
 
+def overhead(streams, args):
+    """Per-revision time of the job function with the window fits cached (computed by a first
+    pass), so what is left is identity matching, the recall and the memory update."""
+    print("| stream | revisions | job s median no / memory | job s max no / memory |")
+    print("|---|---|---|---|")
+    for name, (rec, _) in streams.items():
+        feats = bone_angles(rec.positions, rec.skeleton, inclinations=True).astype(np.float32)
+        feats = feats.astype(np.float64)
+        cache = FitCache()
+        simulate(feats, rec.fps, Algorithms(relabel=cache), args.interval, args.history)
+        t = {}
+        for mem in (False, True):
+            algos = Algorithms(relabel=cache, memory_config=LabelMemoryConfig() if mem else None)
+            t[mem] = simulate(feats, rec.fps, algos, args.interval, args.history)[1]
+        print(f"| {name} | {len(t[True])} | {np.median(t[False]) * 1e3:.1f} ms / "
+              f"{np.median(t[True]) * 1e3:.1f} ms | {np.max(t[False]) * 1e3:.1f} ms / "
+              f"{np.max(t[True]) * 1e3:.1f} ms |", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="")
@@ -204,8 +226,12 @@ def main():
     ap.add_argument("--daemon", type=float, default=0.0, help="real daemon at this speed")
     ap.add_argument("--grid", action="store_true",
                     help="sweep the recall settings on the tuning streams only")
+    ap.add_argument("--overhead", action="store_true",
+                    help="time of a revision without the window fit (fits cached)")
     args = ap.parse_args()
     streams = return_streams(ROOT / "data")
+    if args.overhead:
+        return overhead(streams, args)
     if args.grid:
         return grid({k: streams[k] for k in TRAIN}, args)
     if args.only:

@@ -37,8 +37,14 @@ class LabelMemoryConfig:
         and the next ``recall_within - 1`` ones.
 
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
-    rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB.
-    The defaults were chosen on two streams of ``benchmarks/label_memory.py``.
+    rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB
+    (:meth:`max_bytes`), plus a few integers per id (run length, last frame, birth revision,
+    a pending proposal) for at most ``max_ids`` ids and those of the last revision.
+    ``max_ids``, ``per_id``, ``exemplar_s`` and ``rate_hz`` were chosen on two streams of
+    ``benchmarks/label_memory.py`` in issue 12's second round; the ``recall_*`` settings on
+    the same two (``--grid``, :mod:`streamseg.offline.recall`): ratios 0.3-0.7, margins
+    0-0.2 and ``recall_within`` 2-3 gave the same best result there, the defaults sit in the
+    middle; a ratio of 1 (as similar as the cluster to itself) recalled nothing.
     """
 
     max_ids: int = 16
