@@ -267,3 +267,16 @@ def test_return_streams_bring_actions_back_after_the_history(data_dir):
         assert back, f"{name}: no action returns after 60 s"
         if name.startswith("ret_hdm"):
             assert set(back) == {"squat1Reps", "hopBothLegs1hops"}, name
+
+
+def test_a_memory_from_before_the_recall_state_still_relabels():
+    # a checkpoint of the previous memory shape has no born / pending / revisions
+    X = _blocks([0.5, 1.5, 2.5, 0.5])
+    revs = _revisions(X, memory=True)
+    old = revs[8].window.memory
+    for name in ("born", "pending", "revisions"):
+        del old.__dict__[name]
+    t = revs[9].end
+    res = relabel(Algorithms(memory_config=LabelMemoryConfig()), X[t - 720:t + 120],
+                  np.arange(t - 720, t + 120), FPS, revs[8].window)
+    assert res.segments and res.window.memory.revisions == 1
