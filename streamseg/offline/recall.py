@@ -41,7 +41,7 @@ own similarity, recalled nothing). Whole-stream frame accuracy without / with th
   (0 / 0.685), ret_hdm_dg 0.728 / 0.810 (0.243 / 0.953).
 
 The real daemon at real time (``--daemon 1``: live cuts move boundaries, revisions timed by
-arrival; machine shared, load average 2-4 on 2 cores): ret_14_86_14 0.629 / 0.712
+arrival; shared machine, 1-min load 2-3 on 2 cores, 6.6 at the start): ret_14_86_14 0.629 / 0.712
 (0 / 0.974), ret_hdm_bd 0.615 / 0.686 (0 / 0.609); held out ret_86_14_14_86 0.722 / 0.751
 (0 / 0.423), ret_hdm_bk 0.495 / 0.563 (0 / 0.678), ret_hdm_dg 0.684 / 0.770 (0.276 / 0.987).
 In both modes no id was given to a different action after a gap longer than the history,
