@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -84,18 +86,50 @@ def test_memory_is_bounded_in_ids_and_bytes():
     assert cfg.max_bytes(17) == 3 * 2 * 30 * 17 * 4
 
 
-def test_exemplars_of_ids_still_in_the_window_are_not_appended():
-    cfg = LabelMemoryConfig()
-    mem = new_memory(cfg, FPS).updated([(0, 600, 0), (600, 1200, 1)], np.ones((1200, 4)),
-                                       np.arange(1200), cfg, FPS)
-    assert mem.absent([(0, 600, 0), (600, 1200, 1)], 700) == [0]
-    assert mem.absent([(0, 600, 0), (600, 1200, 1)], 500) == []
-    pieces = mem.pieces([0])
-    assert len(pieces) == cfg.per_id and all(p.shape[1] == 4 for _, p in pieces)
+def _revisions(X, memory, history=6.0, interval=1.0, config=None):
+    """Every revision's Relabelled, as the daemon runs them."""
+    cfg = config or (LabelMemoryConfig() if memory else None)
+    algos = Algorithms(memory_config=cfg)
+    n = X.shape[0]
+    step, span = int(interval * FPS), int(history * FPS)
+    out, previous = [], None
+    for t in list(range(step, n, step)) + [n]:
+        s = max(0, t - span)
+        res = relabel(algos, X[s:t], np.arange(s, t), FPS, previous)
+        previous = res.window
+        out.append(res)
+    return out
+
+
+def test_the_recall_never_changes_a_windows_segmentation():
+    # post hoc: same boundaries in every revision, ids renamed one to one
+    X = _blocks([0.5, 1.5, 2.5, 0.5, 3.5, 1.5])
+    without = _revisions(X, memory=False)
+    with_memory = _revisions(X, memory=True)
+    renamed = 0
+    for a, b in zip(without, with_memory, strict=True):
+        assert [s[:2] for s in a.segments] == [s[:2] for s in b.segments]
+        pairs = {(s[2], t[2]) for s, t in zip(a.segments, b.segments, strict=True)}
+        assert len(pairs) == len({p for p, _ in pairs}) == len({q for _, q in pairs})
+        renamed += any(p != q for p, q in pairs)
+    assert renamed  # the memory did rename something
+
+
+def test_memory_stays_bounded_over_many_actions():
+    cfg = LabelMemoryConfig(max_ids=3)
+    X = _blocks([0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5], seconds=3.0)
+    for res in _revisions(X, memory=True, config=cfg):
+        mem = res.window.memory
+        ids = {s[2] for s in res.segments}
+        assert len(mem.exemplars) <= cfg.max_ids and mem.nbytes <= cfg.max_bytes(X.shape[1])
+        assert len(mem.born) <= cfg.max_ids + len(ids) and len(mem.pending) <= len(ids)
+    assert res.window.next_id >= 8  # eight actions, eight ids
 
 
 @pytest.mark.parametrize("field,value", [("max_ids", 0), ("per_id", 1.5), ("exemplar_s", 0),
-                                         ("rate_hz", -1)])
+                                         ("rate_hz", -1), ("recall_ratio", float("nan")),
+                                         ("recall_margin", -0.1), ("recall_confirm", 3),
+                                         ("recall_pieces", 1), ("recall_within", 0)])
 def test_bad_memory_settings_are_refused(field, value):
     with pytest.raises(ParameterError, match=field):
         LabelMemoryConfig(**{field: value})
@@ -144,16 +178,19 @@ def _replay_in_steps(rec, endpoint, sub, stream, step):
 def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start_daemon,
                                                                  memory):
     """Real daemon over loopback, 15 s history: CMU 14_14's jumping jacks, jog, squats and
-    knee raises (19 s), then the jumping jacks of another take (14_20; an abrupt join). The
-    returning jumping jacks start 15.4 s after the first ones ended, beyond the history: with
-    the memory they get the first ones' id; without it, a new one."""
+    knee raises (19 s), then the jumping jacks of another take (14_20), then punches (86_01,
+    an action not seen before; abrupt joins). The returning jumping jacks start 15.4 s after
+    the first ones ended, beyond the history: with the memory they get the first ones' id;
+    without it, a new one. The punches get a new id either way."""
     from streamseg.commands.listen import listen, subscriber
     from streamseg.evaluation.datasets import _cmu_take, _slice, concatenate
 
     a, _ = _cmu_take(data_dir, "14_14")
     b, _ = _cmu_take(data_dir, "14_20")
+    c, _ = _cmu_take(data_dir, "86_01")
     cut = 2280  # 14_14 up to the end of its knee raises; 14_20 frames 0-431 are jumping jacks
-    rec = concatenate([_slice(a, 0, cut), _slice(b, 0, 432)])[0]
+    back_end = cut + 432
+    rec = concatenate([_slice(a, 0, cut), _slice(b, 0, 432), _slice(c, 1980, 2500)])[0]
     d, ep = start_daemon(relabel_interval=2.5, relabel_history=15.0, relabel_share=1.0,
                          heartbeat=0.05, label_memory=memory)
     sub = subscriber(ep["publish"])
@@ -168,12 +205,14 @@ def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start
         for s, t, lab in e.segments:
             live[s:t] = lab
     first = np.bincount(live[:456]).argmax()  # 14_14 jumping jacks: frames 0-455
-    back = live[cut:]
+    back = live[cut:back_end]
     assert events[-1].start > 456  # the last revisions no longer hold the first ones
     if memory:
         assert np.mean(back == first) >= 0.9
     else:
         assert np.mean(back == first) == 0.0
+    punch = np.bincount(live[back_end:]).argmax()
+    assert punch not in set(live[:back_end].tolist())  # a new action, a new id
 
 
 def test_a_take_within_the_history_relabels_as_without_the_memory():
@@ -194,6 +233,7 @@ def test_memory_survives_a_checkpoint(tmp_path):
     feats = rng.random((1200, 17)).astype(np.float32)
     mem = new_memory(cfg, FPS, 0).updated([(0, 10, 0), (10, 600, 1), (600, 1190, 2),
                                            (1190, 1200, 0)], feats, np.arange(1200), cfg, FPS)
+    mem = replace(mem, born={1: 0, 2: -1}, pending={2: 1}, revisions=3)  # recall's state
     w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
     store = CheckpointStore(tmp_path)  # the real SQLite file, chunks and all
     store.put([("s", 1200, dump(w))])
@@ -206,6 +246,8 @@ def test_memory_survives_a_checkpoint(tmp_path):
         for a, b in zip(mem.exemplars[i], back.memory.exemplars[i], strict=True):
             assert np.array_equal(a, b)
     assert back.memory.last_seen == mem.last_seen and back.memory.stride == mem.stride
+    assert (back.memory.born, back.memory.pending, back.memory.revisions) == ({1: 0, 2: -1},
+                                                                              {2: 1}, 3)
 
 
 @pytest.mark.slow
@@ -225,3 +267,16 @@ def test_return_streams_bring_actions_back_after_the_history(data_dir):
         assert back, f"{name}: no action returns after 60 s"
         if name.startswith("ret_hdm"):
             assert set(back) == {"squat1Reps", "hopBothLegs1hops"}, name
+
+
+def test_a_memory_from_before_the_recall_state_still_relabels():
+    # a checkpoint of the previous memory shape has no born / pending / revisions
+    X = _blocks([0.5, 1.5, 2.5, 0.5])
+    revs = _revisions(X, memory=True)
+    old = revs[8].window.memory
+    for name in ("born", "pending", "revisions"):
+        del old.__dict__[name]
+    t = revs[9].end
+    res = relabel(Algorithms(memory_config=LabelMemoryConfig()), X[t - 720:t + 120],
+                  np.arange(t - 720, t + 120), FPS, revs[8].window)
+    assert res.segments and res.window.memory.revisions == 1

@@ -22,16 +22,40 @@ class LabelMemoryConfig:
         Seconds of features in one exemplar at most.
     rate_hz : float
         Exemplars keep every ``round(fps / rate_hz)``-th frame (at least every frame).
+    recall_ratio : float
+        A candidate cluster takes a remembered id only when its DTAK to the id's exemplars is
+        at least ``recall_ratio`` times the larger of its own pieces' DTAK to each other and
+        the exemplars' to each other (:mod:`streamseg.offline.recall`).
+    recall_margin : float
+        ... and exceeds its ratio to any other remembered id by this much.
+    recall_confirm : int
+        Revisions in a row that must propose the same pair (1 or 2).
+    recall_pieces : int
+        Pieces of a candidate cluster compared at most.
+    recall_within : int
+        A new id can still be recalled (replaced by an old one) in the revision that gave it
+        and the next ``recall_within - 1`` ones.
 
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
-    rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB.
-    The defaults were chosen on two streams of ``benchmarks/label_memory.py``.
+    rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB
+    (:meth:`max_bytes`), plus a few integers per id (run length, last frame, birth revision,
+    a pending proposal) for at most ``max_ids`` ids and those of the last revision.
+    ``max_ids``, ``per_id``, ``exemplar_s`` and ``rate_hz`` were chosen on two streams of
+    ``benchmarks/label_memory.py`` in issue 12's second round; the ``recall_*`` settings on
+    the same two (``--grid``, :mod:`streamseg.offline.recall`): ratios 0.3-0.7, margins
+    0-0.2 and ``recall_within`` 2-3 gave the same best result there, the defaults sit in the
+    middle; a ratio of 1 (as similar as the cluster to itself) recalled nothing.
     """
 
     max_ids: int = 16
     per_id: int = 2
     exemplar_s: float = 2.0
     rate_hz: float = 30.0
+    recall_ratio: float = 0.5
+    recall_margin: float = 0.1
+    recall_confirm: int = 1
+    recall_pieces: int = 4
+    recall_within: int = 2
 
     def __post_init__(self):
         def is_int(v):
@@ -46,6 +70,16 @@ class LabelMemoryConfig:
                "a length > 0 seconds")
         _check("rate_hz", self.rate_hz, isinstance(self.rate_hz, (int, float))
                and not isinstance(self.rate_hz, bool) and self.rate_hz > 0, "a rate > 0 Hz")
+        for name in ("recall_ratio", "recall_margin"):
+            v = getattr(self, name)
+            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
+                   and 0 <= v < float("inf"), "a finite number >= 0")
+        _check("recall_confirm", self.recall_confirm, self.recall_confirm in (1, 2)
+               and is_int(self.recall_confirm), "1 or 2")
+        _check("recall_pieces", self.recall_pieces, is_int(self.recall_pieces)
+               and self.recall_pieces >= 2, "an integer >= 2")
+        _check("recall_within", self.recall_within, is_int(self.recall_within)
+               and self.recall_within >= 1, "an integer >= 1")
 
     def max_bytes(self, n_features: int) -> int:
         """Upper bound of one stream's memory in bytes for ``n_features`` features."""

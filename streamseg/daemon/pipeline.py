@@ -90,20 +90,18 @@ class Algorithms:
 
         return StreamingLOFSegmenter(self.lof_config or LOFConfig(), fps)
 
-    def relabel(self, features: np.ndarray, start_frame: int, fps: float, exemplars=None):
+    def relabel(self, features: np.ndarray, start_frame: int, fps: float):
         """Windowed ACA of ``features`` (m, d); row 0 is learned frame ``start_frame``.
 
         Cluster ids are the window's own; :func:`relabel` maps the rows to stream frames and
         then makes the ids consistent with the previous relabel (:func:`stable_labels`),
-        because rows and stream frames differ wherever frames were missing. ``exemplars``:
-        remembered exemplars clustered with the window (:mod:`streamseg.offline.label_memory`).
+        because rows and stream frames differ wherever frames were missing.
         """
         from streamseg.offline import relabel_window
 
         fn = self._relabel or relabel_window
-        extra = {"exemplars": exemplars} if exemplars else {}
         return fn(features, start_frame=start_frame, fps=fps, config=self.relabel_config,
-                  previous=None, **extra)
+                  previous=None)
 
     @property
     def relabel_config(self):
@@ -402,16 +400,13 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     from dataclasses import replace
 
     from streamseg.offline.label_memory import new_memory
+    from streamseg.offline.recall import recall
     from streamseg.offline.relabel import WindowSegmentation
 
     t = time.perf_counter()
     start = int(frames[0])
     mcfg = algorithms.memory_config
-    memory = getattr(previous, "memory", None) if mcfg is not None else None
-    pieces = []
-    if memory is not None:
-        pieces = memory.pieces(memory.absent(previous.segments, start))
-    window = algorithms.relabel(features, start, fps, exemplars=pieces)
+    window = algorithms.relabel(features, start, fps)
     m = frames.shape[0]
     segs = []
     for a, b, label in _segment_triplets(window):
@@ -423,10 +418,10 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
     radius = int(round(algorithms.relabel_config.min_len_s * fps))
     segs = snap_to_cuts(segs, [c for c in cuts if start < c < int(frames[-1])], radius)
     k = int(getattr(window, "n_clusters", 0))
-    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous,
-                           votes=getattr(window, "votes", None))
+    stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous)
     if mcfg is not None:
-        memory = memory or new_memory(mcfg, fps, start)
+        memory = getattr(previous, "memory", None) or new_memory(mcfg, fps, start)
+        stable, memory, _ = recall(stable, previous, memory, features, frames, mcfg, fps)
         memory = memory.updated(stable.segments, features, frames, mcfg, fps)
         stable = replace(stable, memory=memory)
     elapsed = time.perf_counter() - t

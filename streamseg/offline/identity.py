@@ -9,43 +9,20 @@ life of the stream. A take no longer than the history (``DaemonConfig.relabel_hi
 60 s) is relabelled whole every revision, so all its actions keep their ids.
 
 An action that returns after the window has moved past its last occurrence has no overlap to
-carry its id, and gets a new one. The exemplar memory (``DaemonConfig.label_memory``, off by
-default; :mod:`streamseg.offline.label_memory`) clusters a few feature segments of each
-remembered id with every window once the window has left the stream's start, and a cluster
-the overlap does not explain takes the id whose exemplars it holds (``votes`` of
-:func:`stable_labels`). Measured on five streams whose actions return after the 60 s history
-(``benchmarks/label_memory.py``, revisions of the daemon's job function every 5 s; the
-settings chosen on ret_14_86_14 and ret_hdm_bd), whole-stream frame accuracy without / with
-the memory, and the share of returning frames that keep their first id:
+carry its id. The label memory (``DaemonConfig.label_memory``, on by default;
+:mod:`streamseg.offline.label_memory`, :mod:`streamseg.offline.recall`) keeps a few exemplar
+segments of each id and, after this matching, lets a cluster the overlap does not explain
+take a remembered id the revision does not hold, on DTAK evidence relative to the data; the
+window's clustering is the one without memory. Figures: :mod:`streamseg.offline.recall`.
 
-* tuning streams: ret_14_86_14 0.633 / 0.743 (0 / 0.376), ret_hdm_bd 0.620 / 0.738 (0 / 0.617);
-* held out: ret_86_14_14_86 0.718 / 0.791 (0 / 0.947), ret_hdm_bk 0.554 / 0.514
-  (0 / 0.315), ret_hdm_dg 0.728 / 0.639 (0.243 / 0).
-
-The real daemon at real time (``--daemon 1``: live cuts move boundaries, revisions are timed
-by arrival) gave other figures: ret_14_86_14 0.636 / 0.735 (0 / 0.331), ret_hdm_bd 0.621 /
-0.601 (0 / 0), ret_86_14_14_86 0.727 / 0.661 (0 / 0.373), ret_hdm_bk 0.507 / 0.570 (0 / 0),
-ret_hdm_dg 0.733 / 0.677 (0.276 / 0); mean 0.645 / 0.649 (0.055 / 0.141).
-
-It does not generalise reliably, hence off: a new action can take an old id when the
-clustering puts it with old exemplars (toe touches took the squats' id for a while), and the
-exemplars change the window's own clustering (K is searched up to ``k_max`` plus the number of
-appended ids), for better or worse. A variant that also appends exemplars while the window
-still holds the whole stream (of ids a revision dropped) raised the accuracy on all five
-streams (mean 0.651 to 0.712; returning share 0.551) but lowered live 14_20 from 0.872 to
-0.770 in ``benchmarks/live_relabel.py --speeds 4``, so it was not kept. Its results moved a
-lot with small changes (on the tuning streams, one exemplar per id instead of two: 0.853 and
-0.635 against 0.774 and 0.738; exemplars of 1.5 s or 3 s: 0.711 / 0.601 and 0.713 / 0.619).
-
-An earlier memory was measured and left out (revisions simulated every 5 s over the last
-20 s of CMU 14_14, whose six actions never return): prototypes of each id (its mean
-features and spread), matched when a new cluster lay within their spread, merged arm circles
-into jumping jacks (frame accuracy 0.886 without the memory, 0.788 with it), and recognised
-neither a returning jumping jack nor a returning jog appended to the take; DTAK prototypes
-either merged the same way (the nearest of the old and current clusters) or never matched
-(within the cluster's own DTAK spread): the window's Gaussian kernel is too local to compare a
-segment with one from long ago by an absolute threshold. Clustering the exemplars with the
-window compares them with the window's clusters instead.
+Two memories were measured and dropped. Exemplars clustered *with* the window (round 2 of
+issue 12; ``benchmarks/label_memory.py`` at commit 14dc192) changed the window's own
+clustering and let a new action take an old id (toe touches took the squats' id): held-out
+whole-stream accuracy +0.07, -0.04, -0.09 in simulated revisions. Before it, prototypes of
+each id (mean features and spread, or DTAK prototypes against an absolute threshold) merged
+arm circles into jumping jacks (frame accuracy 0.886 without, 0.788 with) and recognised
+neither a returning jumping jack nor a returning jog: the window's Gaussian kernel is too
+local for an absolute threshold, hence the relative one of the recall.
 
 :func:`snap_to_cuts` makes the relabel and the live cuts one answer: a boundary between two
 actions moves to a live cut within ``radius`` frames, so a revision does not place the same
@@ -94,7 +71,7 @@ def snap_to_cuts(segs, cuts, radius: int) -> list:
     return [tuple(s) for s in out]
 
 
-def stable_labels(window, previous, votes=None):
+def stable_labels(window, previous):
     """``window`` with its cluster ids mapped onto the stream's ids (module docstring).
 
     Parameters
@@ -103,10 +80,6 @@ def stable_labels(window, previous, votes=None):
         This revision, in stream frames, with its own cluster ids.
     previous : WindowSegmentation or None
         The stream's previous revision (stream ids, and the stream's next free id).
-    votes : dict, optional
-        Window cluster -> {stream id: exemplar frames} from the exemplar memory
-        (:mod:`streamseg.offline.label_memory`): a cluster the overlap does not explain takes
-        the voted id with the most frames that no other cluster has taken.
 
     Returns
     -------
@@ -130,29 +103,6 @@ def stable_labels(window, previous, votes=None):
         seen = max(previous.next_id, 1 + max((lab for _, _, lab in old_segs), default=-1))
         # every id the stream has used is taken: a new cluster gets the next one
         mapping = match_labels(a[both], b[both], set(range(seen)), new_ids=new_ids)
-        if votes:
-            mapping = _recall(mapping, votes, seen)
         next_id = max([seen] + [v + 1 for v in mapping.values()])
     out = [(a, b, mapping[lab]) for a, b, lab in segs]
     return WindowSegmentation(window.start, window.end, out, window.n_clusters, next_id)
-
-
-def _recall(mapping: dict, votes: dict, seen: int) -> dict:
-    """Clusters that got a fresh id (>= ``seen``) take a remembered id they hold the most
-    exemplar frames of, if no other cluster took it; the remaining fresh ids are renumbered
-    from ``seen`` so no id is skipped."""
-    mapping = dict(mapping)
-    fresh = [u for u in sorted(mapping) if mapping[u] >= seen]
-    taken = {v for v in mapping.values() if v < seen}
-    order = sorted(fresh, key=lambda u: -max(votes.get(u, {}).values(), default=0))
-    recalled = set()
-    for u in order:
-        cands = [(cnt, -i) for i, cnt in votes.get(u, {}).items() if i not in taken]
-        if cands:
-            mapping[u] = -max(cands)[1]
-            taken.add(mapping[u])
-            recalled.add(u)
-    rest = [u for u in fresh if u not in recalled]
-    for j, u in enumerate(sorted(rest, key=lambda u: mapping[u])):
-        mapping[u] = seen + j
-    return mapping

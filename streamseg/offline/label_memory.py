@@ -13,34 +13,15 @@ run began and ended inside the window (the first view, until there is a whole on
 more ids are remembered, those the current revision does not hold go first, the ones with the
 shortest run first (short-lived ids of unstable revisions), then the ones seen longest ago.
 
-At the next relabel the exemplars of every remembered id that the previous revision does not
-show inside the new window are appended to the window (:func:`fit_with_exemplars`) and
-clustered *with* it, by the same (H)ACA fit, kernel and bandwidth (the bandwidth rule then
-sees the exemplar frames too): the DTAK compares the new segments with the old ones inside
-one clustering (each cluster against the others), instead of against an absolute threshold,
-which is what made the earlier prototype memory fail (the identity module's docstring). The
-number of actions is searched in ``[2, k_max + n]`` for ``n`` appended ids, since the window
-may hold ``k_max`` actions besides them, and the silhouette that picks K sees the exemplars'
-pieces like the window's. An id votes for the cluster holding more than half of its exemplar
-frames; a window cluster the overlap does not explain then takes the voted id with the most
-exemplar frames in it (:func:`streamseg.offline.identity.stable_labels`); a cluster without
-exemplars or overlap gets a new id.
-
-The joins between the window and the exemplars, and between exemplars, are abrupt; a
-segment of the fit that straddles one is cut there (window segments end at the window's end).
-
-While the window still begins at the stream's first frame nothing is appended: a take within
+The exemplars never enter the window's fit: after the overlap has carried the ids, a cluster
+the overlap does not explain is compared with the remembered ids the revision does not hold,
+and takes one only on strong evidence relative to the data (:mod:`streamseg.offline.recall`).
+While the window still begins at the stream's first frame nothing is recalled: a take within
 the history is relabelled exactly as without the memory (tested).
 
-Measured (``benchmarks/label_memory.py``; the settings were chosen on ret_14_86_14 and
-ret_hdm_bd among per_id 1-3 and exemplar_s 1.5-3 s): see the identity module's docstring.
-It is off by default in the daemon.
-
 Memory per stream: at most ``LabelMemoryConfig.max_bytes(d)`` (130 kB for 17 features with
-the defaults). A relabel with n remembered ids absent from the window clusters up to
-``n * per_id * exemplar_s`` seconds more frames (at most 64 s with the defaults; the
-relabel's median time on the return streams went from 0.25-0.60 s to 0.34-1.22 s on the
-shared machine).
+the defaults), plus two small dicts of ints (``born`` over the ids of the last revision and
+the remembered ones, ``pending`` over the last revision's candidates).
 """
 
 from __future__ import annotations
@@ -67,7 +48,14 @@ class ExemplarMemory:
         Stream id -> end frame (exclusive) of its last segment seen.
     origin : int
         The first frame of the stream's first relabel window: while windows still begin
-        there, nothing has left the history and the memory stays out of the fit.
+        there, nothing has left the history and no id is recalled.
+    born : dict
+        Stream id -> the revision that first gave it (-1: recalled, an old id); kept for the
+        ids of the last revision and the remembered ones (:mod:`streamseg.offline.recall`).
+    pending : dict
+        Candidate id -> remembered id the last revision proposed (``recall_confirm = 2``).
+    revisions : int
+        Revisions seen.
     """
 
     stride: int = 1
@@ -75,28 +63,14 @@ class ExemplarMemory:
     weight: dict = field(default_factory=dict)
     last_seen: dict = field(default_factory=dict)
     origin: int = 0
+    born: dict = field(default_factory=dict)
+    pending: dict = field(default_factory=dict)
+    revisions: int = 0
 
     @property
     def nbytes(self) -> int:
         """Bytes held by the exemplar frames."""
         return int(sum(a.nbytes for ex in self.exemplars.values() for a in ex))
-
-    def absent(self, previous_segments, window_start: int) -> list:
-        """Remembered ids with no frame at or after ``window_start`` in the previous revision's
-        ``previous_segments`` (the ones the overlap cannot carry into the new window)."""
-        if window_start <= self.origin:
-            return []  # the window holds the whole stream: the overlap carries every id
-        present = {int(lab) for _, e, lab in previous_segments if int(e) > window_start}
-        return sorted(i for i in self.exemplars if i not in present)
-
-    def pieces(self, ids) -> list:
-        """``[(id, (L, d) float64 frames), ...]`` for ``ids``, back at the stream's frame rate
-        (each kept frame repeated ``stride`` times)."""
-        out = []
-        for i in ids:
-            for a in self.exemplars.get(i, ()):
-                out.append((int(i), np.repeat(a.astype(np.float64), self.stride, axis=0)))
-        return out
 
     def updated(self, segments, features, frames, config, fps: float) -> ExemplarMemory:
         """The memory after one revision.
@@ -147,7 +121,7 @@ class ExemplarMemory:
                 ex.pop(lab)
                 weight.pop(lab, None)
         seen = {i: seen[i] for i in ex}
-        return ExemplarMemory(self.stride, ex, weight, seen, self.origin)
+        return replace(self, exemplars=ex, weight=weight, last_seen=seen)
 
 
 def new_memory(config, fps: float, origin: int = 0) -> ExemplarMemory:
@@ -165,51 +139,3 @@ def _runs(segments):
         else:
             out.append((a, b, lab))
     return out
-
-
-def fit_with_exemplars(X, pieces, config, fps: float):
-    """(H)ACA of the window ``X`` (n, d) clustered together with exemplar ``pieces``.
-
-    Parameters
-    ----------
-    X : (n, d) array
-    pieces : list of (id, (L, d) array), from :meth:`ExemplarMemory.pieces`
-    config : ACAConfig
-    fps : float
-
-    Returns
-    -------
-    fitted : model_selection.Fitted
-        Labels and segments of the window's ``n`` rows only (segments cut at ``n``).
-    votes : dict
-        Window cluster -> {stream id: exemplar frames}: for each id, the cluster holding more
-        than half of its exemplar frames (ids without such a cluster do not vote).
-    """
-    from streamseg.offline.model_selection import Fitted, fit_aca
-
-    X = np.asarray(X, dtype=np.float64)
-    n = X.shape[0]
-    if not pieces:
-        return fit_aca(X, config, fps), {}
-    ids = sorted({i for i, _ in pieces})
-    cfg = config if config.n_clusters is not None else replace(
-        config, k_max=config.k_max + len(ids))
-    Xc = np.vstack([X] + [p for _, p in pieces])
-    fitted = fit_aca(Xc, cfg, fps)
-    labels = np.asarray(fitted.labels_)
-    counts: dict = {}
-    o = n
-    for i, p in pieces:
-        lab = np.bincount(labels[o:o + p.shape[0]], minlength=labels.max() + 1)
-        counts[i] = counts.get(i, 0) + lab
-        o += p.shape[0]
-    window_clusters = set(np.unique(labels[:n]).tolist())
-    votes: dict = {}
-    for i, c in counts.items():
-        best = int(np.argmax(c))
-        if best in window_clusters and c[best] * 2 > c.sum():
-            votes.setdefault(best, {})[i] = int(c[best])
-    segs = [(s, min(e, n), lab) for s, e, lab in fitted.segments_ if s < n]
-    k = len(np.unique(labels[:n]))
-    out = Fitted(labels[:n].copy(), segs, k, fitted.scores_, fitted.objective_, fitted.reason)
-    return out, votes

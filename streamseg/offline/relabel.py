@@ -14,7 +14,7 @@ label.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -40,11 +40,9 @@ class WindowSegmentation:
     next_id : int
         The stream's next unused id (ids are never reused; see
         :mod:`streamseg.offline.identity`); 0 outside the daemon.
-    votes : dict
-        Window cluster -> {stream id: frames} of the remembered exemplars clustered with the
-        window (:func:`streamseg.offline.label_memory.fit_with_exemplars`); empty without.
     memory : ExemplarMemory or None
-        The stream's exemplar memory after this revision (daemon, when turned on).
+        The stream's exemplar memory after this revision (daemon, when turned on;
+        :mod:`streamseg.offline.label_memory`).
     """
 
     start: int
@@ -52,7 +50,6 @@ class WindowSegmentation:
     segments: list
     n_clusters: int = 0
     next_id: int = 0
-    votes: dict = field(default_factory=dict)
     memory: object = None
 
     def frame_labels(self) -> np.ndarray:
@@ -125,8 +122,7 @@ def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
 
 
 def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
-                   previous: WindowSegmentation | None = None,
-                   exemplars=None) -> WindowSegmentation:
+                   previous: WindowSegmentation | None = None) -> WindowSegmentation:
     """Run (H)ACA on a window and keep its cluster ids consistent with ``previous``.
 
     Parameters
@@ -140,9 +136,6 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     config : ACAConfig
     previous : WindowSegmentation, optional
         The previous window's result; clusters are matched over the frames both windows cover.
-    exemplars : list of (id, (L, d) array), optional
-        Remembered exemplars clustered with the window; their votes come back in ``votes``
-        (:mod:`streamseg.offline.label_memory`).
 
     Returns
     -------
@@ -155,11 +148,11 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     X = np.asarray(features, dtype=np.float64)
     if X.ndim != 2 or X.shape[0] == 0:
         raise ParameterError(f"features must be a non-empty (n, d) array, got {X.shape}")
-    from streamseg.offline.label_memory import fit_with_exemplars
+    from streamseg.offline.model_selection import fit_aca
 
     start = int(start_frame)
     n = X.shape[0]
-    model, votes = fit_with_exemplars(X, exemplars or [], config, fps)
+    model = fit_aca(X, config, fps)
     labels = model.labels_
     used = ()
     old_part = np.zeros(0, dtype=np.int64)
@@ -174,8 +167,7 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     mapping = (match_labels(new_part, old_part, used, new_ids=np.unique(labels))
                if previous is not None else {int(u): int(u) for u in np.unique(labels)})
     segments = [(s + start, e + start, mapping[lab]) for s, e, lab in model.segments_]
-    votes = {mapping[c]: v for c, v in votes.items()}
-    return WindowSegmentation(start, start + n, segments, model.n_clusters_, votes=votes)
+    return WindowSegmentation(start, start + n, segments, model.n_clusters_)
 
 
 def warmup() -> None:
