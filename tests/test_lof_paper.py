@@ -49,7 +49,7 @@ def test_paper_preset_is_the_papers_settings():
     assert (g["window"], g["step"], cfg.bins, cfg.k, cfg.n_features) == (500, 45, 10, 20, 8)
     assert (cfg.peak_rule, cfg.min_score, cfg.min_gap_s, cfg.refine_s) == ("paper", 0, 0, 0)
     assert (cfg.min_contrast, cfg.novelty, cfg.speed_max, cfg.exclusion) == (0, 0, 0, 0)
-    # the delay: half a window (250 frames) and then k windows (20 steps of 45 frames)
+    # the delay: past half a window (250 frames: 6 steps of 45), then k windows
     assert g["delay"] == 26 and g["capacity"] == 200  # the paper's SWnum = 200
     assert LOFConfig().peak_rule == "adaptive"  # the defaults keep their rule
     with pytest.raises(ParameterError, match="peak_rule"):

@@ -283,15 +283,16 @@ class LOFConfig:
           0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, the one whose streaming F1 averaged with its
           grid neighbours is highest (F1 0.62, 0.50, 0.40, 0.22, 0, 0, 0;
           ``benchmarks/lof_accuracy.py`` prints the grid). It is the grid's edge.
-        - ``delay_s = 250 / 120 + 20 * 45 / 120`` (9.6 s, 26 windows): the smallest delay that
+        - ``delay_s = (6 + 20) * 45 / 120`` (9.75 s, 26 windows): the smallest delay that
           lets the peak rule see both sides of a transition's peak. Live, window ``w``'s LOF
           is computed among the windows seen so far; the windows after a transition are
-          outliers themselves until the new action has ``k`` of them, so the curve keeps
-          rising at its end and only falls after the transition once the ``k`` windows after
-          the last window that still holds the peak window's centre (half a window, 250
-          frames, later) exist. With half a window alone (6 windows) the live curve had not
-          turned on 86_01 (F1 0.25-0.36 there). The cost is latency: about 11.8 s
-          (``delay * step + window / 2`` frames after the peak window's centre).
+          outliers themselves until the new action has enough of them, so the curve keeps
+          rising at its end. The first window that no longer holds ``w``'s centre frame is
+          ``w + 6`` (half a window, 250 frames, is 5.6 steps); the curve falls after ``w``
+          once ``k + 1`` such windows exist, each with its ``k`` neighbours among them:
+          window ``w + 6 + k``. With half a window alone (6 windows) the live curve had not
+          turned on 86_01 (F1 0.25-0.36 there). The cost is latency: 1419 frames, 11.8 s,
+          after the peak window's centre (``delay * step + window - 1 - window // 2``).
 
         Offline segmentation applies the same causal rule, so offline and live cuts are equal;
         ``benchmarks/lof_accuracy.py`` also prints the literal offline reading (the whole
@@ -301,7 +302,7 @@ class LOFConfig:
                       refine_s=0.0, inclinations=False, min_contrast=0.0, speed_max=0.0,
                       novelty=0.0, peak_rule="paper", min_score=0.0, threshold_mads=0.0,
                       min_gap_s=0.0, dp_tolerance=PAPER_TOLERANCE,
-                      delay_s=250 / 120 + 20 * 45 / 120)
+                      delay_s=(6 + 20) * 45 / 120)
         values.update(overrides)
         return cls(**values)
 
