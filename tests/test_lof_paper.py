@@ -12,13 +12,13 @@ import pytest
 from streamseg._kernels.lof import lof_batch
 from streamseg.config import LOFConfig
 from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts
-from streamseg.evaluation.metrics import cut_scores
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.offline.lof import LOFSegmenter
-from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.skeleton import bone_angles
 from tests.naive import naive_douglas_peucker
+from tests.test_lof_accuracy import _f1
+from tests.test_lof_accuracy import _live as live_events
 
 FPS = 120.0
 
@@ -30,17 +30,7 @@ def r86(data_dir):
 
 
 def _live(angles, cfg, packet=37):
-    det = StreamingLOFSegmenter(cfg, FPS)
-    ev = []
-    for i in range(0, len(angles), packet):
-        ev += det.learn_many(angles[i:i + packet])
-    return ev + det.finish()
-
-
-def _f1(cuts, truth, windows=None):
-    half = int(0.5 * FPS)
-    return cut_scores(cuts, truth, windows=windows, tolerance=None if windows else half,
-                      margin=half if windows else 0)["f1"]
+    return live_events(angles, packet, cfg)
 
 
 def test_paper_preset_is_the_papers_settings():
