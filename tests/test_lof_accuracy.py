@@ -28,8 +28,9 @@ from streamseg.skeleton import bone_angles
 FPS = 120.0
 
 
-def _live(angles, packet=120):
-    det = StreamingLOFSegmenter(LOFConfig(), FPS)
+def _live(angles, packet=120, config=None):
+    """The live cut events of ``angles`` fed in packets (``config``: None for the defaults)."""
+    det = StreamingLOFSegmenter(LOFConfig() if config is None else config, FPS)
     ev = []
     for i in range(0, len(angles), packet):
         ev += det.learn_many(angles[i:i + packet])

@@ -15,7 +15,13 @@ from numba import njit
 
 from streamseg._kernels.histogram import contrast_at, refine_cut, span_contrast
 from streamseg._kernels.lof import ext_evict, ext_insert
-from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
+from streamseg._kernels.peaks import (
+    curve_range,
+    dominates,
+    is_peak,
+    is_vertex_peak,
+    robust_threshold,
+)
 
 # Named slots of the state and parameter arrays (numba reads module constants at compile time)
 ST_FRAMES = 0
@@ -88,7 +94,9 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
     current segment must also differ from what follows: the histograms of the frames since the
     previous cut (at most the frames the ring still holds) and of the ``geo[GEO_CONTRAST]``
     frames after the cut (clipped to those seen) differ by at least ``p[P_NOVELTY]``
-    (:func:`span_contrast`).
+    (:func:`span_contrast`). ``p[P_MADS] < 0`` selects the paper's rule: no threshold
+    (``min_score`` unused), and the Douglas-Peucker tolerance is ``tol`` times the range of the
+    whole buffered curve instead of the local one.
     """
     rb, rv, _, left, right = frames
     seqs, lof, centres = lofs[2], lofs[9], lofs[11]
@@ -105,14 +113,25 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
     oldest = _curve(seqs, lof, st, curve)
     size = st[ST_BUFFERED]
     yw = curve[w - oldest]
-    thr = robust_threshold(curve, size, n_mads, work)
-    if thr < min_score:
-        thr = min_score
-    if yw < thr:
-        return n_ev
+    if n_mads >= 0.0:
+        thr = robust_threshold(curve, size, n_mads, work)
+        if thr < min_score:
+            thr = min_score
+        if yw < thr:
+            return n_ev
     lo = max(oldest, w - int(delay))
-    if dominates(curve, lo - oldest, hi - oldest, w - oldest, int(min_gap)) and is_peak(
-            curve, lo - oldest, hi - oldest, w - oldest, tol, keep, stack):
+    if not dominates(curve, lo - oldest, hi - oldest, w - oldest, int(min_gap)):
+        return n_ev
+    if n_mads >= 0.0:
+        peak = is_peak(curve, lo - oldest, hi - oldest, w - oldest, tol, keep, stack)
+    else:
+        # the paper's rule (P_MADS < 0): every peak vertex, no threshold; the tolerance is a
+        # fraction of the range of the whole buffered curve, as the paper simplifies its whole
+        # curve, so the wiggles of a flat stretch are not peaks
+        r = curve_range(curve, 0, size - 1)
+        peak = r > 0.0 and is_vertex_peak(curve, lo - oldest, hi - oldest, w - oldest, tol * r,
+                                          keep, stack)
+    if peak:
         c = centres[w % seqs.shape[0]]
         if geo[GEO_REFINE] > 0:
             size = rb.shape[0]

@@ -64,6 +64,15 @@ def is_peak(y, lo, hi, c, tol, keep, stack):
     """
     if c <= lo or c >= hi:
         return False
+    r = curve_range(y, lo, hi)
+    if r <= 0.0:
+        return False
+    return is_vertex_peak(y, lo, hi, c, tol * r, keep, stack)
+
+
+@njit(cache=True, nogil=True)
+def curve_range(y, lo, hi):
+    """``max - min`` of ``y[lo..hi]`` (inclusive)."""
     ymin = y[lo]
     ymax = y[lo]
     for i in range(lo, hi + 1):
@@ -71,9 +80,17 @@ def is_peak(y, lo, hi, c, tol, keep, stack):
             ymin = y[i]
         if y[i] > ymax:
             ymax = y[i]
-    if ymax <= ymin:
+    return ymax - ymin
+
+
+@njit(cache=True, nogil=True)
+def is_vertex_peak(y, lo, hi, c, eps, keep, stack):
+    """Whether ``c`` is a vertex of the Douglas-Peucker simplification of ``y[lo..hi]`` with
+    the absolute tolerance ``eps`` whose neighbouring vertices on both sides are strictly
+    lower (``lo < c < hi``)."""
+    if c <= lo or c >= hi:
         return False
-    dp_keep(y, lo, hi, tol * (ymax - ymin), keep, stack)
+    dp_keep(y, lo, hi, eps, keep, stack)
     if keep[c - lo] == 0:
         return False
     p = c - 1

@@ -35,7 +35,8 @@ def add_arguments(group) -> None:
                        help="stream the frames through the live detector (reports latency)")
     group.add_argument("--preset", choices=("default", "paper"), default="default",
                        help="default: chosen on 86_01 + one HDM05 join; paper: Xing et al. 2015 "
-                            "(500/45 frames at 120 Hz, k=20)")
+                            "(500/45 frames at 120 Hz, k=20, every peak of the simplified "
+                            "LOF curve; 9.75 s delay)")
     group.add_argument("--window", type=float, metavar="S",
                        help=f"LOF window length, seconds (default {_D.window_s:g})")
     group.add_argument("--step", type=float, metavar="S",

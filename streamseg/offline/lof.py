@@ -172,7 +172,8 @@ class LOFSegmenter(Estimator):
     vectors_ : ndarray, shape (m, columns * bins), normalized histograms
     centres_ : ndarray of int64, shape (m,), window centre frames
     lof_ : ndarray, shape (m,), the LOF curve of the whole recording (for inspection)
-    threshold_ : float, the adaptive threshold of that whole curve
+    threshold_ : float or None, the adaptive threshold of that whole curve (None with
+        ``peak_rule = "paper"``: every peak vertex counts)
     cuts_ : ndarray of int64, cut frames: the live detector's decisions over the file
     scores_ : ndarray of float64, the LOF of each cut's window when it was decided
     decided_at_ : ndarray of int64, the frame at which each cut was decided
@@ -218,7 +219,8 @@ class LOFSegmenter(Estimator):
         self.lof_ = lof_scores(counts, c.k, centres, g["exclusion"])
         m = self.lof_.shape[0]
         thr = robust_threshold(self.lof_, m, c.threshold_mads, np.empty(max(m, 1)))
-        self.threshold_ = float(max(thr, c.min_score))
+        self.threshold_ = (None if c.peak_rule == "paper"
+                           else float(max(thr, c.min_score)))
         from streamseg.online.lof import StreamingLOFSegmenter
 
         det = StreamingLOFSegmenter(c, self.fps, n_features=angles.shape[1])

@@ -88,7 +88,9 @@ class StreamingLOFSegmenter:
         # in the order of the kernel's GEO_* and P_* slots
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
                               g["refine"], g["contrast"]], dtype=np.int64)
-        self._p = np.array([g["delay"], c.dp_tolerance, c.threshold_mads, c.min_score,
+        # the kernel reads a negative MAD count as the paper's rule (no threshold)
+        mads = c.threshold_mads if c.peak_rule == "adaptive" else -1.0
+        self._p = np.array([g["delay"], c.dp_tolerance, mads, c.min_score,
                             g["min_gap"], c.min_contrast, c.novelty], dtype=np.float64)
         assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
