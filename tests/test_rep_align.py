@@ -113,3 +113,26 @@ def test_varying_hops_of_an_unseen_actor(data_dir):
     seg = RepetitionSegmenter().fit(take)
     assert seg.count_ == 7
     assert repetition_accuracy(seg.repetitions_, truth) >= 0.85
+
+
+def test_stretch_long_bounds_the_longest_piece_only():
+    """``stretch_long`` caps the longest piece at median * stretch_long (one re-cut round:
+    the median is the input's, 50 frames); the shortest bound and the count stay. Measured
+    (pauses 10, 10, 10, 10, 45, 10 before 40-frame movements): the 85-frame piece becomes 73
+    frames with stretch 2 and at most 60 with stretch_long 1.2."""
+    pauses = [10, 10, 10, 10, 45, 10]
+    F, starts = _pauses_then_moves(pauses)
+    n = F.shape[0]
+    truth = list(zip(starts, [*starts[1:], n]))
+    free = align_repetitions(F, truth, 30.0, rate_hz=30.0, iterations=1)
+    capped = align_repetitions(F, truth, 30.0, rate_hz=30.0, iterations=1, stretch_long=1.2)
+    assert len(free) == len(capped) == len(pauses)
+    assert max(b - a for a, b in free) > 60
+    assert max(b - a for a, b in capped) <= 60
+    assert capped[0][0] == 0 and capped[-1][1] == n
+    same = align_repetitions(F, truth, 30.0, rate_hz=30.0, stretch_long=2.0)
+    assert same == align_repetitions(F, truth, 30.0, rate_hz=30.0)  # = stretch: no change
+    with pytest.raises(ParameterError, match="stretch_long"):
+        align_repetitions(F, truth, 30.0, stretch_long=1.0)
+    with pytest.raises(ValueError, match="align_stretch_long"):
+        RepetitionConfig(align_stretch_long=0.5)

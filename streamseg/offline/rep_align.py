@@ -69,7 +69,7 @@ def _medoid(F, pieces, max_slope):
 
 
 def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterations=2,
-                      max_slope=2):
+                      max_slope=2, stretch_long=None):
     """Re-cut the stretch covered by ``repetitions`` into pieces aligned to a template.
 
     Parameters
@@ -90,6 +90,9 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
         Template, re-cut, new template from the new pieces, ... this many times.
     max_slope : int
         Most sequence frames per template frame in one DTW step (:func:`dtw_cost`).
+    stretch_long : float (> 1), optional
+        The longest piece is ``median * stretch_long`` instead of ``median * stretch`` (a
+        tighter upper bound keeps two repetitions from being merged into one piece).
 
     Returns
     -------
@@ -98,8 +101,11 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
         unchanged when it holds fewer than two repetitions or no tiling fits the bounds.
     """
     reps = [(int(a), int(b)) for a, b in repetitions]
-    if not (stretch > 1) or iterations < 1 or max_slope < 1 or not rate_hz > 0 or not fps > 0:
-        raise ParameterError(f"stretch={stretch!r} must be > 1, iterations={iterations!r} and "
+    long = stretch if stretch_long is None else stretch_long
+    if (not (stretch > 1 and long > 1) or iterations < 1 or max_slope < 1 or not rate_hz > 0
+            or not fps > 0):
+        raise ParameterError(f"stretch={stretch!r} and stretch_long={stretch_long!r} must "
+                             f"be > 1, iterations={iterations!r} and "
                              f"max_slope={max_slope!r} >= 1, rate_hz={rate_hz!r} and "
                              f"fps={fps!r} > 0")
     if len(reps) < 2:
@@ -116,7 +122,7 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
         a, b = pieces[_medoid(Fd, pieces, max_slope)]
         med = float(np.median([y - x for x, y in pieces]))
         lo = max(2, int(math.floor(med / stretch)))
-        hi = max(lo, int(math.ceil(med * stretch)))
+        hi = max(lo, int(math.ceil(med * long)))
         C = open_end_costs(_sq_dist(Fd[a:b], Fd), lo, hi, int(max_slope))
         cuts = best_tiling(C, n, lo, hi)
         if cuts.size < 2:
