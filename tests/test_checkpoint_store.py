@@ -149,3 +149,33 @@ def test_a_damaged_file_is_moved_aside_and_the_store_starts_empty(tmp_path, rec,
     assert [s for s, _ in CheckpointStore(tmp_path).read_all()] == ["s"]
     aside = list(tmp_path.glob("checkpoints.corrupt-*.sqlite"))
     assert len(aside) == 1 and aside[0].read_bytes().startswith(b"not a database")
+
+
+@pytest.mark.daemon
+def test_rounds_space_out_when_they_cost_more_than_the_cpu_budget(tmp_path, rec, start_daemon,
+                                                                  monkeypatch):
+    """The next round waits for its predecessor's cost / CPU_BUDGET (at least the
+    configured interval), and ``stats`` says the spacing in force."""
+    import zmq
+
+    from streamseg import protocol as P
+    from streamseg.commands.listen import request
+    from streamseg.commands.replay import announce_of
+    from streamseg.daemon import checkpoint as ck
+
+    monkeypatch.setattr(ck, "CPU_BUDGET", 1e-7)  # any real round costs far more than this
+    d, ep = start_daemon(state_dir=str(tmp_path / "state"), checkpoint_interval=0.05)
+    totals = request(ep["control"], "stats")["totals"]
+    assert totals["checkpoint_interval_s"] == 0.05
+    sock = zmq.Context.instance().socket(zmq.PUSH)
+    sock.connect(ep["ingest"])
+    sock.send_multipart(P.encode(announce_of(rec, "b")))
+    sock.send_multipart(P.encode(P.Frames("b", 0, 0.0, rec.positions[:240])))
+    for _ in range(3000):  # the first round (interval 0.05 s) writes the stream; the next
+        totals = request(ep["control"], "stats")["totals"]  # start measures its cost
+        if totals["checkpoint_interval_s"] > 0.05:
+            break
+    assert d.checkpoints.written >= 1
+    # cost / 1e-7: a round of one small stream costs tens of microseconds at least
+    assert totals["checkpoint_interval_s"] > 10.0
+    sock.close(linger=1000)

@@ -94,6 +94,8 @@ class Daemon(Intake):
         self._next_ckpt = 0.0
         self._ckpt_round: list = []  # streams still to copy in this checkpoint round
         self._ckpt_resume = 0.0  # monotonic time of the round's next step
+        self._ckpt_spent = 0.0  # checkpoint_seconds + writer CPU when the last round began
+        self.checkpoint_gap = self.config.checkpoint_interval  # s between round starts, now
         self.worker = relabel_worker(self.algorithms, self.config)
         self.default_skeleton = None
         if self.config.default_skeleton:
@@ -335,6 +337,8 @@ class Daemon(Intake):
                    latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
                    latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
                    relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason())
+        if self.checkpoints is not None:
+            out["checkpoint_interval_s"] = round(self.checkpoint_gap, 3)
         return out
 
     # --- control ------------------------------------------------------------------------------
