@@ -117,3 +117,26 @@ def bone_features(seq, cfg: RepetitionConfig, cache: Path | None = CACHE) -> np.
         path.parent.mkdir(parents=True, exist_ok=True)
         np.save(path, X)
     return X
+
+
+def single_clips(seed: int, cfg: RepetitionConfig):
+    """Every clip of ``clips.csv`` alone, clean and Kinect-like (``seed`` draws the noise):
+    yields ``(row, kind, condition, features, fps)``, ``kind`` "repetition" or "action"."""
+    from streamseg.evaluation.datasets import HDM05_REPETITIVE
+
+    rng = np.random.default_rng(seed + 7)
+    root = DATA / "hdm05_reps"
+    with open(root / "clips.csv", newline="") as fh:
+        table = list(csv.DictReader(fh))
+    for row in table:
+        rec = read(root / row["class"] / (row["file"] + ".gz"),
+                   skeleton=root / "asf" / f"HDM_{row['actor']}.asf")
+        kind = "repetition" if row["class"] in HDM05_REPETITIVE else "action"
+        for cond in ("clean", "kinect"):
+            pos, fps = rec.positions, rec.fps
+            if cond == "kinect":
+                pos = kinectify(pos, [], rng)[0]
+                fps = rec.fps / KINECT_FPS_STEP
+            seq = {"recording": Recording(fps, rec.skeleton, pos, source=row["file"]),
+                   "key": f"clip/{row['file']}/{cond}/{seed}"}
+            yield row, kind, cond, bone_features(seq, cfg), fps

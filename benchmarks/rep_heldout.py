@@ -97,33 +97,13 @@ def main(argv=None):
 
 def run_clips(configs, seed):
     """Single clips (as ``repetitions.py --clips``): the share each config calls repetitive."""
-    import csv
+    from rep_data import single_clips
 
-    from rep_data import DATA, KINECT_FPS_STEP, kinectify
-
-    from streamseg.io import read
-    from streamseg.recording import Recording
-
-    rng = np.random.default_rng(seed + 7)
-    root = DATA / "hdm05_reps"
-    with open(root / "clips.csv", newline="") as fh:
-        table = list(csv.DictReader(fh))
     out = {}
-    for row in table:
-        rec = read(root / row["class"] / (row["file"] + ".gz"),
-                   skeleton=root / "asf" / f"HDM_{row['actor']}.asf")
-        kind = "repetition" if row["class"] in HDM05_REPETITIVE else "action"
-        for cond in ("clean", "kinect"):
-            pos, fps = rec.positions, rec.fps
-            if cond == "kinect":
-                pos = kinectify(pos, [], rng)[0]
-                fps = rec.fps / KINECT_FPS_STEP
-            seq = {"recording": Recording(fps, rec.skeleton, pos, source=row["file"]),
-                   "key": f"clip/{row['file']}/{cond}/{seed}"}
-            X = bone_features(seq, configs[0][1])
-            for name, cfg in configs:
-                rep = RepetitionSegmenter(cfg, fps).fit(X).repetitive_
-                out.setdefault((cond, row["actor"], kind), {}).setdefault(name, []).append(rep)
+    for row, kind, cond, X, fps in single_clips(seed, configs[0][1]):
+        for name, cfg in configs:
+            rep = RepetitionSegmenter(cfg, fps).fit(X).repetitive_
+            out.setdefault((cond, row["actor"], kind), {}).setdefault(name, []).append(rep)
     print("\nsingle clips (truth: not repetitive), share counted repetitive")
     print(f"{'condition':9s} {'actor':5s} {'clip':10s} {'n':>3s} "
           + " ".join(f"{name:>10s}" for name, _ in configs))

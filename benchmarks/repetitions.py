@@ -183,35 +183,15 @@ def run_hdm05(args, base):
 def run_clips(args, base):
     """Every single HDM05 clip (one repetition or one action) of every actor: counted as
     repetitive or not (the truth: not), clean and Kinect-like."""
-    import csv
-
-    from rep_data import DATA, KINECT_FPS_STEP, kinectify
-
-    from streamseg.io import read
-    from streamseg.recording import Recording
+    from rep_data import single_clips
 
     others = [("defaults", base)]
     rows = defaultdict(lambda: defaultdict(list))
-    rng = np.random.default_rng(args.seed + 7)
-    with open(DATA / "hdm05_reps" / "clips.csv", newline="") as fh:
-        table = list(csv.DictReader(fh))
     t0 = time.perf_counter()
-    for row in table:
-        root = DATA / "hdm05_reps"
-        rec = read(root / row["class"] / (row["file"] + ".gz"),
-                   skeleton=root / "asf" / f"HDM_{row['actor']}.asf")
-        kind = "repetition" if row["class"] in HDM05_REPETITIVE else "action"
-        for cond in ("clean", "kinect"):
-            pos, fps = rec.positions, rec.fps
-            if cond == "kinect":
-                pos = kinectify(pos, [], rng)[0]
-                fps = rec.fps / KINECT_FPS_STEP
-            seq = {"recording": Recording(fps, rec.skeleton, pos, source=row["file"]),
-                   "key": f"clip/{row['file']}/{cond}/{args.seed}"}
-            X = bone_features(seq, base)
-            for name, cfg in others:
-                seg = RepetitionSegmenter(cfg, fps).fit(X)
-                rows[(cond, row["actor"], kind)][name].append(seg.repetitive_)
+    for row, kind, cond, X, fps in single_clips(args.seed, base):
+        for name, cfg in others:
+            seg = RepetitionSegmenter(cfg, fps).fit(X)
+            rows[(cond, row["actor"], kind)][name].append(seg.repetitive_)
     print(f"\nsingle clips (one repetition or one action; truth: not repetitive), share counted "
           f"repetitive ({time.perf_counter() - t0:.0f} s)")
     print(f"{'condition':9s} {'actor':5s} {'clip':10s} {'n':>3s} " +
