@@ -11,17 +11,11 @@ from streamseg.config.memory import LabelMemoryConfig
 from streamseg.daemon.pipeline import Algorithms, relabel
 from streamseg.exceptions import ParameterError
 from streamseg.offline.label_memory import new_memory
-
-FPS = 120.0
+from tests.motion import FPS, cyclic_blocks
 
 
 def _blocks(levels, seconds=4.0, seed=0, d=6):
-    """Blocks of a noisy cyclic motion around each level (radians), one block per level."""
-    rng = np.random.default_rng(seed)
-    n = int(seconds * FPS)
-    t = np.arange(n)[:, None]
-    return np.concatenate([lv + 0.3 * np.sin(2 * np.pi * t / 60 + np.arange(d))
-                           + rng.normal(0, 0.02, (n, d)) for lv in levels])
+    return cyclic_blocks(levels, seconds, seed, d)
 
 
 def _stream_ids(X, memory, history=6.0, interval=1.0):

@@ -9,17 +9,11 @@ from streamseg.config import ACAConfig
 from streamseg.offline.identity import snap_to_cuts, stable_labels
 from streamseg.offline.model_selection import fit_aca, piece_silhouette
 from streamseg.offline.relabel import WindowSegmentation, relabel_window
-
-FPS = 120.0
+from tests.motion import FPS, cyclic_blocks
 
 
 def _actions(levels, seconds=3.0, seed=0, d=6):
-    """Blocks of a noisy cyclic motion around each level (radians), one block per level."""
-    rng = np.random.default_rng(seed)
-    n = int(seconds * FPS)
-    t = np.arange(n)[:, None]
-    return np.concatenate([lv + 0.3 * np.sin(2 * np.pi * t / 60 + np.arange(d))
-                           + rng.normal(0, 0.02, (n, d)) for lv in levels])
+    return cyclic_blocks(levels, seconds, seed, d)
 
 
 @pytest.mark.parametrize("name,X", [
