@@ -56,29 +56,36 @@ def checkpoint(daemon) -> int:
 STEP_BUDGET = 0.002  # seconds of loop time per step of a checkpoint round
 DUTY = 0.02  # at most this share of the loop's time goes to copying states
 # Checkpoints take at most this share of one core on average (the loop's copies and the
-# writer's CPU): a round then waits at least its predecessor's cost / CPU_BUDGET. Measured
-# (benchmarks/daemon_throughput.py --event-log, 30 s runs): at a 2 s interval 250 full-rate
-# streams spent 3.6 % of a core on checkpoints and relabelled up to 12 % less often
+# writer's CPU): after a round, the next one waits until the round's own cost / CPU_BUDGET
+# has passed since it began. Measured (benchmarks/daemon_throughput.py --event-log, 30 s
+# runs): at a 2 s interval 250 full-rate streams spent 3.6 % of a core on checkpoints and
+# relabelled up to 12 % less often
 CPU_BUDGET = 0.015
 
 
 def step(daemon, now: float) -> int:
-    """One step of the periodic checkpoint: a round starts every ``checkpoint_interval`` s,
-    or later when the last round cost more than ``CPU_BUDGET`` of a core over that time
-    (never while the writer is still busy with it), with the streams that took frames since
-    their last checkpoint; each step copies streams for at most ``STEP_BUDGET`` s and the
+    """One step of the periodic checkpoint: a round starts ``checkpoint_interval`` s after
+    the last one began, or later, once the last round is written, when it cost more than
+    ``CPU_BUDGET`` of a core over that time; it copies the streams that took frames since
+    their last checkpoint. Each step copies streams for at most ``STEP_BUDGET`` s and the
     next step waits until the copying is at most ``DUTY`` of the loop's time, so the copying
-    never delays packets by more than a step. With a few streams the interval is
-    ``checkpoint_interval``; with many it grows with their number (``stats`` reports the
-    rounds; ``docs/protocol.md`` the measured intervals). Returns the streams copied."""
+    never delays packets by more than a step. The spacing is set by the round's own cost,
+    not its predecessor's, so it holds while the streams (and so the rounds) grow. With a
+    few streams the interval is ``checkpoint_interval``; with many it grows with their
+    number (``stats`` reports the spacing; ``docs/protocol.md`` the measured intervals).
+    Returns the streams copied."""
     store = daemon.checkpoints
     if not daemon._ckpt_round:
         if now < daemon._next_ckpt or store.busy():
             return 0
         spent = daemon.checkpoint_seconds + store.cpu_seconds
-        cost, daemon._ckpt_spent = spent - daemon._ckpt_spent, spent  # the last round's
+        cost = spent - daemon._ckpt_spent  # the last round's, now that it is written
         daemon.checkpoint_gap = max(daemon.config.checkpoint_interval, cost / CPU_BUDGET)
-        daemon._next_ckpt = now + daemon.checkpoint_gap
+        daemon._next_ckpt = daemon._ckpt_start + daemon.checkpoint_gap
+        if now < daemon._next_ckpt:
+            return 0
+        daemon._ckpt_start, daemon._ckpt_spent = now, spent
+        daemon._next_ckpt = now + daemon.config.checkpoint_interval
         seen = daemon._ckpt_seen
         daemon._ckpt_round = [s for s, st in daemon.streams.items()
                               if st.frames_in != seen.get(s)]

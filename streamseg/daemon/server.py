@@ -91,7 +91,8 @@ class Daemon(Intake):
         self.checkpoints = checkpoint_store.open_store(self.config)
         self.checkpoint_seconds = 0.0  # loop time spent copying stream states
         self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
-        self._next_ckpt = 0.0
+        self._next_ckpt = 0.0  # monotonic time before which no round starts
+        self._ckpt_start = 0.0  # monotonic time the last round began
         self._ckpt_round: list = []  # streams still to copy in this checkpoint round
         self._ckpt_resume = 0.0  # monotonic time of the round's next step
         self._ckpt_spent = 0.0  # checkpoint_seconds + writer CPU when the last round began
@@ -170,6 +171,7 @@ class Daemon(Intake):
                 self.receiver.start()
             self._started = time.monotonic()
             checkpoint.restore(self, self._started)
+            self._ckpt_start = self._started
             self._next_ckpt = self._started + self.config.checkpoint_interval
             self.ready.set()
             while not self._stop.is_set():
