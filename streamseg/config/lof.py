@@ -105,6 +105,20 @@ class LOFConfig:
       confirming or adding cuts, k as a span or from segment lengths, the contrast at a second
       length, the part-5 grid re-chosen on the pair, a longer delay (over the latency goal).
 
+    The two-stage decision (issue 11, round 6, ``benchmarks/lof_two_stage.py``; train pair
+    14_14 + hdm_dg_0, grid and rule declared before the first run):
+
+    - ``early_delay_s = None`` (off). The early stage is this same rule at a shorter delay,
+      and at 0.8-1.2 s it rarely fires: the windows after a transition are outliers until
+      the new action has ``k`` of them, so the live curve is still rising at ``w +
+      early``. On the train pair 1-6 pending cuts (F1 0.92 final either way; median
+      first-emission latency 2.07 s against 2.17 s at the 1.5 s delay). The rule chose
+      early 0.8 s / confirm 1.5 s; held out (12 recordings) its final F1 equals today's
+      (0.656, by construction) but its median first-emission latency does not fall (2.27 s
+      = 2.27 s; 5 pending cuts, all withdrawn, 4 of them moved), so the rule fixed
+      beforehand does not adopt it. The mechanism stays, off by default, for users who want
+      pending cuts; ``benchmarks/lof_latency.py`` draws every grid point.
+
     Offline segmentation (:class:`streamseg.offline.LOFSegmenter`) applies this same causal
     decision to a whole file, so online and offline cuts are equal.
 
