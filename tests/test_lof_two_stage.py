@@ -217,7 +217,12 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, 
     # numbered like every event, in the event log
     seqs = [r["seq"] for r in rows if "seq" in r]
     assert seqs == list(range(1, len(seqs) + 1))
-    from streamseg.commands.listen import fetch_since
+    from streamseg.commands.listen import fetch_since, request
+
+    # the late joiner's snapshot: withdrawn cuts gone, confirmed ones final (no relabel ran)
+    state = request(ep["control"], "state", stream="w")
+    assert [c["frame"] for c in state["cuts"]] == final
+    assert not any(c.get("pending") for c in state["cuts"])
 
     logged = fetch_since(ep["control"], "w", 0)
     while logged[-1].seq < seqs[-1]:  # the log is written a moment after publication
