@@ -106,10 +106,12 @@ def _curve(seqs, lof, st, curve):
 
 
 @njit(cache=True, nogil=True)
-def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf):
+def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
     """Decide window ``w`` with the curve known up to ``hi``, ``delay`` windows on each side;
     return ``(cut frame, LOF)``, the frame -1 when it is no cut. ``ls``, ``ld``, ``lf``: the
-    ``st`` slots of the stage's last cut window, last decided window and last cut frame.
+    ``st`` slots of the stage's last cut window, last decided window and last cut frame;
+    ``cache`` (float64, 2): the ``ST_NEXT_SEQ`` for which ``curve`` and the threshold
+    ``cache[1]`` were computed (-1: none yet).
 
     The cut frame is the peak window's centre moved to the largest before/after histogram
     contrast within ``geo[GEO_REFINE]`` frames (:func:`refine_cut`, frames seen so far only),
@@ -136,11 +138,15 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf):
     st[ld] = w
     if w < oldest or w - st[ls] < min_gap:
         return -1, 0.0
-    oldest = _curve(seqs, lof, st, curve)
     size = st[ST_BUFFERED]
+    if cache[0] != st[ST_NEXT_SEQ]:
+        # the curve and its threshold once per buffer state: both stages decide on them
+        _curve(seqs, lof, st, curve)
+        cache[1] = robust_threshold(curve, size, n_mads, work) if n_mads >= 0.0 else 0.0
+        cache[0] = st[ST_NEXT_SEQ]
     yw = curve[w - oldest]
     if n_mads >= 0.0:
-        thr = robust_threshold(curve, size, n_mads, work)
+        thr = cache[1]
         if thr < min_score:
             thr = min_score
         if yw < thr:
@@ -242,12 +248,12 @@ def _settle(w, c, y, st, p, pend, events, n_ev, emitted_at):
 
 
 @njit(cache=True, nogil=True)
-def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f):
+def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
     """Window ``seq`` was inserted on frame ``f``: the decisions it completes."""
     delay = int(p[P_DELAY])
     w = seq - delay
     c, y = _decide(w, seq, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
-                   ST_LAST_DECIDED, ST_LAST_CUT_FRAME)
+                   ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)
     early = int(p[P_EARLY]) if p.shape[0] > P_EARLY else 0
     if early <= 0:
         if c >= 0:
@@ -261,7 +267,7 @@ def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f):
         st[ST_E_LAST_CUT_FRAME] = st[ST_LAST_CUT_FRAME]
     we = seq - early
     c, y = _decide(we, seq, st, p, geo, frames, lofs, scratch, early, ST_E_LAST_CUT_SEQ,
-                   ST_E_LAST_DECIDED, ST_E_LAST_CUT_FRAME)
+                   ST_E_LAST_DECIDED, ST_E_LAST_CUT_FRAME, cache)
     if c >= 0:
         n = st[ST_PENDING]
         pend[n, 0] = we
@@ -297,6 +303,7 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     n_slots = seqs.shape[0]
     n_ang = angles.shape[1]
     vec = np.empty(vecs.shape[1], dtype=np.uint16)
+    cache = np.full(2, -1.0)
     scale = bins / np.pi
     n_ev = 0
     size = rb.shape[0]
@@ -347,7 +354,7 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
                                         lrd, lof, mark, centres, slot, vec, seq, k, excl)
         st[ST_BUFFERED] += 1
         st[ST_NEXT_SEQ] = seq + 1
-        n_ev = _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f)
+        n_ev = _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache)
     return n_ev
 
 
@@ -360,9 +367,10 @@ def stream_finish(st, p, geo, frames, lofs, scratch, events, pend):
     last = st[ST_NEXT_SEQ] - 1
     at = st[ST_FRAMES] - 1
     n_ev = 0
+    cache = np.full(2, -1.0)
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
         c, y = _decide(w, last, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
-                       ST_LAST_DECIDED, ST_LAST_CUT_FRAME)
+                       ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)
         if early > 0:
             n_ev = _settle(w, c, y, st, p, pend, events, n_ev, at)
         elif c >= 0:
