@@ -229,3 +229,26 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, 
         logged = fetch_since(ep["control"], "w", 0)
     assert [e.type for e in logged] == [r["type"] for r in rows if "seq" in r]
     assert [e.frame for e in logged if e.type == "withdraw"] == withdrawn
+
+
+def test_a_detector_saved_before_the_two_stage_decision_restores_as_one_stage(angles86):
+    """A checkpoint written before ``early_delay_s`` existed has no pending-cut array, a
+    7-slot parameter array and a 10-slot state: it goes on as the one-stage detector."""
+    import msgpack
+
+    from streamseg.daemon.state_codec import dump, load, packable
+
+    a = angles86
+    live = StreamingLOFSegmenter(LOFConfig(), FPS)
+    live.learn_many(a[:3000])
+    saved = dump(live)
+    del saved["s"]["_pend"]
+    for name, size in (("_p", 7), ("_st", 10)):
+        arr = saved["s"][name]["__nd__"]
+        arr[1], arr[2] = [size], arr[2][:size].copy()
+    chunks: dict = {}
+    body = msgpack.unpackb(msgpack.packb(packable(saved, chunks)), strict_map_key=False)
+    old = load(body, {k: bytes(v) for k, v in chunks.items()})
+    assert old._p.size == 7 and old._st.size == 10 and old._pend.shape == (0, 2)
+    got = old.learn_many(a[3000:]) + old.finish()
+    assert got and got == live.learn_many(a[3000:]) + live.finish()
