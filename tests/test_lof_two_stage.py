@@ -252,3 +252,18 @@ def test_a_detector_saved_before_the_two_stage_decision_restores_as_one_stage(an
     assert old._p.size == 7 and old._st.size == 10 and old._pend.shape == (0, 2)
     got = old.learn_many(a[3000:]) + old.finish()
     assert got and got == live.learn_many(a[3000:]) + live.finish()
+
+
+def test_the_view_drops_a_withdrawn_cut_and_redraws():
+    from streamseg.view.model import Hub
+
+    hub = Hub(clock=lambda: 0.0)
+    for ev in (protocol.Cut("v", 100, 1.0, 1.4, 300, True, True),
+               protocol.Cut("v", 900, 8.0, 1.3, 1100, True, True),
+               protocol.Confirm("v", 100, 1.0, 1.5, 400),
+               protocol.Withdraw("v", 900, 8.0, 1200, True),
+               protocol.Cut("v", 930, 8.2, 1.3, 1200, True)):
+        hub.apply(ev)
+    tl = hub.streams["v"].timeline()
+    assert [c["frame"] for c in tl["cuts"]] == [100, 930]
+    assert tl["cut_version"] == 1  # a page that had frame 900 redraws the stream whole
