@@ -20,11 +20,14 @@
 * speed columns (``--speed-columns``): the defaults against ``LOFConfig(speed_max=0)`` (the
   detector without the angular-speed columns), interleaved run by run, median of 25.
 * novelty check (``--novelty``): the defaults against ``LOFConfig(novelty=0)``, the same way.
+* two stages (``--two-stage``): ``LOFConfig(early_delay_s=1.2)`` (pending cuts at 1.2 s,
+  confirmed at the default 1.5 s) against the defaults (one stage), the same way.
 
 Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
      .venv/bin/python benchmarks/lof_speed.py --steady      (about 20 s)
      .venv/bin/python benchmarks/lof_speed.py --speed-columns      (about a minute)
      .venv/bin/python benchmarks/lof_speed.py --novelty      (about a minute)
+     .venv/bin/python benchmarks/lof_speed.py --two-stage      (about a minute)
 """
 
 from __future__ import annotations
@@ -236,6 +239,10 @@ def main():
     if "--novelty" in sys.argv[1:]:
         speed_columns_cost(cfgs={"novelty (defaults)": LOFConfig(),
                                  "no novelty": LOFConfig(novelty=0.0)}, what="novelty check")
+        return
+    if "--two-stage" in sys.argv[1:]:
+        speed_columns_cost(cfgs={"two stages (early 1.2 s)": LOFConfig(early_delay_s=1.2),
+                                 "one stage (defaults)": LOFConfig()}, what="two stages")
         return
 
     warnings.filterwarnings("ignore")

@@ -4,11 +4,13 @@
         [--control tcp://127.0.0.1:5562] [--keys DIR]
 
 Prints one line per cut and relabel (protocol v1, docs/protocol.md) until the stream closes
-(or N events). With --control it first makes sure its subscription is live (the hello
-handshake, docs/protocol.md), so it misses nothing published after "listening on". With
-``--keys DIR`` (made by ``streamseg keys DIR``) it connects with CURVE: its pair from
-``client.key_secret``, the daemon's public key from ``server.key``. A template for clients
-in other processes or languages.
+(or N events). A daemon with the two-stage cut decision (``early_delay_s``) sends some cuts
+``pending``; a later ``withdraw`` takes one back (it leaves the list of cuts printed at the
+close) and a ``confirm`` says it stands. With --control it first makes sure its subscription
+is live (the hello handshake, docs/protocol.md), so it misses nothing published after
+"listening on". With ``--keys DIR`` (made by ``streamseg keys DIR``) it connects with CURVE:
+its pair from ``client.key_secret``, the daemon's public key from ``server.key``. A template
+for clients in other processes or languages.
 """
 
 import os
@@ -68,12 +70,14 @@ def main(argv):
     sub.connect(endpoint)
     # topics are "<type>/<stream>/": one subscription per event type this client wants
     suffix = f"{stream}/" if stream else ""
-    for kind in ("cut", "segments", "closed"):
+    for kind in ("cut", "withdraw", "segments", "closed"):
         sub.setsockopt(zmq.SUBSCRIBE, f"{kind}/{suffix}".encode())
     if control:
         handshake(sub, control, keys)
     print(f"listening on {endpoint}", flush=True)
     seen = 0
+    cuts = {}  # stream -> its cut frames, withdrawn ones removed
+    two_stage = set()  # streams that sent a pending cut: their final list is printed
     while limit is None or seen < limit:
         topic, body = sub.recv_multipart()
         ev = msgpack.unpackb(body, raw=False)
@@ -82,12 +86,25 @@ def main(argv):
             continue
         seen += 1
         if ev["type"] == "cut":
-            print(f"{ev['stream']}: cut at frame {ev['frame']} (decided at {ev['emitted_at']})",
-                  flush=True)
+            cuts.setdefault(ev["stream"], []).append(ev["frame"])
+            pending = ev.get("pending", False)  # optional field: absent means final
+            if pending:
+                two_stage.add(ev["stream"])
+            print(f"{ev['stream']}: cut at frame {ev['frame']} (decided at {ev['emitted_at']}"
+                  f"{', pending' if pending else ''})", flush=True)
+        elif ev["type"] == "withdraw":
+            frames = cuts.get(ev["stream"], [])
+            if ev["frame"] in frames:
+                frames.remove(ev["frame"])
+            print(f"{ev['stream']}: withdraw of the cut at frame {ev['frame']} "
+                  f"(at {ev['emitted_at']})", flush=True)
         elif ev["type"] == "segments":
             runs = ", ".join(f"{a}-{b}:{lab}" for a, b, lab in ev["segments"])
             print(f"{ev['stream']}: relabel {ev['revision']} of {ev['start']}-{ev['end']}: {runs}")
         else:
+            final = cuts.pop(ev["stream"], [])
+            if ev["stream"] in two_stage:
+                print(f"{ev['stream']}: final cuts {sorted(final)}")
             print(f"{ev['stream']}: closed ({ev['reason']})")
             if stream:
                 break

@@ -415,3 +415,42 @@ def naive_best_tiling_cost(C, n, lo, hi):
     for tiling in all_tilings(n, lo, hi):
         best = min(best, sum((e - s) * C[s, e - s] for s, e in tiling))
     return best
+
+
+def naive_settle(pending, finals, g, n_frames):
+    """The two-stage detector's live events (``streamseg.daemon.pipeline.cut_kind`` kinds)
+    rebuilt from its pending cuts and the one-stage detector's cuts at the confirming delay,
+    each ``(frame, score, emitted_at)`` (no NaN frames: window ``s`` completes on frame
+    ``s * step + window - 1``), by the rule of ``LOFConfig.early_delay_s``: when the final
+    stage decides window ``w``, its cut confirms (same frame) or moves (another frame) the
+    oldest pending cut whose window is within ``min_gap`` of ``w``, else it is a plain cut;
+    then every pending cut whose window + ``min_gap`` <= ``w`` is withdrawn; then the early
+    stage's cut of window ``s - early`` is pending. Returns ``(kind, frame, emitted_at)``."""
+    win, step, delay, early, tol = (g["window"], g["step"], g["delay"], g["early"],
+                                    g["min_gap"])
+
+    def seq_of(f):
+        assert (f - (win - 1)) % step == 0
+        return (f - (win - 1)) // step
+
+    final = {seq_of(e) - delay: f for f, _, e in finals}
+    pend = {seq_of(e) - early: f for f, _, e in pending}
+    out, open_ = [], []
+    for s in range((n_frames - win) // step + 1):
+        at, w = s * step + win - 1, s - delay
+        if w in final:
+            c = final[w]
+            match = [p for p in open_ if abs(p[0] - w) <= tol]
+            if not match:
+                out.append(("cut", c, at))
+            else:
+                open_.remove(match[0])
+                out += ([("confirm", c, at)] if match[0][1] == c else
+                        [("moved", match[0][1], at), ("cut", c, at)])
+        for p in [p for p in open_ if p[0] + tol <= w]:
+            open_.remove(p)
+            out.append(("withdraw", p[1], at))
+        if s - early in pend:
+            open_.append((s - early, pend[s - early]))
+            out.append(("pending", pend[s - early], at))
+    return out

@@ -34,9 +34,9 @@ def test_chunking_and_gaps_keep_stream_frames(rec):
         if a < 1500 < b:
             b = 1500
         cuts, _, _ = p.push(pos[a:b], a)
-        got += [(f, e) for f, _, e in cuts]
+        got += [(f, e) for f, _, e, _ in cuts]
         a = b
-    got += [(f, e) for f, _, e in p.finish()]
+    got += [(f, e) for f, _, e, _ in p.finish()]
     assert got == want
     feats, frames = p.snapshot()
     assert feats.shape == (600, 17) and np.array_equal(frames, np.arange(rec.n_frames - 600,

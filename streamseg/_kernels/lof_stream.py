@@ -4,8 +4,19 @@ Scalar state lives in ``st`` (int64), slots named ``ST_*``: frames seen, valid f
 current window, windows in the LOF buffer, next window sequence number, sequence of the last
 emitted cut, NaN frames, windows dropped (too few valid frames), LOF recomputations
 (statistics), last decided window sequence (each window is decided once), frame of the last
-cut. The integer geometry ``geo`` (``GEO_*``) and float parameters ``p`` (``P_*``) are
-read-only.
+cut; with an early stage (``p[P_EARLY] > 0``) the same three decision slots for it
+(``ST_E_*``) and the number of pending early cuts (``ST_PENDING``). The integer geometry
+``geo`` (``GEO_*``) and float parameters ``p`` (``P_*``) are read-only.
+
+Two stages (``p[P_EARLY] > 0``): window ``w`` is decided twice, ``P_EARLY`` windows after it
+(an early, *pending* cut) and ``P_DELAY`` windows after it (the final decision, exactly the
+single-stage detector's, which never reads the early stage). The final stage settles each
+pending cut: a final cut of a window within ``min_gap`` windows of a pending cut's window
+confirms it when the frames agree (``KIND_CONFIRM``), else withdraws it (``KIND_MOVED``) and
+is emitted as a new cut; a pending cut no final cut matched by the time the final stage has
+decided its window + ``min_gap`` is withdrawn (``KIND_WITHDRAW``); a final cut that matches
+no pending one is a plain cut (``KIND_CUT``, final at once). So the cuts emitted minus the
+withdrawn ones are the single-stage cuts at ``P_DELAY``.
 """
 
 from __future__ import annotations
@@ -34,7 +45,11 @@ ST_DROPPED = 6
 ST_RECOMPUTES = 7
 ST_LAST_DECIDED = 8
 ST_LAST_CUT_FRAME = 9
-ST_SIZE = 10
+ST_E_LAST_CUT_SEQ = 10
+ST_E_LAST_DECIDED = 11
+ST_E_LAST_CUT_FRAME = 12
+ST_PENDING = 13
+ST_SIZE = 14
 GEO_BINS = 0
 GEO_WINDOW = 1
 GEO_STEP = 2
@@ -51,7 +66,14 @@ P_MIN_SCORE = 3
 P_MIN_GAP = 4
 P_MIN_CONTRAST = 5
 P_NOVELTY = 6
-P_SIZE = 7
+P_EARLY = 7
+P_SIZE = 8
+# event kinds (the fourth event array)
+KIND_CUT = 0
+KIND_PENDING = 1
+KIND_CONFIRM = 2
+KIND_WITHDRAW = 3
+KIND_MOVED = 4
 
 NO_CUT = -(1 << 40)
 
@@ -62,6 +84,9 @@ def new_state():
     st[ST_LAST_CUT_SEQ] = NO_CUT
     st[ST_LAST_DECIDED] = -1
     st[ST_LAST_CUT_FRAME] = NO_CUT
+    st[ST_E_LAST_CUT_SEQ] = NO_CUT
+    st[ST_E_LAST_DECIDED] = -1
+    st[ST_E_LAST_CUT_FRAME] = NO_CUT
     return st
 
 
@@ -81,8 +106,12 @@ def _curve(seqs, lof, st, curve):
 
 
 @njit(cache=True, nogil=True)
-def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
-    """Decide window ``w`` with the curve known up to ``hi``; append an event if it is a cut.
+def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
+    """Decide window ``w`` with the curve known up to ``hi``, ``delay`` windows on each side;
+    return ``(cut frame, LOF)``, the frame -1 when it is no cut. ``ls``, ``ld``, ``lf``: the
+    ``st`` slots of the stage's last cut window, last decided window and last cut frame;
+    ``cache`` (float64, 2): the ``ST_NEXT_SEQ`` for which ``curve`` and the threshold
+    ``cache[1]`` were computed (-1: none yet).
 
     The cut frame is the peak window's centre moved to the largest before/after histogram
     contrast within ``geo[GEO_REFINE]`` frames (:func:`refine_cut`, frames seen so far only),
@@ -101,27 +130,30 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
     rb, rv, _, left, right = frames
     seqs, lof, centres = lofs[2], lofs[9], lofs[11]
     work, curve, keep, stack = scratch
-    ev_frame, ev_score, ev_emit = events
-    delay, tol, n_mads = p[P_DELAY], p[P_TOLERANCE], p[P_MADS]
+    tol, n_mads = p[P_TOLERANCE], p[P_MADS]
     min_score, min_gap = p[P_MIN_SCORE], p[P_MIN_GAP]
     oldest = st[ST_NEXT_SEQ] - st[ST_BUFFERED]
-    if w <= st[ST_LAST_DECIDED]:
-        return n_ev
-    st[ST_LAST_DECIDED] = w
-    if w < oldest or w - st[ST_LAST_CUT_SEQ] < min_gap:
-        return n_ev
-    oldest = _curve(seqs, lof, st, curve)
+    if w <= st[ld]:
+        return -1, 0.0
+    st[ld] = w
+    if w < oldest or w - st[ls] < min_gap:
+        return -1, 0.0
     size = st[ST_BUFFERED]
+    if cache[0] != st[ST_NEXT_SEQ]:
+        # the curve and its threshold once per buffer state: both stages decide on them
+        _curve(seqs, lof, st, curve)
+        cache[1] = robust_threshold(curve, size, n_mads, work) if n_mads >= 0.0 else 0.0
+        cache[0] = st[ST_NEXT_SEQ]
     yw = curve[w - oldest]
     if n_mads >= 0.0:
-        thr = robust_threshold(curve, size, n_mads, work)
+        thr = cache[1]
         if thr < min_score:
             thr = min_score
         if yw < thr:
-            return n_ev
-    lo = max(oldest, w - int(delay))
+            return -1, 0.0
+    lo = max(oldest, w - delay)
     if not dominates(curve, lo - oldest, hi - oldest, w - oldest, int(min_gap)):
-        return n_ev
+        return -1, 0.0
     if n_mads >= 0.0:
         peak = is_peak(curve, lo - oldest, hi - oldest, w - oldest, tol, keep, stack)
     else:
@@ -139,52 +171,130 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, events, n_ev, emitted_at):
             seen = st[ST_FRAMES]
             c = refine_cut(rb, rv, size, c, geo[GEO_REFINE], geo[GEO_WINDOW], geo[GEO_BINS],
                            seen, max(0, seen - size),
-                           st[ST_LAST_CUT_FRAME] + int(min_gap) * geo[GEO_STEP], left, right)
+                           st[lf] + int(min_gap) * geo[GEO_STEP], left, right)
         if p[P_MIN_CONTRAST] > 0.0:
             # confirmation needs at least one window of frames after the cut (at the end of a
             # stream there may be fewer: a few frames make any histogram look different)
             if st[ST_FRAMES] - c < geo[GEO_WINDOW]:
-                return n_ev
+                return -1, 0.0
             size = rb.shape[0]
             # the before side starts no earlier than the previous cut: the new segment is
             # compared with the current one, not with a change already reported
             con = contrast_at(rb, rv, size, c, geo[GEO_CONTRAST], geo[GEO_BINS], st[ST_FRAMES],
-                              max(0, st[ST_FRAMES] - size, st[ST_LAST_CUT_FRAME]), left, right)
+                              max(0, st[ST_FRAMES] - size, st[lf]), left, right)
             if con < p[P_MIN_CONTRAST]:
-                return n_ev
+                return -1, 0.0
         if p[P_NOVELTY] > 0.0:
             # the whole current segment, not only its last contrast frames: a change that only
             # undoes a brief excursion inside the segment does not start a new one
             size = rb.shape[0]
             seen = st[ST_FRAMES]
-            nov = span_contrast(rb, rv, size, max(0, seen - size, st[ST_LAST_CUT_FRAME]), c,
+            nov = span_contrast(rb, rv, size, max(0, seen - size, st[lf]), c,
                                 min(c + geo[GEO_CONTRAST], seen), geo[GEO_BINS], left, right)
             if nov < p[P_NOVELTY]:
-                return n_ev
-        st[ST_LAST_CUT_FRAME] = c
-        ev_frame[n_ev] = c
-        ev_score[n_ev] = yw
-        ev_emit[n_ev] = emitted_at
-        st[ST_LAST_CUT_SEQ] = w
-        return n_ev + 1
+                return -1, 0.0
+        st[lf] = c
+        st[ls] = w
+        return c, yw
+    return -1, 0.0
+
+
+@njit(cache=True, nogil=True)
+def _emit(events, n_ev, kind, frame, score, emitted_at, window):
+    ev_frame, ev_score, ev_emit, ev_kind, ev_win = events
+    ev_frame[n_ev] = frame
+    ev_score[n_ev] = score
+    ev_emit[n_ev] = emitted_at
+    ev_kind[n_ev] = kind
+    ev_win[n_ev] = window
+    return n_ev + 1
+
+
+@njit(cache=True, nogil=True)
+def _settle(w, c, y, st, p, pend, events, n_ev, emitted_at):
+    """The final stage decided window ``w`` (cut frame ``c``, -1: none, LOF ``y``): settle
+    the pending early cuts (``pend[:st[ST_PENDING]]`` rows: window, frame, oldest first)."""
+    tol = int(p[P_MIN_GAP])
+    n = st[ST_PENDING]
+    if c >= 0:
+        j = -1
+        for i in range(n):
+            if abs(pend[i, 0] - w) <= tol:
+                j = i
+                break
+        if j < 0:
+            n_ev = _emit(events, n_ev, KIND_CUT, c, y, emitted_at, w)
+        else:
+            fp = pend[j, 1]
+            if fp == c:
+                n_ev = _emit(events, n_ev, KIND_CONFIRM, c, y, emitted_at, w)
+            else:
+                n_ev = _emit(events, n_ev, KIND_MOVED, fp, 0.0, emitted_at, pend[j, 0])
+                n_ev = _emit(events, n_ev, KIND_CUT, c, y, emitted_at, w)
+            for i in range(j, n - 1):
+                pend[i, 0] = pend[i + 1, 0]
+                pend[i, 1] = pend[i + 1, 1]
+            n -= 1
+    keep = 0
+    for i in range(n):
+        if pend[i, 0] + tol <= w:  # no later final decision can match it
+            n_ev = _emit(events, n_ev, KIND_WITHDRAW, pend[i, 1], 0.0, emitted_at, pend[i, 0])
+        else:
+            pend[keep, 0] = pend[i, 0]
+            pend[keep, 1] = pend[i, 1]
+            keep += 1
+    st[ST_PENDING] = keep
     return n_ev
 
 
 @njit(cache=True, nogil=True)
-def stream_block(angles, st, geo, p, frames, lofs, scratch, events):
+def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
+    """Window ``seq`` was inserted on frame ``f``: the decisions it completes."""
+    delay = int(p[P_DELAY])
+    w = seq - delay
+    c, y = _decide(w, seq, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
+                   ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)
+    early = int(p[P_EARLY]) if p.shape[0] > P_EARLY else 0
+    if early <= 0:
+        if c >= 0:
+            n_ev = _emit(events, n_ev, KIND_CUT, c, y, f, w)
+        return n_ev
+    n_ev = _settle(w, c, y, st, p, pend, events, n_ev, f)
+    # the early stage starts from the newest cut of either stage: it adds no pending cut
+    # within the minimum gap of a final one
+    if st[ST_LAST_CUT_SEQ] > st[ST_E_LAST_CUT_SEQ]:
+        st[ST_E_LAST_CUT_SEQ] = st[ST_LAST_CUT_SEQ]
+        st[ST_E_LAST_CUT_FRAME] = st[ST_LAST_CUT_FRAME]
+    we = seq - early
+    c, y = _decide(we, seq, st, p, geo, frames, lofs, scratch, early, ST_E_LAST_CUT_SEQ,
+                   ST_E_LAST_DECIDED, ST_E_LAST_CUT_FRAME, cache)
+    if c >= 0:
+        n = st[ST_PENDING]
+        pend[n, 0] = we
+        pend[n, 1] = c
+        st[ST_PENDING] = n + 1
+        n_ev = _emit(events, n_ev, KIND_PENDING, c, y, f, we)
+    return n_ev
+
+
+@njit(cache=True, nogil=True)
+def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     """Feed ``angles`` (n, n_angles) frames; return the number of events written.
 
     ``geo`` (int64, slots ``GEO_*``) = (bins, window, step, min_valid, k, exclusion frames,
     refine radius frames, contrast frames); ``p`` (float64, slots ``P_*``) = (delay, tol,
-    n_mads, min_score, min_gap, min_contrast, novelty). The arrays come in groups (tuples):
+    n_mads, min_score, min_gap, min_contrast, novelty, early delay: 0 for one stage). The
+    arrays come in groups (tuples):
     ``frames = (rb, rv, cur, left, right)``, ``lofs = (vecs, norms, seqs, nn_idx, nn_d, nn_key,
     nn_cnt, trunc, lrd, lof, mark, centres)``, ``scratch = (work, curve, keep, stack)``,
-    ``events = (ev_frame, ev_score, ev_emit)``. ``rb``/``rv`` are a ring of
+    ``events = (ev_frame, ev_score, ev_emit, ev_kind, ev_window)``, ``pend`` (int64, rows
+    window and frame) the pending early cuts (two stages, ``p[P_EARLY] > 0``). ``rb``/``rv``
+    are a ring of
     the last ``len(rb) >= window`` frames' bins and validity (frame ``f`` at ``f % len(rb)``),
     ``cur`` the current window's counts, ``left``/``right`` scratch counts. The LOF state
     (``vecs`` .. ``centres``) is described in :mod:`streamseg._kernels.lof`; its candidate
     lists may hold more than ``k`` entries. Events: cut frame, score (LOF), frame index at
-    emission.
+    emission, kind (``KIND_*``), the decided window's sequence number.
     """
     rb, rv, cur, left, right = frames
     vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres = lofs
@@ -192,8 +302,8 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events):
     min_valid, k, excl = geo[GEO_MIN_VALID], geo[GEO_K], geo[GEO_EXCLUSION]
     n_slots = seqs.shape[0]
     n_ang = angles.shape[1]
-    delay = int(p[P_DELAY])
     vec = np.empty(vecs.shape[1], dtype=np.uint16)
+    cache = np.full(2, -1.0)
     scale = bins / np.pi
     n_ev = 0
     size = rb.shape[0]
@@ -244,17 +354,29 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events):
                                         lrd, lof, mark, centres, slot, vec, seq, k, excl)
         st[ST_BUFFERED] += 1
         st[ST_NEXT_SEQ] = seq + 1
-        n_ev = _decide(seq - delay, seq, st, p, geo, frames, lofs, scratch, events, n_ev, f)
+        n_ev = _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache)
     return n_ev
 
 
 @njit(cache=True, nogil=True)
-def stream_finish(st, p, geo, frames, lofs, scratch, events):
-    """Decide the windows still waiting for their delay, with the curve as it ends."""
+def stream_finish(st, p, geo, frames, lofs, scratch, events, pend):
+    """Decide the windows still waiting for their delay, with the curve as it ends; with
+    an early stage, settle every pending cut (the ones no final cut matched are withdrawn)."""
     delay = int(p[P_DELAY])
+    early = int(p[P_EARLY]) if p.shape[0] > P_EARLY else 0
     last = st[ST_NEXT_SEQ] - 1
+    at = st[ST_FRAMES] - 1
     n_ev = 0
+    cache = np.full(2, -1.0)
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
-        n_ev = _decide(w, last, st, p, geo, frames, lofs, scratch, events, n_ev,
-                       st[ST_FRAMES] - 1)
+        c, y = _decide(w, last, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
+                       ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)
+        if early > 0:
+            n_ev = _settle(w, c, y, st, p, pend, events, n_ev, at)
+        elif c >= 0:
+            n_ev = _emit(events, n_ev, KIND_CUT, c, y, at, w)
+    if early > 0:
+        for i in range(st[ST_PENDING]):
+            n_ev = _emit(events, n_ev, KIND_WITHDRAW, pend[i, 1], 0.0, at, pend[i, 0])
+        st[ST_PENDING] = 0
     return n_ev

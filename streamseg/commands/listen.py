@@ -171,7 +171,15 @@ def format_event(ev) -> str:
         when = (time.strftime("%H:%M:%S", time.gmtime(ev.time)) + ms + "Z"
                 if ev.time > 1e8 else f"{ev.time:9.3f}s")  # a sender clock, or stream seconds
         return (f"[{ev.stream}] cut      frame {ev.frame:7d}  t={when}  score "
-                f"{ev.score:6.2f}  (emitted at frame {ev.emitted_at}, provisional)")
+                f"{ev.score:6.2f}  (emitted at frame {ev.emitted_at}, "
+                f"{'pending' if ev.pending else 'provisional'})")
+    if t == "confirm":
+        return (f"[{ev.stream}] confirm  frame {ev.frame:7d}  the pending cut stands "
+                f"(at frame {ev.emitted_at})")
+    if t == "withdraw":
+        why = "moved: a cut nearby follows" if ev.moved else "no cut there"
+        return (f"[{ev.stream}] withdraw frame {ev.frame:7d}  the pending cut is taken back "
+                f"(at frame {ev.emitted_at}, {why})")
     if t == "segments":
         runs = merged_runs(ev.segments)
         segs = " ".join(f"{a}-{b}:{lab}" for a, b, lab in runs[:12])
@@ -193,6 +201,37 @@ def format_event(ev) -> str:
                 f"{tot.get('frames', 0)}  events {tot.get('events', 0)}  errors "
                 f"{tot.get('errors', 0)}")
     return repr(ev)
+
+
+class CutBook:
+    """Each stream's cuts with its ``withdraw`` events applied (two-stage detector).
+
+    :meth:`apply` returns, at a stream's ``closed`` event when the stream had pending cuts,
+    the line ``{"type": "cuts", "stream", "frames", "withdrawn"}`` listing its cuts minus
+    the withdrawn ones (the final cuts, in frame order); else None.
+    """
+
+    def __init__(self):
+        self.cuts: dict = {}  # stream -> frames (emission order)
+        self.withdrawn: dict = {}  # stream -> count; present once a pending cut was seen
+
+    def apply(self, ev):
+        stream = getattr(ev, "stream", None)
+        if ev.type == "cut":
+            self.cuts.setdefault(stream, []).append(ev.frame)
+            if ev.pending:
+                self.withdrawn.setdefault(stream, 0)
+        elif ev.type == "withdraw":
+            frames = self.cuts.get(stream, [])
+            if ev.frame in frames:
+                del frames[len(frames) - 1 - frames[::-1].index(ev.frame)]
+                self.withdrawn[stream] = self.withdrawn.get(stream, 0) + 1
+        elif ev.type == "closed":
+            frames = self.cuts.pop(stream, [])
+            if stream in self.withdrawn:
+                return {"type": "cuts", "stream": stream, "frames": sorted(frames),
+                        "withdrawn": self.withdrawn.pop(stream)}
+        return None
 
 
 def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None) -> list:
@@ -344,9 +383,15 @@ def run(args) -> int:
                 out.write((strict_json.dumps(line) if args.jsonl else
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
             out.flush()
+        book = CutBook()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
                          timeout=args.timeout, since=since, backlog=backlog or (),
                          on_hole=on_hole if args.kind is None else None, pending=pending):
+            line = book.apply(ev)  # the stream's cuts after its withdraws, at its close
+            if line is not None:
+                out.write((strict_json.dumps(line) if args.jsonl else
+                           f"[{line['stream']}] cuts     {len(line['frames'])} after "
+                           f"{line['withdrawn']} withdrawn: {line['frames']}") + "\n")
             text = strict_json.dumps(json_event(ev)) if args.jsonl else format_event(ev)
             out.write(text + "\n")
             out.flush()

@@ -105,6 +105,20 @@ class LOFConfig:
       confirming or adding cuts, k as a span or from segment lengths, the contrast at a second
       length, the part-5 grid re-chosen on the pair, a longer delay (over the latency goal).
 
+    The two-stage decision (issue 11, round 6, ``benchmarks/lof_two_stage.py``; train pair
+    14_14 + hdm_dg_0, grid and rule declared before the first run):
+
+    - ``early_delay_s = None`` (off). The early stage is this same rule at a shorter delay,
+      and at 0.8-1.2 s it rarely fires: the windows after a transition are outliers until
+      the new action has ``k`` of them, so the live curve is still rising at ``w +
+      early``. On the train pair 1-6 pending cuts (F1 0.92 final either way; median
+      first-emission latency 2.07 s against 2.17 s at the 1.5 s delay). The rule chose
+      early 0.8 s / confirm 1.5 s; held out (12 recordings) its final F1 equals today's
+      (0.656, by construction) but its median first-emission latency does not fall (2.27 s
+      = 2.27 s; 5 pending cuts, all withdrawn, 4 of them moved), so the rule fixed
+      beforehand does not adopt it. The mechanism stays, off by default, for users who want
+      pending cuts; ``benchmarks/lof_latency.py`` draws every grid point.
+
     Offline segmentation (:class:`streamseg.offline.LOFSegmenter`) applies this same causal
     decision to a whole file, so online and offline cuts are equal.
 
@@ -184,6 +198,16 @@ class LOFConfig:
         simplified curve is a cut, with no threshold (``threshold_mads`` and ``min_score`` are
         unused), and the tolerance is ``dp_tolerance`` times the range of the whole buffered
         curve, as the paper simplifies its whole curve (:meth:`paper`).
+    early_delay_s : float or None
+        Two-stage decision (None or 0: one stage, the decision above alone). Each window is
+        also decided this long after it is complete (``< delay_s``), with the same rule over
+        the ``early_delay_s`` on either side: such a cut is emitted at once as *pending*. At
+        ``delay_s`` the usual decision settles it: a cut of a window within ``min_gap_s`` of
+        the pending cut's window confirms it when it is the same frame, else withdraws it and
+        is emitted itself (final at once); no cut there withdraws it; a cut the early stage
+        missed is emitted then, final at once. So the cuts minus the withdrawn ones are
+        exactly the one-stage cuts at ``delay_s`` (offline segmentation reports those). The
+        early stage starts from the newest cut of either stage.
     """
 
     window_s: float = 1.75
@@ -206,6 +230,7 @@ class LOFConfig:
     speed_lag_s: float = 0.1
     novelty: float = 0.15
     peak_rule: str = "adaptive"
+    early_delay_s: float | None = None
 
     def __post_init__(self):
         _check("window_s", self.window_s, self.window_s > 0, "a window length > 0 seconds")
@@ -253,6 +278,11 @@ class LOFConfig:
                "a cosine distance in [0, 1] (0: no novelty check)")
         _check("peak_rule", self.peak_rule, self.peak_rule in PEAK_RULES,
                " or ".join(repr(r) for r in PEAK_RULES))
+        e = self.early_delay_s
+        _check("early_delay_s", e, e is None or (isinstance(e, numbers.Real)
+                                                  and not isinstance(e, bool)
+                                                  and 0 <= e < self.delay_s),
+               "None or 0 (one stage) or a delay >= 0 and < delay_s seconds")
 
     @property
     def n_features(self) -> int:
@@ -312,7 +342,8 @@ class LOFConfig:
         Returns
         -------
         dict
-            ``window``, ``step`` (frames), ``capacity``, ``delay``, ``min_gap`` (windows),
+            ``window``, ``step`` (frames), ``capacity``, ``delay``, ``early`` (0: one stage),
+            ``min_gap`` (windows),
             ``min_valid``, ``exclusion``, ``refine`` (frames), ``history`` (frames the
             streaming detector keeps: the last window plus what cut localisation may look at)
             and ``speed_lag`` (frames).
@@ -322,6 +353,13 @@ class LOFConfig:
         window = max(2, int(round(self.window_s * fps)))
         step = max(1, min(window, int(round(self.step_s * fps))))
         delay = max(1, int(round(self.delay_s * fps / step)))
+        # the early stage (0: off); at a low rate it may round to the confirming delay
+        early = 0 if not self.early_delay_s else max(1, int(round(self.early_delay_s * fps
+                                                                    / step)))
+        if early >= delay:
+            raise ParameterError(
+                f"early_delay_s={self.early_delay_s!r} is {early} windows at {fps:g} Hz, not "
+                f"fewer than delay_s's {delay}: lower early_delay_s or raise delay_s")
         # the peak rule needs delay windows on both sides of the window it decides
         capacity = max(self.k + 2, 2 * delay + 1, int(round(self.buffer_s * fps / step)))
         refine = int(round(self.refine_s * fps))
@@ -337,6 +375,7 @@ class LOFConfig:
             step=step,
             capacity=capacity,
             delay=delay,
+            early=early,
             min_gap=int(round(self.min_gap_s * fps / step)),
             exclusion=int(round(self.exclusion * window)),
             min_valid=max(1, math.ceil(self.min_valid * window - 1e-9)),

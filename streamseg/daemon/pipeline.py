@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from streamseg.offline.identity import snap_to_cuts, stable_labels
+from streamseg.online.events import ConfirmEvent, WithdrawEvent
 from streamseg.recording import Skeleton
 
 __all__ = ["Algorithms", "Relabelled", "StreamPipeline", "relabel", "stable_labels"]
@@ -156,6 +157,18 @@ def _segment_triplets(window) -> list:
 
 
 RECENT_CUTS = 256  # live cuts a stream keeps for its relabels
+#: kinds of the cut events a pipeline step returns: a cut final when emitted, a pending cut
+#: (two-stage detector), its confirmation, its withdrawal, its withdrawal before a cut nearby
+CUT_KINDS = ("cut", "pending", "confirm", "withdraw", "moved")
+
+
+def cut_kind(ev) -> str:
+    """The :data:`CUT_KINDS` entry of a cut detector event."""
+    if isinstance(ev, ConfirmEvent):
+        return "confirm"
+    if isinstance(ev, WithdrawEvent):
+        return "moved" if ev.moved else "withdraw"
+    return "pending" if ev.pending else "cut"
 RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
 GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
 UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
@@ -221,10 +234,17 @@ class StreamPipeline:
         """Fraction of the feature ring in use."""
         return min(self.learned, self.capacity) / self.capacity
 
-    def _cuts(self, cuts) -> list:
-        o = self.offset
-        out = [(c.frame + o, float(c.score), c.emitted_at + o) for c in cuts]
-        self.cut_frames.extend(c[0] for c in out)
+    def _cuts(self, events) -> list:
+        """The detector's events as ``(frame, score, emitted_at, kind)`` in stream frames,
+        ``kind`` one of :data:`CUT_KINDS`; :attr:`cut_frames` keeps the cuts not withdrawn."""
+        o, out = self.offset, []
+        for ev in events:
+            kind = cut_kind(ev)
+            out.append((ev.frame + o, float(getattr(ev, "score", 0.0)), ev.emitted_at + o, kind))
+            if kind in ("cut", "pending"):
+                self.cut_frames.append(ev.frame + o)
+            elif kind in ("withdraw", "moved") and ev.frame + o in self.cut_frames:
+                self.cut_frames.remove(ev.frame + o)
         return out
 
     def push(self, positions: np.ndarray, first_frame: int):
@@ -232,8 +252,8 @@ class StreamPipeline:
 
         Returns
         -------
-        cuts : list of (frame, score, emitted_at)
-            New cuts, in stream frames.
+        cuts : list of (frame, score, emitted_at, kind)
+            New cut events, in stream frames (``kind``: :data:`CUT_KINDS`).
         reps : list of (start, end, count, emitted_at, label, set_index)
             Completed repetitions (empty without a repetition counter): ``count`` in the
             current set, the action ``label`` (None: not yet relabelled) and the set's index

@@ -20,6 +20,7 @@ from streamseg.config import DaemonConfig
 from streamseg.daemon import checkpoint, checkpoint_store, limits
 from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.control import serve_control
+from streamseg.daemon.cut_events import publish_cut
 from streamseg.daemon.eventlog import Numbering, open_log
 from streamseg.daemon.ingest import Receiver
 from streamseg.daemon.intake import Intake
@@ -223,11 +224,10 @@ class Daemon(Intake):
         return ev
 
     def _publish_results(self, st: StreamState, cuts, reps) -> None:
-        """Publish a pipeline step's ``(frame, score, emitted)`` cuts and ``(start, end,
+        """Publish a pipeline step's ``(frame, score, emitted, kind)`` cuts and ``(start, end,
         count, emitted, label, set)`` repetitions (live, and the final ones at close)."""
-        for frame, score, emitted in cuts:
-            ev = protocol.Cut(st.stream, frame, st.time_of(frame), score, emitted, True)
-            st.cuts.append(self._publish(st, ev))
+        for frame, score, emitted, kind in cuts:
+            publish_cut(self._publish, st, frame, score, emitted, kind)
         for a, b, count, emitted, label, index in reps:
             st.reps = count
             self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,

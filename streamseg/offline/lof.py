@@ -221,10 +221,12 @@ class LOFSegmenter(Estimator):
         thr = robust_threshold(self.lof_, m, c.threshold_mads, np.empty(max(m, 1)))
         self.threshold_ = (None if c.peak_rule == "paper"
                            else float(max(thr, c.min_score)))
+        from streamseg.online.events import final_cuts
         from streamseg.online.lof import StreamingLOFSegmenter
 
         det = StreamingLOFSegmenter(c, self.fps, n_features=angles.shape[1])
-        events = det.learn_many(angles) + det.finish()
+        # the final decisions (with two stages: the confirming stage's, the same as one stage's)
+        events = final_cuts(det.learn_many(angles) + det.finish())
         self.cuts_ = np.array([e.frame for e in events], dtype=np.int64)
         self.scores_ = np.array([e.score for e in events], dtype=np.float64)
         self.decided_at_ = np.array([e.emitted_at for e in events], dtype=np.int64)

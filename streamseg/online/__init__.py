@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from streamseg.online.events import CutEvent
+from streamseg.online.events import ConfirmEvent, CutEvent, WithdrawEvent, final_cuts
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.online.lof import warmup as warmup_lof
 from streamseg.online.repetition import RepetitionCounter, RepEvent
 
-__all__ = ["CutEvent", "RepEvent", "RepetitionCounter", "StreamingLOFSegmenter", "warmup_lof"]
+__all__ = ["ConfirmEvent", "CutEvent", "RepEvent", "RepetitionCounter", "StreamingLOFSegmenter",
+           "WithdrawEvent", "final_cuts", "warmup_lof"]

@@ -9,7 +9,7 @@ from streamseg._kernels import lof_stream as _ks
 from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
-from streamseg.online.events import CutEvent
+from streamseg.online.events import ConfirmEvent, CutEvent, WithdrawEvent
 from streamseg.online.speed_features import SpeedColumns
 
 
@@ -91,7 +91,8 @@ class StreamingLOFSegmenter:
         # the kernel reads a negative MAD count as the paper's rule (no threshold)
         mads = c.threshold_mads if c.peak_rule == "adaptive" else -1.0
         self._p = np.array([g["delay"], c.dp_tolerance, mads, c.min_score,
-                            g["min_gap"], c.min_contrast, c.novelty], dtype=np.float64)
+                            g["min_gap"], c.min_contrast, c.novelty, g["early"]],
+                           dtype=np.float64)
         assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
         self._st = _ks.new_state()
@@ -106,6 +107,10 @@ class StreamingLOFSegmenter:
         self._vecs = np.zeros((n, d), dtype=np.uint16)  # integer counts <= window frames
         self._seqs = np.full(n, -1, dtype=np.int64)
         self._centres = np.zeros(n, dtype=np.int64)
+        # the pending early cuts (window, frame): they lie within delay - early + min_gap
+        # windows of the window the final stage decides next
+        self._pend = np.zeros((g["delay"] + g["min_gap"] + 2 if g["early"] else 0, 2),
+                              dtype=np.int64)
         self._allocate_derived()
 
     # Recomputed from the rest (the window vectors, their sequence numbers and centres) or
@@ -141,15 +146,19 @@ class StreamingLOFSegmenter:
         """Recompute :attr:`_derived_state` from the buffered windows (after a restore):
         the same LOF values and the same later cuts as the state it was saved from
         (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
+        if not hasattr(self, "_pend"):  # saved before the two-stage decision: one stage
+            self._pend = np.zeros((0, 2), dtype=np.int64)
         self._allocate_derived()
         _kl.ext_rebuild(self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d,
                         self._nn_key, self._nn_cnt, self._trunc, self._lrd, self._lof,
                         self._mark, self._centres, self.config.k, int(self._geo[_ks.GEO_EXCLUSION]))
 
     # ---- feeding ---------------------------------------------------------------------------
-    def learn_one(self, angles_row) -> list[CutEvent]:
+    def learn_one(self, angles_row) -> list:
         """Feed one feature frame, shape (n_features,) radians (8 bone angles, then 9
-        inclinations when ``config.inclinations``); return the cuts decided on it."""
+        inclinations when ``config.inclinations``); return the cuts decided on it (with
+        ``config.early_delay_s``, also the :class:`ConfirmEvent` and :class:`WithdrawEvent`
+        that settle pending cuts)."""
         row = np.asarray(angles_row, dtype=np.float64)
         d = self.n_features
         if row.shape != (d,):
@@ -157,7 +166,7 @@ class StreamingLOFSegmenter:
                                                row=True))
         return self._run(row.reshape(1, d))
 
-    def learn_many(self, angles) -> list[CutEvent]:
+    def learn_many(self, angles) -> list:
         """Feed feature frames, shape (n, n_features); same cuts as ``learn_one`` per row."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim != 2 or a.shape[1] != self.n_features:
@@ -165,25 +174,26 @@ class StreamingLOFSegmenter:
                                                self._explicit_width))
         return self._run(np.ascontiguousarray(a))
 
-    def finish(self) -> list[CutEvent]:
-        """End of stream: decide the windows still waiting for ``delay`` future windows."""
-        m = self.geometry["delay"] + 1
-        ev_f = np.empty(m, dtype=np.int64)
-        ev_s = np.empty(m)
-        ev_e = np.empty(m, dtype=np.int64)
-        n = _ks.stream_finish(self._st, self._p, self._geo, *self._groups(), (ev_f, ev_s, ev_e))
-        return self._events(n, ev_f, ev_s, ev_e)
+    def finish(self) -> list:
+        """End of stream: decide the windows still waiting for ``delay`` future windows (and
+        settle every pending cut)."""
+        ev = self._event_arrays(self.geometry["delay"] + 1)
+        n = _ks.stream_finish(self._st, self._p, self._geo, *self._groups(), ev, self._pend)
+        return self._events(n, ev)
 
-    def _run(self, a: np.ndarray) -> list[CutEvent]:
+    def _run(self, a: np.ndarray) -> list:
         if self._speeds is not None:
             a = self._speeds(a)
-        m = a.shape[0] // self.geometry["step"] + 2
-        ev_f = np.empty(m, dtype=np.int64)
-        ev_s = np.empty(m)
-        ev_e = np.empty(m, dtype=np.int64)
-        n = _ks.stream_block(a, self._st, self._geo, self._p, *self._groups(),
-                             (ev_f, ev_s, ev_e))
-        return self._events(n, ev_f, ev_s, ev_e)
+        ev = self._event_arrays(a.shape[0] // self.geometry["step"] + 2)
+        n = _ks.stream_block(a, self._st, self._geo, self._p, *self._groups(), ev, self._pend)
+        return self._events(n, ev)
+
+    def _event_arrays(self, windows: int) -> tuple:
+        """Room for the events of ``windows`` decided windows: one each, with two stages up to
+        three (a withdraw, a cut, a pending cut) and each pending cut withdrawn."""
+        m = windows if not self.geometry["early"] else 4 * windows + self._pend.shape[0]
+        return (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m, dtype=np.int64),
+                np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64))
 
     def _groups(self) -> tuple:
         """The kernel's state arrays in its three groups: frame ring and counts, the LOF
@@ -194,8 +204,18 @@ class StreamingLOFSegmenter:
                 (self._work, self._curve, self._keep, self._stack))
 
     @staticmethod
-    def _events(n, ev_f, ev_s, ev_e) -> list[CutEvent]:
-        return [CutEvent(int(ev_f[i]), float(ev_s[i]), int(ev_e[i])) for i in range(n)]
+    def _events(n, ev) -> list:
+        ev_f, ev_s, ev_e, ev_k = ev[:4]
+        out = []
+        for i in range(n):
+            f, k, e = int(ev_f[i]), int(ev_k[i]), int(ev_e[i])
+            if k == _ks.KIND_CUT or k == _ks.KIND_PENDING:
+                out.append(CutEvent(f, float(ev_s[i]), e, pending=k == _ks.KIND_PENDING))
+            elif k == _ks.KIND_CONFIRM:
+                out.append(ConfirmEvent(f, float(ev_s[i]), e))
+            else:
+                out.append(WithdrawEvent(f, e, moved=k == _ks.KIND_MOVED))
+        return out
 
     # ---- read-only views (never mutate state) ----------------------------------------------
     @property

@@ -38,6 +38,7 @@ from streamseg.protocol.messages import (
     PROTOCOL_VERSION,
     Announce,
     Closed,
+    Confirm,
     Cut,
     End,
     Error,
@@ -48,14 +49,14 @@ from streamseg.protocol.messages import (
     Segments,
     Stats,
     WireError,
+    Withdraw,
     subscriptions,
     topic,
     valid_stream_id,
 )
 
 __all__ = ["DAEMON_WIDE", "EVENT_TYPES", "INGEST_TYPES", "MAX_INT", "MESSAGES",
-           "PROTOCOL_VERSION", "Announce", "Closed", "Cut", "End", "Error", "Frames", "Gap",
-           "Hello",
-           "Rep", "Segments", "Stats", "WireError", "decode", "decode_array", "encode",
-           "encode_array", "frames_fields", "from_body", "subscriptions", "to_json", "topic",
-           "unpack_body", "valid_stream_id"]
+           "PROTOCOL_VERSION", "Announce", "Closed", "Confirm", "Cut", "End", "Error",
+           "Frames", "Gap", "Hello", "Rep", "Segments", "Stats", "WireError", "Withdraw",
+           "decode", "decode_array", "encode", "encode_array", "frames_fields", "from_body",
+           "subscriptions", "to_json", "topic", "unpack_body", "valid_stream_id"]

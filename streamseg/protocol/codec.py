@@ -15,6 +15,7 @@ from streamseg.protocol.messages import (
     PROTOCOL_VERSION,
     Announce,
     Closed,
+    Confirm,
     Cut,
     End,
     Error,
@@ -25,6 +26,7 @@ from streamseg.protocol.messages import (
     Segments,
     Stats,
     WireError,
+    Withdraw,
     topic,
     valid_stream_id,
 )
@@ -60,7 +62,8 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
     return np.frombuffer(data, dtype=dtype).reshape(shape)
 
 
-_OPTIONAL = {"announce": ("labels", "labels_sequence")}  # left out when None (older readers)
+# left out when None (older readers)
+_OPTIONAL = {"announce": ("labels", "labels_sequence"), "cut": ("pending",)}
 
 
 def encode(msg, seq: int | None = None) -> list[bytes]:
@@ -260,6 +263,14 @@ def _error(obj):
     return Error(s, reason, message, _int(obj, "count", "error", s))
 
 
+def _pending(obj):
+    """A cut's optional ``pending`` flag: True, or None when absent (final when emitted)."""
+    value = obj.get("pending")
+    _need(value is None or isinstance(value, bool), "cut", "pending", value, "a bool",
+          _stream(obj, "cut"))
+    return True if value else None
+
+
 def _stats(obj):
     totals, streams = obj["totals"], obj["streams"]
     _need(isinstance(totals, dict) and isinstance(streams, dict), "stats", "totals", totals,
@@ -274,7 +285,16 @@ _BUILDERS = {
     "cut": lambda o: Cut(_stream(o, "cut"), _int(o, "frame", "cut", None),
                          _num(o, "time", "cut", None, finite=False),
                          _num(o, "score", "cut", None, finite=False),
-                         _int(o, "emitted_at", "cut", None), bool(o["provisional"])),
+                         _int(o, "emitted_at", "cut", None), bool(o["provisional"]),
+                         _pending(o)),
+    "confirm": lambda o: Confirm(_stream(o, "confirm"), _int(o, "frame", "confirm", None),
+                                 _num(o, "time", "confirm", None, finite=False),
+                                 _num(o, "score", "confirm", None, finite=False),
+                                 _int(o, "emitted_at", "confirm", None)),
+    "withdraw": lambda o: Withdraw(_stream(o, "withdraw"), _int(o, "frame", "withdraw", None),
+                                   _num(o, "time", "withdraw", None, finite=False),
+                                   _int(o, "emitted_at", "withdraw", None),
+                                   bool(o.get("moved", False))),
     "segments": _segments,
     "rep": lambda o: Rep(_stream(o, "rep"), _int(o, "start", "rep", None),
                          _int(o, "end", "rep", None), _int(o, "count", "rep", None),
@@ -292,7 +312,11 @@ _BUILDERS = {
 }
 
 
-_NUMBERED = frozenset({"cut", "segments", "rep", "gap", "error", "closed"})
+_NUMBERED = frozenset({"cut", "confirm", "withdraw", "segments", "rep", "gap", "error",
+                       "closed"})
+
+
+_JSON_OPTIONAL = {"cut": ("pending",)}  # left out when None, as on the wire
 
 
 def to_json(msg) -> dict:
@@ -303,6 +327,8 @@ def to_json(msg) -> dict:
         if isinstance(value, np.ndarray):
             value = value.tolist()
         elif f.name == "seq" and value is None and msg.type != "frames":
+            continue
+        elif value is None and f.name in _JSON_OPTIONAL.get(msg.type, ()):
             continue
         elif isinstance(value, tuple):
             value = [list(x) if isinstance(x, tuple) else x for x in value]

@@ -12,7 +12,8 @@ from streamseg.exceptions import ProtocolError
 
 PROTOCOL_VERSION = 1
 INGEST_TYPES = ("announce", "frames", "end")
-EVENT_TYPES = ("cut", "segments", "rep", "gap", "error", "stats", "closed")
+EVENT_TYPES = ("cut", "confirm", "withdraw", "segments", "rep", "gap", "error", "stats",
+               "closed")
 DAEMON_WIDE = "*"
 _STREAM_RE = re.compile(r"[A-Za-z0-9_.:@+=-]{1,128}\Z")
 _DTYPES = {"<f4": np.dtype("<f4"), "<f8": np.dtype("<f8")}
@@ -124,9 +125,42 @@ class Cut:
     score: float
     emitted_at: int
     provisional: bool = True
+    # True: an early decision a later ``confirm`` or ``withdraw`` settles (two-stage
+    # detector); None (left out on the wire): final when emitted
+    pending: bool | None = None
     seq: int | None = _seq()
 
     type = "cut"
+
+
+@dataclass(frozen=True)
+class Confirm:
+    """Event: the pending cut at ``frame`` stands (the confirming stage decided the same
+    cut at ``emitted_at``, LOF ``score``)."""
+
+    stream: str
+    frame: int
+    time: float
+    score: float
+    emitted_at: int
+    seq: int | None = _seq()
+
+    type = "confirm"
+
+
+@dataclass(frozen=True)
+class Withdraw:
+    """Event: the pending cut at ``frame`` is taken back (decided at ``emitted_at``);
+    ``moved``: a cut nearby follows (the confirming stage placed it at another frame)."""
+
+    stream: str
+    frame: int
+    time: float
+    emitted_at: int
+    moved: bool = False
+    seq: int | None = _seq()
+
+    type = "withdraw"
 
 
 @dataclass(frozen=True)
@@ -229,8 +263,8 @@ class Hello:
     type = "hello"
 
 
-MESSAGES = {cls.type: cls for cls in (Announce, Frames, End, Cut, Segments, Rep, Gap, Error,
-                                      Stats, Closed, Hello)}
+MESSAGES = {cls.type: cls for cls in (Announce, Frames, End, Cut, Confirm, Withdraw, Segments,
+                                      Rep, Gap, Error, Stats, Closed, Hello)}
 
 
 def _same_float(a: float, b: float) -> bool:

@@ -41,6 +41,7 @@ class StreamView:
         self.cuts: list = []
         self.cut_frames: set = set()
         self.cut_base = 0  # cuts dropped from the front (cursor offsets stay valid)
+        self.cut_version = 0  # + 1 per withdrawn cut: a page then redraws the stream whole
         self.segments: list = []
         self.seg_version = 0
         self.reps: list = []
@@ -81,6 +82,15 @@ class StreamView:
         self.frame = max(self.frame, emitted_at + 1)
         if self.fps:
             self.last_cut_lag = (emitted_at - frame) / self.fps
+        return True
+
+    def withdraw_cut(self, frame: int) -> bool:
+        """A pending cut was withdrawn (``withdraw`` event): it leaves the cut list."""
+        if frame not in self.cut_frames:
+            return False
+        self.cut_frames.discard(frame)
+        self.cuts = [c for c in self.cuts if c["frame"] != frame]
+        self.cut_version += 1
         return True
 
     def add_segments(self, revision: int, start: int, end: int, segments) -> bool:
@@ -181,7 +191,8 @@ class StreamView:
                "cut_next": self.cut_base + len(self.cuts),
                "reps": self.reps[max(0, rep_from - self.rep_base):],
                "rep_next": self.rep_base + len(self.reps),
-               "seg_version": self.seg_version, "closed": self.closed,
+               "seg_version": self.seg_version, "cut_version": self.cut_version,
+               "closed": self.closed,
                "revision": self.revision, "seg_range": self.seg_range}
         if seg_version != self.seg_version:
             out["segments"] = self.segments
@@ -244,6 +255,8 @@ class Hub:
         sv.touch(kind, now)
         if kind == "cut":
             sv.add_cut(ev.frame, ev.emitted_at, ev.score)
+        elif kind == "withdraw":
+            sv.withdraw_cut(ev.frame)
         elif kind == "segments":
             sv.add_segments(ev.revision, ev.start, ev.end, ev.segments)
         elif kind == "rep":

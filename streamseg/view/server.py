@@ -41,7 +41,8 @@ def _loopback(host: str) -> bool:
 class _Page:
     """One connected page: its socket and what it has of its open stream."""
 
-    __slots__ = ("ws", "stream", "cut_next", "rep_next", "seg_version", "has_human", "sent")
+    __slots__ = ("ws", "stream", "cut_next", "rep_next", "seg_version", "has_human", "sent",
+                 "cut_version")
 
     def __init__(self, ws):
         self.ws = ws
@@ -50,6 +51,7 @@ class _Page:
         self.seg_version = -1
         self.has_human = False
         self.sent = 0
+        self.cut_version = 0
 
 
 class ViewServer:
@@ -195,6 +197,11 @@ class ViewServer:
         sv = self.hub.streams.get(page.stream) if page.stream else None
         if sv is None:
             return
+        if page.cut_version != sv.cut_version:  # a cut was withdrawn: redraw the stream whole
+            page.cut_next = page.rep_next = 0
+            page.seg_version = -1
+            page.has_human = False
+            page.cut_version = sv.cut_version
         tl = sv.timeline(page.cut_next, page.rep_next, page.seg_version, not page.has_human)
         tl["full"] = page.cut_next == 0 and page.seg_version == -1
         page.cut_next, page.rep_next = tl["cut_next"], tl["rep_next"]
