@@ -14,6 +14,7 @@ are written or read. A class may name fields it can recompute from the others in
 from __future__ import annotations
 
 import collections
+import dataclasses
 import importlib
 
 import numpy as np
@@ -88,6 +89,13 @@ def load(obj, chunks=None):
         out = cls.__new__(cls)
         for k, v in obj["s"].items():
             object.__setattr__(out, k, load(v, chunks))  # also frozen dataclasses
+        if dataclasses.is_dataclass(cls):  # a field added since the checkpoint: its default
+            for f in dataclasses.fields(cls):
+                if f.name not in obj["s"]:
+                    if f.default is not dataclasses.MISSING:
+                        object.__setattr__(out, f.name, f.default)
+                    elif f.default_factory is not dataclasses.MISSING:
+                        object.__setattr__(out, f.name, f.default_factory())
         if hasattr(cls, "_derived_state"):
             out._rebuild_derived()
         return out
