@@ -7,23 +7,30 @@ more ids than actions. Per stream this prints:
   action across parts);
 * ``ids pub / final``: distinct ids in any revision / in the final live answer (for every
   frame, the newest revision covering it);
-* ``ids/action``: final distinct ids / true actions (1 is the goal);
+* ``ids/action``: final distinct ids / true actions (1 is the goal; the summary also gives
+  published ids / true actions);
 * ``purity``: mean over actions of the share of an action's frames carrying its majority id
   over the whole stream;
 * ``acc``: Hungarian frame accuracy of the final answer (human labels).
 
-Then every *extra* id of an action (an id holding >= 0.5 s of the action's frames in the final
-answer that is not the action's majority id) is given one cause:
+Then every *extra* id is given one cause. Ids are counted over every revision published
+(``ids pub``: a user sees them all, also those a later revision drops). An id is not extra
+when it is the majority id of some action in the final answer. Otherwise its *home* is the
+action most of its frames are (in the final answer, else in its last revision) and its
+*birth* the first revision holding it:
 
-* ``(a) split``: the id is the action's own (most of its frames are this action) and some
-  revision holds both it and the action's majority id on >= 0.5 s each of the action's
-  frames: a revision split one action into two clusters (K too high);
-* ``(b) edge``: the id is the action's own, never beside the majority id in one revision:
-  a fragment born at a window's edge (a tail cluster that took a fresh id and kept it);
-* ``(c) hand-off``: most of the id's frames are another action: the overlap carried an id
-  onto a different action (or one cluster holds two actions);
-* ``(d) return``: the id is the action's own and first appears after a gap longer than the
-  history since the action's majority id was last seen: a return not recognised.
+* ``(c) hand-off``: most of its frames at birth are another action than its home: the
+  overlap carried it from one action to another;
+* ``(d) return``: it first appears more than the history after the home action's majority id
+  was last seen there: a return not recognised;
+* ``(a) split``: its birth revision holds another id on >= 0.5 s of the home action's frames
+  (two clusters of one revision for one action: K too high, or a fragment beside the
+  action's own cluster);
+* ``(b) edge``: else: a fragment born alone on its action's frames (at a window's edge, the
+  only cluster there).
+
+Also: ``shared``: ids that are the majority id of 2+ actions; ``2+ actions``: ids whose runs
+of >= 1 s are mostly of different actions (``benchmarks/label_memory.py: mixed_ids``).
 
 Streams: the 14 recordings of ``benchmarks/live_relabel.py`` (all shorter than the 60 s
 history) and the 5 of :func:`streamseg.evaluation.datasets.return_streams` (actions return
@@ -59,7 +66,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from benchmarks.label_memory import FitCache  # noqa: E402
+from benchmarks.label_memory import FitCache, mixed_ids  # noqa: E402
 from streamseg.config.memory import LabelMemoryConfig  # noqa: E402
 from streamseg.daemon.pipeline import Algorithms, relabel  # noqa: E402
 from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
@@ -112,49 +119,54 @@ def diagnose(lab, truth, revs, fps, history):
     keep = truth >= 0
     actions = np.unique(truth[keep])
     min_f = int(0.5 * fps)
-    pub = {int(c) for _, _, segs in revs for _, _, c in segs}
-    final = set(np.unique(lab[lab >= 0]).tolist())
-    home = {i: _majority(truth[lab == i]) for i in final}
-    first = {}
-    for i in final:
-        first[i] = int(np.flatnonzero(lab == i)[0])
-    purity, causes = [], dict.fromkeys(CAUSES, 0)
-    rev_frames = []
+    rev_labels = []  # per revision: (s, e, per-frame ids)
     for s, e, segs in revs:
         rl = np.full(e - s, -1)
         for a, b, c in segs:
             rl[a - s:b - s] = c
-        rev_frames.append((s, e, rl))
-    for A in actions:
-        idx = np.flatnonzero(truth == A)
-        ids = lab[idx]
-        p = _majority(ids)
-        purity.append(float(np.mean(ids == p)))
-        vals, cnt = np.unique(ids[ids >= 0], return_counts=True)
-        for i, n_i in zip(vals, cnt, strict=True):
-            i = int(i)
-            if i == p or n_i < min_f:
-                continue
-            if home[i] != A:
-                causes["c"] += 1
-                continue
-            # (d): the id appears after a gap > history since the majority id last held A
-            f = first[i]
-            p_before = idx[(idx < f) & (lab[idx] == p)]
-            if p_before.size and f - p_before[-1] > history * fps:
-                causes["d"] += 1
-                continue
-            together = False
-            for s, e, rl in rev_frames:
-                m = idx[(idx >= s) & (idx < e)] - s
-                if m.size and (rl[m] == i).sum() >= min_f and (rl[m] == p).sum() >= min_f:
-                    together = True
-                    break
-            causes["a" if together else "b"] += 1
+        rev_labels.append((s, e, rl))
+    pub = sorted({int(c) for _, _, segs in revs for _, _, c in segs})
+    final = set(np.unique(lab[lab >= 0]).tolist())
+    primary = {int(A): _majority(lab[truth == A]) for A in actions}
+    purity = [float(np.mean(lab[truth == A] == primary[int(A)])) for A in actions]
+    causes = dict.fromkeys(CAUSES, 0)
+    owners: dict = {}
+    for A, p in primary.items():
+        owners.setdefault(p, []).append(A)
+    for i in pub:
+        # birth: the first revision holding i; home: its final frames (else its last revision)
+        births = [k for k, (_, _, rl) in enumerate(rev_labels) if (rl == i).any()]
+        s0, _, rl0 = rev_labels[births[0]]
+        born_on = _majority(truth[s0 + np.flatnonzero(rl0 == i)])
+        if i in final:
+            home = _majority(truth[lab == i])
+            first = int(np.flatnonzero(lab == i)[0])
+        else:
+            sl, _, rll = rev_labels[births[-1]]
+            home = _majority(truth[sl + np.flatnonzero(rll == i)])
+            first = s0 + int(np.flatnonzero(rl0 == i)[0])
+        if primary.get(home) == i:
+            continue  # the action's own id
+        if i in owners:
+            continue  # the majority id of some action (a hand-off shows in "2+ actions")
+        if born_on != home:
+            causes["c"] += 1  # born on one action, ended on another: handed on
+            continue
+        p = primary.get(home, -1)
+        idx = np.flatnonzero(truth == home)
+        p_before = idx[(idx < first) & (lab[idx] == p)]
+        if p_before.size and first - p_before[-1] > history * fps:
+            causes["d"] += 1
+            continue
+        m = idx[(idx >= s0) & (idx < s0 + rl0.size)] - s0
+        other = rl0[m][(rl0[m] >= 0) & (rl0[m] != i)]
+        split = other.size and np.bincount(other).max() >= min_f and (rl0[m] == i).sum() >= 1
+        causes["a" if split else "b"] += 1
     acc = matched_frame_accuracy(lab[keep], truth[keep])[0]
+    shared = sum(len(v) > 1 for v in owners.values())
     return dict(actions=int(actions.size), pub=len(pub), final=len(final),
                 per=len(final) / actions.size, purity=float(np.mean(purity)), acc=float(acc),
-                **causes)
+                shared=int(shared), mixed=mixed_ids(lab, truth, fps), **causes)
 
 
 def features(rec):
@@ -189,7 +201,7 @@ def run_daemon(streams, mcfg, args):
 
 
 HEAD = ("| stream | split | actions | ids pub / final | ids/action | purity | acc | "
-        "extra ids (a) split / (b) edge / (c) hand-off / (d) return |")
+        "extra ids (a) split / (b) edge / (c) hand-off / (d) return | shared / 2+ actions |")
 
 
 def table(res, base=None):
@@ -199,9 +211,11 @@ def table(res, base=None):
         ch = "" if base is None else f" {r['acc'] - base[name]['acc']:+.3f} |"
         print(f"| {name} | {'train' if name in TRAIN else 'held out'} | {r['actions']} | "
               f"{r['pub']} / {r['final']} | {r['per']:.2f} | {r['purity']:.3f} | "
-              f"{r['acc']:.3f} |{ch} {r['a']} / {r['b']} / {r['c']} / {r['d']} |", flush=True)
+              f"{r['acc']:.3f} |{ch} {r['a']} / {r['b']} / {r['c']} / {r['d']} | "
+              f"{r['shared']} / {r['mixed']} |", flush=True)
     tot = {c: sum(r[c] for r in res.values()) for c in CAUSES}
-    print(f"\nmean ids/action {np.mean([r['per'] for r in res.values()]):.3f}, purity "
+    print(f"\nmean ids/action {np.mean([r['per'] for r in res.values()]):.3f}, published "
+          f"{np.mean([r['pub'] / r['actions'] for r in res.values()]):.3f}, purity "
           f"{np.mean([r['purity'] for r in res.values()]):.3f}, acc "
           f"{np.mean([r['acc'] for r in res.values()]):.3f}; extra ids by cause: "
           + ", ".join(f"({c}) {tot[c]}" for c in CAUSES) + "\n", flush=True)
