@@ -44,6 +44,14 @@ class LabelMemoryConfig:
     merge_ratio, merge_margin : float
         The thresholds of ``merge_present``.
 
+    ``merge_present`` is off: it was measured and not adopted (issue 12, round 5,
+    ``benchmarks/id_fragments.py``, simulated revisions). Ratio 0.5 and margin 0.1 (the
+    recall's, the middle of the plateau ratio 0.3-0.7 x margin 0.1-0.2 on the declared train
+    pair ret_14_86_14 and 02_walk_punch_sword_wash) gave on the 17 held-out streams mean
+    accuracy 0.749 -> 0.760, ids per action 1.26 -> 1.19 (published 1.91 -> 1.73) and purity
+    0.806 -> 0.820, but lost 0.028 on 14_20 (its arm circles joined the twist's id), more than
+    the 0.01 the protocol allows on any held-out stream.
+
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
     rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB
     (:meth:`max_bytes`), plus a few integers per id (run length, last frame, birth revision,

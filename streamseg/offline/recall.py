@@ -25,6 +25,12 @@ window). Candidates and ids are then paired one to one (Hungarian on the ratio);
 without a pair keeps (or gets) a new id. With ``recall_confirm = 2`` a pair is only taken when
 the previous revision proposed the same pair (the candidate's id carried by the overlap).
 
+With ``merge_present`` (off by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
+says why) a candidate not recalled may also join an id the revision holds, on the same
+relative test against that id's exemplars (:func:`merge_into_present`): two clusters of one
+revision then share an id, the commonest source of extra ids (a revision splitting one action
+in two, ``benchmarks/id_fragments.py``). It adds no state.
+
 Kept as plain values (the checkpoint codec stores them): the memory's ``born`` (id -> the
 revision that first gave it) and ``pending`` (candidate id -> proposed old id).
 
