@@ -21,8 +21,8 @@ action most of its frames are (in the final answer, else in its last revision) a
 
 * ``(c) hand-off``: most of its frames at birth are another action than its home: the
   overlap carried it from one action to another;
-* ``(d) return``: it first appears more than the history after the home action's majority id
-  was last seen there: a return not recognised;
+* ``(d) return``: on the home action's frames it is never within the history of the
+  action's majority id (either may come first): a return not recognised;
 * ``(a) split``: its birth revision holds another id on >= 0.5 s of the home action's frames
   (two clusters of one revision for one action: K too high, or a fragment beside the
   action's own cluster);
@@ -114,6 +114,15 @@ def _majority(x):
     return int(v[c.argmax()])
 
 
+def _gap(a, b) -> int:
+    """Smallest distance between a frame of ``a`` and one of ``b`` (sorted int arrays)."""
+    j = np.clip(np.searchsorted(b, a), 1, b.size - 1) if b.size > 1 else np.zeros_like(a)
+    d = np.abs(a - b[j])
+    if b.size > 1:
+        d = np.minimum(d, np.abs(a - b[j - 1]))
+    return int(d.min())
+
+
 def diagnose(lab, truth, revs, fps, history):
     """Figures and the extra ids' causes (module docstring)."""
     keep = truth >= 0
@@ -140,11 +149,9 @@ def diagnose(lab, truth, revs, fps, history):
         born_on = _majority(truth[s0 + np.flatnonzero(rl0 == i)])
         if i in final:
             home = _majority(truth[lab == i])
-            first = int(np.flatnonzero(lab == i)[0])
         else:
             sl, _, rll = rev_labels[births[-1]]
             home = _majority(truth[sl + np.flatnonzero(rll == i)])
-            first = s0 + int(np.flatnonzero(rl0 == i)[0])
         if primary.get(home) == i:
             continue  # the action's own id
         if i in owners:
@@ -154,8 +161,11 @@ def diagnose(lab, truth, revs, fps, history):
             continue
         p = primary.get(home, -1)
         idx = np.flatnonzero(truth == home)
-        p_before = idx[(idx < first) & (lab[idx] == p)]
-        if p_before.size and first - p_before[-1] > history * fps:
+        # (d): on the home action's frames, the id and the action's majority id are never
+        # within the history of each other (either may come first: a return can be longer)
+        mine = idx[lab[idx] == i] if i in final else s0 + np.flatnonzero(rl0 == i)
+        theirs = idx[lab[idx] == p]
+        if mine.size and theirs.size and _gap(mine, theirs) > history * fps:
             causes["d"] += 1
             continue
         m = idx[(idx >= s0) & (idx < s0 + rl0.size)] - s0
@@ -195,6 +205,13 @@ def run_daemon(streams, mcfg, args):
         revs: list = []
         lab, _, _ = live(rec, name, args.daemon, cfg, algorithms=Algorithms(memory_config=mcfg),
                          revisions=revs)
+        if args.save:
+            import pickle
+
+            path = Path(args.save)
+            old = pickle.loads(path.read_bytes()) if path.exists() else {}
+            old[name, mcfg.merge_present] = (lab, truth, revs, rec.fps)
+            path.write_bytes(pickle.dumps(old))
         out[name] = diagnose(lab, truth, revs, rec.fps, args.history)
         print(f"  {name}: done", file=sys.stderr, flush=True)
     return out
@@ -230,6 +247,7 @@ def main():
     ap.add_argument("--merge", default="", help="RATIO,MARGIN: score merge_present with it")
     ap.add_argument("--heldout", action="store_true", help="every stream but TRAIN")
     ap.add_argument("--daemon", type=float, default=0.0, help="real daemon at this speed")
+    ap.add_argument("--save", default="", help="daemon mode: pickle every answer here")
     args = ap.parse_args()
     streams = all_streams()
     if args.grid:
