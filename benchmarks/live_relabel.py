@@ -72,13 +72,16 @@ def ari(a, b) -> float:
     return float(adjusted_rand_score(a, b))
 
 
-def live(rec, stream, speed, config):
-    """Replay ``rec`` into a fresh daemon; the per-frame labels of the newest revisions."""
+def live(rec, stream, speed, config, algorithms=None, revisions=None):
+    """Replay ``rec`` into a fresh daemon; the per-frame labels of the newest revisions.
+
+    ``algorithms``: the daemon's (default: its own); ``revisions``: a list that receives every
+    revision as ``(start, end, segments)``."""
     from streamseg.commands.listen import listen, subscriber
     from streamseg.commands.replay import replay
     from streamseg.daemon import Daemon
 
-    daemon = Daemon(replace(config, heartbeat=0.05))
+    daemon = Daemon(replace(config, heartbeat=0.05), algorithms)
     ep = daemon.bind()
     server = threading.Thread(target=daemon.run, daemon=True)
     server.start()
@@ -105,6 +108,9 @@ def live(rec, stream, speed, config):
     for ev in revs:
         for a, b, c in ev.segments:
             lab[a:min(b, n)] = c
+        segs = [(int(a), min(int(b), n), int(c)) for a, b, c in ev.segments if a < n]
+        if revisions is not None and segs:
+            revisions.append((min(a for a, _, _ in segs), max(b for _, b, _ in segs), segs))
     times = [e.elapsed for e in revs]
     return lab, len(revs), times
 

@@ -35,6 +35,24 @@ class LabelMemoryConfig:
     recall_within : int
         A new id can still be recalled (replaced by an old one) in the revision that gave it
         and the next ``recall_within - 1`` ones.
+    merge_present : bool
+        A candidate cluster may also take an id the revision already holds, when it passes
+        the recall's relative test against that id's exemplars with ``merge_ratio`` and
+        ``merge_margin`` (two clusters of one revision then share an id: one action the fit
+        split in two; :func:`streamseg.offline.recall.merge_into_present`). Works from the
+        first revisions on (no origin rule: it recalls nothing).
+    merge_ratio, merge_margin : float
+        The thresholds of ``merge_present``.
+
+    ``merge_present`` is off: it was measured and not adopted (issue 12, round 5,
+    ``benchmarks/id_fragments.py``, simulated revisions). Ratio 0.5 and margin 0.1 (the
+    recall's, the middle of the plateau ratio 0.3-0.7 x margin 0.1-0.2 on the declared train
+    pair ret_14_86_14 and 02_walk_punch_sword_wash) gave on the 17 held-out streams mean
+    accuracy 0.749 -> 0.760, ids per action 1.26 -> 1.19 (published 1.91 -> 1.73) and purity
+    0.806 -> 0.820, but lost 0.028 on 14_20 (its arm circles joined the twist's id), more than
+    the 0.01 the protocol allows on any held-out stream. The real daemon at real time
+    (``--daemon 1``) agreed: held out 0.744 -> 0.759, ids per action 1.25 -> 1.19, purity
+    0.812 -> 0.827, 14_20 -0.026.
 
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
     rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB
@@ -56,6 +74,9 @@ class LabelMemoryConfig:
     recall_confirm: int = 1
     recall_pieces: int = 4
     recall_within: int = 2
+    merge_present: bool = False
+    merge_ratio: float = 0.5
+    merge_margin: float = 0.1
 
     def __post_init__(self):
         def is_int(v):
@@ -70,7 +91,9 @@ class LabelMemoryConfig:
                "a length > 0 seconds")
         _check("rate_hz", self.rate_hz, isinstance(self.rate_hz, (int, float))
                and not isinstance(self.rate_hz, bool) and self.rate_hz > 0, "a rate > 0 Hz")
-        for name in ("recall_ratio", "recall_margin"):
+        _check("merge_present", self.merge_present, isinstance(self.merge_present, bool),
+               "True or False")
+        for name in ("recall_ratio", "recall_margin", "merge_ratio", "merge_margin"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
                    and 0 <= v < float("inf"), "a finite number >= 0")

@@ -25,6 +25,12 @@ window). Candidates and ids are then paired one to one (Hungarian on the ratio);
 without a pair keeps (or gets) a new id. With ``recall_confirm = 2`` a pair is only taken when
 the previous revision proposed the same pair (the candidate's id carried by the overlap).
 
+With ``merge_present`` (off by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
+says why) a candidate not recalled may also join an id the revision holds, on the same
+relative test against that id's exemplars (:func:`merge_into_present`): two clusters of one
+revision then share an id, the commonest source of extra ids (a revision splitting one action
+in two, ``benchmarks/id_fragments.py``). It adds no state.
+
 Kept as plain values (the checkpoint codec stores them): the memory's ``born`` (id -> the
 revision that first gave it) and ``pending`` (candidate id -> proposed old id).
 
@@ -135,6 +141,33 @@ def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
     return out
 
 
+def merge_into_present(P: dict, hosts, scores: dict, taken, config) -> dict:
+    """Candidates that join an id the revision already holds (``merge_present``).
+
+    A candidate ``c`` (a cluster the overlap does not explain) not recalled (``taken``) joins
+    the present, established id ``j`` (in ``hosts``: remembered, not a candidate) with the
+    best ratio when ``ratio(c, j) >= merge_ratio`` and ``ratio(c, j)`` exceeds c's ratio to
+    every other remembered id by ``merge_margin`` (the recall's relative test). Unlike the
+    recall, several candidates may join one id: two clusters of one revision then share an id
+    (an action the fit split in two). Only ids change: the segments keep their bounds.
+    """
+    out = {}
+    for c in sorted(P):
+        if c in taken:
+            continue
+        best = None
+        for j in hosts:
+            if j == c:
+                continue
+            r, other = scores[c, j]
+            if (r >= config.merge_ratio and r >= other + config.merge_margin
+                    and (best is None or r > best[0])):
+                best = (r, j)
+        if best is not None:
+            out[c] = best[1]
+    return out
+
+
 def recall(stable, previous, memory, features, frames, config, fps: float,
            sigma: float | None = None):
     """Map candidates of ``stable`` onto remembered ids on strong evidence (module docstring).
@@ -163,7 +196,8 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
         With ``born``, ``pending`` and ``revisions`` updated (exemplars are updated by the
         caller, :meth:`ExemplarMemory.updated`).
     recalled : dict
-        Candidate id -> remembered id taken in this revision.
+        Candidate id -> remembered id taken in this revision; with ``merge_present``, also
+        candidate id -> present id it joins (:func:`merge_into_present`).
     """
     from dataclasses import replace
 
@@ -177,17 +211,23 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     cands = [c for c in present
              if c >= seen or born.get(c, -1) >= rev - config.recall_within + 1]
     absent = [j for j in memory.exemplars if j not in present]
+    merge = bool(getattr(config, "merge_present", False))
+    hosts = [j for j in present if j in memory.exemplars and j not in cands]
     recalled: dict = {}
+    merged: dict = {}
     proposals: dict = {}
-    if previous is not None and cands and absent and int(frames[0]) > memory.origin:
+    may_recall = bool(absent) and int(frames[0]) > memory.origin
+    if previous is not None and cands and (may_recall or (merge and hosts)):
         keep = max(2, int(round(config.exemplar_s * fps)))
         P = {c: pieces_of(segs, c, features, frames, keep, memory.stride, config.recall_pieces)
              for c in cands}
         P = {c: p for c, p in P.items() if len(p) >= 2}
+        scores = {}
         if P:
             if sigma is None:
                 sigma = default_sigma(np.asarray(features[::memory.stride], dtype=np.float64))
             scores = recall_scores(P, memory, sigma)
+        if P and may_recall:
             cs, js = sorted(P), sorted(absent)
             W = np.full((len(cs), len(js)), -1.0)
             for a, c in enumerate(cs):
@@ -201,9 +241,12 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
                     proposals[c] = j
                     if config.recall_confirm <= 1 or pending.get(c) == j:
                         recalled[c] = j
+        if P and merge:
+            merged = merge_into_present(P, hosts, scores, set(recalled), config)
     mapping = {c: c for c in present}
     mapping.update(recalled)
-    fresh = [c for c in present if c >= seen and c not in recalled]
+    mapping.update(merged)
+    fresh = [c for c in present if c >= seen and c not in recalled and c not in merged]
     for k, c in enumerate(fresh):
         mapping[c] = seen + k
     next_id = seen + len(fresh)
@@ -212,15 +255,15 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
         born.setdefault(mapping[c], rev)
     for j in recalled.values():
         born[j] = -1  # an old id: never a candidate again
-    keep_ids = ({mapping[c] for c in present} | set(memory.exemplars)) - set(recalled)
+    gone = set(recalled) | set(merged)
+    keep_ids = ({mapping[c] for c in present} | set(memory.exemplars)) - gone
     born = {i: r for i, r in born.items() if i in keep_ids}
-    pending = {mapping[c]: j for c, j in proposals.items() if c not in recalled}
+    pending = {mapping[c]: j for c, j in proposals.items() if c not in gone}
     # a young id merged into an old one is gone for good: forget its exemplars too (else they
     # would compete with the old id's, or be recalled in its place)
-    gone = set(recalled)
     ex = {i: v for i, v in memory.exemplars.items() if i not in gone}
     weight = {i: v for i, v in memory.weight.items() if i not in gone}
     last_seen = {i: v for i, v in memory.last_seen.items() if i not in gone}
     memory = replace(memory, exemplars=ex, weight=weight, last_seen=last_seen, born=born,
                      pending=pending, revisions=rev + 1)
-    return replace(stable, segments=out, next_id=next_id), memory, recalled
+    return replace(stable, segments=out, next_id=next_id), memory, {**recalled, **merged}
