@@ -1,8 +1,8 @@
 """``streamseg segment|eval FILE --method aca``: Aligned Cluster Analysis of a whole recording.
 
 FILE is a recording (features: ``streamseg.skeleton.quaternion_features``, the paper's
-14-joint quaternions) or a plain feature matrix ``.npy``/``.csv`` (rows = frames, ``--fps``
-default 1 so lengths in seconds are lengths in rows). Temporal reduction is on by default for
+14-joint quaternions) or a plain feature matrix ``.npy``/``.csv`` (rows = frames; ``--fps``
+is required, as lengths are in seconds). Temporal reduction is on by default for
 recordings (``--reduce 20``) and for matrices of more than 1,000 rows. Without ``--clusters``
 the number of actions is found (:mod:`streamseg.offline.model_selection`).
 """

@@ -34,7 +34,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--skeleton", help="ASF for AMCs whose folder has none (each AMC "
                         "takes the ASF beside it whose name starts the file's name, or the "
                         "only one there)")
-    parser.add_argument("--fps", type=float, default=None,
+    from streamseg.cli import frame_rate
+
+    parser.add_argument("--fps", type=frame_rate, default=None,
                         help="frame rate for feature matrices (.npy/.csv) or AMCs")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a "
