@@ -56,7 +56,9 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
         sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
         return msgpack.unpackb(sock.recv(), raw=False)
     except zmq.Again:
-        raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s") from None
+        raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
+                           "the daemon running there? (with CURVE on it needs --curve-dir)") \
+            from None
     finally:
         sock.close()
 

@@ -3,7 +3,7 @@
 Announces the stream, sends N frames per packet at real time times ``--speed`` (``0``: as fast
 as the daemon takes them; a PUSH socket waits when the daemon's queue is full), then ends it.
 With no daemon listening it says it is waiting and gives up after ``--wait`` seconds; Ctrl-C
-(SIGINT) sends ``end`` before it exits, so the daemon closes the stream at once.
+(SIGINT) or SIGTERM sends ``end`` before it exits, so the daemon closes the stream at once.
 """
 
 from __future__ import annotations
@@ -170,6 +170,20 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
 
 
 def run(args) -> int:
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return _run(args)
+    # SIGTERM (systemd, timeout, kill) ends the stream like Ctrl-C: `end` goes out first
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        return _run(args)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args) -> int:
     from streamseg.io import read
 
     # what the daemon would refuse, refused here: it would only log it, and we would say "sent"
