@@ -238,3 +238,17 @@ def test_sigterm_ends_a_replay_like_ctrl_c(data_dir):
     finally:
         d.stop()
         t.join(10)
+
+
+def test_a_missing_skeleton_is_not_called_a_recording(capsys, data_dir, tmp_path):
+    line = _one_line(capsys, ["segment", data_dir / "cmu86" / "86_01.amc.gz", "--skeleton",
+                              tmp_path / "nosuch.asf"])
+    assert "nosuch.asf: found no such file" in line and "recording" not in line
+
+
+def test_a_one_frame_warning_is_singular(capsys, tmp_path):
+    m = tmp_path / "one.npy"
+    np.save(m, np.zeros((1, 17)))
+    assert main(["segment", str(m), "--fps", "120", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert any(w.startswith("the recording has 1 frame (") for w in out["warnings"])

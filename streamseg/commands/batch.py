@@ -86,8 +86,10 @@ def run(args) -> int:
             else:
                 cluster = local_cluster(args.workers)
                 client = distributed.Client(cluster, set_as_default=False)
-                where = f"a local cluster of {len(cluster.workers)} worker processes"
-            print(f"streamseg batch: {len(files)} recordings, {len(files) - len(todo)} already "
+                n = len(cluster.workers)
+                where = f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
+            print(f"streamseg batch: {len(files)} recording{'s' if len(files) != 1 else ''}, "
+                  f"{len(files) - len(todo)} already "
                   f"in {args.output}, {len(todo)} to run on {where}", file=sys.stderr)
             futures = {}
             for i, f in enumerate(todo):
