@@ -1,7 +1,8 @@
 """streamseg: live motion-capture segmentation (cuts, action labels, repetitions).
 
-Commands: info, segment, eval (files); serve, replay, listen, demo (the daemon). Output of
-segment/eval --json: docs/output.md. Exit codes: 0 ok, 1 runtime failure, 2 usage.
+Commands: info, segment, eval, batch (files); serve, replay, listen, view, keys, demo (the
+daemon). Output of segment/eval --json: docs/output.md. Exit codes: 0 ok, 1 runtime
+failure, 2 usage.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import math
 import os
 import sys
 from pathlib import Path
@@ -53,6 +55,18 @@ def _plain(text: str) -> str:
     return text.replace("``", "").replace(":func:", "").replace(":mod:", "").replace("`", "")
 
 
+def frame_rate(text: str) -> float:
+    """An ``--fps`` value: a finite number > 0 (argparse type; else a one-line usage error)."""
+    try:
+        fps = float(text)
+    except ValueError:
+        fps = float("nan")
+    if not (math.isfinite(fps) and fps > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a frame rate in frames per "
+                                         "second, a finite number > 0 (e.g. 120)")
+    return fps
+
+
 def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> None:
     p.add_argument(
         "file",
@@ -62,9 +76,10 @@ def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> 
     p.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
     p.add_argument(
         "--fps",
-        type=float,
+        type=frame_rate,
         default=None,
-        help="frame rate for a feature matrix (.npy/.csv, default 1) or an AMC (default 120)",
+        help="frame rate: needed for a feature matrix (.npy/.csv, rows per second); for a "
+             "recording it replaces the file's own (AMC: 120)",
     )
 
 

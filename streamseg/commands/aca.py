@@ -1,8 +1,8 @@
 """``streamseg segment|eval FILE --method aca``: Aligned Cluster Analysis of a whole recording.
 
 FILE is a recording (features: ``streamseg.skeleton.quaternion_features``, the paper's
-14-joint quaternions) or a plain feature matrix ``.npy``/``.csv`` (rows = frames, ``--fps``
-default 1 so lengths in seconds are lengths in rows). Temporal reduction is on by default for
+14-joint quaternions) or a plain feature matrix ``.npy``/``.csv`` (rows = frames; ``--fps``
+is required, as lengths are in seconds). Temporal reduction is on by default for
 recordings (``--reduce 20``) and for matrices of more than 1,000 rows. Without ``--clusters``
 the number of actions is found (:mod:`streamseg.offline.model_selection`).
 """
@@ -72,9 +72,14 @@ def _load(args):
         fps = float(args.fps)
         return read_matrix(args.file), fps, True
     from streamseg.io import read
-    from streamseg.skeleton import quaternion_features
+    from streamseg.skeleton import body_features, quaternion_features
 
     rec = read(args.file, args.skeleton, fps=args.fps)
+    if rec.rotations is None:  # positions only (a Kinect-like or converted take): as `rep` does
+        warn(args, f"{Path(args.file).name} holds joint positions only (no rotations): ACA "
+                   "runs on the body's limb directions (streamseg.skeleton.body_features) "
+                   "instead of joint quaternions")
+        return body_features(rec.positions, rec.skeleton), float(rec.fps), False
     return quaternion_features(rec), float(rec.fps), False
 
 
@@ -117,6 +122,13 @@ def _run(args, n_labels: int | None = None):
     t0 = time.perf_counter()
     model = fit_aca(X, config, fps)
     seconds = time.perf_counter() - t0
+    if config.n_clusters is not None and model.n_clusters_ != config.n_clusters \
+            and not model.reason:
+        most = int(X.shape[0] // max(1, round(config.min_len_s * fps)))
+        warn(args, f"--clusters {config.n_clusters} asks for more actions than "
+                   f"{X.shape[0]} frames hold in segments of --min-len {config.min_len_s:g} s "
+                   f"(at most {most}): clustered with K={model.n_clusters_} (give a smaller "
+                   "--clusters or --min-len)")
     return X, fps, config, model, seconds
 
 

@@ -34,7 +34,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--skeleton", help="ASF for AMCs whose folder has none (each AMC "
                         "takes the ASF beside it whose name starts the file's name, or the "
                         "only one there)")
-    parser.add_argument("--fps", type=float, default=None,
+    from streamseg.cli import frame_rate
+
+    parser.add_argument("--fps", type=frame_rate, default=None,
                         help="frame rate for feature matrices (.npy/.csv) or AMCs")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a "
@@ -84,8 +86,10 @@ def run(args) -> int:
             else:
                 cluster = local_cluster(args.workers)
                 client = distributed.Client(cluster, set_as_default=False)
-                where = f"a local cluster of {len(cluster.workers)} worker processes"
-            print(f"streamseg batch: {len(files)} recordings, {len(files) - len(todo)} already "
+                n = len(cluster.workers)
+                where = f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
+            print(f"streamseg batch: {len(files)} recording{'s' if len(files) != 1 else ''}, "
+                  f"{len(files) - len(todo)} already "
                   f"in {args.output}, {len(todo)} to run on {where}", file=sys.stderr)
             futures = {}
             for i, f in enumerate(todo):

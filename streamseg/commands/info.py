@@ -49,7 +49,8 @@ def info(path, skeleton=None, fps=None) -> str:
     rec = read(path, skeleton, fps=fps, lenient=True)
     n_nan = int(np.isnan(rec.positions).any(axis=(1, 2)).sum())
     out = [
-        f"file:      {rec.source}",
+        f"file:      {path}" + (f" (converted from {rec.source})"
+                                  if rec.source and str(rec.source) != str(path) else ""),
         f"format:    {rec.metadata.get('format')}",
         f"frames:    {rec.n_frames}",
         f"fps:       {rec.fps:g}",

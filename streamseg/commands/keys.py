@@ -16,8 +16,12 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from streamseg.daemon.security import generate
+    from streamseg.exceptions import ParameterError
 
-    written = generate(args.dir, clients=max(args.clients, 1))
+    if args.clients < 1:
+        raise ParameterError(f"--clients {args.clients} is invalid: expected a number of "
+                             "client key pairs >= 1")
+    written = generate(args.dir, clients=args.clients)
     for p in written:
         print(f"wrote {p}")
     print(f"serve with --curve-dir {args.dir}; give clients --curve-dir (client.key_secret "

@@ -56,7 +56,9 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
         sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
         return msgpack.unpackb(sock.recv(), raw=False)
     except zmq.Again:
-        raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s") from None
+        raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
+                           "the daemon running there? (with CURVE on it needs --curve-dir)") \
+            from None
     finally:
         sock.close()
 
@@ -326,10 +328,23 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
                 return
 
 
-def run(args) -> int:
+def _bad_option(args):
+    """What is wrong with the options that need no daemon to check, or None."""
     if args.since is not None and not (args.control and args.stream):
-        print("streamseg listen: --since needs --control ENDPOINT and --stream ID",
-              file=sys.stderr)
+        return "--since needs --control ENDPOINT and --stream ID"
+    if args.since is not None and args.since < 0:
+        return f"--since {args.since} is invalid: expected a sequence number >= 0 (0: all)"
+    if args.count is not None and args.count < 1:
+        return f"--count {args.count} is invalid: expected a number of events >= 1"
+    if args.timeout is not None and not args.timeout > 0:
+        return f"--timeout {args.timeout:g} is invalid: expected seconds > 0"
+    return None
+
+
+def run(args) -> int:
+    problem = _bad_option(args)
+    if problem:
+        print(f"streamseg listen: error: {problem}", file=sys.stderr)
         return 2
     curve = None
     if args.curve_dir:

@@ -133,7 +133,8 @@ def _warn_up(args, rec, up: str) -> None:
 def _run(args, angles, fps, config: LOFConfig, online: bool) -> dict:
     window = config.frames(fps)["window"]
     if angles.shape[0] < window:
-        warn(args, f"the recording has {angles.shape[0]} frames ({angles.shape[0] / fps:.2f} s), "
+        n = angles.shape[0]
+        warn(args, f"the recording has {n} frame{'s' if n != 1 else ''} ({n / fps:.2f} s), "
              f"shorter than the cut detector's window of {window} frames "
              f"({window / fps:.2f} s): no cut can be found (a shorter --window would look at it)")
     return lof_report(angles, fps, config, online)

@@ -73,10 +73,15 @@ def format_segmentation(result: dict) -> str:
     segs = result["segments"]
     head = (f"{result['file']}: {result['method']}, {len(result['cuts'])} cuts, "
             f"{len(segs)} segments over {n} frames ({n / fps:.2f} s at {fps:g} fps)")
-    lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  label"]
+    # rep: the segments are its action sets, each with its own count (docs/output.md)
+    sets = result.get("sets") if len(result.get("sets") or ()) == len(segs) else None
+    extra = "  count" if sets else ""
+    lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  "
+                   f"label{extra}"]
     for i, s in enumerate(segs):
+        label = f"{_cell(s['label']):>5}  {sets[i]['count']:>5}" if sets else _cell(s["label"])
         lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
-                     f"{s['end_s']:>9.2f}  {_cell(s['label'])}")
+                     f"{s['end_s']:>9.2f}  {label}")
     skip = {"schema", "command", "file", "method", "n_frames", "fps", "duration_s", "cuts",
             "cuts_s", "segments", "warnings", "params", "repetitions", "sets"}
     for key, value in result.items():

@@ -3,7 +3,7 @@
 Announces the stream, sends N frames per packet at real time times ``--speed`` (``0``: as fast
 as the daemon takes them; a PUSH socket waits when the daemon's queue is full), then ends it.
 With no daemon listening it says it is waiting and gives up after ``--wait`` seconds; Ctrl-C
-(SIGINT) sends ``end`` before it exits, so the daemon closes the stream at once.
+(SIGINT) or SIGTERM sends ``end`` before it exits, so the daemon closes the stream at once.
 """
 
 from __future__ import annotations
@@ -46,9 +46,15 @@ def add_arguments(parser) -> None:
                         help="the label file's sequence to use (default: the file's stem)")
 
 
+#: the characters a stream id may hold (docs/protocol.md, "Stream ids"): ASCII only
+_ID_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_.:@+=-")
+
+
 def stream_id(path) -> str:
+    """The default stream id of ``path``: its name before the first dot, every character a
+    stream id may not hold (``/``, spaces, non-ASCII letters) replaced by ``_``."""
     name = Path(path).name.split(".")[0]
-    return "".join(c if c.isalnum() or c in "_.:@+=-" else "_" for c in name)[:128] or "stream"
+    return "".join(c if c in _ID_CHARS else "_" for c in name)[:128] or "stream"
 
 
 def announce_of(recording, stream: str, labels=None,
@@ -164,8 +170,35 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
 
 
 def run(args) -> int:
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return _run(args)
+    # SIGTERM (systemd, timeout, kill) ends the stream like Ctrl-C: `end` goes out first
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        return _run(args)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args) -> int:
     from streamseg.io import read
 
+    # what the daemon would refuse, refused here: it would only log it, and we would say "sent"
+    if args.stream is not None and not protocol.valid_stream_id(args.stream):
+        raise ParameterError(f"--stream {args.stream!r} is not a valid stream id: use 1-128 "
+                             "characters of A-Z a-z 0-9 _ . : @ + = - (docs/protocol.md)")
+    if not args.wait > 0:
+        raise ParameterError(f"--wait {args.wait:g} is invalid: expected seconds > 0")
+    if args.labels:  # the view reads them later, elsewhere: a wrong path is said now
+        from streamseg.evaluation.labels import read_labels
+
+        if not Path(args.labels).is_file():
+            raise ParameterError(f"--labels {args.labels}: no such file (a label CSV: "
+                                 "sequence,start_frame,end_frame,action_label)")
+        read_labels(args.labels, args.labels_sequence or stream_id(args.file))
     rec = read(args.file, skeleton=args.skeleton)
     if args.up:
         rec = dataclasses.replace(rec, skeleton=dataclasses.replace(rec.skeleton, up=args.up))

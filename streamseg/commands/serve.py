@@ -84,12 +84,33 @@ def build(args):
     return config, Algorithms(lof, aca, repetitions=config.repetitions, rep_config=rep)
 
 
+def _check_before_binding(args, config) -> None:
+    """Options that would fail after the sockets are bound and the address printed, refused
+    first with one line that says how to fix them."""
+    from pathlib import Path
+
+    from streamseg.exceptions import ParameterError
+
+    if getattr(args, "http", None):
+        from streamseg.commands.view import http_address
+
+        http_address(args.http)
+    if config.state_dir:
+        path = Path(config.state_dir).expanduser()
+        existing = next((p for p in (path, *path.parents) if p.exists()), None)
+        if existing is not None and not existing.is_dir():
+            raise ParameterError(f"--state-dir {config.state_dir}: {existing} is a file, not a "
+                                 "folder: give a folder for the event log and checkpoints "
+                                 "(created if missing), or none")
+
+
 def run(args) -> int:
     from streamseg.daemon import Daemon
 
     logging.basicConfig(level=args.log_level,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")
     config, algorithms = build(args)
+    _check_before_binding(args, config)
     daemon = Daemon(config, algorithms)
     endpoints = daemon.bind()
     for sig in (signal.SIGINT, signal.SIGTERM):

@@ -69,6 +69,9 @@ def run(args) -> int:
     done = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):  # before the address: a script may stop us
         signal.signal(sig, lambda *_: done.set())
+    if not args.interval > 0:  # before the signal handlers: Ctrl-C still works on an error
+        raise ParameterError(f"--interval {args.interval:g} is invalid: expected seconds "
+                             "> 0 between page updates (default 0.1)")
     view = start_view(args.source, args.control, args.http, interval=args.interval,
                       labels=args.labels)
     print(f"streamseg view: {view.url}  (events from {args.source})", flush=True)

@@ -93,11 +93,14 @@ def discover(folder, skeleton=None) -> list[LabelledRecording]:
         raise RecordingError(folder, None, "not a folder", "a folder holding label CSVs")
     out = []
     for csv_path in sorted(folder.rglob("*.csv")):
-        with csv_path.open(newline="", encoding="utf-8") as fh:
-            header = next(csv.reader(fh), [])
-            if header[:4] != LABEL_HEADER:
-                continue
-            sequences = list(dict.fromkeys(row[0] for row in csv.reader(fh) if row))
+        try:
+            with csv_path.open(newline="", encoding="utf-8") as fh:
+                header = next(csv.reader(fh), [])
+                if header[:4] != LABEL_HEADER:
+                    continue
+                sequences = list(dict.fromkeys(row[0] for row in csv.reader(fh) if row))
+        except UnicodeDecodeError:
+            continue  # not text, so not a label CSV (a label CSV that is: read_labels says)
         asfs = sorted(csv_path.parent.glob("*.asf"))
         for seq in sequences:
             path = next((csv_path.parent / f"{seq}{s}" for s in RECORDING_SUFFIXES

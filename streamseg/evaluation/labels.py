@@ -7,6 +7,7 @@ exclusive ends. A cut at frame ``c`` means a new segment starts at ``c``.
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,7 +48,7 @@ def read_labels(path, sequence: str) -> list[LabelSegment]:
     """
     path = Path(path)
     out = []
-    with path.open(newline="", encoding="utf-8") as fh:
+    with io.StringIO(_text(path), newline="") as fh:
         rows = csv.reader(fh)
         header = next(rows, None)
         if not header or header[:4] != ["sequence", "start_frame", "end_frame", "action_label"]:
@@ -72,6 +73,9 @@ def read_labels(path, sequence: str) -> list[LabelSegment]:
                 raise RecordingError(
                     path, lineno, f"row {row!r}", "integer frame numbers in columns 2-3 (and 5-6)"
                 ) from None
+            if start < 0:
+                raise RecordingError(path, lineno, f"start_frame {start + 1}",
+                                     "1-based frame numbers (the first frame is 1)")
             if end <= start:
                 raise RecordingError(
                     path, lineno, f"start {start + 1} > end {end}", "start_frame <= end_frame"
@@ -83,6 +87,17 @@ def read_labels(path, sequence: str) -> list[LabelSegment]:
         )
     out.sort(key=lambda s: s.start)
     return out
+
+
+def _text(path) -> str:
+    """The file as text; one that is not UTF-8 is a :class:`RecordingError` at its line."""
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise RecordingError(path, data[:err.start].count(b"\n") + 1,
+                             "bytes that are not UTF-8 text",
+                             "a label CSV (sequence,start_frame,end_frame,action_label)") from None
 
 
 def true_cuts(segments: list[LabelSegment], n_frames: int | None = None) -> list[int]:

@@ -18,9 +18,11 @@ def read_text(path) -> str:
     try:
         raw = path.read_bytes()
     except FileNotFoundError:
-        raise RecordingError(path, None, "no such file", "an existing recording file") from None
+        # read_text serves recordings and ASF skeletons alike: say what to check, not which
+        raise RecordingError(path, None, "no such file",
+                             "an existing file (check the path)") from None
     except IsADirectoryError:
-        raise RecordingError(path, None, "a directory", "a recording file") from None
+        raise RecordingError(path, None, "a directory", "a file") from None
     if raw[:2] == b"\x1f\x8b":
         try:
             raw = gzip.decompress(raw)

@@ -31,7 +31,7 @@ def read_matrix(path) -> np.ndarray:
     if suffix == ".npy":
         try:
             X = np.load(path, allow_pickle=False)
-        except (ValueError, OSError) as err:
+        except (ValueError, OSError, EOFError) as err:  # EOFError: an empty or cut-off file
             raise RecordingError(path, None, f"unreadable .npy ({err})",
                                  "a numeric array saved by numpy.save") from None
         if X.ndim == 1:
@@ -47,27 +47,33 @@ def read_matrix(path) -> np.ndarray:
         return X
     rows = []
     width = None
-    with path.open(encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            text = line.strip()
-            if not text:
-                continue
-            fields = [f.strip() for f in text.split(",")]
-            try:
-                values = [float(f) for f in fields]
-            except ValueError:
-                if not rows and lineno == 1:
-                    continue  # header
-                raise RecordingError(path, lineno, f"{text[:60]!r}",
-                                     "comma-separated numbers") from None
-            if not all(np.isfinite(values)):
-                raise RecordingError(path, lineno, f"{text[:60]!r}", "finite numbers")
-            if width is None:
-                width = len(values)
-            elif len(values) != width:
-                raise RecordingError(path, lineno, f"{len(values)} columns",
-                                     f"{width} columns like the first data line")
-            rows.append(values)
+    data = path.read_bytes()
+    try:
+        content = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise RecordingError(path, data[:err.start].count(b"\n") + 1,
+                             "bytes that are not UTF-8 text",
+                             "comma-separated numbers (a text CSV)") from None
+    for lineno, line in enumerate(content.split("\n"), start=1):
+        text = line.strip()
+        if not text:
+            continue
+        fields = [f.strip() for f in text.split(",")]
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            if not rows and lineno == 1:
+                continue  # header
+            raise RecordingError(path, lineno, f"{text[:60]!r}",
+                                 "comma-separated numbers") from None
+        if not all(np.isfinite(values)):
+            raise RecordingError(path, lineno, f"{text[:60]!r}", "finite numbers")
+        if width is None:
+            width = len(values)
+        elif len(values) != width:
+            raise RecordingError(path, lineno, f"{len(values)} columns",
+                                 f"{width} columns like the first data line")
+        rows.append(values)
     if not rows:
         raise RecordingError(path, None, "no data lines", "at least one row of numbers")
     return np.asarray(rows, dtype=np.float64)
