@@ -193,53 +193,6 @@ def test_keys_refuses_fewer_than_one_client(capsys, tmp_path):
     assert not (tmp_path / "k").exists()
 
 
-@pytest.mark.daemon
-def test_sigterm_ends_a_replay_like_ctrl_c(data_dir):
-    """`timeout`, systemd and kill send SIGTERM: the daemon gets `end`, not an idle stream."""
-    import os
-    import signal
-    import threading
-    import time
-
-    from streamseg.commands.listen import listen, request, subscriber
-    from streamseg.config import DaemonConfig
-    from streamseg.daemon import Daemon
-    from tests.test_replay_cli import LOOP, replay_cmd
-
-    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
-                            heartbeat=0))
-    ep = d.bind()
-    t = threading.Thread(target=d.run, daemon=True)
-    t.start()
-    assert d.ready.wait(30)
-    try:
-        s = subscriber(ep["publish"], stream="tt")
-        proc = subprocess.Popen(replay_cmd(data_dir, ep["ingest"], "--speed", "1", "--stream",
-                                           "tt"), stderr=subprocess.PIPE, text=True,
-                                env={**os.environ, "PYTHONFAULTHANDLER": "1"})
-        deadline = time.monotonic() + 60
-        # wait on the daemon's own account: the stream is open with 2 s of frames taken
-        while time.monotonic() < deadline:
-            st = request(ep["control"], "streams")["streams"]
-            if st and st[0]["frame"] >= 240:
-                break
-            time.sleep(0.02)
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            raise AssertionError("replay still running 30 s after SIGTERM") from None
-        assert proc.returncode == 130
-        assert "interrupted: sent end of tt" in proc.stderr.read()
-        closed = [e for e in listen(s, stream="tt", until_end=True, timeout=20)
-                  if e.type == "closed"]
-        assert closed[0].reason == "end" and 0 < closed[0].frames < 4579
-    finally:
-        d.stop()
-        t.join(10)
-
-
 def test_a_missing_skeleton_is_not_called_a_recording(capsys, data_dir, tmp_path):
     line = _one_line(capsys, ["segment", data_dir / "cmu86" / "86_01.amc.gz", "--skeleton",
                               tmp_path / "nosuch.asf"])

@@ -48,7 +48,10 @@ def _default_sigint():
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def test_ctrl_c_sends_end(data_dir):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["ctrl-c", "sigterm"])
+def test_ctrl_c_and_sigterm_send_end(data_dir, sig):
+    """Ctrl-C, and the SIGTERM of `timeout`, systemd and kill: the daemon gets `end`, not an
+    idle stream."""
     d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
                             heartbeat=0))
     ep = d.bind()
@@ -69,13 +72,13 @@ def test_ctrl_c_sends_end(data_dir):
             if st and st[0]["frame"] >= 240:
                 break
             time.sleep(0.02)
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(sig)
         try:
             proc.wait(30)
         except subprocess.TimeoutExpired:  # say where it hangs (faulthandler's dump)
             proc.send_signal(signal.SIGABRT)
             proc.wait(10)
-            raise AssertionError("replay still running 30 s after SIGINT:\n"
+            raise AssertionError(f"replay still running 30 s after {sig.name}:\n"
                                  + proc.stderr.read()[-4000:]) from None
         assert proc.returncode == 130
         assert "interrupted: sent end of cc" in proc.stderr.read()
