@@ -54,16 +54,23 @@ def chunk_rows(path):
         con.close()
 
 
-def test_a_restored_stream_continues_exactly_as_the_original(tmp_path, rec, algorithms):
-    st = stream(rec, algorithms, 7200)
+def through_sqlite(tmp_path, st, algorithms):
+    """``(name, state)`` of stream ``st`` checkpointed into a store under ``tmp_path`` and
+    read back by another store, as a restart does (its pipeline given ``algorithms``)."""
     store = CheckpointStore(tmp_path)
     store.put([(st.stream, st.next_seq, snapshot(st))])
     assert store.wait()
     store.close()
-
     (name, state), = CheckpointStore(tmp_path).read_all()
     back = state["pipeline"]
     back.algorithms, back.plan = algorithms, algorithms.prepare(back.skeleton)
+    return name, state
+
+
+def test_a_restored_stream_continues_exactly_as_the_original(tmp_path, rec, algorithms):
+    st = stream(rec, algorithms, 7200)
+    name, state = through_sqlite(tmp_path, st, algorithms)
+    back = state["pipeline"]
     assert name == "s" and state["stream"].next_seq == 7200
     np.testing.assert_array_equal(back._feat, st.pipeline._feat)
     np.testing.assert_array_equal(back._frames, st.pipeline._frames)

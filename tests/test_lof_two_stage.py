@@ -15,8 +15,6 @@ import pytest
 from streamseg import protocol
 from streamseg.cli import main
 from streamseg.config import LOFConfig
-from streamseg.daemon.checkpoint import snapshot
-from streamseg.daemon.checkpoint_store import CheckpointStore
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline, cut_kind
 from streamseg.daemon.streams import StreamState
 from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence
@@ -31,6 +29,7 @@ from streamseg.online import (
 )
 from streamseg.skeleton import bone_angles
 from tests.naive import naive_settle
+from tests.test_checkpoint_store import through_sqlite
 
 FPS = 120.0
 #: on 86_01 this early stage's cut at frame 1128 moves (withdrawn, a final cut follows)
@@ -137,13 +136,7 @@ def test_a_restored_stream_settles_its_pending_cut_as_the_original(tmp_path, rec
     assert p.segmenter._st[13] == 1  # one pending cut in the state (ST_PENDING)
     st = StreamState("s", 1, rec.fps, p, 0.0)
     st.next_seq = n
-    store = CheckpointStore(tmp_path)
-    store.put([(st.stream, st.next_seq, snapshot(st))])
-    assert store.wait()
-    store.close()
-    (_, state), = CheckpointStore(tmp_path).read_all()
-    back = state["pipeline"]
-    back.algorithms, back.plan = algorithms, algorithms.prepare(back.skeleton)
+    back = through_sqlite(tmp_path, st, algorithms)[1]["pipeline"]
     rest = rec.positions[n:]
     want = p.push(rest, n)[0] + p.finish()
     got = back.push(rest, n)[0] + back.finish()
