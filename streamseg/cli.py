@@ -67,6 +67,20 @@ def frame_rate(text: str) -> float:
     return fps
 
 
+def endpoint(text: str) -> str:
+    """A ZeroMQ endpoint to connect to (argparse type): ``tcp://HOST:PORT`` with a port in
+    1..65535, or ``ipc://`` / ``inproc://``; else a one-line usage error (ZeroMQ would accept
+    some bad ones and wait for a peer that can never come)."""
+    scheme, sep, rest = text.partition("://")
+    if sep and scheme in ("ipc", "inproc") and rest:
+        return text
+    host, _, port = rest.rpartition(":")
+    if scheme == "tcp" and host and port.isdigit() and 1 <= int(port) <= 65535:
+        return text
+    raise argparse.ArgumentTypeError(f"{text!r}: expected an endpoint tcp://HOST:PORT with a "
+                                     "port in 1..65535 (e.g. tcp://127.0.0.1:5560)")
+
+
 def _add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> None:
     p.add_argument(
         "file",

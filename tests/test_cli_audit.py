@@ -205,3 +205,30 @@ def test_a_one_frame_warning_is_singular(capsys, tmp_path):
     assert main(["segment", str(m), "--fps", "120", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert any(w.startswith("the recording has 1 frame (") for w in out["warnings"])
+
+
+@pytest.mark.parametrize("url", ["tcp://127.0.0.1:99999", "tcp://127.0.0.1", "127.0.0.1:5560",
+                                 "tcp://:5560"])
+def test_an_endpoint_that_cannot_be_reached_is_refused_at_once(capsys, amc, url):
+    """ZeroMQ accepts a port beyond 65535 and would wait for a daemon that cannot exist."""
+    for argv in (["replay", amc[0], *amc[1:], "--to", url], ["listen", "--from", url],
+                 ["listen", "--from", "tcp://127.0.0.1:5561", "--control", url]):
+        line = _one_line(capsys, argv)
+        assert repr(url) in line and "tcp://HOST:PORT" in line
+
+
+def test_labels_past_the_recordings_end_are_said(capsys, amc, data_dir, tmp_path):
+    """A label file of a longer take is clipped to the recording, with a warning in the JSON
+    and on stderr; the label file of the take itself gives none."""
+    labels = data_dir / "cmu86" / "labels_86_01.csv"
+    longer = tmp_path / "labels.csv"
+    longer.write_text(labels.read_text() + "86_01,4580,99999,walk,4500,4600\n")
+    for method in ("lof", "aca"):
+        assert main(["eval", *map(str, amc), "--labels", str(longer), "--method", method,
+                     "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)
+        said = [w for w in out["warnings"] if "past the recording" in w]
+        assert len(said) == 1 and "reach frame 99999" in said[0] and "4579 frames" in said[0]
+    assert main(["eval", *map(str, amc), "--labels", str(labels), "--json"]) == 0
+    assert not [w for w in json.loads(capsys.readouterr().out)["warnings"]
+                if "past the recording" in w]

@@ -157,6 +157,7 @@ def segment(args) -> dict:
 
 def evaluate(args) -> dict:
     """Hungarian-matched frame accuracy and confusion matrix (eq. 11) against ``args.labels``."""
+    from streamseg.commands.output import check_label_extent
     from streamseg.evaluation.labels import frame_labels, read_labels
     from streamseg.evaluation.metrics import frame_confusion, matched_frame_accuracy
 
@@ -164,6 +165,7 @@ def evaluate(args) -> dict:
     truth_segments = read_labels(args.labels, sequence)
     names = sorted({s.label for s in truth_segments})
     X, fps, config, model, seconds = _run(args, n_labels=len(names))
+    check_label_extent(args, truth_segments, sequence, X.shape[0])
     truth = frame_labels(truth_segments, X.shape[0])
     keep = truth >= 0  # unlabelled frames are not scored
     pred = model.labels_[keep]

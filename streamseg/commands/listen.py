@@ -19,13 +19,16 @@ from streamseg import protocol, strict_json
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--from", dest="source", required=True, metavar="ENDPOINT",
-                        help="daemon publish endpoint")
+    from streamseg.cli import endpoint
+
+    parser.add_argument("--from", dest="source", required=True, type=endpoint,
+                        metavar="ENDPOINT", help="daemon publish endpoint")
     parser.add_argument("--stream", help="only this stream")
     parser.add_argument("--type", dest="kind", choices=protocol.EVENT_TYPES,
                         help="only this event type")
     parser.add_argument("--jsonl", action="store_true", help="one JSON object per line")
-    parser.add_argument("--control", metavar="ENDPOINT", help="ask for current state first")
+    parser.add_argument("--control", type=endpoint, metavar="ENDPOINT",
+                        help="ask for current state first")
     parser.add_argument("--since", type=int, metavar="N",
                         help="first print the stream's logged events with sequence numbers "
                              "> N (needs --control and --stream; 0: all retained)")

@@ -174,6 +174,7 @@ def segment(args) -> dict:
 
 def evaluate(args) -> dict:
     """Precision/recall/F1 (label window + 0.5 s, and flat 1 s), covering, latency."""
+    from streamseg.commands.output import check_label_extent
     from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts
     from streamseg.evaluation.metrics import covering, cut_scores, latency_stats
 
@@ -183,6 +184,7 @@ def evaluate(args) -> dict:
     n = int(angles.shape[0])
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     segs = read_labels(args.labels, sequence)
+    check_label_extent(args, segs, sequence, n)
     truth, windows = true_cuts(segs, n), cut_windows(segs)[:len(true_cuts(segs, n))]
     win = cut_scores(res["cuts"], truth, windows=windows, margin=int(round(0.5 * fps)))
     flat = cut_scores(res["cuts"], truth, tolerance=int(round(1.0 * fps)))

@@ -24,6 +24,16 @@ def warn(args, message: str) -> None:
               file=sys.stderr)
 
 
+def check_label_extent(args, segs, sequence: str, n_frames: int) -> None:
+    """A warning when the label segments ``segs`` of ``sequence`` reach past the recording's
+    ``n_frames`` (they are clipped there; often a label file of another take)."""
+    end = max((s.end for s in segs), default=0)
+    if end > n_frames:
+        warn(args, f"{args.labels}: the labels of {sequence} reach frame {end} (end_frame, "
+                   f"1-based), past the recording's {n_frames} frames: scored up to the end "
+                   "(check the label file and --sequence)")
+
+
 def merge_runs(segments) -> list[tuple[int, int, object]]:
     """Adjacent segments of one label merged: ACA tiles one action with several pieces."""
     out: list[list] = []

@@ -22,9 +22,12 @@ from streamseg.recording import UP_AXES
 
 
 def add_arguments(parser) -> None:
+    from streamseg.cli import endpoint
+
     parser.add_argument("file", help="recording (.amc[.gz], .bvh, .npz)")
     parser.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
-    parser.add_argument("--to", required=True, metavar="ENDPOINT", help="daemon ingest endpoint")
+    parser.add_argument("--to", required=True, type=endpoint, metavar="ENDPOINT",
+                        help="daemon ingest endpoint")
     parser.add_argument("--speed", type=float, default=1.0, help="times real time; 0 = max")
     parser.add_argument("--stream", help="stream id (default: the file's stem)")
     parser.add_argument("--batch", type=int, default=1, metavar="N", help="frames per packet")
