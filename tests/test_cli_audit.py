@@ -232,3 +232,16 @@ def test_labels_past_the_recordings_end_are_said(capsys, amc, data_dir, tmp_path
     assert main(["eval", *map(str, amc), "--labels", str(labels), "--json"]) == 0
     assert not [w for w in json.loads(capsys.readouterr().out)["warnings"]
                 if "past the recording" in w]
+
+
+def test_listens_state_line_counts_runs_like_its_relabel_lines():
+    """The late joiner's state line and the relabel lines speak of the same unit."""
+    from streamseg import protocol
+    from streamseg.commands.listen import _state_line, format_event
+
+    pieces = [[0, 100, 1], [100, 200, 1], [200, 300, 2]]  # two cycles of action 1, then 2
+    state = {"stream": "s", "frame": 300, "revision": 2, "cuts": [],
+             "segments": {"start": 0, "end": 300, "segments": pieces}}
+    ev = protocol.Segments("s", 2, 0, 300, [tuple(p) for p in pieces], 0.01, False)
+    assert "2 runs of 2 labels over 0-300" in _state_line(state)
+    assert "2 runs of 2 labels" in format_event(ev)

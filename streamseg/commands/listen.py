@@ -439,7 +439,11 @@ def _history(args, state: dict, ctx, curve=None):
 
 def _state_line(state: dict) -> str:
     seg = state.get("segments")
-    segs = ("none" if seg is None
-            else f"{len(seg['segments'])} segments over {seg['start']}-{seg['end']}")
+    if seg is None:
+        segs = "none"
+    else:  # in the unit of the relabel lines: runs of one label
+        runs = merged_runs(seg["segments"])
+        segs = (f"{len(runs)} runs of {len({r[2] for r in runs})} labels over "
+                f"{seg['start']}-{seg['end']}")
     return (f"[{state['stream']}] state    frame {state['frame']}  revision {state['revision']}  "
             f"{segs}  + {len(state['cuts'])} newer cuts")

@@ -55,13 +55,16 @@ def add_arguments(parser) -> None:
             para = f"see --{said[para].replace('_', '-')}"
         else:
             said[para] = f.name
-        text = f"{para} (default {f.default!r})".strip().replace("%", "%%")
+        # the library's "" (no state) is not serve's default: the paragraph says serve's
+        default = "" if f.name == "state_dir" else f" (default {f.default!r})"
+        text = f"{para}{default}".strip().replace("%", "%%")
         if kind is bool:
             parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
                                 action=argparse.BooleanOptionalAction, help=text)
             continue
         parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                            type=kind, metavar=kind.__name__.upper(), help=text)
+                            type=kind, metavar="DIR" if f.name == "state_dir"
+                            else kind.__name__.upper(), help=text)
 
 
 def build(args):
