@@ -102,7 +102,9 @@ def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):
     assert len(err) == 1 and "missing.bvh" in err[0]
     assert main(["serve", "--ingest", "localhost:5560"]) == 2
     assert "tcp://127.0.0.1:5560" in capsys.readouterr().err
-    assert main(["listen", "--from", "127.0.0.1:5561"]) == 2  # no tcp://: usage, one line
+    with pytest.raises(SystemExit) as exit_:  # no tcp://: argparse's usage error, one line
+        main(["listen", "--from", "127.0.0.1:5561"])
+    assert exit_.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tcp://127.0.0.1:5560" in err[0]
     assert main([str(a) for a in ["replay", *recording, "--to", "tcp://127.0.0.1:9",
