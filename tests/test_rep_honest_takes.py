@@ -16,6 +16,7 @@ from streamseg.config import RepetitionConfig
 from streamseg.io import read
 from streamseg.io.npz import write_npz
 from streamseg.offline.repetition import RepetitionSegmenter, min_repetitions
+from streamseg.plotting.repetitions import title
 
 
 def _run(capsys, argv):
@@ -64,6 +65,10 @@ def test_a_set_of_fewer_than_three_repetitions_is_not_repetitive(capsys, amc, da
     assert code == 0, err
     _check_sets(out)
     assert not any(0 < st["count"] < 3 for st in out["sets"])
+    rep = [st for st in out["sets"] if st["repetitive"]]
+    assert title(None, out["sets"]) == (  # the picture says what the JSON says
+        f"{out['count']} repetitions in {len(rep)} repetitive set(s) of {len(out['sets'])} "
+        f"({', '.join(str(st['count']) for st in rep)})")
     for a, b in _punches(data_dir):
         inside = [st for st in out["sets"] if a <= (st["start"] + st["end"]) // 2 < b]
         assert inside and all(st["count"] == 0 and not st["repetitive"] for st in inside)
