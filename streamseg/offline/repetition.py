@@ -282,8 +282,9 @@ class RepetitionSegmenter(Estimator):
     count_ : int
         0 when the sequence is not repetitive.
     repetitive_ : bool
-        Whether the sequence passed the "repetitive" test (:func:`not_repetitive_reason`);
-        a single repetition, a still or a non-repetitive take do not.
+        Whether the sequence passed the "repetitive" test (:func:`not_repetitive_reason`,
+        the repetitions found included: at least :func:`min_repetitions`); a single
+        repetition, two, a still or a non-repetitive take do not.
     reason_ : str
         Why not ("" when repetitive).
     primary_frequency_hz_ : float
