@@ -16,6 +16,7 @@ from streamseg.config import RepetitionConfig
 from streamseg.io import read
 from streamseg.io.npz import write_npz
 from streamseg.offline.repetition import RepetitionSegmenter, min_repetitions
+from streamseg.online.repetition import RepetitionCounter
 from streamseg.plotting.repetitions import title
 
 
@@ -154,3 +155,16 @@ def test_eval_without_rep_sets_says_why_its_count_differs(capsys, amc, data_dir)
     assert "not cut into action sets" in out["note"] and "--rep-sets" in out["note"]
     assert len(err) == 1 and "as one exercise does not look repetitive" in err[0]
     assert "segment --method rep" in err[0] and "--rep-sets" in err[0]
+
+
+def test_a_two_piece_set_is_counted_neither_offline_nor_live(take86):
+    # 86_01's last punch, alone: 2.5 spectral cycles, 2 pieces (both counted 2 before the rule)
+    part = take86.slice(4043, 4579)
+    off = RepetitionSegmenter().fit(part)
+    assert off.count_ == 0 and not off.repetitive_ and "2 repetitions found" in off.reason_
+    counter = RepetitionCounter(None, take86.fps, take86.skeleton)
+    events = []
+    for i in range(0, part.n_frames, 30):
+        events += counter.learn_many(part.positions[i:i + 30])
+    events += counter.finish()
+    assert events == [] and counter.count_ == off.count_
