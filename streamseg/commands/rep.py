@@ -38,7 +38,9 @@ def add_arguments(group) -> None:
                        help="k-means seed (default 0)")
     group.add_argument("--rep-sets", action="store_true",
                        help="eval: the take is a routine; cut it into sets as segment does and "
-                            "score each labelled set (label rows: one per repetition, "
+                            "score each labelled set (without it, eval counts the whole take "
+                            "as one exercise, so its count can differ from segment's; label "
+                            "rows: one per repetition, "
                             "consecutive rows of one label are a set; a lone row is an action "
                             "or a single repetition, true count 0)")
 
@@ -74,6 +76,13 @@ def _run(args, sets=False):
             seg = RoutineSegmenter(cfg).fit(rec)
         else:
             seg = RepetitionSegmenter(cfg).fit(rec)
+    n_bad = int(getattr(seg, "n_missing_frames_", 0))
+    if n_bad:
+        n = int(getattr(seg, "whole_", seg).n_frames_)
+        # (a matrix with a NaN is refused by read_matrix; a recording's frames are skipped)
+        what = "frames have NaN joint positions"
+        warn(args, f"{n_bad} of {n} {what}: skipped (bridged by interpolation from the "
+             "frames around them)" if n_bad < n else f"all {n} {what}: nothing to count")
     return cfg, seg, time.perf_counter() - t0
 
 
@@ -107,9 +116,11 @@ def segment(args) -> dict:
         from streamseg.plotting.repetitions import plot_repetitions
 
         plot_repetitions(args.plot, whole, sets=sets)
+    reason = None
     if not repetitive:
-        warn(args, f"{Path(args.file).name} does not look repetitive "
-             f"({sets[0]['reason'] if len(sets) == 1 else 'no set is'}): count 0")
+        reason = (sets[0]["reason"] if len(sets) == 1 else
+                  "no set is repetitive" if sets else whole.reason_)
+        warn(args, f"{Path(args.file).name} does not look repetitive ({reason}): count 0")
     a = whole.analysis_
     params = {
         "selected": [] if a is None else [whole.param_names_[i] for i in a.selected],
@@ -128,10 +139,10 @@ def segment(args) -> dict:
         segments=[(st["start"], st["end"], st["label"]) for st in sets],
         count=int(seg.count_),
         repetitive=repetitive,
-        reason=None if repetitive else (sets[0]["reason"] if len(sets) == 1
-                                        else "no set is repetitive"),
+        reason=reason,
         repetitions=[{"start": int(s), "end": int(e)} for s, e in seg.repetitions_],
         sets=sets,
+        n_nan_frames=int(getattr(seg, "n_missing_frames_", 0)),
         n_actions=int(getattr(seg, "n_clusters_", 1)),
         primary_frequency_hz=float(whole.primary_frequency_hz_),
         params=params,
@@ -140,6 +151,11 @@ def segment(args) -> dict:
 
 def evaluate(args) -> dict:
     """Accuracy alpha (eq. 15) and count error against ``args.labels``.
+
+    The whole take is counted as one exercise (one set): unlike ``segment --method rep``, which
+    cuts a take into action sets first, so on a routine the two counts differ (CMU 86_01: 0
+    here, the whole take failing the repetitive test, against its sets' 10 in ``segment``).
+    ``--rep-sets`` (:func:`_evaluate_sets`) scores a routine per set, as ``segment`` counts it.
 
     The label rows of the sequence must be one row per repetition (start, end of each
     repetition). Labels of whole exercise blocks (one row per exercise, like the CMU exercise
@@ -158,16 +174,26 @@ def evaluate(args) -> dict:
         from streamseg.plotting.repetitions import plot_repetitions
 
         plot_repetitions(args.plot, seg, truth=truth)
+    if not seg.repetitive_:
+        # segment --method rep cuts a take into sets first: its count can differ (86_01: 0 here,
+        # 10 there); say so where the user sees the 0
+        warn(args, f"{Path(args.file).name} as one exercise does not look repetitive "
+             f"({seg.reason_}): count 0; `segment --method rep` cuts a take into action sets "
+             "first and counts inside each, as `eval --method rep --rep-sets` scores it")
     return evaluation(
         args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
         alpha=repetition_accuracy(seg.repetitions_, truth),
         count=int(seg.count_),
         true_count=len(truth),
         count_error=count_error(seg.count_, len(truth)),
+        repetitive=bool(seg.repetitive_),
+        reason=seg.reason_ or None,
+        n_nan_frames=int(getattr(seg, "n_missing_frames_", 0)),
         primary_frequency_hz=float(seg.primary_frequency_hz_),
         seconds=round(seconds, 3),
-        note="labels are read as one row per repetition (eq. 15 compares the i-th found and "
-             "true repetition lengths)",
+        note="the whole take is one exercise, not cut into action sets as `segment --method "
+             "rep` does (for a routine use --rep-sets); labels are read as one row per "
+             "repetition (eq. 15 compares the i-th found and true repetition lengths)",
     )
 
 

@@ -10,6 +10,7 @@ from scipy.signal import detrend, hilbert
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 from streamseg.kinematics.model import (
+    ANGLE_NAMES,
     BONE_NAMES,
     bone_directions,
     estimate_noise,
@@ -18,11 +19,12 @@ from streamseg.kinematics.model import (
     observations,
 )
 from streamseg.offline import repetition_steps as steps
+from streamseg.offline.missing_frames import bad_frames, bridge_missing_frames, bridge_rows
 from streamseg.offline.rep_align import align_repetitions
 from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionAnalysis", "RepetitionSegmenter", "angles_from_positions", "analyse",
-           "not_repetitive_reason"]
+           "min_repetitions", "not_repetitive_reason"]
 
 
 def angles_from_positions(positions, names, fps, config: RepetitionConfig | None = None):
@@ -217,7 +219,14 @@ def _smooth(Xs, fps, cutoff_hz, order):
     return steps.bandpass(Xs, fps, 0.0, cutoff_hz, order) + (Xs - detrend(Xs, axis=0))
 
 
-def not_repetitive_reason(a: RepetitionAnalysis | None, config: RepetitionConfig) -> str:
+def min_repetitions(config: RepetitionConfig) -> int:
+    """The fewest repetitions a repeated movement is counted with: ``min_cycles + 0.5``
+    cycles, rounded up (3 by default)."""
+    return int(np.ceil(config.min_cycles + 0.5))
+
+
+def not_repetitive_reason(a: RepetitionAnalysis | None, config: RepetitionConfig,
+                          count: int | None = None) -> str:
     """Why a sequence is not a repeated movement ("" when it is one).
 
     A repeated movement holds at least ``min_cycles + 0.5`` cycles of its primary frequency
@@ -225,13 +234,20 @@ def not_repetitive_reason(a: RepetitionAnalysis | None, config: RepetitionConfig
     at half that frequency stays below ``max_subharmonic`` times the power at it (else the
     "primary" is a harmonic of one movement: a single squat, a single throw) and the band
     around it holds at least ``min_concentration`` of the power (noise spreads over every
-    frequency).
+    frequency). With ``count`` (the repetitions the boundaries cut), the same
+    ``min_cycles + 0.5`` holds for them: at least :func:`min_repetitions`. The spectrum alone
+    does not ensure it: on a short stretch (one punch and the steps around it, a set HACA cut
+    out of a take) the zero-padded spectrum puts 2.5 "cycles" where the boundaries find 2
+    pieces, and 2 pieces are not 2.5 cycles (``segment`` on CMU 86_01 counted such sets).
     """
     if a is None:
         return f"too short for {config.min_cycles:g} cycles"
     if a.primary_cycles < config.min_cycles + 0.5:
         return (f"fewer than {config.min_cycles + 0.5:g} cycles of the primary frequency "
                 f"({a.primary_cycles:.2f}): one movement, not repetitions")
+    if count is not None and count < min_repetitions(config):
+        return (f"{count} repetition{'' if count == 1 else 's'} found, fewer than "
+                f"{config.min_cycles + 0.5:g} cycles: not a repeated movement")
     if a.subharmonic >= config.max_subharmonic:
         return (f"the primary frequency is a harmonic of a longer movement (power at half of "
                 f"it {a.subharmonic:.2f} x, limit {config.max_subharmonic:g})")
@@ -239,6 +255,10 @@ def not_repetitive_reason(a: RepetitionAnalysis | None, config: RepetitionConfig
         return (f"no dominant rhythm (power concentration {a.concentration:.2f} < "
                 f"{config.min_concentration:g})")
     return ""
+
+
+def _too_short(n: int) -> str:
+    return f"too short: {n} frame{'' if n == 1 else 's'}"
 
 
 class RepetitionSegmenter(Estimator):
@@ -262,8 +282,9 @@ class RepetitionSegmenter(Estimator):
     count_ : int
         0 when the sequence is not repetitive.
     repetitive_ : bool
-        Whether the sequence passed the "repetitive" test (:func:`not_repetitive_reason`);
-        a single repetition, a still or a non-repetitive take do not.
+        Whether the sequence passed the "repetitive" test (:func:`not_repetitive_reason`,
+        the repetitions found included: at least :func:`min_repetitions`); a single
+        repetition, two, a still or a non-repetitive take do not.
     reason_ : str
         Why not ("" when repetitive).
     primary_frequency_hz_ : float
@@ -276,6 +297,9 @@ class RepetitionSegmenter(Estimator):
     param_names_ : tuple of str
     analysis_ : RepetitionAnalysis or None
         None for a still or too short sequence.
+    n_missing_frames_ : int
+        Frames (rows) with a NaN or infinite value, skipped: bridged by interpolation from
+        the good frames around them (:mod:`streamseg.offline.missing_frames`).
     n_frames_ : int
     fps_ : float
     """
@@ -301,23 +325,40 @@ class RepetitionSegmenter(Estimator):
         self
         """
         fps = self.fps
+        unusable = ""  # why there is nothing to analyse before any motion test
         if hasattr(X, "positions") and hasattr(X, "skeleton"):
             fps = float(X.fps)
-            angles = angles_from_positions(X.positions, X.skeleton.names, fps, self.config)
-            # Analysed: the bones' unit directions from the UKF angles. The 3-DoF shoulder's
-            # Euler angles jump between equivalent branches when an arm circles through 360
-            # degrees (and wind by 2 pi per circle); the directions do neither.
-            self.joint_angles_ = angles
-            self.angles_ = bone_directions(angles)
+            X, self.n_missing_frames_ = bridge_missing_frames(X)
+            n = X.positions.shape[0]
+            if n < 4 or self.n_missing_frames_ == n:
+                # nothing the UKF can start from: no angles, no motion
+                unusable = (_too_short(n) if n < 4 else
+                            f"every frame ({n}) has missing (NaN) joint positions")
+                self.joint_angles_ = np.zeros((n, len(ANGLE_NAMES)))
+                self.angles_ = np.zeros((n, len(BONE_NAMES)))
+            else:
+                angles = angles_from_positions(X.positions, X.skeleton.names, fps, self.config)
+                # Analysed: the bones' unit directions from the UKF angles. The 3-DoF
+                # shoulder's Euler angles jump between equivalent branches when an arm circles
+                # through 360 degrees (and wind by 2 pi per circle); the directions do neither.
+                self.joint_angles_ = angles
+                self.angles_ = bone_directions(angles)
             self.param_names_ = BONE_NAMES
         else:
             if fps is None or not fps > 0:
                 raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) "
                                      "when fitting on an array")
             A = np.asarray(X, dtype=np.float64)
-            if A.ndim != 2 or not np.all(np.isfinite(A)):
-                raise ParameterError(f"X must be finite (n_frames, n_params) trajectories; got "
+            if A.ndim != 2:
+                raise ParameterError(f"X must be (n_frames, n_params) trajectories; got "
                                      f"shape {A.shape}")
+            bad = bad_frames(A)
+            self.n_missing_frames_ = int(bad.sum())
+            if self.n_missing_frames_ == A.shape[0] and A.shape[0]:
+                unusable = f"every row ({A.shape[0]}) has a NaN"
+                A = np.zeros_like(A)
+            elif self.n_missing_frames_:
+                A = bridge_rows(A, bad)  # skipped rows bridged, as a recording's frames
             self.angles_ = A
             self.param_names_ = tuple(f"p{i}" for i in range(A.shape[1]))
         self.fps_ = float(fps)
@@ -326,8 +367,10 @@ class RepetitionSegmenter(Estimator):
         self.analysis_ = None
         self.primary_frequency_hz_ = 0.0
         self.repetitions_ = []
-        if self.n_frames_ < 4 or float(self.angles_.std(axis=0).max()) < cfg.still_std:
-            self.reason_ = "no motion" if self.n_frames_ >= 4 else "too short"
+        if (unusable or self.n_frames_ < 4
+                or float(self.angles_.std(axis=0).max()) < cfg.still_std):
+            self.reason_ = unusable or ("no motion" if self.n_frames_ >= 4
+                                        else _too_short(self.n_frames_))
         else:
             try:
                 a = analyse(self.angles_, self.fps_, cfg)
@@ -343,6 +386,10 @@ class RepetitionSegmenter(Estimator):
                                                          merge_edges=cfg.merge_edges)
                 if cfg.align == "dtw" and len(self.repetitions_) >= 2:
                     self.repetitions_ = self._align(a)
+                # the cycles rule on the pieces found too (whole take and set alike)
+                self.reason_ = not_repetitive_reason(a, cfg, len(self.repetitions_))
+                if self.reason_:
+                    self.repetitions_ = []
         self.repetitive_ = not self.reason_
         self.count_ = len(self.repetitions_)
         reps = self.repetitions_

@@ -88,7 +88,10 @@ class RoutineSegmenter(Estimator):
     repetitions_ : list of (int, int)
         Every set's repetitions, in order.
     n_clusters_ : int
-        Actions HACA found (1 when the take was one exercise).
+        Actions HACA found (1 when the take was one exercise, or had nothing to analyse).
+    n_missing_frames_ : int
+        Frames with NaN joint positions, skipped (bridged: :mod:`streamseg.offline.
+        missing_frames`).
     """
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0,
@@ -104,17 +107,23 @@ class RoutineSegmenter(Estimator):
         -------
         self
         """
+        from streamseg.offline.missing_frames import bridge_missing_frames
         from streamseg.offline.model_selection import fit_aca
         from streamseg.skeleton import body_features, quaternion_features
 
         cfg = self.config
+        # frames with NaN joints bridged once, for the action features and the UKF alike
+        recording, self.n_missing_frames_ = bridge_missing_frames(recording)
         whole = RepetitionSegmenter(cfg, self.fps).fit(recording)
+        whole.n_missing_frames_ = self.n_missing_frames_
         self.whole_ = whole
         fps = whole.fps_
         a = whole.analysis_
-        if whole.repetitive_ and a is not None and a.concentration >= cfg.repetitive_ratio:
-            runs = [(0, whole.n_frames_, 0)]
-            self.n_clusters_ = 1
+        if a is None or (whole.repetitive_ and a.concentration >= cfg.repetitive_ratio):
+            # nothing to analyse (too short, still, no good frame): no part of it is a set
+            # either; or one exercise as a whole
+            runs = [(0, whole.n_frames_, 0)] if whole.n_frames_ else []
+            self.n_clusters_ = 1 if whole.n_frames_ else 0
         else:
             if getattr(recording, "rotations", None) is not None:
                 X = quaternion_features(recording)

@@ -11,7 +11,9 @@ frequency (a primary frequency at the lowest admissible bin may be a longer peri
 half the primary frequency has less than ``max_subharmonic`` of its power (else the "primary"
 is a harmonic of a movement not yet seen twice), and the band of ``band_width_cycles`` around
 it holds at least ``min_concentration`` of the summed (detrended) power of all parameters
-above ``min_cycles``. While it fails nothing is emitted; after a whole buffer without passing,
+above ``min_cycles``; a new set also needs its boundaries to cut the buffer into at least
+``min_cycles + 0.5`` pieces (:func:`streamseg.offline.repetition.min_repetitions`, as
+offline). While it fails nothing is emitted; after a whole buffer without passing,
 the running count restarts at 0 (a new set). At the stream's end :meth:`RepetitionCounter.
 finish` reports the repetitions the last frames hold.
 
@@ -36,7 +38,7 @@ from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 from streamseg.kinematics.model import bone_directions, estimate_noise, limb_points, observations
 from streamseg.kinematics.tracker import AngleTracker
-from streamseg.offline.repetition import analyse, not_repetitive_reason
+from streamseg.offline.repetition import analyse, min_repetitions, not_repetitive_reason
 from streamseg.offline.repetition_steps import to_repetitions
 
 __all__ = ["RepEvent", "RepetitionCounter"]
@@ -196,6 +198,10 @@ class RepetitionCounter:
         if self._last_end is None:
             # First repetitions of a set: the offline rule on the buffer.
             reps = to_repetitions(a.boundaries, n, a.period, cfg.edge_fraction, a.speed2)
+            if len(reps) < min_repetitions(cfg):
+                # the offline rule on the pieces too: fewer than min_cycles + 0.5 is no set
+                self.repetitive_ = False
+                return []
             for s, e in reps:
                 if e + start > done:
                     break
@@ -256,6 +262,8 @@ class RepetitionCounter:
         reps = to_repetitions(a.boundaries, n, a.period, cfg.edge_fraction, a.speed2,
                               merge_edges=True)
         under_way = self._last_end is not None and self.repetitive_
+        if not under_way and len(reps) < min_repetitions(cfg):
+            return []  # a new set needs as many pieces as offline (min_repetitions)
         if not under_way and self._last_end is not None:
             # the last analysis was not repetitive: what the end holds is a new set
             self.count_, first = 0, self._last_end
