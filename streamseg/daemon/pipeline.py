@@ -169,6 +169,8 @@ def cut_kind(ev) -> str:
     if isinstance(ev, WithdrawEvent):
         return "moved" if ev.moved else "withdraw"
     return "pending" if ev.pending else "cut"
+
+
 RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
 GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
 UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
