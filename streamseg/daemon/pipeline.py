@@ -157,6 +157,9 @@ def _segment_triplets(window) -> list:
 
 
 RECENT_CUTS = 256  # live cuts a stream keeps for its relabels
+RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
+GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
+UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 #: kinds of the cut events a pipeline step returns: a cut final when emitted, a pending cut
 #: (two-stage detector), its confirmation, its withdrawal, its withdrawal before a cut nearby
 CUT_KINDS = ("cut", "pending", "confirm", "withdraw", "moved")
@@ -169,11 +172,6 @@ def cut_kind(ev) -> str:
     if isinstance(ev, WithdrawEvent):
         return "moved" if ev.moved else "withdraw"
     return "pending" if ev.pending else "cut"
-
-
-RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
-GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
-UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 
 
 class StreamPipeline:
