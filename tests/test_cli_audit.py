@@ -245,3 +245,19 @@ def test_listens_state_line_counts_runs_like_its_relabel_lines():
     ev = protocol.Segments("s", 2, 0, 300, [tuple(p) for p in pieces], 0.01, False)
     assert "2 runs of 2 labels over 0-300" in _state_line(state)
     assert "2 runs of 2 labels" in format_event(ev)
+
+
+def test_clusters_that_hold_no_segment_are_said(capsys, amc):
+    """K = 40 on a take of four actions leaves clusters empty: the JSON's n_clusters is what
+    was asked, the warning says how many hold a segment."""
+    assert main(["segment", *map(str, amc), "--method", "aca", "--clusters", "40",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    used = len({s["label"] for s in out["segments"]})
+    assert out["n_clusters"] == 40 and used < 40
+    assert out["warnings"] == [f"only {used} of the 40 clusters hold a segment: the frames "
+                               "separate into fewer actions than --clusters 40 (omit "
+                               "--clusters to have K found)"]
+    assert main(["segment", *map(str, amc), "--method", "aca", "--clusters", "4",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["warnings"] == []

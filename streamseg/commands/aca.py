@@ -129,6 +129,11 @@ def _run(args, n_labels: int | None = None):
                    f"{X.shape[0]} frames hold in segments of --min-len {config.min_len_s:g} s "
                    f"(at most {most}): clustered with K={model.n_clusters_} (give a smaller "
                    "--clusters or --min-len)")
+    used = len({int(lab) for _, _, lab in model.segments_})
+    if config.n_clusters is not None and used < model.n_clusters_ and not model.reason:
+        warn(args, f"only {used} of the {model.n_clusters_} clusters hold a segment: the "
+                   f"frames separate into fewer actions than --clusters {config.n_clusters} "
+                   "(omit --clusters to have K found)")
     return X, fps, config, model, seconds
 
 
