@@ -274,6 +274,19 @@ def capacity(rec, counts, batch, seconds, state_dir=False, repeats=1):
             ratio = [a / b if b else float("nan") for a, b in zip(med[True][:4], med[False][:4])]
             print(f"{'':>8} on/off: taken {ratio[0]:.3f}, relabels/s {ratio[3]:.3f}, "
                   f"p50 {ratio[1]:.3f}, p99 {ratio[2]:.3f}")
+            if repeats > 1:
+                # run k "on" against run k "off" (run back to back): the spread between pairs
+                # says how far the medians' ratio above can be trusted on this machine
+                pairs = [[r_on[i] / r_off[i] if r_off[i] else float("nan") for i in range(4)]
+                         for r_on, r_off in zip(runs[True], runs[False])]
+                for name, i in (("taken", 0), ("relabels/s", 3), ("p50", 1), ("p99", 2)):
+                    vals = sorted(p[i] for p in pairs)
+                    print(f"{'':>8} paired on/off {name}: median {statistics.median(vals):.3f}, "
+                          f"range {vals[0]:.3f}-{vals[-1]:.3f} over {len(vals)} pairs")
+                for on in (False, True):
+                    p50s = sorted(r[1] * 1e3 for r in runs[on])
+                    print(f"{'':>8} p50 ms per run, log {'on' if on else 'off'}: "
+                          + " ".join(f"{v:.2f}" for v in p50s))
 
 
 def capacity_run(rec, tmpl, announce, n, batch, seconds, on, max_streams):

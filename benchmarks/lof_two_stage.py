@@ -57,11 +57,11 @@ from lof_accuracy import FPS, features, recordings, score, set_of  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
 from streamseg.evaluation.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
 from streamseg.online import (  # noqa: E402
-    ConfirmEvent,
     CutEvent,
     StreamingLOFSegmenter,
     WithdrawEvent,
     final_cuts,
+    first_emissions,
 )
 
 TRAIN = ("14_14", "hdm_dg_0")
@@ -87,18 +87,7 @@ def measure(events, truth, windows, n):
     emitted = [e for e in events if isinstance(e, CutEvent)]
     pending = [e for e in emitted if e.pending]
     withdrawn = [e for e in events if isinstance(e, WithdrawEvent)]
-    first, pend_at, carry = [], {}, None
-    for e in events:
-        if isinstance(e, CutEvent) and e.pending:
-            pend_at[e.frame] = e.emitted_at
-        elif isinstance(e, ConfirmEvent):
-            first.append(pend_at[e.frame] - e.frame)
-        elif isinstance(e, WithdrawEvent):
-            carry = pend_at[e.frame] if e.moved else None
-        else:  # a final cut: after a moved withdraw, that pending cut announced it
-            first.append((e.emitted_at if carry is None else carry) - e.frame)
-            carry = None
-    assert len(first) == len(final)
+    first = [e - c.frame for e, c in zip(first_emissions(events), final, strict=True)]
     return dict(final=score([c.frame for c in final], truth, windows, n),
                 prov=score([c.frame for c in emitted], truth, windows, n),
                 n_pending=len(pending), n_withdrawn=len(withdrawn),

@@ -131,3 +131,25 @@ def test_matrix_needs_fps(capsys, tmp_path):
     # --up means nothing for a matrix (features already computed) or without inclinations
     assert cli.main(["segment", str(m), "--method", "lof", "--fps", "100", "--up", "z"]) == 2
     assert "--up" in capsys.readouterr().err
+
+
+def test_early_delay_reports_first_emissions_and_keeps_the_final_cuts(capsys, files):
+    """``--early-delay``: the final cuts are ``--delay``'s alone; each cut's first emission
+    (a pending cut) is never later than its final decision, and on 86_01 earlier for some."""
+    amc, asf, labels = files
+    base = ["segment", amc, "--skeleton", asf, "--method", "lof", "--online", "--delay", "2",
+            "--json"]
+    one = _run(capsys, *base)
+    two = _run(capsys, *base, "--early-delay", "1.2")
+    assert two["cuts"] == one["cuts"] and two["cut_latency_frames"] == one["cut_latency_frames"]
+    assert "cut_first_latency_frames" not in one
+    first, final = two["cut_first_latency_frames"], two["cut_latency_frames"]
+    assert len(first) == len(final) == len(two["cuts"])
+    assert all(a <= b for a, b in zip(first, final))
+    assert any(a < b for a, b in zip(first, final))
+    assert all(isinstance(f, int) for f in two["withdrawn_cuts"])
+    ev = _run(capsys, "eval", amc, "--skeleton", asf, "--labels", labels, "--method", "lof",
+              "--online", "--delay", "2", "--early-delay", "1.2", "--json")
+    assert ev["cuts"] == one["cuts"]
+    assert ev["first_latency_median_frames"] <= ev["latency_median_frames"]
+    assert ev["n_withdrawn"] == len(two["withdrawn_cuts"])

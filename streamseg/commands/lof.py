@@ -26,7 +26,7 @@ _FIELDS = {"window": "window_s", "step": "step_s", "bins": "bins", "k": "k",
            "buffer": "buffer_s", "delay": "delay_s", "threshold": "threshold_mads",
            "min_score": "min_score", "exclusion": "exclusion", "refine": "refine_s",
            "inclinations": "inclinations", "min_contrast": "min_contrast",
-           "contrast": "contrast_s", "novelty": "novelty"}
+           "contrast": "contrast_s", "novelty": "novelty", "early_delay": "early_delay_s"}
 
 
 def add_arguments(group) -> None:
@@ -48,6 +48,12 @@ def add_arguments(group) -> None:
                        help=f"streaming LOF buffer, seconds (default {_D.buffer_s:g})")
     group.add_argument("--delay", type=float, metavar="S",
                        help=f"peak confirmation delay, seconds (default {_D.delay_s:g})")
+    group.add_argument("--early-delay", type=float, metavar="S",
+                       help="two stages: also decide each window S seconds after it and emit "
+                            "its cut at once as pending, confirmed or withdrawn at --delay "
+                            "(the final cuts stay --delay's; with --online the JSON gives "
+                            "each cut's first-emission latency; default off; "
+                            "benchmarks/lof_latency.py shows the trade-off)")
     group.add_argument("--threshold", type=float, metavar="MADS",
                        help=f"peak threshold in MADs above the median (default "
                             f"{_D.threshold_mads:g})")
@@ -165,6 +171,10 @@ def segment(args) -> dict:
     if args.online:
         extra["cut_latency_frames"] = res["latency"]
         extra["cut_latency_s"] = [round(v / fps, 4) for v in res["latency"]]
+        if config.early_delay_s:
+            extra["cut_first_latency_frames"] = res["first_latency"]
+            extra["cut_first_latency_s"] = [round(v / fps, 4) for v in res["first_latency"]]
+            extra["withdrawn_cuts"] = res["withdrawn"]
     extra["params"] = {**dataclasses.asdict(config), "preset": args.preset,
                        "online": bool(args.online), "frames": res["geometry"]}
     return segmentation(args, method="lof", n_frames=n, fps=fps,
@@ -199,6 +209,12 @@ def evaluate(args) -> dict:
         lat = latency_stats(res["latency"])
         out.update(latency_median_frames=lat["median"], latency_max_frames=lat["max"],
                    latency_median_s=lat["median"] / fps)
+        if config.early_delay_s:
+            first = latency_stats(res["first_latency"])
+            out.update(first_latency_median_frames=first["median"],
+                       first_latency_max_frames=first["max"],
+                       first_latency_median_s=first["median"] / fps,
+                       n_withdrawn=len(res["withdrawn"]))
     if args.plot:
         _plot(args, res, n, fps, f"{sequence}: LOF F1 {win['f1']:.2f} "
               f"({'online' if args.online else 'offline'}, {args.preset})",

@@ -18,7 +18,10 @@ def lof_report(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) 
 
     Returns
     -------
-    dict with ``cuts`` (list of int), ``latency`` (list of int, online only), ``centres`` and
+    dict with ``cuts`` (list of int; with two stages the final ones), ``latency`` (frames
+    from each cut to its final decision, online only), ``first_latency`` (to its first
+    emission: a pending cut settled later; online only), ``withdrawn`` (frames of pending
+    cuts taken back, online only), ``centres`` and
     ``lof`` (the curve: offline the whole one; online each window's LOF when it was decided,
     plus ``final``, the buffer's curve at the end), ``threshold`` (offline), ``seconds``
     """
@@ -38,8 +41,14 @@ def lof_report(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) 
                 dec_x.append(int(det.buffer_centres()[-1 - delay]))
                 dec_y.append(float(det.buffer_lof()[-1 - delay]))
         events += det.finish()
-        out = dict(cuts=[c.frame for c in events], latency=[c.latency for c in events],
-                   scores=[c.score for c in events], centres=np.array(dec_x),
+        from streamseg.online.events import WithdrawEvent, final_cuts, first_emissions
+
+        final = final_cuts(events)  # with one stage: every event
+        out = dict(cuts=[c.frame for c in final], latency=[c.latency for c in final],
+                   first_latency=[e - c.frame for e, c in zip(first_emissions(events), final,
+                                                               strict=True)],
+                   withdrawn=[e.frame for e in events if isinstance(e, WithdrawEvent)],
+                   scores=[c.score for c in final], centres=np.array(dec_x),
                    lof=np.array(dec_y), final=(det.buffer_centres(), det.buffer_lof()),
                    threshold=None, n_nan_frames=det.n_nan_frames_, geometry=det.geometry)
     else:

@@ -94,3 +94,22 @@ def final_cuts(events) -> list[CutEvent]:
     return [CutEvent(ev.frame, ev.score, ev.emitted_at) if isinstance(ev, ConfirmEvent) else ev
             for ev in events
             if isinstance(ev, ConfirmEvent) or (isinstance(ev, CutEvent) and not ev.pending)]
+
+
+def first_emissions(events) -> list[int]:
+    """For each of :func:`final_cuts` (same order), the frame whose arrival first told a
+    listener of it: the pending cut the final decision confirmed, or the pending cut withdrawn
+    as ``moved`` right before this cut was emitted nearby; else the final decision itself.
+    With one stage, every cut's ``emitted_at``."""
+    out, pending_at, carry = [], {}, None
+    for ev in events:
+        if isinstance(ev, CutEvent) and ev.pending:
+            pending_at[ev.frame] = ev.emitted_at
+        elif isinstance(ev, ConfirmEvent):
+            out.append(pending_at.pop(ev.frame, ev.emitted_at))
+        elif isinstance(ev, WithdrawEvent):
+            carry = pending_at.pop(ev.frame, None) if ev.moved else None
+        else:  # a final cut: after a moved withdraw, that pending cut announced it
+            out.append(ev.emitted_at if carry is None else carry)
+            carry = None
+    return out
