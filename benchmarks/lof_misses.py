@@ -20,7 +20,10 @@ could have brought them in:
   acceptance window (the frame is printed);
 - contrast / novelty: a candidate localised inside the window was rejected by that check.
 
-Each FALSE cut is printed with the labelled segment it falls in, its place in it (seconds
+Each FALSE cut is classed: "after a hit" (within 1.5 s of a true cut that another cut
+matched: a second cut of one transition), "near a miss" (within 1.5 s of a true cut nobody
+matched: a placement error) or "inside action" (farther: a sub-movement or a change inside one
+labelled action). It is printed with the labelled segment it falls in, its place in it (seconds
 from the segment's start / to its end), its LOF and threshold, contrast and novelty, and
 "recur": the smallest cosine distance between the histogram of the 2 s after it and any 2 s
 of the current segment before it (every 0.2 s since the previous cut, unbounded history, a
@@ -29,10 +32,10 @@ when sub-movements alternate. Hits get the same columns, for comparison.
 
 The three recordings below F1 0.4 with the defaults (hdm_bk_2, 02_walk_punch_sword_wash,
 02_wash_sword_walk_punch) are printed by default; ``--all`` prints every recording of
-``benchmarks/lof_accuracy.py``. These are diagnoses, not choices: round 7's mechanism was
-chosen on 14_20 + hdm_bk_1 (``benchmarks/lof_recur.py``).
+``benchmarks/lof_accuracy.py``. These are diagnoses, not choices: round 7's mechanism, the
+recurrence check, was chosen on 14_20 + hdm_bk_1 (``benchmarks/lof_recur.py``, not adopted).
 
-Run: .venv/bin/python benchmarks/lof_misses.py [--all]     (about half a minute)
+Run: .venv/bin/python benchmarks/lof_misses.py [--all | --only NAME,NAME]   (half a minute)
 """
 
 from __future__ import annotations
@@ -62,10 +65,13 @@ from streamseg.evaluation.metrics import cut_windows_from, match_cuts  # noqa: E
 from streamseg.offline.lof import frame_bins  # noqa: E402
 from streamseg.online.speed_features import lof_columns  # noqa: E402
 
+#: a false cut this close to a true cut is counted as a placement error ("after a hit": a second
+#: cut of that transition; "near a miss": the true cut placed outside its acceptance window)
+NEAR_S = 1.5
 LOW = ("hdm_bk_2", "02_walk_punch_sword_wash", "02_wash_sword_walk_punch")
 DATA = ROOT / "data"
 #: the order of the stages a window's decision passes (a cause is the furthest reached)
-STAGES = ("gap", "threshold", "peak", "after", "contrast", "novelty", "cut")
+STAGES = ("gap", "threshold", "peak", "after", "contrast", "novelty", "recur", "cut")
 
 
 def segment_labels(name, truth, n):
@@ -178,15 +184,20 @@ def diagnose(name, a, truth, windows, config, out):
         if i in hit_pred:
             continue
         r = by_frame[cf]
-        near = min(truth, key=lambda t: abs(t - cf)) if truth else None
-        out["false"] += 1
-        print(f"  false {cf:6d} ({where(cf, segs):34s}) nearest true {near} "
+        j = int(np.argmin([abs(t - cf) for t in truth]))
+        near = truth[j]
+        kind = ("inside action" if abs(cf - near) > NEAR_S * FPS else
+                "after a hit" if j in hit_true else "near a miss")
+        out[f"false: {kind}"] += 1
+        print(f"  false {cf:6d} ({where(cf, segs):34s}) {kind:13s} nearest true {near} "
               f"({(cf - near) / FPS:+.1f} s)  {cols_of(r, cf)}")
 
 
 def main():
     recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
-    names = list(recs) if "--all" in sys.argv else list(LOW)
+    names = (list(recs) if "--all" in sys.argv else
+             sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv
+             else list(LOW))
     config = LOFConfig()
     total = Counter()
     for name in names:
