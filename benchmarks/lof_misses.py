@@ -20,7 +20,7 @@ could have brought them in:
   acceptance window (the frame is printed);
 - contrast / novelty: a candidate localised inside the window was rejected by that check.
 
-Each FALSE cut is classed: "after a hit" (within 1.5 s of a true cut that another cut
+Each FALSE cut is classed: "beside a hit" (within 1.5 s of a true cut that another cut
 matched: a second cut of one transition), "near a miss" (within 1.5 s of a true cut nobody
 matched: a placement error) or "inside action" (farther: a sub-movement or a change inside one
 labelled action). It is printed with the labelled segment it falls in, its place in it (seconds
@@ -65,7 +65,7 @@ from streamseg.evaluation.metrics import cut_windows_from, match_cuts  # noqa: E
 from streamseg.offline.lof import frame_bins  # noqa: E402
 from streamseg.online.speed_features import lof_columns  # noqa: E402
 
-#: a false cut this close to a true cut is counted as a placement error ("after a hit": a second
+#: a false cut this close to a true cut is counted as a placement error ("beside a hit": a second
 #: cut of that transition; "near a miss": the true cut placed outside its acceptance window)
 NEAR_S = 1.5
 LOW = ("hdm_bk_2", "02_walk_punch_sword_wash", "02_wash_sword_walk_punch")
@@ -187,7 +187,7 @@ def diagnose(name, a, truth, windows, config, out):
         j = int(np.argmin([abs(t - cf) for t in truth]))
         near = truth[j]
         kind = ("inside action" if abs(cf - near) > NEAR_S * FPS else
-                "after a hit" if j in hit_true else "near a miss")
+                "beside a hit" if j in hit_true else "near a miss")
         out[f"false: {kind}"] += 1
         print(f"  false {cf:6d} ({where(cf, segs):34s}) {kind:13s} nearest true {near} "
               f"({(cf - near) / FPS:+.1f} s)  {cols_of(r, cf)}")

@@ -6,7 +6,7 @@ errors are false cuts (16 of 21): 10 inside one labelled action (the punching, s
 washing clips of CMU 02, one in lieDownFloor), 4 near a true cut placed outside its window, 2
 a second cut about 1 s after a matched one. The 5 misses have no single cause (LOF below the
 threshold 2, no Douglas-Peucker peak 2, localised away 1). Over all 14 recordings: 30 false
-cuts (16 inside an action, 8 near a miss, 6 after a hit) and 13 misses (5, 5 and 3).
+cuts (16 inside an action, 8 near a miss, 6 beside a hit) and 13 misses (5, 5 and 3).
 
 The check: a confirmed cut at frame ``c`` is rejected when the histogram of the ``window``
 frames after ``c`` lies within cosine distance ``recur`` of some buffered LOF window that
