@@ -72,7 +72,7 @@ def snapshots(angles, config: LOFConfig, fps: float) -> Snapshots:
 def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=None,
            mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
            novelty=None, min_seg=0, contrast2=0, min_contrast2=0.0,
-           adaptive_k=None, fb=None):
+           adaptive_k=None, fb=None, trace=None, recur=0.0):
     """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
 
     ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score), ``novelty``
@@ -80,6 +80,14 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     ``adaptive_k = (snaps_by_k, alpha, k_max)``: each decision reads the LOF curve of
     ``k = clip(round(alpha * median segment length so far / step), config.k, k_max)`` (the
     segments the stream's own cuts closed; ``config.k`` before the first cut).
+    ``recur`` > 0: the recurrence check (round 7, ``benchmarks/lof_recur.py``): the cut is
+    rejected when the histogram of the ``window`` frames after it is within cosine distance
+    ``recur`` of a buffered window lying wholly in the current segment (previous cut .. cut).
+    ``trace``: a list that receives one dict per decided window (``benchmarks/lof_misses.py``):
+    ``w``, ``centre``, ``stage`` (where it stopped: "gap", "threshold", "peak", "after"
+    (too few frames after the cut), "contrast", "novelty", or "cut"), ``lof``, ``thr``, and
+    once reached ``frame`` (the localised cut), ``con``, ``nov``, ``seg0`` (the current
+    segment's first frame), ``seen``.
     """
     c = config
     g = c.frames(fps)
@@ -97,7 +105,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     st = dict(last_decided=-1, last_seq=-(1 << 40), last_frame=-(1 << 40))
     cuts, lats = [], []
     cum = None
-    if novelty > 0:
+    if novelty > 0 or recur > 0:
         onehot = np.zeros((n, bins_.shape[1] * c.bins), dtype=np.int64)
         cols = np.arange(bins_.shape[1]) * c.bins + bins_.astype(np.int64)
         onehot[np.arange(n)[:, None], cols] = valid[:, None]
@@ -119,6 +127,11 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
         curve = src.lof[i]
         size = curve.shape[0]
         oldest = snaps.seq[i] - size + 1
+        rec = dict(w=w, centre=int(src.centres[i][w - oldest]) if w >= oldest else -1,
+                   seen=seen, seg0=max(0, st["last_frame"]))
+        if trace is not None:
+            trace.append(rec)
+        rec["stage"] = "gap"
         if w < oldest or w - st["last_seq"] < min_gap:
             return
         if recent is None:
@@ -128,9 +141,11 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
         thr = max(c.min_score, robust_threshold(ref, ref.shape[0], n_mads,
                                                 np.empty(max(1, ref.shape[0]))))
         yw = curve[w - oldest]
+        rec.update(stage="threshold", lof=float(yw), thr=float(thr))
         if yw < thr:
             return
         lo = max(oldest, w - delay)
+        rec["stage"] = "peak"
         if not (dominates(curve, lo - oldest, hi - oldest, w - oldest, min_gap)
                 and is_peak(curve, lo - oldest, hi - oldest, w - oldest, c.dp_tolerance, keep,
                             stack)):
@@ -140,11 +155,13 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
         if g["refine"] > 0:
             cf = refine_cut(bins_, valid, n, cf, g["refine"], window, c.bins, seen, ring_old,
                             st["last_frame"] + min_gap * step, left, right)
+        rec.update(frame=int(cf), stage="after")
         if c.min_contrast > 0:
             if seen - cf < window:
                 return
             con = contrast_at(bins_, valid, n, cf, g["contrast"], c.bins, seen,
                               max(ring_old, st["last_frame"]), left, right)
+            rec.update(stage="contrast", con=float(con))
             if con < c.min_contrast:
                 return
         if contrast2 > 0:
@@ -159,8 +176,21 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
             seg0 = max(ring_old, st["last_frame"], 0)
             a, b = cum[cf] - cum[seg0], cum[min(cf + g["contrast"], seen)] - cum[cf]
             den = np.sqrt(float(a @ a) * float(b @ b))
+            rec.update(stage="novelty", nov=1.0 - float(a @ b) / den if den else 0.0)
             if den == 0 or 1.0 - float(a @ b) / den < novelty:
                 return
+        if recur > 0:
+            seg0 = max(st["last_frame"], 0)
+            after = (cum[cf + window] - cum[cf]).astype(np.float64)
+            starts = src.centres[i] - window // 2
+            starts = starts[(starts >= seg0) & (starts + window <= cf)]
+            if starts.size:
+                past = (cum[starts + window] - cum[starts]).astype(np.float64)
+                den = np.sqrt((past * past).sum(1) * float(after @ after))
+                dist = np.where(den > 0, 1.0 - (past @ after) / np.where(den > 0, den, 1), 1.0)
+                rec.update(stage="recur", recur=float(dist.min()))
+                if dist.min() < recur:
+                    return
         if confirm is not None:
             j = int(np.searchsorted(confirm.seen, seen, side="right")) - 1
             if j < 0:
@@ -172,6 +202,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
             thr2 = robust_threshold(cv, cv.shape[0], confirm_mads, np.empty(cv.shape[0]))
             if cv[near].max() < max(c.min_score, thr2):
                 return
+        rec["stage"] = "cut"
         st["last_frame"] = cf
         st["last_seq"] = w
         cuts.append(cf)

@@ -119,6 +119,13 @@ class LOFConfig:
       beforehand does not adopt it. The mechanism stays, off by default, for users who want
       pending cuts; ``benchmarks/lof_latency.py`` draws every grid point.
 
+    Round 7 (``benchmarks/lof_misses.py``, ``benchmarks/lof_recur.py``; train pair 14_20 +
+    hdm_bk_1, rule declared before the first run): most errors are false cuts inside one
+    labelled action. A recurrence check (reject a cut whose after-window is within cosine
+    distance ``recur`` of a window of the current segment) was not adopted and is not in the
+    library: the chosen 0.15 changed no train cut, and held out the cmu mean fell (0.917 ->
+    0.900) while pooled F1 rose (0.721 -> 0.729).
+
     Offline segmentation (:class:`streamseg.offline.LOFSegmenter`) applies this same causal
     decision to a whole file, so online and offline cuts are equal.
 
