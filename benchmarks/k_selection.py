@@ -37,7 +37,12 @@ Criteria (``piece`` = ``max_len_s / 2`` = 1 s at the defaults, as the library's 
 * ``ch``: the Calinski-Harabasz index of the 1 s pieces in the DTAK kernel's feature space;
 * ``consensus``: the K whose labelling agrees best (mean ARI) with those of the other K;
 * ``stab(S)``: the K whose coarse labelling agrees best (mean pairwise ARI) over S coarse
-  seeds, the smallest K within 0.02 of the best.
+  seeds, the smallest K within 0.02 of the best;
+* ``mix((W, R))``: temporal mixing: ``sil1``'s labelling, then the pair of clusters that
+  interleaves most (returns of one cluster within W seconds holding the other, at least R)
+  merged while more than 2 clusters remain (``model_selection.merge_interleaved``); K found =
+  the clusters left. W is in seconds, so on the synthetic setting (fps 1, segments of at
+  least 10 frames) no gap of W <= 4 can hold a segment and ``mix`` equals ``sil1`` there.
 
 Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]``
 (every criterion: about 2 minutes on the shared 2-core machine; ``stab`` refits twice more)
@@ -62,7 +67,11 @@ from _aca_synth import synthetic_sequence  # noqa: E402
 from streamseg.config import ACAConfig  # noqa: E402
 from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
 from streamseg.offline.dtak import frame_kernel, segment_dtak  # noqa: E402
-from streamseg.offline.model_selection import SILHOUETTE_FRAMES, fit_aca  # noqa: E402
+from streamseg.offline.model_selection import (  # noqa: E402
+    SILHOUETTE_FRAMES,
+    fit_aca,
+    merge_interleaved,
+)
 from streamseg.offline.relabel import model_from_config  # noqa: E402
 
 #: declared before any result was seen: parameters are chosen on these two only
@@ -311,6 +320,18 @@ def crit_ch(case, _=None):
     return _argbest(scores) if scores else min(case.fits)
 
 
+def crit_mix(case, param):
+    """Temporal mixing: ``sil1``'s labelling with the clusters that interleave merged.
+
+    ``param`` = (W seconds, R returns): :func:`merge_interleaved` merges the pair of clusters
+    with the most returns (two runs of one cluster at most W apart, the other in the gap)
+    while it has at least R and more than 2 clusters remain. Returns (K found, labels)."""
+    window_s, min_returns = param
+    k = crit_sil(case, 0.5)
+    lab = merge_interleaved(case.labels(k), int(round(window_s * case.fps)), min_returns)
+    return int(lab.max()) + 1, lab
+
+
 def crit_consensus(case, _=None):
     """The K whose labelling agrees best (mean ARI) with the labellings of every other K."""
     ks = sorted(case.fits)
@@ -335,6 +356,8 @@ CRITERIA = {
     "consensus": (crit_consensus, [None]),
     "silsigma": (crit_silsigma, [0.5, 2.0, 4.0, 8.0]),
     "ch": (crit_ch, [None]),
+    # declared before any run: W ascending, R descending (the most conservative first)
+    "mix": (crit_mix, [(w, r) for w in (1, 2, 3, 4) for r in (4, 3, 2)]),
 }
 
 
@@ -375,7 +398,8 @@ def pick(case, name, param):
     k = fn(case, param)
     if k is None:
         return None
-    acc, a = case.score(case.labels(k))
+    k, labels = k if isinstance(k, tuple) else (k, case.labels(k))
+    acc, a = case.score(labels)
     return k, acc, a
 
 
