@@ -44,7 +44,8 @@ Criteria (``piece`` = ``max_len_s / 2`` = 1 s at the defaults, as the library's 
   the clusters left. W is in seconds, so on the synthetic setting (fps 1, segments of at
   least 10 frames) no gap of W <= 4 can hold a segment and ``mix`` equals ``sil1`` there.
 
-Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]``
+Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]
+[--mixing-diagnosis]``
 (every criterion: about 2 minutes on the shared 2-core machine; ``stab`` refits twice more)
 """
 
@@ -393,6 +394,46 @@ def synthetic_cases(n_seq, ks):
     return out
 
 
+def _majority(truth) -> str:
+    t = truth[truth >= 0]
+    return str(np.bincount(t).argmax()) if t.size else "-"
+
+
+def mixing_diagnosis(cases, window_s=4.0):
+    """Why ``mix`` merges or not: for every recording, the pairs of ``sil1`` clusters whose
+    frames are mostly one human action (an over-split) against the other pairs, with their
+    returns within ``window_s`` (:func:`streamseg.offline.model_selection.mixing_counts`) and
+    whether they share a boundary (a run of one right after a run of the other)."""
+    from streamseg.offline.model_selection import mixing_counts
+
+    print(f"\n## Temporal mixing diagnosis (sil1's labelling, returns within {window_s:g} s)\n")
+    print("| recording | K found / true | over-split pairs: returns, adjacent | other pairs with "
+          "returns >= 1 | sil1 runs, cluster:seconds[human action] |")
+    print("|---|---|---|---|---|")
+    for name, c in cases.items():
+        lab = c.labels(crit_sil(c, 0.5))
+        lab = np.unique(lab, return_inverse=True)[1]
+        keep = c.truth >= 0
+        major = [np.bincount(c.truth[keep & (lab == j)]).argmax() if (keep & (lab == j)).any()
+                 else -1 for j in range(lab.max() + 1)]
+        N = mixing_counts(lab, int(round(window_s * c.fps)))
+        st = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
+        en = np.r_[st[1:], lab.size]
+        adj = {frozenset((int(lab[a]), int(lab[b]))) for a, b in zip(st[:-1], st[1:])}
+        same, other = [], []
+        for a in range(N.shape[0]):
+            for b in range(a + 1, N.shape[0]):
+                tag = f"{a}-{b}: {N[a, b]}, {'adj' if frozenset((a, b)) in adj else 'apart'}"
+                if major[a] == major[b]:
+                    same.append(tag)
+                elif N[a, b]:
+                    other.append(f"{a}-{b}: {N[a, b]}")
+        runs = " ".join(f"{lab[s]}:{(e - s) / c.fps:.1f}[{_majority(c.truth[s:e])}]"
+                        for s, e in zip(st, en))
+        print(f"| {name} | {lab.max() + 1} / {c.k_true} | {'; '.join(same) or '-'} | "
+              f"{'; '.join(other) or '-'} | {runs} |")
+
+
 def pick(case, name, param):
     fn, _ = CRITERIA[name]
     k = fn(case, param)
@@ -407,6 +448,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated criteria (default: all)")
     ap.add_argument("--synthetic", type=int, default=10, help="sequences per setting (0: skip)")
+    ap.add_argument("--mixing-diagnosis", action="store_true",
+                    help="print why temporal mixing merges or not (sil1's runs per recording)")
     args = ap.parse_args()
     names = [c for c in CRITERIA if not args.only or c in args.only.split(",")]
     config = ACAConfig()
@@ -475,6 +518,9 @@ def main():
     print(f"| HACA K true | - | {np.mean([true_scores[c.name][0] for c in held]):.3f} | "
           f"{np.mean([true_scores[c.name][1] for c in held]):.3f} | - | - | - | - | "
           f"{np.mean([v[0] for v in true_scores.values()]):.3f} |")
+
+    if args.mixing_diagnosis:
+        mixing_diagnosis(cases)
 
     if args.synthetic:
         print(f"\n## Synthetic (section 5.1, flat ACA, equality kernel, {args.synthetic} "
