@@ -37,9 +37,15 @@ Criteria (``piece`` = ``max_len_s / 2`` = 1 s at the defaults, as the library's 
 * ``ch``: the Calinski-Harabasz index of the 1 s pieces in the DTAK kernel's feature space;
 * ``consensus``: the K whose labelling agrees best (mean ARI) with those of the other K;
 * ``stab(S)``: the K whose coarse labelling agrees best (mean pairwise ARI) over S coarse
-  seeds, the smallest K within 0.02 of the best.
+  seeds, the smallest K within 0.02 of the best;
+* ``mix((W, R))``: temporal mixing: ``sil1``'s labelling, then the pair of clusters that
+  interleaves most (returns of one cluster within W seconds holding the other, at least R)
+  merged while more than 2 clusters remain (``model_selection.merge_interleaved``); K found =
+  the clusters left. W is in seconds, so on the synthetic setting (fps 1, segments of at
+  least 10 frames) no gap of W <= 4 can hold a segment and ``mix`` equals ``sil1`` there.
 
-Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]``
+Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]
+[--mixing-diagnosis]``
 (every criterion: about 2 minutes on the shared 2-core machine; ``stab`` refits twice more)
 """
 
@@ -62,7 +68,11 @@ from _aca_synth import synthetic_sequence  # noqa: E402
 from streamseg.config import ACAConfig  # noqa: E402
 from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
 from streamseg.offline.dtak import frame_kernel, segment_dtak  # noqa: E402
-from streamseg.offline.model_selection import SILHOUETTE_FRAMES, fit_aca  # noqa: E402
+from streamseg.offline.model_selection import (  # noqa: E402
+    SILHOUETTE_FRAMES,
+    fit_aca,
+    merge_interleaved,
+)
 from streamseg.offline.relabel import model_from_config  # noqa: E402
 
 #: declared before any result was seen: parameters are chosen on these two only
@@ -311,6 +321,18 @@ def crit_ch(case, _=None):
     return _argbest(scores) if scores else min(case.fits)
 
 
+def crit_mix(case, param):
+    """Temporal mixing: ``sil1``'s labelling with the clusters that interleave merged.
+
+    ``param`` = (W seconds, R returns): :func:`merge_interleaved` merges the pair of clusters
+    with the most returns (two runs of one cluster at most W apart, the other in the gap)
+    while it has at least R and more than 2 clusters remain. Returns (K found, labels)."""
+    window_s, min_returns = param
+    k = crit_sil(case, 0.5)
+    lab = merge_interleaved(case.labels(k), int(round(window_s * case.fps)), min_returns)
+    return int(lab.max()) + 1, lab
+
+
 def crit_consensus(case, _=None):
     """The K whose labelling agrees best (mean ARI) with the labellings of every other K."""
     ks = sorted(case.fits)
@@ -335,6 +357,8 @@ CRITERIA = {
     "consensus": (crit_consensus, [None]),
     "silsigma": (crit_silsigma, [0.5, 2.0, 4.0, 8.0]),
     "ch": (crit_ch, [None]),
+    # declared before any run: W ascending, R descending (the most conservative first)
+    "mix": (crit_mix, [(w, r) for w in (1, 2, 3, 4) for r in (4, 3, 2)]),
 }
 
 
@@ -370,12 +394,53 @@ def synthetic_cases(n_seq, ks):
     return out
 
 
+def _majority(truth) -> str:
+    t = truth[truth >= 0]
+    return str(np.bincount(t).argmax()) if t.size else "-"
+
+
+def mixing_diagnosis(cases, window_s=4.0):
+    """Why ``mix`` merges or not: for every recording, the pairs of ``sil1`` clusters whose
+    frames are mostly one human action (an over-split) against the other pairs, with their
+    returns within ``window_s`` (:func:`streamseg.offline.model_selection.mixing_counts`) and
+    whether they share a boundary (a run of one right after a run of the other)."""
+    from streamseg.offline.model_selection import mixing_counts
+
+    print(f"\n## Temporal mixing diagnosis (sil1's labelling, returns within {window_s:g} s)\n")
+    print("| recording | K found / true | over-split pairs: returns, adjacent | other pairs with "
+          "returns >= 1 | sil1 runs, cluster:seconds[human action] |")
+    print("|---|---|---|---|---|")
+    for name, c in cases.items():
+        lab = c.labels(crit_sil(c, 0.5))
+        lab = np.unique(lab, return_inverse=True)[1]
+        keep = c.truth >= 0
+        major = [np.bincount(c.truth[keep & (lab == j)]).argmax() if (keep & (lab == j)).any()
+                 else -1 for j in range(lab.max() + 1)]
+        N = mixing_counts(lab, int(round(window_s * c.fps)))
+        st = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
+        en = np.r_[st[1:], lab.size]
+        adj = {frozenset((int(lab[a]), int(lab[b]))) for a, b in zip(st[:-1], st[1:])}
+        same, other = [], []
+        for a in range(N.shape[0]):
+            for b in range(a + 1, N.shape[0]):
+                tag = f"{a}-{b}: {N[a, b]}, {'adj' if frozenset((a, b)) in adj else 'apart'}"
+                if major[a] == major[b]:
+                    same.append(tag)
+                elif N[a, b]:
+                    other.append(f"{a}-{b}: {N[a, b]}")
+        runs = " ".join(f"{lab[s]}:{(e - s) / c.fps:.1f}[{_majority(c.truth[s:e])}]"
+                        for s, e in zip(st, en))
+        print(f"| {name} | {lab.max() + 1} / {c.k_true} | {'; '.join(same) or '-'} | "
+              f"{'; '.join(other) or '-'} | {runs} |")
+
+
 def pick(case, name, param):
     fn, _ = CRITERIA[name]
     k = fn(case, param)
     if k is None:
         return None
-    acc, a = case.score(case.labels(k))
+    k, labels = k if isinstance(k, tuple) else (k, case.labels(k))
+    acc, a = case.score(labels)
     return k, acc, a
 
 
@@ -383,6 +448,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="comma-separated criteria (default: all)")
     ap.add_argument("--synthetic", type=int, default=10, help="sequences per setting (0: skip)")
+    ap.add_argument("--mixing-diagnosis", action="store_true",
+                    help="print why temporal mixing merges or not (sil1's runs per recording)")
     args = ap.parse_args()
     names = [c for c in CRITERIA if not args.only or c in args.only.split(",")]
     config = ACAConfig()
@@ -451,6 +518,9 @@ def main():
     print(f"| HACA K true | - | {np.mean([true_scores[c.name][0] for c in held]):.3f} | "
           f"{np.mean([true_scores[c.name][1] for c in held]):.3f} | - | - | - | - | "
           f"{np.mean([v[0] for v in true_scores.values()]):.3f} |")
+
+    if args.mixing_diagnosis:
+        mixing_diagnosis(cases)
 
     if args.synthetic:
         print(f"\n## Synthetic (section 5.1, flat ACA, equality kernel, {args.synthetic} "

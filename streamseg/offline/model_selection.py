@@ -10,7 +10,7 @@ nothing in it was tuned on a recording. Measured alternatives (HACA, the 14 labe
 recordings, K in 2..9): the silhouette of the model's own segments chose worse (mean frame
 accuracy 0.716 against 0.750 for the pieces, 0.765 with the true K); a penalised objective
 and the smallest K within a margin of the best silhouette needed a weight and did no better.
-``benchmarks/k_selection.py`` compares thirteen more on one HACA fit per recording, each
+``benchmarks/k_selection.py`` compares fourteen more on one HACA fit per recording, each
 parameter chosen on a declared train pair (02_walk_punch_sword_wash, hdm_bd_0) and scored once
 on the 12 other recordings and the paper's synthetic setting: longer pieces (2 s, or chosen
 among 0.5-6 s), HACA's fine segments as pieces, merging clusters whose between-cluster DTAK is
@@ -23,7 +23,11 @@ selected held-out exercise takes and HDM05 joins (held-out mean accuracy 0.60-0.
 synthetic set (K = 4 on 54 of 70 sequences against 40) but worse on the train pair (0.598
 against 0.666), the HDM05 joins held out (0.733 against 0.737) and on 3 of them by up to 0.25;
 a minimum of 1 s per action tied this criterion on the train pair, so the data did not choose
-it (held out: 0.772, K found = true on as many).
+it (held out: 0.772, K found = true on as many). Temporal mixing (:func:`merge_interleaved`:
+clusters whose runs alternate within a few seconds are one action's sub-movements) is not used:
+HACA's over-splits are consecutive sub-stretches of one action, as contiguous as distinct
+actions (``k_selection.py --mixing-diagnosis``), so it merged nothing on the train pair and its
+declared choice equals this criterion everywhere.
 
 Windows where there is nothing to cluster give one segment of one label instead of an
 exception: too few frames for two segments of ``min_len``, no finite frame, or a body that
@@ -203,3 +207,70 @@ def _runs(labels: np.ndarray, segments, ok: np.ndarray) -> list:
     starts = [0] + [int(where[s]) for s, _, _ in segments[1:]]
     ends = starts[1:] + [n]
     return [(a, b, int(labels[a])) for a, b in zip(starts, ends) if b > a]
+
+
+def mixing_counts(labels, window: int) -> np.ndarray:
+    """How often each pair of clusters interleaves within ``window`` frames.
+
+    A *return* of cluster x is two consecutive runs of x (maximal stretches of one label)
+    whose gap, from the end of the first to the start of the second, is at most ``window``
+    frames; each other cluster present in the gap counts one return with x. Sub-movements of
+    one action alternate like this; distinct actions, contiguous, rarely do.
+
+    Parameters
+    ----------
+    labels : (n,) int array
+        Per-frame labels 0..c-1.
+    window : int, frames
+
+    Returns
+    -------
+    (c, c) int64 array, symmetric, zero diagonal: ``N[x, y]`` = returns of x holding y plus
+    returns of y holding x.
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    c = int(labels.max()) + 1 if labels.size else 0
+    N = np.zeros((c, c), dtype=np.int64)
+    if labels.size == 0:
+        return N
+    starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+    ends = np.r_[starts[1:], labels.size]
+    labs = labels[starts]
+    last = {}  # cluster -> index of its previous run
+    for j, x in enumerate(labs):
+        i = last.get(int(x))
+        if i is not None and starts[j] - ends[i] <= window:
+            for y in set(labs[i + 1:j].tolist()):
+                N[x, y] += 1
+        last[int(x)] = j
+    return N + N.T
+
+
+def merge_interleaved(labels, window: int, min_returns: int, min_clusters: int = 2):
+    """Merge clusters that interleave: the pair with the most returns within ``window`` frames
+    (:func:`mixing_counts`), while it has at least ``min_returns`` and more than
+    ``min_clusters`` clusters remain; counts are recomputed after each merge.
+
+    Parameters
+    ----------
+    labels : (n,) int array
+    window : int, frames
+    min_returns : int
+    min_clusters : int
+
+    Returns
+    -------
+    (n,) int64 array, labels 0..c'-1 in order of first appearance.
+    """
+    lab = np.unique(np.asarray(labels, dtype=np.int64), return_inverse=True)[1]
+    while lab.size and lab.max() + 1 > min_clusters:
+        N = mixing_counts(lab, window)
+        a, b = np.unravel_index(int(np.argmax(np.triu(N, 1))), N.shape)
+        if N[a, b] < min_returns:
+            break
+        lab = np.unique(np.where(lab == b, a, lab), return_inverse=True)[1]
+    if not lab.size:
+        return lab.astype(np.int64)
+    _, first = np.unique(lab, return_index=True)
+    order = np.argsort(np.argsort(first))
+    return order[lab].astype(np.int64)
