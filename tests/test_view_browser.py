@@ -17,7 +17,7 @@ import zmq
 from streamseg import protocol as P
 from streamseg.commands.listen import subscriber
 from streamseg.commands.replay import replay
-from streamseg.config import DaemonConfig
+from streamseg.config import DaemonConfig, LOFConfig
 from streamseg.daemon import Daemon
 from streamseg.io import read
 
@@ -55,10 +55,10 @@ def browser():
 class Live:
     """A daemon, a view of it and a listener that records every event of the daemon."""
 
-    def __init__(self, **overrides):
+    def __init__(self, algorithms=None, **overrides):
         cfg = dict(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0.2)
         cfg.update(overrides)
-        self.daemon = Daemon(DaemonConfig(**cfg))
+        self.daemon = Daemon(DaemonConfig(**cfg), algorithms)
         self.ep = self.daemon.bind()
         self.thread = threading.Thread(target=self.daemon.run, daemon=True)
         self.thread.start()
@@ -247,6 +247,42 @@ def test_view_started_late_catches_up_through_state(browser, rec):
         view.stop()
         daemon.stop()
         t.join(30)
+
+
+def test_a_withdrawn_pending_cut_leaves_the_page(live, browser, rec):
+    """The two-stage decision: the page draws the pending cut at 86_01's frame 1128 (the
+    replay pauses right after it was emitted), then, once the rest arrives and it is
+    withdrawn, redraws without it; the page ends with the final cuts."""
+    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.online import StreamingLOFSegmenter, WithdrawEvent, final_cuts
+    from streamseg.skeleton import bone_angles
+
+    two = LOFConfig(delay_s=1.5, early_delay_s=1.2)  # as tests/test_lof_two_stage.py
+    det = StreamingLOFSegmenter(two, rec.fps)
+    events = det.learn_many(bone_angles(rec.positions, rec.skeleton, inclinations=True))
+    events += det.finish()
+    pending = [e for e in events if getattr(e, "pending", False) and e.frame == 1128]
+    withdraw = [e for e in events if isinstance(e, WithdrawEvent) and e.frame == 1128]
+    assert pending and withdraw and pending[0].emitted_at < withdraw[0].emitted_at
+    final = sorted(c.frame for c in final_cuts(events))
+    lv = live(algorithms=Algorithms(two), relabel_interval=0)
+    page = browser.new_page()
+    page.goto(lv.url + "#stream=w")
+    wait_view_live(page)
+    stop = pending[0].emitted_at + 1  # the frame that emits the pending cut, not the withdraw
+    replay(part(rec, stop), lv.ep["ingest"], stream="w", speed=0, batch=8, end=False)
+    page.wait_for_selector('#cut-layer line.cut[data-frame="1128"]', state="attached")
+    send_rest(lv.ep["ingest"], rec, "w", stop)
+    lv.wait_closed("w")
+    page.wait_for_selector('.row[data-stream="w"][data-closed="end"]')
+    page.wait_for_function("() => !document.querySelector('#cut-layer line.cut"
+                           "[data-frame=\"1128\"]')")
+    page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut').length "
+                           f"=== {len(final)}")
+    assert frames_of(page, "#cut-layer line.cut", "data-frame") == final
+    assert [e.frame for e in lv.of("w", "withdraw")] == [e.frame for e in events
+                                                         if isinstance(e, WithdrawEvent)]
+    page.close()
 
 
 def test_hundred_streams_list_is_virtual_and_filterable(live, browser, rec):
