@@ -126,6 +126,15 @@ class RepetitionConfig:
         Each aligned cut then moves to the frame nearest the rest pose within this fraction
         of its shorter neighbouring piece (0 = off; 0.3, chosen on bd from 0 or 0.3): a
         template starts and ends at rest, so a cut may otherwise sit anywhere in a pause.
+    align_snap_level : float
+        0 (the default): the snap puts each cut on the frame nearest the rest pose. Above 0
+        it puts it at ``align_snap_position`` of the pause around that frame: the frames in
+        the snap window whose squared distance to the rest pose stays within this share of
+        the window's range above its minimum (issue 14, round 8: on bd the true joins sit
+        after the frame nearest the rest pose, at 0.56-0.67 of such a pause, median;
+        ``benchmarks/rep_boundaries.py``).
+    align_snap_position : float
+        Where in that pause the cut goes: 0 its first frame, 0.5 its middle, 1 its last.
     repetitive_ratio : float
         Routines (:mod:`streamseg.offline.sets`): a take whose power concentration reaches
         this (and that passes the repetitive test) is one exercise, one set, and is not cut
@@ -170,6 +179,8 @@ class RepetitionConfig:
     align_iterations: int = 2
     align_snap: float = 0.3
     align_max_slope: int = 3
+    align_snap_level: float = 0.0
+    align_snap_position: float = 0.5
 
     def __post_init__(self):
         for name in (
@@ -236,6 +247,12 @@ class RepetitionConfig:
         _check("align_snap", self.align_snap,
                isinstance(self.align_snap, (int, float)) and 0 <= self.align_snap < 0.5,
                "a number in [0, 0.5)")
+        _check("align_snap_level", self.align_snap_level,
+               isinstance(self.align_snap_level, (int, float)) and 0 <= self.align_snap_level < 1,
+               "a number in [0, 1)")
+        _check("align_snap_position", self.align_snap_position,
+               isinstance(self.align_snap_position, (int, float))
+               and 0 <= self.align_snap_position <= 1, "a number in [0, 1]")
         _check("merge_edges", self.merge_edges, isinstance(self.merge_edges, bool), "True or False")
         _check(
             "tie_tolerance",
