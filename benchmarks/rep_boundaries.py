@@ -20,7 +20,8 @@ Declared before any run of this script (2026-12-02, 06:22 UTC):
 
 ``--diagnose`` prints, for bd's exactly counted sequences, each inner cut's offset from the
 true join (in median repetition lengths) for the DTW tiling, the snapped cut (defaults),
-the frame nearest the rest pose and the frame of least speed, and where the true join sits
+the frame nearest the rest pose and the frame of least speed (the snap as before round 8,
+``align_snap_level=0``), and where the true join sits
 inside the pause around the frame nearest the rest pose (0 = the pause's first frame, 1 its
 last) at several levels. The joins are abrupt (clips concatenated), so the speed curve has a
 jump at each true join: the pause is taken on the distance to the rest pose, which a
@@ -77,7 +78,8 @@ def _pause(curve, m, lo, hi, level):
 
 
 def diagnose(seqs):
-    base = RepetitionConfig()
+    # the snap as it was before this round (the frame nearest the rest pose)
+    base = replace(RepetitionConfig(), align_snap_level=0.0)
     rows = defaultdict(list)  # (class, cond) -> [(offsets..., {level: (pos, width)})]
     for s in seqs:
         seg = RepetitionSegmenter(base, s["fps"]).fit(s["X"])
@@ -104,7 +106,7 @@ def diagnose(seqs):
                                                 (sp - t) / L, pos))
     print("\ninner cuts of exactly counted bd sequences: (cut - true join) / median repetition "
           "length, mean (mean |.|)")
-    print(f"{'class':28s} {'condition':9s} {'n':>4s} {'DTW tiling':>15s} {'+ snap (now)':>15s} "
+    print(f"{'class':28s} {'condition':9s} {'n':>4s} {'DTW tiling':>15s} {'+ snap (old)':>15s} "
           f"{'nearest rest':>15s} {'least speed':>15s}")
 
     def cells(v):

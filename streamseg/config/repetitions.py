@@ -130,9 +130,17 @@ class RepetitionConfig:
         0 (the default): the snap puts each cut on the frame nearest the rest pose. Above 0
         it puts it at ``align_snap_position`` of the pause around that frame: the frames in
         the snap window whose squared distance to the rest pose stays within this share of
-        the window's range above its minimum (issue 14, round 8: on bd the true joins sit
-        after the frame nearest the rest pose, at 0.56-0.67 of such a pause, median;
-        ``benchmarks/rep_boundaries.py``).
+        the window's range above its minimum. On bd the true joins (the HDM05 authors' clip
+        cuts) sit after the frame nearest the rest pose, at 0.56-0.67 of such a pause
+        (median; the snapped cut was 0.028 / 0.045 of a repetition early, clean /
+        Kinect-like). 0.05 with position 0.6 was chosen on bd alone (draws 0-1, a 26-point
+        grid with ``align_snap``; ``benchmarks/rep_boundaries.py``): bd alpha 0.941 -> 0.944
+        clean, 0.935 -> 0.944 Kinect-like; held out once (bk + dg, fresh draws 6-9, 120
+        sequences per condition, ``benchmarks/rep_heldout.py``) 0.854 -> 0.860 clean, 0.820
+        -> 0.830 Kinect-like, exact counts unchanged (a snap moves inner cuts only). It stays
+        off: on bd's labelled routine (``tests/test_rep_eval_sets.py``) one hop piece that
+        overruns into the throw take then has its middle there (the throw counted 1, not 0)
+        and the four sets' alpha drop by 0.003-0.018 (issue 14, round 8).
     align_snap_position : float
         Where in that pause the cut goes: 0 its first frame, 0.5 its middle, 1 its last.
     repetitive_ratio : float
