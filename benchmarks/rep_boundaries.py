@@ -1,6 +1,7 @@
 """Where the inner repetition cuts sit against the annotation (issue 14, round 8), and a grid.
 
-Declared before any run of this script (2026-12-02, 06:22 UTC):
+Declared before the grid and any held-out run (2026-12-02, 06:22 UTC; the bd-only
+diagnosis came first):
 
 - choice actor **bd**, its draws 0 and 1 (``rep_data.make_sequences``; 30 sequences per
   condition, clean and Kinect-like): the diagnosis (``--diagnose``) and the grid
