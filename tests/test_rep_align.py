@@ -113,3 +113,26 @@ def test_varying_hops_of_an_unseen_actor(data_dir):
     seg = RepetitionSegmenter().fit(take)
     assert seg.count_ == 7
     assert repetition_accuracy(seg.repetitions_, truth) >= 0.85
+
+
+def test_snap_to_a_place_in_the_pause():
+    """The snap (align_snap): level 0 puts a cut on the window's minimum; a level above 0 at
+    ``position`` of the pause around it (the frames within level x the window's range)."""
+    from streamseg.offline.repetition import _snap
+
+    curve = np.ones(100)
+    curve[40:61] = 0.01  # a pause of frames 40..60 in the window around the cut at 50
+    curve[44] = 0.0  # its minimum, off centre
+    reps = [(0, 50), (50, 100)]
+    assert _snap(reps, curve, 0.3) == [(0, 44), (44, 100)]
+    assert _snap(reps, curve, 0.3, level=0.05, position=0.5) == [(0, 50), (50, 100)]
+    assert _snap(reps, curve, 0.3, level=0.05, position=0.75) == [(0, 55), (55, 100)]
+    assert _snap(reps, curve, 0.3, level=0.05, position=1.0) == [(0, 60), (60, 100)]
+    # the pause is clipped to the window (0.3 x 50 = 15 frames either side of 50: 35..65)
+    curve[30:61] = 0.01
+    curve[44] = 0.0
+    assert _snap(reps, curve, 0.3, level=0.05, position=0.0) == [(0, 35), (35, 100)]
+    for bad in ({"align_snap_level": 1.0}, {"align_snap_level": -0.1},
+                {"align_snap_position": 1.5}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            RepetitionConfig(**bad)

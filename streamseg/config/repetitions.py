@@ -126,6 +126,23 @@ class RepetitionConfig:
         Each aligned cut then moves to the frame nearest the rest pose within this fraction
         of its shorter neighbouring piece (0 = off; 0.3, chosen on bd from 0 or 0.3): a
         template starts and ends at rest, so a cut may otherwise sit anywhere in a pause.
+    align_snap_level : float
+        0 (the default): the snap puts each cut on the frame nearest the rest pose. Above 0
+        it puts it at ``align_snap_position`` of the pause around that frame: the frames in
+        the snap window whose squared distance to the rest pose stays within this share of
+        the window's range above its minimum. On bd the true joins (the HDM05 authors' clip
+        cuts) sit after the frame nearest the rest pose, at 0.56-0.67 of such a pause
+        (median; the snapped cut was 0.028 / 0.045 of a repetition early, clean /
+        Kinect-like). 0.05 with position 0.6 was chosen on bd alone (draws 0-1, a 26-point
+        grid with ``align_snap``; ``benchmarks/rep_boundaries.py``): bd alpha 0.941 -> 0.944
+        clean, 0.935 -> 0.944 Kinect-like; held out once (bk + dg, fresh draws 6-9, 120
+        sequences per condition, ``benchmarks/rep_heldout.py``) 0.854 -> 0.860 clean, 0.820
+        -> 0.830 Kinect-like, exact counts unchanged (a snap moves inner cuts only). It stays
+        off: on bd's labelled routine (``tests/test_rep_eval_sets.py``) one hop piece that
+        overruns into the throw take then has its middle there (the throw counted 1, not 0)
+        and the four sets' alpha drop by 0.003-0.018 (issue 14, round 8).
+    align_snap_position : float
+        Where in that pause the cut goes: 0 its first frame, 0.5 its middle, 1 its last.
     repetitive_ratio : float
         Routines (:mod:`streamseg.offline.sets`): a take whose power concentration reaches
         this (and that passes the repetitive test) is one exercise, one set, and is not cut
@@ -170,6 +187,8 @@ class RepetitionConfig:
     align_iterations: int = 2
     align_snap: float = 0.3
     align_max_slope: int = 3
+    align_snap_level: float = 0.0
+    align_snap_position: float = 0.5
 
     def __post_init__(self):
         for name in (
@@ -236,6 +255,12 @@ class RepetitionConfig:
         _check("align_snap", self.align_snap,
                isinstance(self.align_snap, (int, float)) and 0 <= self.align_snap < 0.5,
                "a number in [0, 0.5)")
+        _check("align_snap_level", self.align_snap_level,
+               isinstance(self.align_snap_level, (int, float)) and 0 <= self.align_snap_level < 1,
+               "a number in [0, 1)")
+        _check("align_snap_position", self.align_snap_position,
+               isinstance(self.align_snap_position, (int, float))
+               and 0 <= self.align_snap_position <= 1, "a number in [0, 1]")
         _check("merge_edges", self.merge_edges, isinstance(self.merge_edges, bool), "True or False")
         _check(
             "tie_tolerance",

@@ -199,10 +199,14 @@ def _rest_pose(Xs, period):
     return 0.5 * (Xs[:ends].mean(axis=0) + Xs[-ends:].mean(axis=0))
 
 
-def _snap(reps, curve, fraction):
-    """Move each inner cut of consecutive ``reps`` to the minimum of ``curve`` nearby.
+def _snap(reps, curve, fraction, level=0.0, position=0.5):
+    """Move each inner cut of consecutive ``reps`` into the pause of ``curve`` nearby.
 
-    Within ``fraction`` of the shorter neighbouring piece, so cuts keep their order.
+    The window is ``fraction`` of the shorter neighbouring piece either side of the cut (so
+    cuts keep their order). With ``level`` 0 the cut goes to the window's minimum of
+    ``curve``; otherwise to ``position`` (0 = its first frame, 1 = its last) of the pause:
+    the frames around that minimum, inside the window, whose ``curve`` stays within
+    ``level`` x the window's range above the minimum.
     """
     cuts = [a for a, _ in reps] + [reps[-1][1]]
     out = list(cuts)
@@ -210,7 +214,17 @@ def _snap(reps, curve, fraction):
         r = int(fraction * min(cuts[i] - cuts[i - 1], cuts[i + 1] - cuts[i]))
         if r > 0:
             a, z = max(out[i - 1] + 1, cuts[i] - r), cuts[i] + r + 1
-            out[i] = a + int(np.argmin(curve[a:z]))
+            w = curve[a:z]
+            m = int(np.argmin(w))
+            if level > 0:
+                low = w <= w[m] + level * (w.max() - w[m])
+                lo, hi = m, m
+                while lo > 0 and low[lo - 1]:
+                    lo -= 1
+                while hi < w.size - 1 and low[hi + 1]:
+                    hi += 1
+                m = int(round(lo + position * (hi - lo)))
+            out[i] = a + m
     return list(zip(out[:-1], out[1:]))
 
 
@@ -411,9 +425,11 @@ class RepetitionSegmenter(Estimator):
                                  max_slope=cfg.align_max_slope)
         if cfg.align_snap > 0:
             # a template starts and ends at the rest pose, so a cut may sit anywhere in a
-            # pause: it goes to the frame nearest that pose, as the spectral boundaries do
+            # pause: it goes to the frame nearest that pose, as the spectral boundaries do,
+            # or to a set place in the pause (align_snap_level > 0)
             rest = _rest_pose(self.angles_[:, cols], a.period)
-            reps = _snap(reps, np.sum((F - rest) ** 2, axis=1), cfg.align_snap)
+            reps = _snap(reps, np.sum((F - rest) ** 2, axis=1), cfg.align_snap,
+                         cfg.align_snap_level, cfg.align_snap_position)
         return reps
 
     def predict(self) -> list[Segment]:
