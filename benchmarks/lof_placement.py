@@ -47,7 +47,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from _lof_replay import decide, snapshots  # noqa: E402
-from lof_accuracy import FPS, features, lof_cuts, recordings, score, set_of  # noqa: E402
+from lof_accuracy import FPS, features, lof_cuts, recordings, score  # noqa: E402
+from lof_recur import held_out, smoothed_choice  # noqa: E402
 
 from streamseg._kernels.histogram import contrast_at  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
@@ -163,24 +164,6 @@ def run(a, truth, windows, refine_s):
     return score(cuts, truth, windows, len(a)), list(lats), cuts
 
 
-def table(label, res, names):
-    tp = sum(res[n][0]["tp"] for n in names)
-    n_pred = sum(res[n][0]["n"] for n in names)
-    n_true = sum(res[n][0]["n_true"] for n in names)
-    p, r = tp / max(n_pred, 1), tp / max(n_true, 1)
-    pooled = 2 * p * r / (p + r) if p + r else 0.0
-    sets = {}
-    for s in ("cmu", "cmu02", "hdm"):
-        f = [res[n][0]["f1"] for n in names if set_of(n) == s]
-        sets[s] = float(np.mean(f)) if f else float("nan")
-    lats = [x for n in names for x in res[n][1]]
-    med = float(np.median(lats)) / FPS if lats else float("nan")
-    mean = float(np.mean([res[n][0]["f1"] for n in names]))
-    print(f"| {label} | {mean:.3f} | {pooled:.3f} ({tp}/{n_true} true, {n_pred} cuts) | "
-          + " | ".join(f"{sets[s]:.3f}" for s in sets) + f" | {med:.2f} s |")
-    return dict(mean=mean, pooled=pooled, sets=sets, median=med)
-
-
 def part2(recs, feats):
     def score_all(names, v):
         return {n: run(feats[n], recs[n][1], recs[n][2], v) for n in names}
@@ -188,8 +171,7 @@ def part2(recs, feats):
     print(f"\nPart 2: train {' + '.join(TRAIN)}: refine_s, F1 per recording, mean, smoothed")
     train = [score_all(TRAIN, v) for v in GRID]
     means = [float(np.mean([t[n][0]["f1"] for n in TRAIN])) for t in train]
-    smooth = [float(np.mean(means[max(0, i - 1):i + 2])) for i in range(len(means))]
-    best = max(range(len(means)), key=lambda i: (smooth[i], -GRID[i]))
+    smooth, best = smoothed_choice(means, GRID)
     for i, v in enumerate(GRID):
         lats = [x for n in TRAIN for x in train[i][n][1]]
         print(f"  refine_s {v:<4g}: " + " ".join(f"{train[i][n][0]['f1']:.3f}" for n in TRAIN)
@@ -208,20 +190,9 @@ def part2(recs, feats):
     print(f"\nheld out ({len(held)} recordings), scored once")
     print("| detector | mean F1 | pooled F1 | cmu | cmu02 | hdm | latency median |")
     print("|---|---|---|---|---|---|---|")
-    h0 = score_all(held, BEFORE)
-    h1 = score_all(held, chosen)
-    a = table(f"refine_s {BEFORE} (the default until round 8)", h0, held)
-    b = table(f"refine_s {chosen}", h1, held)
-    print(f"\nper recording (held out): refine_s {BEFORE} -> {chosen}")
-    for n in held:
-        print(f"  {n:26s} {h0[n][0]['f1']:.2f} -> {h1[n][0]['f1']:.2f}   "
-              f"cuts {h0[n][0]['n']} -> {h1[n][0]['n']}, "
-              f"correct {h0[n][0]['tp']} -> {h1[n][0]['tp']} of {h0[n][0]['n_true']}")
-    ok = (means[best] > base_mean, b["pooled"] > a["pooled"],
-          all(b["sets"][s] >= a["sets"][s] for s in a["sets"]), b["median"] <= 2.5)
-    print(f"\nrule: train better {ok[0]} ({means[best]:.3f} vs {base_mean:.3f}); held out pooled "
-          f"F1 higher {ok[1]}; no set lower {ok[2]}; median latency <= 2.5 s {ok[3]} -> "
-          + ("ADOPT" if all(ok) else "do not adopt"))
+    held_out(score_all(held, BEFORE), score_all(held, chosen), held,
+             f"refine_s {BEFORE} (the default until round 8)", f"refine_s {chosen}",
+             means[best], base_mean)
 
 
 def main():
