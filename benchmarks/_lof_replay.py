@@ -86,8 +86,10 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     ``trace``: a list that receives one dict per decided window (``benchmarks/lof_misses.py``):
     ``w``, ``centre``, ``stage`` (where it stopped: "gap", "threshold", "peak", "after"
     (too few frames after the cut), "contrast", "novelty", or "cut"), ``lof``, ``thr``, and
-    once reached ``frame`` (the localised cut), ``con``, ``nov``, ``seg0`` (the current
-    segment's first frame), ``seen``.
+    once reached ``frame`` (the localised cut), ``peak_centre`` (the peak window's centre),
+    ``first`` (the earliest cut frame the gap allows), ``search`` (the first and last
+    frame localisation searched), ``con``, ``nov``, ``seg0``
+    (the current segment's first frame), ``seen``.
     """
     c = config
     g = c.frames(fps)
@@ -152,9 +154,14 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
             return
         cf = int(src.centres[i][w - oldest])
         ring_old = max(0, seen - history)
+        first = st["last_frame"] + min_gap * step
+        # the frames refine_cut searches (lo > hi: none, the centre stays)
+        rec.update(peak_centre=cf, first=first,
+                   search=(max(cf - g["refine"], ring_old + window, first),
+                           min(cf + g["refine"], seen - window)))
         if g["refine"] > 0:
             cf = refine_cut(bins_, valid, n, cf, g["refine"], window, c.bins, seen, ring_old,
-                            st["last_frame"] + min_gap * step, left, right)
+                            first, left, right)
         rec.update(frame=int(cf), stage="after")
         if c.min_contrast > 0:
             if seen - cf < window:

@@ -2,7 +2,8 @@
 
 The defaults were chosen on 86_01 and hdm_bd_0 only (``benchmarks/lof_variants.py`` part 5),
 the angular-speed columns on 02_walk_punch_sword_wash and hdm_bk_0 (``benchmarks/lof_curves.py``),
-the novelty check on 14_14 and hdm_dg_0 (``benchmarks/lof_variants.py --part 7``);
+the novelty check on 14_14 and hdm_dg_0 (``benchmarks/lof_variants.py --part 7``), the 0.8 s
+localisation radius on 02_wash_sword_walk_punch and hdm_bd_1 (``benchmarks/lof_placement.py``);
 every floor sits just below the figure ``benchmarks/lof_accuracy.py`` measured, so a change
 that loses a true cut or adds false ones shows here. F1 accepts a cut inside the human
 boundary window widened by 0.5 s (+-0.5 s for labels without a window), as the benchmark.
@@ -56,7 +57,8 @@ def test_86_01_live_cuts_agree_with_the_labels(data_dir):
     assert max(c.latency for c in ev) <= StreamingLOFSegmenter(LOFConfig(), FPS).latency_frames()
 
 
-@pytest.mark.parametrize("name,floor", [("14_14", 0.8), ("14_20", 0.45)])
+# measured 0.83 and 0.67 (14_20: 0.50 with the 0.4 s localisation radius of before round 8)
+@pytest.mark.parametrize("name,floor", [("14_14", 0.8), ("14_20", 0.6)])
 def test_exercise_routines_held_out(data_dir, name, floor):
     rec = read(data_dir / f"cmu_exercise/{name}.amc.gz", skeleton=data_dir / "cmu86/86.asf")
     truth = true_cuts(read_labels(data_dir / "cmu_exercise/labels.csv", name), rec.n_frames)
@@ -78,20 +80,20 @@ def test_short_actions_hdm05_joins_get_cuts(data_dir):
         f1s[name] = _f1(found, cuts)
         lat += [c.latency for c in ev]
     assert np.mean(list(f1s.values())) >= 0.7, f1s  # measured 0.745 (0.704 without speeds)
-    assert np.median(lat) <= 2.5 * FPS  # measured 2.3 s
+    assert np.median(lat) <= 2.5 * FPS  # measured 2.3 s (both radii)
 
 
 def test_cmu02_joins_floor(data_dir):
     """The two CMU 02 joins (long single-action clips with sub-movements, abrupt joins): the
-    set where the live detector trails Pelt; measured 0.31 and 0.36 (0.29 and 0.33 without
-    the novelty check)."""
+    set where the live detector trails Pelt; measured 0.50 and 0.40 (0.31 and 0.36 with the
+    0.4 s localisation radius of before round 8, 0.29 and 0.33 without the novelty check)."""
     from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence
 
     f1s = []
     for trials in CMU02_SEQUENCES.values():
         rec, cuts = cmu02_sequence(data_dir, trials)
         f1s.append(_f1([c.frame for c in _live(_angles(rec))], cuts))
-    assert np.mean(f1s) >= 0.3 and min(f1s) >= 0.3, f1s
+    assert np.mean(f1s) >= 0.42 and min(f1s) >= 0.38, f1s
 
 
 def test_offline_segment_equals_online(capsys, data_dir):

@@ -46,7 +46,7 @@ def test_segment_options_and_paper_preset(capsys, files):
                "--k", "7", "--bins", "12", "--json")
     assert out["params"]["window_s"] == 1.5 and out["params"]["k"] == 7
     assert out["params"]["bins"] == 12
-    assert out["params"]["refine_s"] == 0.4  # the default localisation; the paper: 0
+    assert out["params"]["refine_s"] == 0.8  # the default localisation; the paper: 0
     assert out["params"]["novelty"] == 0.15  # the default novelty check; the paper: none
     off = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", "--novelty", "0",
                "--json")

@@ -54,9 +54,9 @@ class LOFConfig:
     - ``min_contrast = 0.15`` and ``contrast_s = 2.0``: the best neighbourhood average (0.1
       and 1.5 or 3 s tie on train F1 with lower neighbourhoods, 0.2 scores lower); without
       the confirmation the train F1 is 0.84 (86_01: 0.80 instead of 1.00).
-    - ``threshold_mads = 1.0``, ``min_gap_s = 1.0``, ``refine_s = 0.4``, ``bins = 6``: re-checked
-      around the new point (0.5-2 MADs, 1-2 s gaps, 0.2 s radius, 8 bins): none scored higher
-      on the train pair.
+    - ``threshold_mads = 1.0``, ``min_gap_s = 1.0``, ``refine_s = 0.4`` (0.8 since round 8,
+      below), ``bins = 6``: re-checked around the new point (0.5-2 MADs, 1-2 s gaps, 0.2 s
+      radius, 8 bins): none scored higher on the train pair.
 
     Rules tried on top of these and not adopted (``lof_variants.py --part 6``, chosen on another
     pair, 02_walk_punch_sword_wash + hdm_bk_0): a robust z-score over the recent 10-40 s, a
@@ -126,6 +126,22 @@ class LOFConfig:
     library: the chosen 0.15 changed no train cut, and held out the cmu mean fell (0.917 ->
     0.900) while pooled F1 rose (0.721 -> 0.729).
 
+    Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
+    02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
+
+    - ``refine_s = 0.8``. The peak window's centre lies up to 0.7 s either side of a matched true
+      cut (median 0.4 s; 29 early, 16 late over the 14 recordings: not a one-sided bias) and 0.2-1.8
+      s off for the 8 false cuts placed near a missed true cut (4 early); with the 0.4 s radius 19
+      of the 45 hits and 3 of those 8 stopped at the radius, short of the contrast's maximum. The
+      search stays causal (its after sub-window lies in the frames seen at the decision), so beyond
+      about 0.7 s it only reaches further back; the decision time is unchanged, the frame ring grows
+      by the radius. Grid 0.4, 0.6, 0.8, 1.0, 1.2: train F1 0.515, 0.533, 0.533, 0.533, 0.533
+      (averaged with the grid neighbours 0.524, 0.527, 0.533, 0.533, 0.533; ties: the smaller). Held
+      out (the other 12, once): pooled F1 0.708 -> 0.750 (42 instead of 40 of 51 true cuts, 61 cuts
+      instead of 62), cmu 0.778 -> 0.833, cmu02 (one join) 0.308 -> 0.500, hdm 0.754 = 0.754, median
+      latency 2.27 s both. The worst-case latency bound rises by the extra 0.4 s (a cut may now be
+      placed up to 0.8 s before the peak window's centre): 2.87 s -> 3.27 s.
+
     Offline segmentation (:class:`streamseg.offline.LOFSegmenter`) applies this same causal
     decision to a whole file, so online and offline cuts are equal.
 
@@ -165,11 +181,11 @@ class LOFConfig:
         ``refine_s = 0``) to the frame within ``refine_s`` seconds of it where the histograms
         of the ``window_s`` before and the ``window_s`` after differ most (cosine distance),
         using only frames seen when the cut is decided, and ``min_gap_s`` after the previous
-        cut. Chosen on 86_01 and 14_14 (``benchmarks/lof_variants.py``): streaming F1 0.88
-        with the centre rule, 0.96 with 0.4 s; radii of 0.2, 0.8 and 1 s gave 0.88. Shorter
-        sub-windows (1 or 1.5 s at 0.4 s) scored the same F1 with localisation errors within
-        3 frames of it, 0.5 s scored worse, so the sub-window is the LOF window (no extra
-        parameter).
+        cut. First chosen on 86_01 and 14_14 (``benchmarks/lof_variants.py``, with the
+        detector of then): streaming F1 0.88 with the centre rule, 0.96 with 0.4 s; radii of
+        0.2, 0.8 and 1 s gave 0.88. Shorter sub-windows (1 or 1.5 s at 0.4 s) scored the same
+        F1 with localisation errors within 3 frames of it, 0.5 s scored worse, so the
+        sub-window is the LOF window (no extra parameter). 0.8 s since round 8 (above).
     inclinations : bool
         Features: the paper's 8 bone angles (False) or those plus each of its 9 bones' angle
         from the up axis (True, :data:`streamseg.skeleton.bones.INCLINATIONS`; the
@@ -195,9 +211,9 @@ class LOFConfig:
     novelty : float
         Second confirmation (0 disables it): the histograms of the whole current segment (the
         frames since the previous cut, as far back as the detector's frame ring reaches:
-        ``history`` frames before the decision, about 3.3 s before the cut with the defaults
-        at 120 Hz) and of the ``contrast_s`` seconds after the cut (clipped to the frames seen)
-        must differ by at least this cosine distance.
+        ``history`` frames before the decision, about 3.7 s before the peak window's centre
+        with the defaults at 120 Hz) and of the ``contrast_s`` seconds after the cut (clipped
+        to the frames seen) must differ by at least this cosine distance.
     peak_rule : {"adaptive", "paper"}
         "adaptive" (ours): a peak must reach the threshold above (``threshold_mads``,
         ``min_score``) and the Douglas-Peucker tolerance is ``dp_tolerance`` times the range
@@ -229,7 +245,7 @@ class LOFConfig:
     min_gap_s: float = 1.0
     min_valid: float = 0.5
     exclusion: float = 0.0
-    refine_s: float = 0.4
+    refine_s: float = 0.8
     inclinations: bool = True
     min_contrast: float = 0.15
     contrast_s: float = 2.0

@@ -45,7 +45,7 @@ class StreamingLOFSegmenter:
     ``delay * step + window - 1 - window // 2`` frames after the centre of ``w``; localisation
     moves the cut by at most ``refine`` frames either way, so the worst-case latency is
     ``delay * step + window - 1 - window // 2 + refine`` frames (:meth:`latency_frames`; with
-    the defaults at 120 Hz: 8 * 24 + 210 - 1 - 105 + 48 = 344 frames, 2.87 s; the decision
+    the defaults at 120 Hz: 8 * 24 + 210 - 1 - 105 + 96 = 392 frames, 3.27 s; the decision
     itself is 296 frames, 2.47 s, after the peak window's centre; the median over the labelled
     recordings is 2.3 s, ``benchmarks/lof_latency.py``). This holds when no window is dropped
     for NaN frames; every dropped window delays the decision by one more ``step``.
@@ -59,8 +59,8 @@ class StreamingLOFSegmenter:
     ``(d + 1) * history`` bytes, ``d`` the histogrammed columns (``n_features``, doubled by
     the speed columns of ``config.speed_max``: 34 by default), ``history = delay * step +
     window + refine + max(window, contrast) + 1`` frames, plus ``(lag + 2) * n_features``
-    floats for the speeds (defaults at 120 Hz: 375 windows and 691 frames, 287 kB per stream,
-    287 MB for 1,000 streams; without speeds 195 kB; the ``2 * k`` candidates take 30 kB).
+    floats for the speeds (defaults at 120 Hz: 375 windows and 739 frames, 289 kB per stream,
+    289 MB for 1,000 streams; without speeds 195 kB; the ``2 * k`` candidates take 30 kB).
 
     Parameters
     ----------
