@@ -50,8 +50,18 @@ recording whose fit over-splits: K 6 found for 4). Both were tuning data in earl
 once with the chosen setting (``--merge R,M``). Adopt only if no held-out stream loses more
 than 0.01 accuracy and the mean ids/action and purity improve.
 
+Protocol for the hand-off fix (``LabelMemoryConfig.recall_carried``: a cluster whose id the
+overlap carried is a recall candidate too, its own id's exemplars competing), declared on
+2026-12-02 before any result with it: the same TRAIN pair; the mechanism adds no threshold
+(it uses ``recall_ratio`` and ``recall_margin`` as they are), so TRAIN only checks that it
+does what it is for (``--carried --only`` TRAIN). The 17 other streams are held out and
+scored once (``--carried --heldout``) in simulated revisions, then, if time allows, with the
+real daemon at real time (``--daemon 1``). Adopt (default on) only if, in every mode run on
+the held-out streams, the mean accuracy is not lower, no stream loses more than 0.01 and the
+mean ids per action is lower.
+
 Run: .venv/bin/python benchmarks/id_fragments.py [--only a,b] [--grid] [--merge 0.5,0.1]
-     [--heldout] [--daemon 1]
+     [--carried] [--heldout] [--daemon 1]
 """
 
 from __future__ import annotations
@@ -210,7 +220,7 @@ def run_daemon(streams, mcfg, args):
 
             path = Path(args.save)
             old = pickle.loads(path.read_bytes()) if path.exists() else {}
-            old[name, mcfg.merge_present] = (lab, truth, revs, rec.fps)
+            old[name, mcfg.merge_present, mcfg.recall_carried] = (lab, truth, revs, rec.fps)
             path.write_bytes(pickle.dumps(old))
         out[name] = diagnose(lab, truth, revs, rec.fps, args.history)
         print(f"  {name}: done", file=sys.stderr, flush=True)
@@ -245,6 +255,8 @@ def main():
     ap.add_argument("--interval", type=float, default=5.0)
     ap.add_argument("--grid", action="store_true", help="choose the merge setting on TRAIN")
     ap.add_argument("--merge", default="", help="RATIO,MARGIN: score merge_present with it")
+    ap.add_argument("--carried", action="store_true",
+                    help="also score recall_carried (the hand-off fix)")
     ap.add_argument("--heldout", action="store_true", help="every stream but TRAIN")
     ap.add_argument("--daemon", type=float, default=0.0, help="real daemon at this speed")
     ap.add_argument("--save", default="", help="daemon mode: pickle every answer here")
@@ -256,7 +268,7 @@ def main():
         streams = {k: v for k, v in streams.items() if k not in TRAIN}
     if args.only:
         streams = {k: v for k, v in streams.items() if k in args.only.split(",")}
-    base_cfg = replace(LabelMemoryConfig(), merge_present=False)
+    base_cfg = replace(LabelMemoryConfig(), merge_present=False, recall_carried=False)
     mode = (f"real daemon at {args.daemon:g}x" if args.daemon else "simulated revisions")
     print(f"{mode}; relabel every {args.interval:g} s over the last {args.history:g} s; "
           f"label memory on (recall defaults)\n")
@@ -269,6 +281,9 @@ def main():
             cfg = replace(base_cfg, merge_present=True, merge_ratio=r, merge_margin=m)
             print(f"### merge_present on, ratio {r:g}, margin {m:g}")
             table(run_daemon(streams, cfg, args), res0)
+        if args.carried:
+            print("### recall_carried on")
+            table(run_daemon(streams, replace(base_cfg, recall_carried=True), args), res0)
         return
     data = {}
     for name, (rec, truth) in streams.items():
@@ -292,6 +307,9 @@ def main():
         cfg = replace(base_cfg, merge_present=True, merge_ratio=r, merge_margin=m)
         print(f"### merge_present on, ratio {r:g}, margin {m:g}")
         table(run_sim(data, cfg, args), res0)
+    if args.carried:
+        print("### recall_carried on")
+        table(run_sim(data, replace(base_cfg, recall_carried=True), args), res0)
 
 
 if __name__ == "__main__":

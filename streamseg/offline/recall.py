@@ -119,10 +119,11 @@ def _own(S: np.ndarray) -> float:
     return float((S.sum() - np.trace(S)) / (n * (n - 1)))
 
 
-def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
+def recall_scores(cand_pieces: dict, memory, sigma: float, compete=()) -> dict:
     """``{(candidate, id): (ratio, best other ratio)}`` for every candidate and remembered id
-    (module docstring); the other ids are every remembered one but ``id`` and the candidate
-    itself."""
+    (module docstring); the other ids are every remembered one but ``id`` and, unless the
+    candidate is in ``compete`` (an id the overlap carried: its claim is what is checked),
+    the candidate itself."""
     ids = sorted(memory.exemplars)
     ex = {j: [np.asarray(a, dtype=np.float64) for a in memory.exemplars[j]] for j in ids}
     own_j = {j: _own(dtak_between(ex[j], ex[j], sigma)) for j in ids}
@@ -135,8 +136,10 @@ def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
             ref = np.nanmax([own_c, own_j[j]]) if np.isfinite([own_c, own_j[j]]).any() else 0.0
             ratios[j] = cross / ref if ref > 0 else 0.0
         for j in ids:
-            # the candidate's own exemplars (a young id remembered last revision) compete not
-            other = max((r for i, r in ratios.items() if i not in (j, c)), default=0.0)
+            # a young id's own exemplars (remembered last revision) compete not; a carried
+            # id's do: a remembered id must beat the id the overlap gave
+            other = max((r for i, r in ratios.items() if i != j and (i != c or c in compete)),
+                        default=0.0)
             out[c, j] = (ratios[j], other)
     return out
 
@@ -217,16 +220,20 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     merged: dict = {}
     proposals: dict = {}
     may_recall = bool(absent) and int(frames[0]) > memory.origin
-    if previous is not None and cands and (may_recall or (merge and hosts)):
+    # recall_carried: the ids the overlap carried are checked too (their own exemplars compete)
+    carried = ([c for c in present if c not in cands]
+               if may_recall and getattr(config, "recall_carried", False) else [])
+    checked = cands + carried
+    if previous is not None and checked and (may_recall or (merge and hosts)):
         keep = max(2, int(round(config.exemplar_s * fps)))
         P = {c: pieces_of(segs, c, features, frames, keep, memory.stride, config.recall_pieces)
-             for c in cands}
+             for c in checked}
         P = {c: p for c, p in P.items() if len(p) >= 2}
         scores = {}
         if P:
             if sigma is None:
                 sigma = default_sigma(np.asarray(features[::memory.stride], dtype=np.float64))
-            scores = recall_scores(P, memory, sigma)
+            scores = recall_scores(P, memory, sigma, compete=set(carried))
         if P and may_recall:
             cs, js = sorted(P), sorted(absent)
             W = np.full((len(cs), len(js)), -1.0)
@@ -242,7 +249,8 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
                     if config.recall_confirm <= 1 or pending.get(c) == j:
                         recalled[c] = j
         if P and merge:
-            merged = merge_into_present(P, hosts, scores, set(recalled), config)
+            merged = merge_into_present(P, hosts, scores, set(recalled) | set(carried),
+                                        config)
     mapping = {c: c for c in present}
     mapping.update(recalled)
     mapping.update(merged)
@@ -255,10 +263,12 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
         born.setdefault(mapping[c], rev)
     for j in recalled.values():
         born[j] = -1  # an old id: never a candidate again
-    gone = set(recalled) | set(merged)
+    # a young id recalled or merged is gone; a carried id recalled away stays an action's id
+    gone = {c for c in recalled if c not in carried} | set(merged)
     keep_ids = ({mapping[c] for c in present} | set(memory.exemplars)) - gone
     born = {i: r for i, r in born.items() if i in keep_ids}
-    pending = {mapping[c]: j for c, j in proposals.items() if c not in gone}
+    pending = {mapping[c]: j for c, j in proposals.items()
+               if c not in recalled and c not in merged}
     # a young id merged into an old one is gone for good: forget its exemplars too (else they
     # would compete with the old id's, or be recalled in its place)
     ex = {i: v for i, v in memory.exemplars.items() if i not in gone}
