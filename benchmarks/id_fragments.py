@@ -60,8 +60,16 @@ real daemon at real time (``--daemon 1``). Adopt (default on) only if, in every 
 the held-out streams, the mean accuracy is not lower, no stream loses more than 0.01 and the
 mean ids per action is lower.
 
+Protocol for the split merge's guard (``merge_adjacent``: ``merge_present`` only joins a
+cluster to an id whose runs touch most of its frames in the revision), declared on 2026-12-02
+before any result with it: the same TRAIN pair; ratio 0.5 and margin 0.1 are held (the
+setting chosen on TRAIN last round) and the guard's share (0.5, a majority) is not tuned, so
+TRAIN only checks the mechanism (``--merge 0.5,0.1 --adjacent --only`` TRAIN). The 17 other
+streams are scored once (``--merge 0.5,0.1 --adjacent --heldout``), then with the real daemon
+if time allows, against the defaults (merge off) with the same adoption rule as above.
+
 Run: .venv/bin/python benchmarks/id_fragments.py [--only a,b] [--grid] [--merge 0.5,0.1]
-     [--carried] [--heldout] [--daemon 1]
+     [--adjacent] [--carried] [--heldout] [--daemon 1]
 """
 
 from __future__ import annotations
@@ -220,7 +228,8 @@ def run_daemon(streams, mcfg, args):
 
             path = Path(args.save)
             old = pickle.loads(path.read_bytes()) if path.exists() else {}
-            old[name, mcfg.merge_present, mcfg.recall_carried] = (lab, truth, revs, rec.fps)
+            key = (name, mcfg.merge_present, mcfg.merge_adjacent, mcfg.recall_carried)
+            old[key] = (lab, truth, revs, rec.fps)
             path.write_bytes(pickle.dumps(old))
         out[name] = diagnose(lab, truth, revs, rec.fps, args.history)
         print(f"  {name}: done", file=sys.stderr, flush=True)
@@ -255,6 +264,8 @@ def main():
     ap.add_argument("--interval", type=float, default=5.0)
     ap.add_argument("--grid", action="store_true", help="choose the merge setting on TRAIN")
     ap.add_argument("--merge", default="", help="RATIO,MARGIN: score merge_present with it")
+    ap.add_argument("--adjacent", action="store_true",
+                    help="with --merge: also score it with merge_adjacent (the guard)")
     ap.add_argument("--carried", action="store_true",
                     help="also score recall_carried (the hand-off fix)")
     ap.add_argument("--heldout", action="store_true", help="every stream but TRAIN")
@@ -279,8 +290,12 @@ def main():
         if args.merge:
             r, m = (float(x) for x in args.merge.split(","))
             cfg = replace(base_cfg, merge_present=True, merge_ratio=r, merge_margin=m)
-            print(f"### merge_present on, ratio {r:g}, margin {m:g}")
-            table(run_daemon(streams, cfg, args), res0)
+            if not args.adjacent:
+                print(f"### merge_present on, ratio {r:g}, margin {m:g}")
+                table(run_daemon(streams, cfg, args), res0)
+            else:
+                print(f"### merge_present on, ratio {r:g}, margin {m:g}, merge_adjacent")
+                table(run_daemon(streams, replace(cfg, merge_adjacent=True), args), res0)
         if args.carried:
             print("### recall_carried on")
             table(run_daemon(streams, replace(base_cfg, recall_carried=True), args), res0)
@@ -307,6 +322,9 @@ def main():
         cfg = replace(base_cfg, merge_present=True, merge_ratio=r, merge_margin=m)
         print(f"### merge_present on, ratio {r:g}, margin {m:g}")
         table(run_sim(data, cfg, args), res0)
+        if args.adjacent:
+            print(f"### merge_present on, ratio {r:g}, margin {m:g}, merge_adjacent")
+            table(run_sim(data, replace(cfg, merge_adjacent=True), args), res0)
     if args.carried:
         print("### recall_carried on")
         table(run_sim(data, replace(base_cfg, recall_carried=True), args), res0)

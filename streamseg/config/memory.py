@@ -49,6 +49,10 @@ class LabelMemoryConfig:
         first revisions on (no origin rule: it recalls nothing).
     merge_ratio, merge_margin : float
         The thresholds of ``merge_present``.
+    merge_adjacent : bool
+        ``merge_present`` only joins a cluster to an id whose runs touch most of its frames
+        in the revision (the two clusters of a split action tile it;
+        :func:`streamseg.offline.recall.touching_share`).
 
     ``merge_present`` is off: it was measured and not adopted (issue 12, round 5,
     ``benchmarks/id_fragments.py``, simulated revisions). Ratio 0.5 and margin 0.1 (the
@@ -84,6 +88,7 @@ class LabelMemoryConfig:
     merge_present: bool = False
     merge_ratio: float = 0.5
     merge_margin: float = 0.1
+    merge_adjacent: bool = False
 
     def __post_init__(self):
         def is_int(v):
@@ -98,7 +103,7 @@ class LabelMemoryConfig:
                "a length > 0 seconds")
         _check("rate_hz", self.rate_hz, isinstance(self.rate_hz, (int, float))
                and not isinstance(self.rate_hz, bool) and self.rate_hz > 0, "a rate > 0 Hz")
-        for name in ("recall_carried", "merge_present"):
+        for name in ("recall_carried", "merge_present", "merge_adjacent"):
             _check(name, getattr(self, name), isinstance(getattr(self, name), bool),
                    "True or False")
         for name in ("recall_ratio", "recall_margin", "merge_ratio", "merge_margin"):

@@ -144,7 +144,20 @@ def recall_scores(cand_pieces: dict, memory, sigma: float, compete=()) -> dict:
     return out
 
 
-def merge_into_present(P: dict, hosts, scores: dict, taken, config) -> dict:
+def touching_share(segments, c: int, j: int) -> float:
+    """Share of the frames of id ``c`` in ``segments`` that lie in runs of ``c`` touching a
+    run of ``j`` (one ends where the other begins); 0 when ``c`` has no frames."""
+    from streamseg.offline.label_memory import _runs
+
+    runs = _runs(segments)
+    ends_j = {b for a, b, lab in runs if lab == j} | {a for a, b, lab in runs if lab == j}
+    mine = [(a, b) for a, b, lab in runs if lab == c]
+    total = sum(b - a for a, b in mine)
+    near = sum(b - a for a, b in mine if a in ends_j or b in ends_j)
+    return near / total if total else 0.0
+
+
+def merge_into_present(P: dict, hosts, scores: dict, taken, config, segments=()) -> dict:
     """Candidates that join an id the revision already holds (``merge_present``).
 
     A candidate ``c`` (a cluster the overlap does not explain) not recalled (``taken``) joins
@@ -153,14 +166,20 @@ def merge_into_present(P: dict, hosts, scores: dict, taken, config) -> dict:
     every other remembered id by ``merge_margin`` (the recall's relative test). Unlike the
     recall, several candidates may join one id: two clusters of one revision then share an id
     (an action the fit split in two). Only ids change: the segments keep their bounds.
+
+    With ``merge_adjacent`` (``segments``: the revision's), ``c`` must also lie mostly
+    (:func:`touching_share` >= 0.5) in runs that touch a run of ``j``: the two clusters of
+    one split action tile its frames, so they touch; two clusters that do not are apart in
+    time with other clusters between them, which the fit of this very window put apart.
     """
     out = {}
+    adjacent = bool(getattr(config, "merge_adjacent", False))
     for c in sorted(P):
         if c in taken:
             continue
         best = None
         for j in hosts:
-            if j == c:
+            if j == c or (adjacent and touching_share(segments, c, j) < 0.5):
                 continue
             r, other = scores[c, j]
             if (r >= config.merge_ratio and r >= other + config.merge_margin
@@ -250,7 +269,7 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
                         recalled[c] = j
         if P and merge:
             merged = merge_into_present(P, hosts, scores, set(recalled) | set(carried),
-                                        config)
+                                        config, segs)
     mapping = {c: c for c in present}
     mapping.update(recalled)
     mapping.update(merged)
