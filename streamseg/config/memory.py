@@ -50,9 +50,9 @@ class LabelMemoryConfig:
     merge_ratio, merge_margin : float
         The thresholds of ``merge_present``.
     merge_adjacent : bool
-        ``merge_present`` only joins a cluster to an id whose runs touch most of its frames
-        in the revision (the two clusters of a split action tile it;
-        :func:`streamseg.offline.recall.touching_share`).
+        ``merge_present`` only joins a cluster to an id one of whose runs it touches in the
+        revision (the two clusters of a split action tile it;
+        :func:`streamseg.offline.recall.touches`).
 
     ``merge_present`` is off: it was measured and not adopted (issue 12, round 5,
     ``benchmarks/id_fragments.py``, simulated revisions). Ratio 0.5 and margin 0.1 (the

@@ -144,17 +144,14 @@ def recall_scores(cand_pieces: dict, memory, sigma: float, compete=()) -> dict:
     return out
 
 
-def touching_share(segments, c: int, j: int) -> float:
-    """Share of the frames of id ``c`` in ``segments`` that lie in runs of ``c`` touching a
-    run of ``j`` (one ends where the other begins); 0 when ``c`` has no frames."""
+def touches(segments, c: int, j: int) -> bool:
+    """Whether a run of id ``c`` in ``segments`` touches a run of ``j`` (one ends where the
+    other begins)."""
     from streamseg.offline.label_memory import _runs
 
     runs = _runs(segments)
-    ends_j = {b for a, b, lab in runs if lab == j} | {a for a, b, lab in runs if lab == j}
-    mine = [(a, b) for a, b, lab in runs if lab == c]
-    total = sum(b - a for a, b in mine)
-    near = sum(b - a for a, b in mine if a in ends_j or b in ends_j)
-    return near / total if total else 0.0
+    bounds_j = {x for a, b, lab in runs if lab == j for x in (a, b)}
+    return any(a in bounds_j or b in bounds_j for a, b, lab in runs if lab == c)
 
 
 def merge_into_present(P: dict, hosts, scores: dict, taken, config, segments=()) -> dict:
@@ -167,10 +164,10 @@ def merge_into_present(P: dict, hosts, scores: dict, taken, config, segments=())
     recall, several candidates may join one id: two clusters of one revision then share an id
     (an action the fit split in two). Only ids change: the segments keep their bounds.
 
-    With ``merge_adjacent`` (``segments``: the revision's), ``c`` must also lie mostly
-    (:func:`touching_share` >= 0.5) in runs that touch a run of ``j``: the two clusters of
-    one split action tile its frames, so they touch; two clusters that do not are apart in
-    time with other clusters between them, which the fit of this very window put apart.
+    With ``merge_adjacent`` (``segments``: the revision's), a run of ``c`` must also touch
+    a run of ``j`` (:func:`touches`): the two clusters of one split action tile its frames,
+    so they touch somewhere; two clusters that never touch have other clusters between them
+    everywhere, and the fit of this very window put them apart.
     """
     out = {}
     adjacent = bool(getattr(config, "merge_adjacent", False))
@@ -179,7 +176,7 @@ def merge_into_present(P: dict, hosts, scores: dict, taken, config, segments=())
             continue
         best = None
         for j in hosts:
-            if j == c or (adjacent and touching_share(segments, c, j) < 0.5):
+            if j == c or (adjacent and not touches(segments, c, j)):
                 continue
             r, other = scores[c, j]
             if (r >= config.merge_ratio and r >= other + config.merge_margin
