@@ -35,12 +35,6 @@ class LabelMemoryConfig:
     recall_within : int
         A new id can still be recalled (replaced by an old one) in the revision that gave it
         and the next ``recall_within - 1`` ones.
-    recall_carried : bool
-        The clusters whose id the overlap carried are recall candidates too, with their own
-        id's exemplars among the competitors: such a cluster takes an absent remembered id
-        only when that id beats the carried one (and every other) by ``recall_margin``, so a
-        returning action the overlap handed a neighbour's id can take its own
-        (:mod:`streamseg.offline.recall`).
     merge_present : bool
         A candidate cluster may also take an id the revision already holds, when it passes
         the recall's relative test against that id's exemplars with ``merge_ratio`` and
@@ -84,7 +78,6 @@ class LabelMemoryConfig:
     recall_confirm: int = 1
     recall_pieces: int = 4
     recall_within: int = 2
-    recall_carried: bool = False
     merge_present: bool = False
     merge_ratio: float = 0.5
     merge_margin: float = 0.1
@@ -103,7 +96,7 @@ class LabelMemoryConfig:
                "a length > 0 seconds")
         _check("rate_hz", self.rate_hz, isinstance(self.rate_hz, (int, float))
                and not isinstance(self.rate_hz, bool) and self.rate_hz > 0, "a rate > 0 Hz")
-        for name in ("recall_carried", "merge_present", "merge_adjacent"):
+        for name in ("merge_present", "merge_adjacent"):
             _check(name, getattr(self, name), isinstance(getattr(self, name), bool),
                    "True or False")
         for name in ("recall_ratio", "recall_margin", "merge_ratio", "merge_margin"):

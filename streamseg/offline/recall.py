@@ -31,6 +31,18 @@ relative test against that id's exemplars (:func:`merge_into_present`): two clus
 revision then share an id, the commonest source of extra ids (a revision splitting one action
 in two, ``benchmarks/id_fragments.py``). It adds no state.
 
+The hand-off path was measured and dropped (issue 12, 2026-12-02,
+``benchmarks/id_fragments.py``, commit 36d0821): making every cluster whose id the overlap carried a candidate too, with its
+carried id's exemplars competing (a remembered absent id had to beat it by
+``recall_margin``), so that a returning action handed a neighbour's id could take its own.
+On the 17 held-out streams (simulated revisions) mean accuracy fell 0.749 -> 0.743 and ids per
+action rose 1.263 -> 1.293 (ret_hdm_bd -0.041, ret_hdm_dg -0.055); the return it was for
+(the last walk of ret_86_14_14_86) was not recognised either way: its cluster in the window
+also holds frames of two neighbouring actions, so no remembered id passes the test. On
+ret_14_86_14 (a tuning stream) the check moved a cluster between two remembered ids of one
+action (split siblings) and once gave a mixed cluster a third action's id; the held-out
+losses were not diagnosed.
+
 Kept as plain values (the checkpoint codec stores them): the memory's ``born`` (id -> the
 revision that first gave it) and ``pending`` (candidate id -> proposed old id).
 
@@ -119,11 +131,10 @@ def _own(S: np.ndarray) -> float:
     return float((S.sum() - np.trace(S)) / (n * (n - 1)))
 
 
-def recall_scores(cand_pieces: dict, memory, sigma: float, compete=()) -> dict:
+def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
     """``{(candidate, id): (ratio, best other ratio)}`` for every candidate and remembered id
-    (module docstring); the other ids are every remembered one but ``id`` and, unless the
-    candidate is in ``compete`` (an id the overlap carried: its claim is what is checked),
-    the candidate itself."""
+    (module docstring); the other ids are every remembered one but ``id`` and the candidate
+    itself."""
     ids = sorted(memory.exemplars)
     ex = {j: [np.asarray(a, dtype=np.float64) for a in memory.exemplars[j]] for j in ids}
     own_j = {j: _own(dtak_between(ex[j], ex[j], sigma)) for j in ids}
@@ -136,10 +147,8 @@ def recall_scores(cand_pieces: dict, memory, sigma: float, compete=()) -> dict:
             ref = np.nanmax([own_c, own_j[j]]) if np.isfinite([own_c, own_j[j]]).any() else 0.0
             ratios[j] = cross / ref if ref > 0 else 0.0
         for j in ids:
-            # a young id's own exemplars (remembered last revision) compete not; a carried
-            # id's do: a remembered id must beat the id the overlap gave
-            other = max((r for i, r in ratios.items() if i != j and (i != c or c in compete)),
-                        default=0.0)
+            # the candidate's own exemplars (a young id remembered last revision) compete not
+            other = max((r for i, r in ratios.items() if i not in (j, c)), default=0.0)
             out[c, j] = (ratios[j], other)
     return out
 
@@ -236,20 +245,16 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     merged: dict = {}
     proposals: dict = {}
     may_recall = bool(absent) and int(frames[0]) > memory.origin
-    # recall_carried: the ids the overlap carried are checked too (their own exemplars compete)
-    carried = ([c for c in present if c not in cands]
-               if may_recall and getattr(config, "recall_carried", False) else [])
-    checked = cands + carried
-    if previous is not None and checked and (may_recall or (merge and hosts)):
+    if previous is not None and cands and (may_recall or (merge and hosts)):
         keep = max(2, int(round(config.exemplar_s * fps)))
         P = {c: pieces_of(segs, c, features, frames, keep, memory.stride, config.recall_pieces)
-             for c in checked}
+             for c in cands}
         P = {c: p for c, p in P.items() if len(p) >= 2}
         scores = {}
         if P:
             if sigma is None:
                 sigma = default_sigma(np.asarray(features[::memory.stride], dtype=np.float64))
-            scores = recall_scores(P, memory, sigma, compete=set(carried))
+            scores = recall_scores(P, memory, sigma)
         if P and may_recall:
             cs, js = sorted(P), sorted(absent)
             W = np.full((len(cs), len(js)), -1.0)
@@ -265,8 +270,7 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
                     if config.recall_confirm <= 1 or pending.get(c) == j:
                         recalled[c] = j
         if P and merge:
-            merged = merge_into_present(P, hosts, scores, set(recalled) | set(carried),
-                                        config, segs)
+            merged = merge_into_present(P, hosts, scores, set(recalled), config, segs)
     mapping = {c: c for c in present}
     mapping.update(recalled)
     mapping.update(merged)
@@ -279,12 +283,10 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
         born.setdefault(mapping[c], rev)
     for j in recalled.values():
         born[j] = -1  # an old id: never a candidate again
-    # a young id recalled or merged is gone; a carried id recalled away stays an action's id
-    gone = {c for c in recalled if c not in carried} | set(merged)
+    gone = set(recalled) | set(merged)
     keep_ids = ({mapping[c] for c in present} | set(memory.exemplars)) - gone
     born = {i: r for i, r in born.items() if i in keep_ids}
-    pending = {mapping[c]: j for c, j in proposals.items()
-               if c not in recalled and c not in merged}
+    pending = {mapping[c]: j for c, j in proposals.items() if c not in gone}
     # a young id merged into an old one is gone for good: forget its exemplars too (else they
     # would compete with the old id's, or be recalled in its place)
     ex = {i: v for i, v in memory.exemplars.items() if i not in gone}
