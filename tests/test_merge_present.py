@@ -13,7 +13,7 @@ from streamseg.config.memory import LabelMemoryConfig
 from streamseg.daemon.pipeline import Algorithms, relabel
 from streamseg.exceptions import ParameterError
 from streamseg.offline.recall import merge_into_present, touches
-from tests.motion import FPS, cyclic_blocks
+from tests.motion import FPS, cyclic_blocks, revisions
 
 # B for 4 s, then A for 12 s; a fit forced to K = 2 splits A in two once the 6 s window holds
 # nothing else, and the overlap leaves the second cluster without an id (a fresh one)
@@ -126,16 +126,7 @@ def _simulated_revisions(feats, fps, memory_config, interval=5.0, history=60.0):
         return _FITS[key]
 
     algos = Algorithms(relabel=fit, memory_config=memory_config)
-    n = feats.shape[0]
-    step, span = int(round(interval * fps)), int(round(history * fps))
-    lab, previous = np.full(n, -1), None
-    for t in list(range(step, n, step)) + [n]:
-        s = max(0, t - span)
-        res = relabel(algos, feats[s:t], np.arange(s, t), fps, previous)
-        previous = res.window
-        for a, b, c in res.segments:
-            lab[a:b] = c
-    return lab
+    return revisions(algos, feats, fps, history, interval)[0]
 
 
 _FITS: dict = {}
