@@ -72,7 +72,12 @@ touch the id) lost on TRAIN the merge that makes 02_walk_punch_sword_wash +0.165
 fragment of another id between the two halves of its last action), so the guard became
 "touches somewhere" before any held-out run. The 17 other streams are scored once
 (``--merge 0.5,0.1 --adjacent --heldout``), then with the real daemon if time allows,
-against the defaults (merge off) with the same adoption rule as above.
+against the defaults (merge off) with the same adoption rule as above. Result, held out:
+simulated revisions mean accuracy 0.749 -> 0.765, ids/action 1.263 -> 1.200; real daemon at
+real time 0.744 -> 0.764, 1.253 -> 1.195; no stream lower in either mode (14_20 +0.057 /
++0.067): adopted (``merge_present`` and ``merge_adjacent`` on by default;
+:class:`~streamseg.config.memory.LabelMemoryConfig`). The tables print the memory without
+the merge as the baseline.
 
 Run: .venv/bin/python benchmarks/id_fragments.py [--only a,b] [--grid] [--merge 0.5,0.1]
      [--adjacent] [--heldout] [--daemon 1]
@@ -283,7 +288,8 @@ def main():
         streams = {k: v for k, v in streams.items() if k not in TRAIN}
     if args.only:
         streams = {k: v for k, v in streams.items() if k in args.only.split(",")}
-    base_cfg = replace(LabelMemoryConfig(), merge_present=False)
+    # the baseline: the memory without the merge (then --merge adds it without the guard)
+    base_cfg = replace(LabelMemoryConfig(), merge_present=False, merge_adjacent=False)
     mode = (f"real daemon at {args.daemon:g}x" if args.daemon else "simulated revisions")
     print(f"{mode}; relabel every {args.interval:g} s over the last {args.history:g} s; "
           f"label memory on (recall defaults)\n")

@@ -1,5 +1,6 @@
-"""``LabelMemoryConfig.merge_present`` (off by default): a cluster the overlap does not explain
-may join an id the revision already holds (offline.recall.merge_into_present)."""
+"""``LabelMemoryConfig.merge_present`` (on by default, with the ``merge_adjacent`` guard): a
+cluster the overlap does not explain may join an id the revision already holds, one of whose
+runs it touches (offline.recall.merge_into_present)."""
 
 from __future__ import annotations
 
@@ -100,8 +101,9 @@ def test_a_strict_ratio_merges_nothing():
     assert [r.segments for r in strict] == [r.segments for r in without]
 
 
-def test_merge_is_off_by_default():
-    assert LabelMemoryConfig().merge_present is False
+def test_merge_is_on_by_default_with_its_guard():
+    cfg = LabelMemoryConfig()
+    assert cfg.merge_present is True and cfg.merge_adjacent is True
 
 
 @pytest.mark.parametrize("field,value", [("merge_present", 1), ("merge_adjacent", "yes"),

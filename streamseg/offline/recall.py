@@ -25,16 +25,19 @@ window). Candidates and ids are then paired one to one (Hungarian on the ratio);
 without a pair keeps (or gets) a new id. With ``recall_confirm = 2`` a pair is only taken when
 the previous revision proposed the same pair (the candidate's id carried by the overlap).
 
-With ``merge_present`` (off by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
-says why) a candidate not recalled may also join an id the revision holds, on the same
-relative test against that id's exemplars (:func:`merge_into_present`): two clusters of one
-revision then share an id, the commonest source of extra ids (a revision splitting one action
-in two, ``benchmarks/id_fragments.py``). It adds no state.
+With ``merge_present`` (on by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
+has the figures) a candidate not recalled may also join an id the revision holds, on the
+same relative test against that id's exemplars (:func:`merge_into_present`), when one of its
+runs touches one of that id's runs in the revision (``merge_adjacent``): two clusters of one
+revision then share an id, which cuts the commonest source of extra ids (a revision
+splitting one action in two, ``benchmarks/id_fragments.py``). It adds no state. The figures
+below (``benchmarks/label_memory.py``) were measured before it was on.
 
 The hand-off path was measured and dropped (issue 12, 2026-12-02,
-``benchmarks/id_fragments.py``, commit 36d0821): making every cluster whose id the overlap carried a candidate too, with its
-carried id's exemplars competing (a remembered absent id had to beat it by
-``recall_margin``), so that a returning action handed a neighbour's id could take its own.
+``benchmarks/id_fragments.py``, commit 36d0821): making every cluster whose id the overlap
+carried a candidate too, with its carried id's exemplars competing (a remembered absent id
+had to beat it by ``recall_margin``), so that a returning action handed a neighbour's id
+could take its own.
 On the 17 held-out streams (simulated revisions) mean accuracy fell 0.749 -> 0.743 and ids per
 action rose 1.263 -> 1.293 (ret_hdm_bd -0.041, ret_hdm_dg -0.055); the return it was for
 (the last walk of ret_86_14_14_86) was not recognised either way: its cluster in the window
