@@ -200,6 +200,7 @@ def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start
 
 
 def test_a_take_within_the_history_relabels_as_without_the_memory():
+    # no split here, so the merge has nothing to join (tests/test_merge_present.py splits)
     X = _blocks([0.5, 1.5, 2.5, 0.5], seconds=2.0)  # 8 s, history 10 s
     with_memory, last = _stream_ids(X, memory=True, history=10.0, interval=2.0)
     without, _ = _stream_ids(X, memory=False, history=10.0, interval=2.0)
