@@ -50,8 +50,37 @@ recording whose fit over-splits: K 6 found for 4). Both were tuning data in earl
 once with the chosen setting (``--merge R,M``). Adopt only if no held-out stream loses more
 than 0.01 accuracy and the mean ids/action and purity improve.
 
+Protocol for the hand-off fix (``LabelMemoryConfig.recall_carried``: a cluster whose id the
+overlap carried is a recall candidate too, its own id's exemplars competing), declared on
+2026-12-02 before any result with it: the same TRAIN pair; the mechanism adds no threshold
+(it uses ``recall_ratio`` and ``recall_margin`` as they are), so TRAIN only checks that it
+does what it is for (``--carried --only`` TRAIN). The 17 other streams are held out and
+scored once (``--carried --heldout``) in simulated revisions, then, if time allows, with the
+real daemon at real time (``--daemon 1``). Adopt (default on) only if, in every mode run on
+the held-out streams, the mean accuracy is not lower, no stream loses more than 0.01 and the
+mean ids per action is lower. Result (simulated revisions, commit 36d0821 has the code):
+TRAIN 0.670 -> 0.669 (ret_14_86_14 -0.002, ids/action 0.92 -> 1.00); held out mean accuracy
+0.749 -> 0.743, ids/action 1.263 -> 1.293, ret_hdm_bd -0.041, ret_hdm_dg -0.055: dropped
+(:mod:`streamseg.offline.recall` says why).
+
+Protocol for the split merge's guard (``merge_adjacent``: ``merge_present`` only joins a
+cluster to an id one of whose runs it touches in the revision), declared on 2026-12-02
+before any held-out result with it: the same TRAIN pair; ratio 0.5 and margin 0.1 are held
+(the setting chosen on TRAIN last round), so TRAIN only checks the mechanism (``--merge
+0.5,0.1 --adjacent --only`` TRAIN). A first guard (most of the cluster's frames in runs that
+touch the id) lost on TRAIN the merge that makes 02_walk_punch_sword_wash +0.165 (a 2 s
+fragment of another id between the two halves of its last action), so the guard became
+"touches somewhere" before any held-out run. The 17 other streams are scored once
+(``--merge 0.5,0.1 --adjacent --heldout``), then with the real daemon if time allows,
+against the defaults (merge off) with the same adoption rule as above. Result, held out:
+simulated revisions mean accuracy 0.749 -> 0.765, ids/action 1.263 -> 1.200; real daemon at
+real time 0.744 -> 0.764, 1.253 -> 1.195; no stream lower in either mode (14_20 +0.057 /
++0.067): adopted (``merge_present`` and ``merge_adjacent`` on by default;
+:class:`~streamseg.config.memory.LabelMemoryConfig`). The tables print the memory without
+the merge as the baseline.
+
 Run: .venv/bin/python benchmarks/id_fragments.py [--only a,b] [--grid] [--merge 0.5,0.1]
-     [--heldout] [--daemon 1]
+     [--adjacent] [--heldout] [--daemon 1]
 """
 
 from __future__ import annotations
@@ -210,7 +239,8 @@ def run_daemon(streams, mcfg, args):
 
             path = Path(args.save)
             old = pickle.loads(path.read_bytes()) if path.exists() else {}
-            old[name, mcfg.merge_present] = (lab, truth, revs, rec.fps)
+            key = (name, mcfg.merge_present, mcfg.merge_adjacent)
+            old[key] = (lab, truth, revs, rec.fps)
             path.write_bytes(pickle.dumps(old))
         out[name] = diagnose(lab, truth, revs, rec.fps, args.history)
         print(f"  {name}: done", file=sys.stderr, flush=True)
@@ -245,6 +275,8 @@ def main():
     ap.add_argument("--interval", type=float, default=5.0)
     ap.add_argument("--grid", action="store_true", help="choose the merge setting on TRAIN")
     ap.add_argument("--merge", default="", help="RATIO,MARGIN: score merge_present with it")
+    ap.add_argument("--adjacent", action="store_true",
+                    help="with --merge: also score it with merge_adjacent (the guard)")
     ap.add_argument("--heldout", action="store_true", help="every stream but TRAIN")
     ap.add_argument("--daemon", type=float, default=0.0, help="real daemon at this speed")
     ap.add_argument("--save", default="", help="daemon mode: pickle every answer here")
@@ -256,7 +288,8 @@ def main():
         streams = {k: v for k, v in streams.items() if k not in TRAIN}
     if args.only:
         streams = {k: v for k, v in streams.items() if k in args.only.split(",")}
-    base_cfg = replace(LabelMemoryConfig(), merge_present=False)
+    # the baseline: the memory without the merge (then --merge adds it without the guard)
+    base_cfg = replace(LabelMemoryConfig(), merge_present=False, merge_adjacent=False)
     mode = (f"real daemon at {args.daemon:g}x" if args.daemon else "simulated revisions")
     print(f"{mode}; relabel every {args.interval:g} s over the last {args.history:g} s; "
           f"label memory on (recall defaults)\n")
@@ -267,8 +300,12 @@ def main():
         if args.merge:
             r, m = (float(x) for x in args.merge.split(","))
             cfg = replace(base_cfg, merge_present=True, merge_ratio=r, merge_margin=m)
-            print(f"### merge_present on, ratio {r:g}, margin {m:g}")
-            table(run_daemon(streams, cfg, args), res0)
+            if not args.adjacent:
+                print(f"### merge_present on, ratio {r:g}, margin {m:g}")
+                table(run_daemon(streams, cfg, args), res0)
+            else:
+                print(f"### merge_present on, ratio {r:g}, margin {m:g}, merge_adjacent")
+                table(run_daemon(streams, replace(cfg, merge_adjacent=True), args), res0)
         return
     data = {}
     for name, (rec, truth) in streams.items():
@@ -292,6 +329,9 @@ def main():
         cfg = replace(base_cfg, merge_present=True, merge_ratio=r, merge_margin=m)
         print(f"### merge_present on, ratio {r:g}, margin {m:g}")
         table(run_sim(data, cfg, args), res0)
+        if args.adjacent:
+            print(f"### merge_present on, ratio {r:g}, margin {m:g}, merge_adjacent")
+            table(run_sim(data, replace(cfg, merge_adjacent=True), args), res0)
 
 
 if __name__ == "__main__":

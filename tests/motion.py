@@ -1,4 +1,4 @@
-"""Synthetic feature streams shared by the relabel tests."""
+"""Synthetic feature streams shared by the relabel tests, and the daemon's revisions of one."""
 
 from __future__ import annotations
 
@@ -15,3 +15,21 @@ def cyclic_blocks(levels, seconds=3.0, seed=0, d=6):
     t = np.arange(n)[:, None]
     return np.concatenate([lv + 0.3 * np.sin(2 * np.pi * t / 60 + np.arange(d))
                            + rng.normal(0, 0.02, (n, d)) for lv in levels])
+
+
+def revisions(algorithms, X, fps=FPS, history=6.0, interval=1.0):
+    """The daemon's job function (``pipeline.relabel``) every ``interval`` s over the last
+    ``history`` s of ``X`` (n, d), no live cuts: per-frame ids of the newest revision (n,)
+    and the last revision's window."""
+    from streamseg.daemon.pipeline import relabel
+
+    n = X.shape[0]
+    step, span = int(round(interval * fps)), int(round(history * fps))
+    lab, previous = np.full(n, -1), None
+    for t in list(range(step, n, step)) + [n]:
+        s = max(0, t - span)
+        res = relabel(algorithms, X[s:t], np.arange(s, t), fps, previous)
+        previous = res.window
+        for a, b, c in res.segments:
+            lab[a:b] = c
+    return lab, previous

@@ -11,7 +11,7 @@ from streamseg.config.memory import LabelMemoryConfig
 from streamseg.daemon.pipeline import Algorithms, relabel
 from streamseg.exceptions import ParameterError
 from streamseg.offline.label_memory import new_memory
-from tests.motion import FPS, cyclic_blocks
+from tests.motion import FPS, cyclic_blocks, revisions
 
 
 def _blocks(levels, seconds=4.0, seed=0, d=6):
@@ -21,17 +21,7 @@ def _blocks(levels, seconds=4.0, seed=0, d=6):
 def _stream_ids(X, memory, history=6.0, interval=1.0):
     """Revisions as the daemon runs them; per-frame ids of the newest revision."""
     algos = Algorithms(memory_config=LabelMemoryConfig() if memory else None)
-    n = X.shape[0]
-    step, span = int(interval * FPS), int(history * FPS)
-    lab = np.full(n, -1)
-    previous = None
-    for t in list(range(step, n, step)) + [n]:
-        s = max(0, t - span)
-        res = relabel(algos, X[s:t], np.arange(s, t), FPS, previous)
-        previous = res.window
-        for a, b, c in res.segments:
-            lab[a:b] = c
-    return lab, previous
+    return revisions(algos, X, FPS, history, interval)
 
 
 def _block_id(lab, i, seconds=4.0):
@@ -210,6 +200,7 @@ def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start
 
 
 def test_a_take_within_the_history_relabels_as_without_the_memory():
+    # no split here, so the merge has nothing to join (tests/test_merge_present.py splits)
     X = _blocks([0.5, 1.5, 2.5, 0.5], seconds=2.0)  # 8 s, history 10 s
     with_memory, last = _stream_ids(X, memory=True, history=10.0, interval=2.0)
     without, _ = _stream_ids(X, memory=False, history=10.0, interval=2.0)

@@ -16,8 +16,10 @@ shortest run first (short-lived ids of unstable revisions), then the ones seen l
 The exemplars never enter the window's fit: after the overlap has carried the ids, a cluster
 the overlap does not explain is compared with the remembered ids the revision does not hold,
 and takes one only on strong evidence relative to the data (:mod:`streamseg.offline.recall`).
-While the window still begins at the stream's first frame nothing is recalled: a take within
-the history is relabelled exactly as without the memory (tested).
+While the window still begins at the stream's first frame nothing is recalled. The split
+merge (``LabelMemoryConfig.merge_present``, on) works from the first revision: two clusters
+of one revision that touch and pass the recall's test share an id, so a take within the
+history keeps the boundaries it has without the memory, not always its ids (tested).
 
 Memory per stream: at most ``LabelMemoryConfig.max_bytes(d)`` (130 kB for 17 features with
 the defaults), plus two small dicts of ints (``born`` over the ids of the last revision and

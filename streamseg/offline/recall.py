@@ -25,11 +25,26 @@ window). Candidates and ids are then paired one to one (Hungarian on the ratio);
 without a pair keeps (or gets) a new id. With ``recall_confirm = 2`` a pair is only taken when
 the previous revision proposed the same pair (the candidate's id carried by the overlap).
 
-With ``merge_present`` (off by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
-says why) a candidate not recalled may also join an id the revision holds, on the same
-relative test against that id's exemplars (:func:`merge_into_present`): two clusters of one
-revision then share an id, the commonest source of extra ids (a revision splitting one action
-in two, ``benchmarks/id_fragments.py``). It adds no state.
+With ``merge_present`` (on by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
+has the figures) a candidate not recalled may also join an id the revision holds, on the
+same relative test against that id's exemplars (:func:`merge_into_present`), when one of its
+runs touches one of that id's runs in the revision (``merge_adjacent``): two clusters of one
+revision then share an id, which cuts the commonest source of extra ids (a revision
+splitting one action in two, ``benchmarks/id_fragments.py``). It adds no state. The figures
+below (``benchmarks/label_memory.py``) were measured before it was on.
+
+The hand-off path was measured and dropped (issue 12, 2026-12-02,
+``benchmarks/id_fragments.py``, commit 36d0821): making every cluster whose id the overlap
+carried a candidate too, with its carried id's exemplars competing (a remembered absent id
+had to beat it by ``recall_margin``), so that a returning action handed a neighbour's id
+could take its own.
+On the 17 held-out streams (simulated revisions) mean accuracy fell 0.749 -> 0.743 and ids per
+action rose 1.263 -> 1.293 (ret_hdm_bd -0.041, ret_hdm_dg -0.055); the return it was for
+(the last walk of ret_86_14_14_86) was not recognised either way: its cluster in the window
+also holds frames of two neighbouring actions, so no remembered id passes the test. On
+ret_14_86_14 (a tuning stream) the check moved a cluster between two remembered ids of one
+action (split siblings) and once gave a mixed cluster a third action's id; the held-out
+losses were not diagnosed.
 
 Kept as plain values (the checkpoint codec stores them): the memory's ``born`` (id -> the
 revision that first gave it) and ``pending`` (candidate id -> proposed old id).
@@ -141,7 +156,17 @@ def recall_scores(cand_pieces: dict, memory, sigma: float) -> dict:
     return out
 
 
-def merge_into_present(P: dict, hosts, scores: dict, taken, config) -> dict:
+def touches(segments, c: int, j: int) -> bool:
+    """Whether a run of id ``c`` in ``segments`` touches a run of ``j`` (one ends where the
+    other begins)."""
+    from streamseg.offline.label_memory import _runs
+
+    runs = _runs(segments)
+    bounds_j = {x for a, b, lab in runs if lab == j for x in (a, b)}
+    return any(a in bounds_j or b in bounds_j for a, b, lab in runs if lab == c)
+
+
+def merge_into_present(P: dict, hosts, scores: dict, taken, config, segments=()) -> dict:
     """Candidates that join an id the revision already holds (``merge_present``).
 
     A candidate ``c`` (a cluster the overlap does not explain) not recalled (``taken``) joins
@@ -150,14 +175,20 @@ def merge_into_present(P: dict, hosts, scores: dict, taken, config) -> dict:
     every other remembered id by ``merge_margin`` (the recall's relative test). Unlike the
     recall, several candidates may join one id: two clusters of one revision then share an id
     (an action the fit split in two). Only ids change: the segments keep their bounds.
+
+    With ``merge_adjacent`` (``segments``: the revision's), a run of ``c`` must also touch
+    a run of ``j`` (:func:`touches`): the two clusters of one split action tile its frames,
+    so they touch somewhere; two clusters that never touch have other clusters between them
+    everywhere, and the fit of this very window put them apart.
     """
     out = {}
+    adjacent = bool(getattr(config, "merge_adjacent", False))
     for c in sorted(P):
         if c in taken:
             continue
         best = None
         for j in hosts:
-            if j == c:
+            if j == c or (adjacent and not touches(segments, c, j)):
                 continue
             r, other = scores[c, j]
             if (r >= config.merge_ratio and r >= other + config.merge_margin
@@ -242,7 +273,7 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
                     if config.recall_confirm <= 1 or pending.get(c) == j:
                         recalled[c] = j
         if P and merge:
-            merged = merge_into_present(P, hosts, scores, set(recalled), config)
+            merged = merge_into_present(P, hosts, scores, set(recalled), config, segs)
     mapping = {c: c for c in present}
     mapping.update(recalled)
     mapping.update(merged)
