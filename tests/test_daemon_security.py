@@ -152,3 +152,30 @@ def test_quota_keeps_a_slot_for_another_client(secure_daemon, keys, rec):
     assert streams == {"flood0", "flood1", "flood2"}
     errs = request(ep["control"], "stats", curve=other)["totals"]["errors_by_reason"]
     assert errs["quota"] == 7
+
+
+def test_the_view_follows_a_curve_daemon_with_keys(secure_daemon, keys, rec):
+    pytest.importorskip("aiohttp")
+    import json
+    import time
+    import urllib.request
+
+    from streamseg.view.server import ViewThread
+
+    d, ep = secure_daemon()
+    me = ClientKeys.load(keys)
+    view = ViewThread(ep["publish"], ep["control"], poll=0.2, curve=me)
+    url = view.start()
+    try:
+        replay(rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]), ep["ingest"],
+               stream="seen", speed=0, batch=50, curve=me, wait=20, end=False)
+        deadline = time.monotonic() + 30
+        while True:  # the page's stream list, as a browser polls it
+            rows = {r["stream"]: r for r in
+                    json.load(urllib.request.urlopen(url + "api/streams"))["rows"]}
+            if rows.get("seen", {}).get("frame") == 600:
+                break
+            assert time.monotonic() < deadline, f"the view never saw the stream: {rows}"
+            time.sleep(0.05)
+    finally:
+        view.stop()

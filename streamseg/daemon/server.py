@@ -28,6 +28,7 @@ from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.daemon.security import ServerSecurity, check_binds
 from streamseg.daemon.shutdown import shutdown
+from streamseg.daemon.state_lock import lock_state_dir
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
 from streamseg.daemon.worker import RelabelJob
 
@@ -83,6 +84,9 @@ class Daemon(Intake):
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
+        state_dir = self.config.state_dir if self.config.state_dir != "none" else ""
+        # before the log and the checkpoints are opened: a second daemon touches neither
+        self.state_lock = lock_state_dir(state_dir) if state_dir else None
         self.eventlog = open_log(self.config)
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
