@@ -140,6 +140,32 @@ def test_listen_since_cli_and_hole_report(start_daemon, rec, capsys):
     assert "--since needs --control" in capsys.readouterr().err
 
 
+def test_listen_since_says_what_the_log_cannot_give(start_daemon, rec, capsys, tmp_path):
+    d, ep = start_daemon()
+    replay(rec, ep["ingest"], stream="c2", speed=0, batch=50)
+    wait_closed(ep, "c2")
+    last = fetch_since(ep["control"], "c2", 0)[-1].seq
+    base = ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "c2",
+            "--jsonl", "--timeout", "0.5"]
+    capsys.readouterr()
+    # beyond the newest number: said, then the live events are followed (none come)
+    assert main(base + ["--since", str(last + 100)]) == 1
+    err = capsys.readouterr().err
+    assert f"--since {last + 100}: the newest event of stream c2 is {last}" in err
+    assert main(base + ["--since", str(last)]) == 1  # up to date: nothing to say
+    assert "nothing to fetch" not in capsys.readouterr().err
+    # below the retained range (the oldest rows gone, as retention deletes them)
+    con = sqlite3.connect(tmp_path / "state" / "events.sqlite", timeout=30)
+    with con:
+        con.execute("DELETE FROM events WHERE stream = 'c2' AND seq <= 3")
+    con.close()
+    assert main(base + ["--since", "0", "--until-end"]) == 0
+    out, err = capsys.readouterr()
+    assert "events 1..3 of stream c2 are no longer in the event log" in err
+    seqs = [json.loads(x).get("seq") for x in out.splitlines()]
+    assert [n for n in seqs if n is not None] == list(range(4, last + 1))
+
+
 def test_late_joiner_gets_every_cut_of_the_stream(start_daemon, rec, capsys):
     """Joining mid-stream, `listen --control --stream` prints every cut since the stream
     opened (from the log), then the live ones, each once."""

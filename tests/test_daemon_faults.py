@@ -241,3 +241,35 @@ def test_nan_and_garbage_keep_every_good_frame_with_the_log_on(start_daemon, rec
     events = list(listen(s, stream="good", until_end=True, timeout=30))
     assert cuts(events) == want
     logged_equal(ep, events)
+
+
+def test_a_full_state_dir_is_reported_and_the_stream_goes_on(start_daemon, rec):
+    d, ep = start_daemon(heartbeat=0.1, checkpoint_interval=0.05, gap_events_per_s=1e6)
+    # the files cannot grow: SQLite's own "database or disk is full", as on a full disk
+    for con in (d.eventlog._w, d.checkpoints._db):
+        cur = con.execute("PRAGMA page_count")
+        pages = cur.fetchone()[0]
+        cur.close()
+        con.execute(f"PRAGMA max_page_count = {pages}").close()
+    errors = subscribe(ep["publish"], ep["control"], kind="error")
+    s = subscribe(ep["publish"], ep["control"], stream="full")
+    sock = push(ep)
+    sock.send_multipart(P.encode(announce_of(rec, "full")))
+    for a in range(0, rec.n_frames, 5):  # every other packet lost: hundreds of gap events
+        if (a // 5) % 2 == 0:
+            sock.send_multipart(P.encode(P.Frames("full", a, 0.0, rec.positions[a:a + 5])))
+    seen = {}
+    for ev in listen(errors, timeout=30):
+        if ev.stream is None and ev.reason in ("event_log", "checkpoint"):
+            seen[ev.reason] = ev
+            if len(seen) == 2:
+                break
+    assert "disk full" in seen["event_log"].message and seen["event_log"].count >= 1
+    assert seen["checkpoint"].count >= 1
+    totals = request(ep["control"], "stats")["totals"]["errors_by_reason"]
+    assert totals["event_log"] >= 1 and totals["checkpoint"] >= 1
+    # the daemon and the stream go on: live events to the end
+    sock.send_multipart(P.encode(P.End("full")))
+    events = list(listen(s, stream="full", until_end=True, timeout=30))
+    assert events[-1].type == "closed" and events[-1].reason == "end"
+    assert sum(e.type == "gap" for e in events) > 100

@@ -81,8 +81,11 @@ def test_curve_end_to_end_and_a_stranger_is_refused(secure_daemon, keys, rec, tm
     plain = ctx.socket(zmq.PUSH)
     assert handshake(plain, ep["ingest"]) != zmq.EVENT_HANDSHAKE_SUCCEEDED
     plain.close(linger=0)
-    with pytest.raises(TimeoutError):
-        request(ep["control"], "shutdown", curve=stranger, timeout=1)
+    # a control client is told at once why, not after its timeout
+    with pytest.raises(ConnectionRefusedError, match="refused this client's CURVE key"):
+        request(ep["control"], "shutdown", curve=stranger, timeout=60)
+    with pytest.raises(ConnectionRefusedError, match="it has CURVE on: give --curve-dir"):
+        request(ep["control"], "shutdown", timeout=60)
     assert not d._stop.is_set()
     assert request(ep["control"], "stats", curve=me)["totals"]["streams_opened"] == 1
     # the authorised key may shut the daemon down
@@ -152,3 +155,52 @@ def test_quota_keeps_a_slot_for_another_client(secure_daemon, keys, rec):
     assert streams == {"flood0", "flood1", "flood2"}
     errs = request(ep["control"], "stats", curve=other)["totals"]["errors_by_reason"]
     assert errs["quota"] == 7
+
+
+def test_the_view_follows_a_curve_daemon_with_keys(secure_daemon, keys, rec):
+    pytest.importorskip("aiohttp")
+    import json
+    import time
+    import urllib.request
+
+    from streamseg.view.server import ViewThread
+
+    d, ep = secure_daemon()
+    me = ClientKeys.load(keys)
+    view = ViewThread(ep["publish"], ep["control"], poll=0.2, curve=me)
+    url = view.start()
+    try:
+        replay(rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]), ep["ingest"],
+               stream="seen", speed=0, batch=50, curve=me, wait=20, end=False)
+        deadline = time.monotonic() + 30
+        while True:  # the page's stream list, as a browser polls it
+            rows = {r["stream"]: r for r in
+                    json.load(urllib.request.urlopen(url + "api/streams"))["rows"]}
+            if rows.get("seen", {}).get("frame") == 600:
+                break
+            assert time.monotonic() < deadline, f"the view never saw the stream: {rows}"
+            time.sleep(0.05)
+    finally:
+        view.stop()
+
+
+def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, tmp_path,
+                                            capsys):
+    d, ep = secure_daemon()
+    generate(tmp_path / "stranger")
+    stranger = tmp_path / "stranger"
+    (stranger / "server.key").write_bytes((keys / "server.key").read_bytes())
+    args = ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "x",
+            "--count", "1"]
+    for extra, why in (([], "it has CURVE on"),
+                       (["--curve-dir", str(stranger)], "refused this client's CURVE key")):
+        assert main(args + extra) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0], err
+    # CURVE keys given to a daemon without CURVE
+    _, plain = start_daemon(heartbeat=0)
+    assert main(["listen", "--from", plain["publish"], "--control", plain["control"],
+                 "--count", "1", "--curve-dir", str(keys)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "refused the security handshake" in err[0], err
+    assert not d._stop.is_set()

@@ -14,6 +14,7 @@ import time
 
 import msgpack
 import zmq
+from zmq.utils.monitor import recv_monitor_message
 
 from streamseg import protocol, strict_json
 
@@ -50,20 +51,49 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
-    sock.setsockopt(zmq.RCVTIMEO, int(timeout * 1000))
     sock.setsockopt(zmq.SNDTIMEO, int(timeout * 1000))
     if curve is not None:
         curve.apply(sock)
+    # a refused CURVE handshake is silent on the socket itself: its monitor says so at once
+    monitor = sock.get_monitor_socket(_HANDSHAKE_FAILED)
     sock.connect(endpoint)
     try:
         sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
-        return msgpack.unpackb(sock.recv(), raw=False)
+        poller = zmq.Poller()
+        poller.register(sock, zmq.POLLIN)
+        poller.register(monitor, zmq.POLLIN)
+        deadline = time.monotonic() + timeout
+        while (left := deadline - time.monotonic()) > 0:
+            ready = dict(poller.poll(int(left * 1000) + 1))
+            if sock in ready:
+                return msgpack.unpackb(sock.recv(), raw=False)
+            if monitor in ready:
+                _refused(endpoint, recv_monitor_message(monitor)["event"], curve)
     except zmq.Again:
-        raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
-                           "the daemon running there? (with CURVE on it needs --curve-dir)") \
-            from None
+        pass
     finally:
+        sock.disable_monitor()
+        monitor.close(linger=0)
         sock.close()
+    raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
+                       "the daemon running there? (with CURVE on it needs --curve-dir)")
+
+
+# not NO_DETAIL: a connection torn during the handshake (a daemon stopping) is no refusal
+_HANDSHAKE_FAILED = zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+
+
+def _refused(endpoint: str, event: int, curve) -> None:
+    """Raise ConnectionRefusedError saying why the daemon refused the handshake."""
+    if event == zmq.EVENT_HANDSHAKE_FAILED_AUTH:
+        raise ConnectionRefusedError(
+            f"the daemon at {endpoint} refused this client's CURVE key: copy the client's "
+            "public key (client.key of --curve-dir) into the daemon's authorized/ folder")
+    raise ConnectionRefusedError(
+        f"the daemon at {endpoint} refused the security handshake: " +
+        ("it has no CURVE keys or other ones (check --curve-dir: its server.key must be the "
+         "daemon's)" if curve is not None else
+         "it has CURVE on: give --curve-dir DIR with keys made by `streamseg keys`"))
 
 
 def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None):
@@ -239,15 +269,20 @@ class CutBook:
         return None
 
 
-def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None) -> list:
+def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None,
+                on_range=None) -> list:
     """The logged events of ``stream`` with sequence numbers in ``(seq, upto)`` (all after
     ``seq`` when ``upto`` is None) from the control op ``since``, page by page; raises
-    LookupError when the daemon keeps no log."""
+    LookupError when the daemon keeps no log. ``on_range(first, last)`` is called with the
+    first reply's lowest number held and the stream's newest one."""
     out = []
     while True:
         reply = request(endpoint, "since", ctx, curve=curve, stream=stream, seq=seq)
         if not reply.get("ok"):
             raise LookupError(reply.get("error"))
+        if on_range is not None:
+            on_range(reply.get("first") or 0, reply.get("last") or 0)
+            on_range = None
         for body in reply["events"]:
             ev = protocol.from_body(body)
             if upto is not None and ev.seq >= upto:
@@ -426,10 +461,22 @@ def _history(args, state: dict, ctx, curve=None):
     that is open), ``--type`` applied; None when there is nothing to fetch or no log."""
     if args.since is None and (state.get("closed") or "seq_base" not in state):
         return None
+    start = args.since if args.since is not None else state["seq_base"]
+
+    def say_range(first, last):  # what the log cannot give, said rather than left silent
+        if args.since is not None and args.since > last:
+            newest = f"is {last}" if last else "does not exist (no event logged)"
+            print(f"streamseg listen: --since {args.since}: the newest event of stream "
+                  f"{args.stream} {newest}: nothing to fetch, following live events",
+                  file=sys.stderr)
+        elif first > start + 1:
+            print(f"streamseg listen: events {start + 1}..{first - 1} of stream "
+                  f"{args.stream} are no longer in the event log (retention: --log-max-mb, "
+                  f"--log-max-days); fetching from {first}", file=sys.stderr)
+
     try:
-        evs = fetch_since(args.control, args.stream,
-                          args.since if args.since is not None else state["seq_base"], ctx,
-                          curve=curve)
+        evs = fetch_since(args.control, args.stream, start, ctx, curve=curve,
+                          on_range=say_range)
     except (LookupError, TimeoutError) as err:
         if args.since is not None:
             print(f"streamseg listen: --since: {err}", file=sys.stderr)

@@ -114,6 +114,12 @@ def run(args) -> int:
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")
     config, algorithms = build(args)
     _check_before_binding(args, config)
+    view_keys = None
+    if getattr(args, "http", None) and config.curve_dir:
+        from streamseg.daemon.security import ClientKeys
+
+        # the page is one more client of the daemon: with CURVE on it needs a client key
+        view_keys = ClientKeys.load(config.curve_dir)
     daemon = Daemon(config, algorithms)
     endpoints = daemon.bind()
     for sig in (signal.SIGINT, signal.SIGTERM):
@@ -123,7 +129,8 @@ def run(args) -> int:
     if getattr(args, "http", None):
         from streamseg.commands.view import start_view
 
-        view = start_view(endpoints["publish"], endpoints.get("control"), args.http)
+        view = start_view(endpoints["publish"], endpoints.get("control"), args.http,
+                          curve=view_keys)
         print(f"streamseg serve: live view {view.url}", flush=True)
     try:
         return daemon.run()

@@ -23,6 +23,9 @@ def add_arguments(parser) -> None:
                         help="seconds between coalesced page updates (default 0.1)")
     parser.add_argument("--no-labels", dest="labels", action="store_false",
                         help="do not read the human label files replays announce")
+    parser.add_argument("--curve-dir", metavar="DIR",
+                        help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
+                             "server.key), for a daemon served with --curve-dir")
 
 
 def http_address(text: str) -> tuple[str, int]:
@@ -72,8 +75,13 @@ def run(args) -> int:
     if not args.interval > 0:  # before the signal handlers: Ctrl-C still works on an error
         raise ParameterError(f"--interval {args.interval:g} is invalid: expected seconds "
                              "> 0 between page updates (default 0.1)")
+    curve = None
+    if args.curve_dir:
+        from streamseg.daemon.security import ClientKeys
+
+        curve = ClientKeys.load(args.curve_dir)
     view = start_view(args.source, args.control, args.http, interval=args.interval,
-                      labels=args.labels)
+                      labels=args.labels, curve=curve)
     print(f"streamseg view: {view.url}  (events from {args.source})", flush=True)
     done.wait()
     view.stop()

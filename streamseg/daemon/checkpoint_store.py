@@ -74,6 +74,7 @@ class CheckpointStore:
         self._stopping = threading.Event()
         self.rounds = 0
         self.written = 0
+        self.failed = 0  # writes that failed (disk full, unwritable): the daemon reports them
         self.bytes = 0
         self.write_seconds = 0.0
         self.cpu_seconds = 0.0
@@ -204,6 +205,7 @@ class CheckpointStore:
             self.written += len(packed)
         except (sqlite3.Error, TypeError, ValueError, OverflowError) as err:
             log.error("checkpoints %s: %d not written: %s", self.path, len(rows), err)
+            self.failed += 1
             try:
                 self._db.execute("ROLLBACK")
             except sqlite3.Error:

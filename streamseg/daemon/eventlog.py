@@ -93,6 +93,7 @@ class EventLog:
         self._wake = threading.Event()
         self._stopping = threading.Event()
         self.written = 0
+        self.failed = 0  # events not written (disk full, unwritable): the daemon reports them
         self.deleted = 0
         self.batches = 0
         self.write_seconds = 0.0
@@ -193,6 +194,7 @@ class EventLog:
             self.written += len(batch)
         except sqlite3.Error as err:  # a full disk must not stop the daemon: say so, go on
             log.error("event log %s: %d events not written: %s", self.path, len(batch), err)
+            self.failed += len(batch)
             try:
                 self._w.execute("ROLLBACK")
             except sqlite3.Error:

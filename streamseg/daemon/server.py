@@ -28,6 +28,7 @@ from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.daemon.security import ServerSecurity, check_binds
 from streamseg.daemon.shutdown import shutdown
+from streamseg.daemon.state_lock import lock_state_dir
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
 from streamseg.daemon.worker import RelabelJob
 
@@ -83,7 +84,11 @@ class Daemon(Intake):
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
+        state_dir = self.config.state_dir if self.config.state_dir != "none" else ""
+        # before the log and the checkpoints are opened: a second daemon touches neither
+        self.state_lock = lock_state_dir(state_dir) if state_dir else None
         self.eventlog = open_log(self.config)
+        self._store_failed: dict = {}  # reason -> failed writes already reported
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
         self.clients = collections.Counter()  # open streams per client (the quota)
@@ -324,6 +329,20 @@ class Daemon(Intake):
         limit = now - self.config.idle_timeout
         for st in [s for s in self.streams.values() if s.last_seen < limit]:
             self._close(st, "idle")
+        self._report_storage()
+
+    def _report_storage(self) -> None:
+        """Failed writes of the state directory (disk full, unwritable), counted by the writer
+        threads, as daemon-wide ``error`` events: the live events go on, but an operator must
+        learn that the log or the checkpoints are not being kept."""
+        for store, reason, what in ((self.eventlog, "event_log", "events not logged"),
+                                    (self.checkpoints, "checkpoint", "checkpoint writes failed")):
+            n = store.failed - self._store_failed.get(reason, 0) if store is not None else 0
+            if n > 0:
+                self._store_failed[reason] = store.failed
+                self._error(None, reason, f"{what} in {store.path} (disk full or not "
+                                          "writable? the daemon's log says): free space there, "
+                                          "or restart with another --state-dir", n)
 
     def _beat(self, now: float) -> None:
         self._next_beat = now + self.config.heartbeat

@@ -6,6 +6,7 @@ import logging
 import time
 
 from streamseg.daemon.pipeline import relabel
+from streamseg.daemon.state_lock import unlock
 from streamseg.daemon.worker import RelabelJob
 
 log = logging.getLogger("streamseg.daemon")
@@ -33,6 +34,8 @@ def shutdown(daemon) -> None:
             daemon.eventlog.close()  # after the final events: they are logged too
         if daemon.checkpoints is not None:
             daemon.checkpoints.close()
+        unlock(daemon.state_lock)  # last: another daemon may take the directory now
+        daemon.state_lock = None
         log.info("daemon stopped")
 
 

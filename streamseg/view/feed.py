@@ -37,11 +37,15 @@ class Feed:
         Seconds between ``stats`` requests (rates, buffer fill, stream discovery).
     labels : bool
         Read the human label files that replays announce.
+    curve : ClientKeys, optional
+        CURVE keys (:class:`streamseg.daemon.security.ClientKeys`) for a daemon that has
+        them on; the page itself still has no authentication (loopback).
     """
 
     def __init__(self, hub, publish: str, control: str | None = None, poll: float = 1.0,
-                 labels: bool = True, timeout: float = 5.0):
+                 labels: bool = True, timeout: float = 5.0, curve=None):
         self.hub = hub
+        self.curve = curve
         self.publish = publish
         self.control = control
         self.poll = poll
@@ -61,6 +65,8 @@ class Feed:
         self.sub.setsockopt(zmq.LINGER, 0)
         self.sub.setsockopt(zmq.RCVHWM, 0)  # the view must not lose events to its own pace
         self.sub.setsockopt(zmq.SUBSCRIBE, b"")
+        if self.curve is not None:
+            self.curve.apply(self.sub)
         self.sub.connect(self.publish)
         self._tasks = [asyncio.create_task(self._events(), name="view-events")]
         if self.control:
@@ -104,6 +110,8 @@ class Feed:
         if self._req is None:
             self._req = self.ctx.socket(zmq.REQ)
             self._req.setsockopt(zmq.LINGER, 0)
+            if self.curve is not None:
+                self.curve.apply(self._req)
             self._req.connect(self.control)
         try:
             await self._req.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op,

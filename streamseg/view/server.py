@@ -66,15 +66,18 @@ class ViewServer:
         free port.
     interval : float
         Seconds between coalesced page updates.
+    curve : ClientKeys, optional
+        CURVE keys for a daemon that has them on (see :class:`Feed`).
     """
 
     def __init__(self, publish: str, control: str | None = None, host: str = "127.0.0.1",
-                 port: int = 0, interval: float = 0.1, poll: float = 1.0, labels: bool = True):
+                 port: int = 0, interval: float = 0.1, poll: float = 1.0, labels: bool = True,
+                 curve=None):
         self.publish, self.control = publish, control
         self.host, self.port = host, port
         self.interval = interval
         self.hub = Hub()
-        self.feed = Feed(self.hub, publish, control, poll=poll, labels=labels)
+        self.feed = Feed(self.hub, publish, control, poll=poll, labels=labels, curve=curve)
         self.pages: set = set()
         self.url = None
         self.sent = 0  # messages sent to pages
