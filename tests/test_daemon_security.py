@@ -204,3 +204,19 @@ def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, t
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "refused the security handshake" in err[0], err
     assert not d._stop.is_set()
+
+
+def test_a_secret_key_readable_by_others_is_warned_about(tmp_path, caplog):
+    """`keys` writes secrets 0600; a copy that lost that mode still loads, with a warning
+    naming the file and the fix."""
+    generate(tmp_path)
+    secret = tmp_path / "client.key_secret"
+    with caplog.at_level("WARNING", logger="streamseg.security"):
+        ClientKeys.load(tmp_path)
+    assert not caplog.records  # as written by `keys`
+    secret.chmod(0o644)
+    with caplog.at_level("WARNING", logger="streamseg.security"):
+        ClientKeys.load(tmp_path)
+    assert len(caplog.records) == 1
+    msg = caplog.records[0].getMessage()
+    assert str(secret) in msg and "644" in msg and f"chmod 600 {secret}" in msg

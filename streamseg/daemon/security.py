@@ -14,6 +14,7 @@ subscribe nor control. Each accepted message carries the client's key as ``User-
 from __future__ import annotations
 
 import ipaddress
+import logging
 import shutil
 import socket as _socket
 from dataclasses import dataclass
@@ -26,6 +27,7 @@ from zmq.auth.thread import ThreadAuthenticator
 from streamseg.exceptions import ParameterError
 
 DOMAIN = "streamseg"  # the ZAP domain of the daemon's sockets
+log = logging.getLogger("streamseg.security")
 
 
 def generate(directory, clients: int = 1) -> list[Path]:
@@ -58,6 +60,9 @@ def _load(path: Path, secret: bool):
         raise ParameterError(f"{path}: not a ZeroMQ certificate ({err})") from None
     if secret and sec is None:
         raise ParameterError(f"{path}: holds no secret key")
+    if secret and path.stat().st_mode & 0o077:  # `keys` writes 0600; a copy may not keep it
+        log.warning("%s: the secret key is readable by other users (mode %o): chmod 600 %s",
+                    path, path.stat().st_mode & 0o777, path)
     return pub, sec
 
 

@@ -166,6 +166,9 @@ class Daemon(Intake):
         if not self.endpoints:
             self.bind()
         try:
+            # the control socket answers only once this is done: say why a first start waits
+            log.info("warming the kernels (compiled on the first start after an install: a "
+                     "minute or more; cached after that)")
             spent = self.algorithms.warmup(relabel=self.config.relabel_interval > 0)
             if self.config.relabel_interval > 0:
                 self.worker.warm()
