@@ -102,13 +102,13 @@ def load(obj, chunks=None):
     raise TypeError(f"unknown checkpoint value with keys {sorted(obj)[:5]}")
 
 
-def packable(obj, chunks: dict):
+def packable(obj, chunks: dict, pause=None):
     """:func:`dump`'s output with its arrays as bytes; an array of more than :data:`CHUNK`
     bytes becomes the list of its chunks' digests, and ``chunks`` gains ``{digest: chunk}``
     (memoryviews into the dumped copy: :func:`stored` turns the new ones into bytes).
-    Writer thread."""
+    ``pause()``, if given, is called after each such array. Writer thread."""
     if isinstance(obj, list):
-        return [packable(x, chunks) for x in obj]
+        return [packable(x, chunks, pause) for x in obj]
     if not isinstance(obj, dict):
         return obj
     if "__nd__" in obj:
@@ -124,8 +124,10 @@ def packable(obj, chunks: dict):
             d = xxhash.xxh3_128_digest(part)
             chunks[d] = part
             digests.append(d)
+        if pause is not None:
+            pause()
         return {"__nd__": [dtype, shape, digests]}
-    return {k: packable(v, chunks) for k, v in obj.items()}
+    return {k: packable(v, chunks, pause) for k, v in obj.items()}
 
 
 def stored(chunk: memoryview) -> bytes:
