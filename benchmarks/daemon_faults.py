@@ -176,7 +176,7 @@ def ckpt_frame(db):
 def holes(events) -> int:
     """Numbers missing in a stream's logged events; the deliberate skip of SEQ_SKIP numbers
     at a crash restart (not events: numbers never used) is not counted."""
-    from streamseg.daemon.checkpoint import SEQ_SKIP
+    from streamseg.protocol import SEQ_SKIP
 
     seqs = [e.seq for e in events]
     return sum(b - a - 1 for a, b in zip(seqs, seqs[1:]) if b > a + 1 and b - a - 1 != SEQ_SKIP)

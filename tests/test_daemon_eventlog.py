@@ -166,6 +166,21 @@ def test_listen_since_says_what_the_log_cannot_give(start_daemon, rec, capsys, t
     assert [n for n in seqs if n is not None] == list(range(4, last + 1))
 
 
+def test_listen_until_end_on_a_closed_stream_stops_and_says_so(start_daemon, rec, capsys):
+    """A stream already closed has nothing left to wait for: `listen --until-end` prints its
+    state (closed, with the reason) and returns instead of waiting for a new announce."""
+    d, ep = start_daemon()
+    replay(rec, ep["ingest"], stream="c3", speed=0, batch=50)
+    wait_closed(ep, "c3")
+    capsys.readouterr()
+    # a 30 s timeout: without the stop, listen would wait for it and return 1
+    assert main(["listen", "--from", ep["publish"], "--control", ep["control"], "--stream",
+                 "c3", "--until-end", "--timeout", "30"]) == 0
+    out, err = capsys.readouterr()
+    assert "[c3] state" in out and "closed (end)" in out
+    assert "stream c3 is already closed (end): nothing to wait for" in err
+
+
 def test_late_joiner_gets_every_cut_of_the_stream(start_daemon, rec, capsys):
     """Joining mid-stream, `listen --control --stream` prints every cut since the stream
     opened (from the log), then the live ones, each once."""

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import signal
 import sqlite3
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -13,6 +15,7 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
+from streamseg.cli import main
 from streamseg.commands.listen import fetch_since, request, subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
@@ -57,7 +60,7 @@ def wait_frame(ep, stream, frame, timeout=30):
     raise AssertionError(f"{stream} did not reach frame {frame}: {got}")
 
 
-def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir):
+def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     ep = {k: f"ipc://{tmp_path}/{k}" for k in ("ingest", "publish", "control")}
     state = tmp_path / "state"
@@ -68,9 +71,21 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir):
                     'checkpoint_interval = 0.5\n')
     first = serve(toml)
     second = None
+    listened = {}
     try:
         wait_ping(ep, first)
         s = subscriber(ep["publish"], stream="k")
+        # a listener that stays on across the crash: it must end with every logged event
+        capsys.readouterr()
+        lis = threading.Thread(target=lambda: listened.setdefault("rc", main(
+            ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "k",
+             "--jsonl", "--until-end", "--timeout", "90"])))
+        lis.start()
+        printed = ""
+        while not printed.strip():  # subscribed, handshake done: its first line (the state)
+            assert lis.is_alive()
+            printed += capsys.readouterr().out
+            time.sleep(0.01)
         ctx = zmq.Context.instance()
         push = ctx.socket(zmq.PUSH)
         push.connect(ep["ingest"])
@@ -127,6 +142,15 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir):
         # the log holds both daemons' events; the closed stream's checkpoint is gone
         logged = fetch_since(ep["control"], "k", 0)
         assert [e.seq for e in logged][-len(after):] == [e.seq for e in after]
+        # the listener: every logged event once, in order, and the restart's skip said as
+        # numbers never logged (not as events it failed to fetch)
+        lis.join(60)
+        assert listened.get("rc") == 0
+        out, err = capsys.readouterr()
+        got = [json.loads(x)["seq"] for x in out.splitlines() if '"seq"' in x]
+        assert got == sorted(set(got))
+        assert {e.seq for e in logged} <= set(got)
+        assert f"{P.SEQ_SKIP} numbers were never logged" in err, err
         second.send_signal(signal.SIGTERM)
         assert second.wait(30) == 0
         con = sqlite3.connect(state / "checkpoints.sqlite")

@@ -197,6 +197,14 @@ def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, t
         assert main(args + extra) == 1
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0], err
+    # without --control only the SUB socket is there to notice: it says so too, at once
+    # (before, it waited for events: here until the timeout, with the timeout's message)
+    sub_only = ["listen", "--from", ep["publish"], "--count", "1", "--timeout", "30"]
+    for extra, why in (([], "it has CURVE on"),
+                       (["--curve-dir", str(stranger)], "refused this client's CURVE key")):
+        assert main(sub_only + extra) == 1
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and why in err[0], err
     # CURVE keys given to a daemon without CURVE
     _, plain = start_daemon(heartbeat=0)
     assert main(["listen", "--from", plain["publish"], "--control", plain["control"],

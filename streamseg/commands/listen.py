@@ -294,7 +294,7 @@ def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve
 
 
 def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
-           backlog=(), on_hole=None, pending=()):
+           backlog=(), on_hole=None, pending=(), monitor=None, on_monitor=None):
     """Yield decoded events from a SUB socket until a stop condition.
 
     ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
@@ -305,6 +305,8 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     skipped. ``on_hole(key, first, end)`` is called when a stream's sequence
     numbers skip ``[first, end)`` (only meaningful when every event type of the stream is
     subscribed); it returns the missing events it could fetch, which are yielded then.
+    ``monitor``: a monitor socket of ``sock``; ``on_monitor(event)`` is called with each of its
+    events (it may raise: a refused handshake is silent on the socket itself).
     """
     if isinstance(sock, Subscription):
         pending, sock.pending = list(sock.pending) + list(pending), []
@@ -327,13 +329,20 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
             return  # the history ends with the stream closed (earlier ones: re-announced)
     poller = zmq.Poller()
     poller.register(sock, zmq.POLLIN)
+    if monitor is not None:
+        poller.register(monitor, zmq.POLLIN)
     pending = list(pending)
     while count is None or seen < count:
         if pending:
             frames = pending.pop(0)
         else:
-            if not poller.poll(None if timeout is None else int(timeout * 1000)):
+            ready = dict(poller.poll(None if timeout is None else int(timeout * 1000)))
+            if not ready:
                 raise TimeoutError(f"no event for {timeout} s")
+            if monitor in ready:
+                on_monitor(recv_monitor_message(monitor)["event"])
+            if sock not in ready:
+                continue
             frames = sock.recv_multipart()
         try:
             ev = protocol.decode(frames)
@@ -391,20 +400,32 @@ def run(args) -> int:
         curve = ClientKeys.load(args.curve_dir)
     ctx = zmq.Context.instance()
     sock = subscriber(args.source, args.stream, args.kind, ctx, curve=curve)
+    # without --control nothing else would notice a refused key: the SUB socket's monitor
+    # does (a failure before it is attached recurs at the next reconnection)
+    monitor = sock.get_monitor_socket(_HANDSHAKE_FAILED)
     out = sys.stdout
     since, backlog, pending = None, [], []
 
     def on_hole(key, first, end):
-        print(f"streamseg listen: hole: events {first}..{end - 1} of stream {key} were missed "
-              f"({end - first})" + (", fetching them from the event log" if args.control
-                                    else "; give --control to fetch them"), file=sys.stderr)
+        where = f"events {first}..{end - 1} of stream {key}"
         if not args.control or key == protocol.DAEMON_WIDE:
+            print(f"streamseg listen: hole: {where} were missed ({end - first})"
+                  + ("" if args.control else "; give --control to fetch them"),
+                  file=sys.stderr)
             return ()
         try:
             evs = fetch_since(args.control, key, first - 1, ctx, upto=end, curve=curve)
         except (LookupError, TimeoutError) as err:
-            print(f"streamseg listen: cannot fetch them: {err}", file=sys.stderr)
+            print(f"streamseg listen: hole: {where} were missed ({end - first}); cannot "
+                  f"fetch them: {err}", file=sys.stderr)
             return ()
+        unused = end - first - len(evs)
+        # a daemon restarted after a crash skips numbers it may have published unlogged:
+        # most holes across a restart are numbers no event ever had
+        print(f"streamseg listen: hole: {where}: {len(evs)} fetched from the event log"
+              + (f"; {unused} numbers were never logged (after a crash a restarted daemon "
+                 f"skips {protocol.SEQ_SKIP}: the events of the moments before it may be lost)"
+                 if unused else ""), file=sys.stderr)
         return [e for e in evs if args.kind is None or e.type == args.kind]
 
     try:
@@ -422,6 +443,12 @@ def run(args) -> int:
                     backlog = _history(args, since, ctx, curve)
                     if backlog is not None:
                         since = None  # the log has every event: filter by sequence number
+                    elif args.until_end and since.get("closed"):
+                        print(f"streamseg listen: stream {args.stream} is already closed "
+                              f"({since['closed']}): nothing to wait for (without "
+                              "--until-end, listen waits for it to be announced again)",
+                              file=sys.stderr)
+                        return 0
                 elif args.since is not None:
                     backlog = _history(args, {"seq_base": args.since}, ctx, curve)
                     since = None
@@ -439,7 +466,9 @@ def run(args) -> int:
         book = CutBook()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
                          timeout=args.timeout, since=since, backlog=backlog or (),
-                         on_hole=on_hole if args.kind is None else None, pending=pending):
+                         on_hole=on_hole if args.kind is None else None, pending=pending,
+                         monitor=monitor,
+                         on_monitor=lambda event: _refused(args.source, event, curve)):
             line = book.apply(ev)  # the stream's cuts after its withdraws, at its close
             if line is not None:
                 out.write((strict_json.dumps(line) if args.jsonl else
@@ -452,6 +481,8 @@ def run(args) -> int:
         print(f"streamseg listen: {err}", file=sys.stderr)
         return 1
     finally:
+        sock.disable_monitor()
+        monitor.close(linger=0)
         sock.close()
     return 0
 
@@ -493,4 +524,5 @@ def _state_line(state: dict) -> str:
         segs = (f"{len(runs)} runs of {len({r[2] for r in runs})} labels over "
                 f"{seg['start']}-{seg['end']}")
     return (f"[{state['stream']}] state    frame {state['frame']}  revision {state['revision']}  "
-            f"{segs}  + {len(state['cuts'])} newer cuts")
+            f"{segs}  + {len(state['cuts'])} newer cuts"
+            + (f"  closed ({state['closed']})" if state.get("closed") else ""))

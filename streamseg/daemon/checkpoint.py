@@ -24,10 +24,10 @@ import time
 from streamseg.daemon import limits
 from streamseg.daemon.state_codec import dump
 from streamseg.daemon.streams import StreamState
+from streamseg.protocol import SEQ_SKIP
 
 log = logging.getLogger("streamseg.daemon")
 
-SEQ_SKIP = 1000  # event numbers skipped after a crash (see restore)
 
 
 def snapshot(st: StreamState) -> dict:

@@ -23,16 +23,19 @@ from streamseg.daemon.state_codec import load, packable, stored
 log = logging.getLogger("streamseg.daemon")
 
 PACE = 1.0
-# Packing a stream holds the GIL for a millisecond or more; the loop, wanting it back after
-# each socket call, then waits up to the interpreter's switch interval (5 ms), and at 250
-# streams its backlog never drained (benchmarks/daemon_throughput.py --event-log: packet p50
-# 12.9 ms against 1.5 ms without durability). A pause after each array hands the GIL over:
-# p50 1.27 ms, durability CPU 4.8 % -> 1.9 % (the loop's copies no longer wait).
+# Packing a stream holds the GIL (0.2-0.3 ms, benchmarks/daemon_faults.py) and a round packs
+# the streams back to back; the loop, wanting the GIL back after each socket call, then waits
+# up to the interpreter's switch interval (5 ms). A pause after each array hands it over (0:
+# no pause). benchmarks/checkpoint_pause.py, 250 streams on a 2-core VM at its capacity knee,
+# medians of 4 interleaved runs (2026-12-02): packet p50 1.94 ms without durability, 4.96 ms
+# with the pause, 8.86 ms without it; durability CPU 2.6 % against 4.4 % (runs scatter widely).
 BREATHE = 0.0001  # seconds
 
 
 def _breathe() -> None:
     time.sleep(BREATHE)
+
+
 NICE = 10  # the writer thread runs this many nice levels below the daemon (at most 19)
 FORMAT = 5  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
@@ -189,7 +192,8 @@ class CheckpointStore:
             for _, stream, frame, state in rows.values():
                 t1 = time.perf_counter()
                 chunks: dict = {}
-                blob = msgpack.packb(packable(state, chunks, _breathe), use_bin_type=True)
+                pause = _breathe if BREATHE else None
+                blob = msgpack.packb(packable(state, chunks, pause), use_bin_type=True)
                 old = self._stored.get(stream, set())
                 fresh = [(stream, d, stored(chunks[d])) for d in chunks.keys() - old]
                 new_chunks += fresh

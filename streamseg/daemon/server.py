@@ -363,6 +363,7 @@ class Daemon(Intake):
                    relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason())
         if self.checkpoints is not None:
             out["checkpoint_interval_s"] = round(self.checkpoint_gap, 3)
+            out["checkpoints_written"] = self.checkpoints.written  # committed, not queued
         return out
 
     # --- control ------------------------------------------------------------------------------

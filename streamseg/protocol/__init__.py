@@ -36,6 +36,7 @@ from streamseg.protocol.messages import (
     INGEST_TYPES,
     MESSAGES,
     PROTOCOL_VERSION,
+    SEQ_SKIP,
     Announce,
     Closed,
     Confirm,
@@ -56,7 +57,7 @@ from streamseg.protocol.messages import (
 )
 
 __all__ = ["DAEMON_WIDE", "EVENT_TYPES", "INGEST_TYPES", "MAX_INT", "MESSAGES",
-           "PROTOCOL_VERSION", "Announce", "Closed", "Confirm", "Cut", "End", "Error",
+           "PROTOCOL_VERSION", "SEQ_SKIP", "Announce", "Closed", "Confirm", "Cut", "End", "Error",
            "Frames", "Gap", "Hello", "Rep", "Segments", "Stats", "WireError", "Withdraw",
            "decode", "decode_array", "encode", "encode_array", "frames_fields", "from_body",
            "subscriptions", "to_json", "topic", "unpack_body", "valid_stream_id"]

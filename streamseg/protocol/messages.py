@@ -15,6 +15,9 @@ INGEST_TYPES = ("announce", "frames", "end")
 EVENT_TYPES = ("cut", "confirm", "withdraw", "segments", "rep", "gap", "error", "stats",
                "closed")
 DAEMON_WIDE = "*"
+# a stream resumed after a crash continues its event numbers this far on: the events of the
+# moments before the crash may not have reached the log, and their numbers are never reused
+SEQ_SKIP = 1000
 _STREAM_RE = re.compile(r"[A-Za-z0-9_.:@+=-]{1,128}\Z")
 _DTYPES = {"<f4": np.dtype("<f4"), "<f8": np.dtype("<f8")}
 
