@@ -29,7 +29,6 @@ from streamseg.protocol import SEQ_SKIP
 log = logging.getLogger("streamseg.daemon")
 
 
-
 def snapshot(st: StreamState) -> dict:
     """A copy of one stream's state (the loop thread; no I/O)."""
     return dump({"stream": st, "pipeline": st.pipeline})
