@@ -1,10 +1,10 @@
 """Two confirming checks against false cuts inside one action (issue 11, round 9), scored on
 fresh held-out HDM05 joins.
 
-Diagnosis (``benchmarks/lof_misses.py`` on the three recordings below F1 0.4): 10 of the 16
+Diagnosis (``benchmarks/lof_misses.py`` on the three recordings below F1 0.4): 10 of the 17
 errors are false cuts inside one labelled action (the 15-22 s punching, swordplay and washing
 clips of the CMU 02 joins, one in hdm_bk_2's lieDownFloor); their LOF (1.14-1.27) and 2 s
-contrast (0.18-0.45) lie in the range of the true cuts'.
+contrast (0.19-0.54) lie in the range of the true cuts'.
 
 Check 1, ``--check segcon`` (``seg_contrast`` r): a cut at frame ``c`` is rejected when the
 current segment (previous cut .. c, as far back as the LOF buffer reaches) holds a pair of
