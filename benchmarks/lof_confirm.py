@@ -42,17 +42,17 @@ is lower; and the median latency (fresh + 14) is at most 2.5 s. Held out scored 
 only when the train condition holds (else the fresh nine stay unseen for the next check).
 
 Result (2026-12-02): neither adopted; both failed the train condition, so the fresh nine were
-not scored for either. segcon: the rule chose 1.0, which changes no train cut (mean 0.679 =
-the defaults'); at 1.5 and above hdm_dg_1 gets no cut at all, because the segment's internal
-contrast includes the joins the detector missed (its join at 588 was missed, the segment
-0..850 holds it, and the true cut at 850 is rejected; every later reference spans more).
-energy: the rule chose 0.15 (train 0.679 = the defaults'): on 02_walk_punch_sword_wash it
-removes 4 false cuts and the true cut 2217, whose before side is only the 1.6 s since a false
-cut (precision 0.33 -> 0.40, recall 1.00 -> 0.67). ``--separability`` says why: over the 14
-recordings' default cuts (47 hits, 16 false cuts inside an action), the contrast, novelty and
-energy statistics barely separate hits from inside-action false cuts (AUC 0.58, 0.59, 0.64),
-the segment contrast ratio somewhat (0.76, where defined), the LOF value itself best (0.84:
-inside-action false cuts 1.10-1.30, hits 1.11-2.11). The defaults on the fresh nine
+not scored for either. segcon: the rule chose 1.0, which changes no train cut (mean 0.679 = the
+defaults'); at 1.5 and above hdm_dg_1 gets no cut at all, because the segment's internal
+contrast includes the joins the detector missed (its join at 588 was missed, the segment 0..850
+holds it, and the true cut at 850 is rejected; every later reference spans more). energy: the
+rule chose 0.15 (train 0.679 = the defaults'): on 02_walk_punch_sword_wash it removes 3 false
+cuts (1460, 3447, 3991) and the true cut 2217, whose before side is only the 1.6 s since a
+false cut (precision 0.33 -> 0.40, recall 1.00 -> 0.67). ``--separability`` says why: over the
+14 recordings' default cuts (47 hits, 16 false cuts inside an action), the contrast, novelty
+and energy statistics barely separate hits from inside-action false cuts (AUC 0.58, 0.59,
+0.64), the segment contrast ratio somewhat (0.76, where defined), the LOF value itself best
+(0.84: inside-action false cuts 1.10-1.30, hits 1.11-2.11). The defaults on the fresh nine
 (``--fresh-baseline``, figures only): mean F1 0.730, pooled 0.740 (27 of 36 true cuts, 37
 cuts), worst 0.50, median latency 2.34 s; Pelt (pen 80) 0.491, pooled 0.478.
 
