@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from streamseg._kernels.histogram import contrast_at, refine_cut
+from streamseg._kernels.histogram import contrast_at, refine_cut, span_contrast
 from streamseg._kernels.peaks import dominates, is_peak, robust_threshold
 from streamseg.config import LOFConfig
 from streamseg.offline.lof import frame_bins
@@ -72,7 +72,8 @@ def snapshots(angles, config: LOFConfig, fps: float) -> Snapshots:
 def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=None,
            mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
            novelty=None, min_seg=0, contrast2=0, min_contrast2=0.0,
-           adaptive_k=None, fb=None, trace=None, recur=0.0):
+           adaptive_k=None, fb=None, trace=None, recur=0.0, seg_contrast=0.0,
+           min_energy=None):
     """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
 
     ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score), ``novelty``
@@ -83,6 +84,15 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     ``recur`` > 0: the recurrence check (round 7, ``benchmarks/lof_recur.py``): the cut is
     rejected when the histogram of the ``window`` frames after it is within cosine distance
     ``recur`` of a buffered window lying wholly in the current segment (previous cut .. cut).
+    ``seg_contrast`` > 0: the segment contrast check (round 9, ``benchmarks/lof_confirm.py``):
+    the cut is rejected when the current segment holds a pair of buffered windows wholly
+    inside it, ``ceil(window / step)`` steps apart, and the localisation contrast at the cut
+    (window before / window after, ``refine_cut``'s score) is below ``seg_contrast`` times
+    the largest contrast of such a pair (the segment's own variability).
+    ``min_energy``: the energy check (round 9, ``benchmarks/lof_confirm.py``): with ``B`` the
+    confirming contrast's before side and ``A`` its after side, each split at its midpoint,
+    the cut is rejected when ``d(B, A) - (d(B1, B2) + d(A1, A2)) / 2 < min_energy`` (``d`` the
+    cosine distance of the count histograms; None: off).
     ``trace``: a list that receives one dict per decided window (``benchmarks/lof_misses.py``):
     ``w``, ``centre``, ``stage`` (where it stopped: "gap", "threshold", "peak", "after"
     (too few frames after the cut), "contrast", "novelty", or "cut"), ``lof``, ``thr``, and
@@ -107,7 +117,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     st = dict(last_decided=-1, last_seq=-(1 << 40), last_frame=-(1 << 40))
     cuts, lats = [], []
     cum = None
-    if novelty > 0 or recur > 0:
+    if novelty > 0 or recur > 0 or seg_contrast > 0:
         onehot = np.zeros((n, bins_.shape[1] * c.bins), dtype=np.int64)
         cols = np.arange(bins_.shape[1]) * c.bins + bins_.astype(np.int64)
         onehot[np.arange(n)[:, None], cols] = valid[:, None]
@@ -198,6 +208,37 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
                 rec.update(stage="recur", recur=float(dist.min()))
                 if dist.min() < recur:
                     return
+        if seg_contrast > 0:
+            seg0 = max(st["last_frame"], 0)
+            starts = src.centres[i] - window // 2
+            inside = np.flatnonzero((starts >= seg0) & (starts + window <= cf))
+            lag = -(-window // step)
+            if inside.size > lag:
+                s0 = starts[inside[:-lag]]
+                s1 = starts[inside[lag:]]
+                ok = s1 - s0 == lag * step  # one window length apart (no dropped window)
+                a = (cum[s0 + window] - cum[s0]).astype(np.float64)[ok]
+                b = (cum[s1 + window] - cum[s1]).astype(np.float64)[ok]
+                den = np.sqrt((a * a).sum(1) * (b * b).sum(1))
+                dist = np.where(den > 0, 1.0 - (a * b).sum(1) / np.where(den > 0, den, 1), 0.0)
+                if dist.size:
+                    own = contrast_at(bins_, valid, n, cf, window, c.bins, seen, ring_old,
+                                      left, right)
+                    rec.update(stage="segcon", segcon=float(own), segmax=float(dist.max()))
+                    if own < seg_contrast * dist.max():
+                        return
+        if min_energy is not None:
+            b0 = max(ring_old, st["last_frame"], cf - g["contrast"], 0)
+            a1 = min(cf + g["contrast"], seen)
+            bm, am = (b0 + cf) // 2, (cf + a1) // 2
+
+            def dist(x, y, z):
+                return span_contrast(bins_, valid, n, x, y, z, c.bins, left, right)
+
+            e = dist(b0, cf, a1) - 0.5 * (dist(b0, bm, cf) + dist(cf, am, a1))
+            rec.update(stage="energy", energy=float(e))
+            if e < min_energy:
+                return
         if confirm is not None:
             j = int(np.searchsorted(confirm.seen, seen, side="right")) - 1
             if j < 0:

@@ -48,7 +48,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from _lof_replay import decide, snapshots  # noqa: E402
 from lof_accuracy import FPS, features, lof_cuts, recordings, score  # noqa: E402
-from lof_recur import held_out, smoothed_choice  # noqa: E402
+from lof_recur import held_out, train_grid  # noqa: E402
 
 from streamseg._kernels.histogram import contrast_at  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
@@ -169,16 +169,7 @@ def part2(recs, feats):
         return {n: run(feats[n], recs[n][1], recs[n][2], v) for n in names}
 
     print(f"\nPart 2: train {' + '.join(TRAIN)}: refine_s, F1 per recording, mean, smoothed")
-    train = [score_all(TRAIN, v) for v in GRID]
-    means = [float(np.mean([t[n][0]["f1"] for n in TRAIN])) for t in train]
-    smooth, best = smoothed_choice(means, GRID)
-    for i, v in enumerate(GRID):
-        lats = [x for n in TRAIN for x in train[i][n][1]]
-        print(f"  refine_s {v:<4g}: " + " ".join(f"{train[i][n][0]['f1']:.3f}" for n in TRAIN)
-              + f"  mean {means[i]:.3f} smoothed {smooth[i]:.3f}"
-              f"  median latency {np.median(lats) / FPS:.2f} s  cuts "
-              + " ".join(str(train[i][n][2]) for n in TRAIN)
-              + ("  <- chosen" if i == best else ""))
+    _, means, best = train_grid(score_all, TRAIN, GRID, "refine_s")
     chosen = GRID[best]
     base_mean = means[GRID.index(BEFORE)]
     if "--train" in sys.argv:

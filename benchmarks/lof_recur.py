@@ -75,6 +75,23 @@ def smoothed_choice(means, grid):
     return smooth, max(range(len(means)), key=lambda i: (smooth[i], -grid[i]))
 
 
+def train_grid(score_all, train, grid, label):
+    """Score every ``grid`` value on the ``train`` recordings (``score_all(names, v)`` ->
+    ``{name: (score, latencies, cuts)}``), print a line per value; return the results, the
+    train means and the index :func:`smoothed_choice` picks."""
+    res = [score_all(train, v) for v in grid]
+    means = [float(np.mean([t[n][0]["f1"] for n in train])) for t in res]
+    smooth, best = smoothed_choice(means, grid)
+    for i, v in enumerate(grid):
+        lats = [x for n in train for x in res[i][n][1]]
+        print(f"  {label} {v:<5g}: " + " ".join(f"{res[i][n][0]['f1']:.3f}" for n in train)
+              + f"  mean {means[i]:.3f} smoothed {smooth[i]:.3f}"
+              f"  median latency {np.median(lats) / FPS:.2f} s  cuts "
+              + " ".join(str(res[i][n][2]) for n in train)
+              + ("  <- chosen" if i == best else ""))
+    return res, means, best
+
+
 def table(label, res, names):
     tp = sum(res[n][0]["tp"] for n in names)
     n_pred = sum(res[n][0]["n"] for n in names)
@@ -93,8 +110,9 @@ def table(label, res, names):
     return dict(mean=mean, pooled=pooled, sets=sets, median=med)
 
 
-def main():
-    recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
+def checked_replay(recs):
+    """Features and the defaults' LOF snapshots of ``recs``, after checking that the replay
+    without extra rules gives the library's cuts on every one."""
     feats = {k: np.ascontiguousarray(features(r, True)) for k, (r, _, _) in recs.items()}
     d = LOFConfig()
     snaps = {k: snapshots(feats[k], d, FPS) for k in recs}
@@ -103,7 +121,13 @@ def main():
         rep = decide(feats[k], d, FPS, snaps[k])[0]
         if lib != rep:
             raise SystemExit(f"{k}: replay {rep} != library {lib}")
-    print("replay == library (recur 0) on all 14 recordings")
+    print(f"replay == library (no extra rule) on all {len(recs)} recordings")
+    return feats, snaps
+
+
+def main():
+    recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
+    feats, snaps = checked_replay(recs)
 
     def score_all(names, v):
         return {n: run(feats[n], recs[n][1], recs[n][2], v, snaps[n])
@@ -114,15 +138,7 @@ def main():
     base_mean = float(np.mean([base[n][0]["f1"] for n in TRAIN]))
     print("  recur 0 (defaults): " + " ".join(f"{base[n][0]['f1']:.3f}" for n in TRAIN)
           + f"  mean {base_mean:.3f}")
-    train = [score_all(TRAIN, v) for v in RECUR_GRID]
-    means = [float(np.mean([t[n][0]["f1"] for n in TRAIN])) for t in train]
-    smooth, best = smoothed_choice(means, RECUR_GRID)
-    for i, v in enumerate(RECUR_GRID):
-        lats = [x for n in TRAIN for x in train[i][n][1]]
-        print(f"  recur {v:<5g}: " + " ".join(f"{train[i][n][0]['f1']:.3f}" for n in TRAIN)
-              + f"  mean {means[i]:.3f} smoothed {smooth[i]:.3f}"
-              f"  median latency {np.median(lats) / FPS:.2f} s"
-              + ("  <- chosen" if i == best else ""))
+    _, means, best = train_grid(score_all, TRAIN, RECUR_GRID, "recur")
     chosen = RECUR_GRID[best]
     if "--train" in sys.argv:
         return

@@ -92,3 +92,19 @@ def test_hdm05_action_plans_use_each_clip_once_and_cut_between_classes(data_dir)
     asf = data_dir / "hdm05_reps/asf/HDM_bd.asf"
     lengths = [sum(read(p, skeleton=asf).n_frames for p in paths) for _c, paths in parts]
     assert cuts == list(np.cumsum(lengths)[:-1]) and rec.n_frames == sum(lengths)
+
+
+def test_hdm05_action_plans_exclude_gives_sequences_of_unused_clips(data_dir):
+    # benchmarks/lof_confirm.py's fresh held-out joins: none of their clips is in the nine
+    from streamseg.evaluation.datasets import hdm05_action_plans
+
+    old = hdm05_action_plans(data_dir)
+    fresh = hdm05_action_plans(data_dir, seed=11, exclude=old, prefix="fresh")
+    assert sorted(fresh) == sorted(n.replace("hdm_", "fresh_") for n in old)
+
+    def clips(plans):
+        return {p for _actor, parts in plans.values() for _c, paths in parts for p in paths}
+
+    assert clips(fresh) and not clips(fresh) & clips(old)
+    # without exclude the same seed draws from every clip, reusing some of the nine's
+    assert clips(hdm05_action_plans(data_dir, seed=11)) & clips(old)

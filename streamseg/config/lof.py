@@ -126,6 +126,16 @@ class LOFConfig:
     library: the chosen 0.15 changed no train cut, and held out the cmu mean fell (0.917 ->
     0.900) while pooled F1 rose (0.721 -> 0.729).
 
+    Round 9 (``benchmarks/lof_confirm.py``; train pair 02_walk_punch_sword_wash + hdm_dg_1,
+    rules declared before the first run, nine fresh HDM05 joins held out): two confirming
+    checks against those false cuts, neither adopted nor in the library, both failing on
+    train. A segment contrast (the cut's contrast against the largest contrast inside the
+    current segment) silences a stream once a join is missed, since the segment then holds it;
+    an energy-distance test (the before/after distance minus the distances within each side)
+    also rejects true cuts that follow a false one closely. Over the 14 recordings the contrast
+    statistics hardly separate hits from inside-action false cuts (AUC 0.58-0.64); the LOF
+    value does best (0.84).
+
     Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
     02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
 

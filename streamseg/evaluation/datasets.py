@@ -133,19 +133,31 @@ def _clips_left(clips, actor, cls, used) -> bool:
     return len(clips.get((actor, cls), [])) - used[cls] >= need
 
 
-def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: int = 0) -> dict:
+def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: int = 0,
+                       exclude=None, prefix: str = "hdm") -> dict:
     """Which clips make each HDM05 action sequence, decided before any result is seen.
 
     Per actor, ``per_actor`` sequences of ``n_classes`` distinct classes in random order (at
     least one repetitive and one whole-action class each); a whole-action class is one clip, a
     repetitive class a set of :data:`HDM05_SET_REPS` consecutive takes. No clip is used twice.
 
+    Parameters
+    ----------
+    exclude : dict or None
+        Plans (this function's output) whose clips are not used again: fresh sequences for a
+        held-out test (``benchmarks/lof_fresh.py``).
+    prefix : str
+        Start of the sequence names.
+
     Returns
     -------
     dict
-        ``name -> (actor, [(class, [path, ...]), ...])``, names ``hdm_<actor>_<i>``.
+        ``name -> (actor, [(class, [path, ...]), ...])``, names ``<prefix>_<actor>_<i>``.
     """
     clips = hdm05_clips(data_dir)
+    if exclude:
+        taken = {p for _actor, parts in exclude.values() for _cls, paths in parts for p in paths}
+        clips = {key: [p for p in paths if p not in taken] for key, paths in clips.items()}
     rng = np.random.default_rng(seed)
     plans = {}
     for actor in HDM05_ACTORS:
@@ -165,7 +177,7 @@ def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: i
                 need = HDM05_SET_REPS if c in HDM05_REPETITIVE else 1
                 parts.append((str(c), clips[actor, c][used[c]:used[c] + need]))
                 used[c] += need
-            plans[f"hdm_{actor}_{i}"] = (actor, parts)
+            plans[f"{prefix}_{actor}_{i}"] = (actor, parts)
     return plans
 
 
