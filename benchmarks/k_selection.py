@@ -391,7 +391,7 @@ def gap_statistic(Z, ks, n_ref=10, seed=0):
     from sklearn.cluster import KMeans
 
     def logw(A, k):
-        return np.log(max(KMeans(k, n_init=10, random_state=0).fit(A).inertia_, 1e-300))
+        return np.log(max(KMeans(k, n_init=4, random_state=0).fit(A).inertia_, 1e-300))
 
     rng = np.random.default_rng(seed)
     lo, hi = Z.min(0), Z.max(0)
