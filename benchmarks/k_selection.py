@@ -57,13 +57,13 @@ criteria at another level than pairwise DTAK similarity:
 * ``resample(v)``: the K whose fits agree most (mean ARI) with HACA refitted on nearby window
   lengths ("len": min/max_len_s x 0.8, 1.25), on every other frame ("sub") or both.
 
-None passed the declared rule (``/work/notes`` round p; train better, held-out mean not lower,
-no recording lower by > 0.01, K = true more often, synthetic not lower): segpen(1) and
-resample("len") fixed the train join (K 3, 0.897) but under-selected elsewhere (86_01 -0.110;
+None passed the rule declared in the issue note (train better, held-out mean not lower, no
+recording lower by > 0.01, K = true more often, synthetic not lower): segpen(1) and
+resample("len") fixed the train join (K 3, 0.897) but lost elsewhere (86_01 -0.110 / -0.227;
 synthetic 0.573 / 0.841 against 0.863), gap under-selected, spread never merged at r <= 1 and
-merged distinct actions above. ``--split-diagnosis`` prints what the over-splits are (bone-angle
-statistics per sil1 cluster, the DTAK ratio of split pairs against pairs of different actions)
-and the accuracy of every K.
+merged the train join down to K = 2 above. ``--split-diagnosis`` prints what the over-splits
+are (bone-angle statistics per sil1 cluster, the DTAK ratio of split pairs against pairs of
+different actions) and the accuracy of every K.
 
 Run: ``nice -n 5 .venv/bin/python benchmarks/k_selection.py [--only sil1,merge] [--synthetic 10]
 [--train A,B] [--split-diagnosis | --diagnosis-only] [--mixing-diagnosis]``
