@@ -27,7 +27,13 @@ it (held out: 0.772, K found = true on as many). Temporal mixing (:func:`merge_i
 clusters whose runs alternate within a few seconds are one action's sub-movements) is not used:
 HACA's over-splits are consecutive sub-stretches of one action, as contiguous as distinct
 actions (``k_selection.py --mixing-diagnosis``), so it merged nothing on the train pair and its
-declared choice equals this criterion everywhere.
+declared choice equals this criterion everywhere. Four more at another level (a penalised
+kernel energy counting segments, the gap statistic, merging while the union's DTAK spread is
+not larger than the parts', stability under resampled window lengths or frames), chosen on
+02_walk_punch_sword_wash + hdm_dg_1, did not generalise either: the two that fixed the train
+join under-selected held-out takes and the synthetic set. The over-splits are postural phases
+of one labelled action (the CMU 02 punch trial upright then crouched, the wash trial bent over
+then upright, HDM05 lying down: standing and lying), as far apart under DTAK as two actions.
 
 Windows where there is nothing to cluster give one segment of one label instead of an
 exception: too few frames for two segments of ``min_len``, no finite frame, or a body that
