@@ -1,0 +1,239 @@
+"""Pelvis-speed columns in the LOF curve (issue 11, round 10): declared, chosen on a pair, held out.
+
+Diagnosis first (``--diagnose``, the nine existing HDM05 joins only, never the fresh nine): per
+true cut, the cosine distance of the per-column 6-bin histograms of the 2 s before and the 2 s
+after it, by column group (the 8 bone angles, the 9 inclinations, their angular speeds), the
+pelvis's median horizontal and vertical speed on either side, and the best LOF the decision saw
+within 1 s of the cut beside its threshold. The joins INTO locomotion (jogLeftCircle, sneak)
+change the angle and inclination histograms about half as much as the other joins; the pelvis
+speed changes at every one of them (horizontal, or vertical for hop -> jog).
+
+The mechanism (declared in /work/notes/issue11r.md before it ran): two columns appended to the
+17 features, the pelvis's horizontal and vertical speed over the last ``LAG_S`` (the speed lag
+of the angular speeds), each mapped to [0, pi] by ``pi * min(speed / v_max, 1)``; the segmenter
+then treats them as any feature column (histogrammed in the same bins, their change over 0.1 s
+histogrammed too). Causal: frame t reads frames t - lag .. t. A frame-to-frame pelvis step
+longer than ``JUMP_M`` counts as no motion: every join of the joined sequences teleports the
+root (a live tracker re-centring would too), and without this the joins would mark the true
+cuts by themselves. No library code is changed: the segmenter is fed 19 columns
+(``n_features=19``); streaming and offline read the same columns (checked on the train pair).
+
+Protocol: train hdm_bk_2 + 14_20, grid ``V_MAX_GRID`` m/s, the value whose train mean F1 averaged
+with its grid neighbours is highest (``lof_recur.smoothed_choice``). Adoption: train better; the
+fresh nine's pooled F1 not lower (scored once); the 14 recordings' pooled F1 not lower and no set
+mean lower; median latency <= 2.5 s; speed within 20 % (``--speed``). If the train condition
+fails, the held-out sets are not scored.
+
+Run: .venv/bin/python benchmarks/lof_pelvis.py [--diagnose | --train | --speed]   (2-4 min)
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from _lof_replay import decide, snapshots  # noqa: E402
+from lof_accuracy import FPS, features, lof_cuts, recordings, score  # noqa: E402
+from lof_confirm import fresh_recordings, pooled  # noqa: E402
+from lof_recur import table, train_grid  # noqa: E402
+
+from streamseg.config import LOFConfig  # noqa: E402
+from streamseg.evaluation.datasets import (  # noqa: E402
+    CMU02_MULTI_ACTION_SEQUENCES,
+    hdm05_action_sequences,
+)
+from streamseg.offline.lof import frame_bins  # noqa: E402
+from streamseg.online.lof import StreamingLOFSegmenter  # noqa: E402
+from streamseg.online.speed_features import lof_columns  # noqa: E402
+from streamseg.skeleton.bones import bone_point_indices  # noqa: E402
+
+TRAIN = ("hdm_bk_2", "14_20")
+V_MAX_GRID = (1.0, 1.5, 2.0, 3.0, 4.0)
+#: the speed lag (s), that of the angular speeds (LOFConfig.speed_lag_s)
+LAG_S = 0.1
+#: a pelvis step longer than this between two frames is a teleport, not motion (6 m/s at 120 Hz)
+JUMP_M = 0.05
+LOCOMOTION = ("jog", "sneak", "walk")
+
+
+def pelvis_speeds(recording, fps: float = FPS, lag_s: float = LAG_S, jump_m: float = JUMP_M):
+    """Horizontal and vertical pelvis speed (m/s) of every frame over the last ``lag_s``, causal.
+
+    Returns
+    -------
+    ndarray, shape (n_frames, 2)
+        The norm of the summed horizontal steps and the absolute summed vertical step of the
+        last ``lag`` frames, divided by ``lag_s``; a step longer than ``jump_m`` counts as 0,
+        a NaN step makes the frame NaN. The first frames sum the steps there are.
+    """
+    p = recording.positions[:, bone_point_indices(recording.skeleton)[0, 0], :]
+    up = "xyz".index(getattr(recording.skeleton, "up", "y")[-1])
+    steps = np.vstack([np.zeros((1, 3)), np.diff(p, axis=0)])
+    steps[np.linalg.norm(steps, axis=1) > jump_m] = 0.0
+    lag = max(1, int(round(lag_s * fps)))
+    cum = np.vstack([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+    idx = np.arange(1, len(p) + 1)
+    moved = cum[idx] - cum[np.maximum(idx - lag, 0)]
+    hor = [i for i in range(3) if i != up]
+    return np.column_stack([np.linalg.norm(moved[:, hor], axis=1),
+                            np.abs(moved[:, up])]) / (lag / fps)
+
+
+def with_pelvis(angles, speeds, v_max: float):
+    """The 17 features followed by the two pelvis speeds mapped to [0, pi], (n, 19)."""
+    return np.ascontiguousarray(np.column_stack(
+        [angles, np.pi * np.minimum(speeds / v_max, 1.0)]))
+
+
+def _cos(a, b):
+    den = np.sqrt(float(a @ a) * float(b @ b))
+    return 1.0 - float(a @ b) / den if den else 0.0
+
+
+def diagnose():
+    """The table of the module docstring, on the nine existing HDM05 joins."""
+    cfg = LOFConfig()
+    side = int(2 * FPS)
+    rows = []
+    for name, (r, cuts, plan) in hdm05_action_sequences(ROOT / "data").items():
+        a = np.ascontiguousarray(features(r, True))
+        fb, valid = frame_bins(lof_columns(a, cfg, FPS), cfg.bins)
+        oh = np.zeros((len(a), fb.shape[1], cfg.bins))
+        oh[np.arange(len(a))[:, None], np.arange(fb.shape[1])[None], fb] = valid[:, None]
+        trace = []
+        decide(a, cfg, FPS, snapshots(a, cfg, FPS), trace=trace)
+        v = pelvis_speeds(r)
+        classes = [c for c, _ in plan]
+        for j, c in enumerate(cuts):
+            b, f = oh[max(0, c - side):c].sum(0), oh[c:c + side].sum(0)
+            d = np.array([_cos(b[i], f[i]) for i in range(fb.shape[1])])
+            near = [t for t in trace if "lof" in t and abs(t["centre"] - c) <= FPS]
+            best = max(near, key=lambda t: t["lof"])
+            into = any(x in classes[j + 1].lower() for x in LOCOMOTION)
+            vb, va = np.median(v[max(0, c - side):c], 0), np.median(v[c:c + side], 0)
+            rows.append((into, name, f"{classes[j]} -> {classes[j + 1]}", d[:8].mean(),
+                         d[8:17].mean(), d[17:].mean(), vb, va, best))
+    print("| join | into locomotion | d angles | d inclinations | d angular speeds | pelvis "
+          "horizontal m/s before / after | vertical before / after | best LOF +-1 s / "
+          "threshold | stage |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for into, name, join, da, di, ds, vb, va, best in sorted(rows, key=lambda x: not x[0]):
+        print(f"| {name} {join} | {'yes' if into else 'no'} | {da:.2f} | {di:.2f} | {ds:.2f} | "
+              f"{vb[0]:.1f} / {va[0]:.1f} | {vb[1]:.1f} / {va[1]:.1f} | {best['lof']:.2f} / "
+              f"{best['thr']:.2f} | {best['stage']} |")
+    for flag in (True, False):
+        sel = [x for x in rows if x[0] == flag]
+        dv = [float(np.max(np.abs(x[7] - x[6]))) for x in sel]
+        print(f"{'into locomotion' if flag else 'other joins':16s} n={len(sel):2d}: median d "
+              f"angles {np.median([x[3] for x in sel]):.2f}, inclinations "
+              f"{np.median([x[4] for x in sel]):.2f}, angular speeds "
+              f"{np.median([x[5] for x in sel]):.2f}; median largest pelvis speed change "
+              f"{np.median(dv):.2f} m/s (min {np.min(dv):.2f}); decided as cut "
+              f"{sum(x[8]['stage'] == 'cut' for x in sel)}/{len(sel)}")
+
+
+def speed():
+    """learn_many on 120-frame packets, 17 features against 19 (pelvis columns), interleaved,
+    median of 9 runs each (the pelvis columns' own cost excluded: they come with the frames)."""
+    r = recordings()["86_01"][0]
+    a17 = np.ascontiguousarray(np.tile(features(r, True), (3, 1)))
+    a19 = with_pelvis(a17, np.tile(pelvis_speeds(r), (3, 1)), 2.0)
+    times = {17: [], 19: []}
+    for _ in range(9):
+        for a in (a17, a19):
+            det = StreamingLOFSegmenter(LOFConfig(), FPS, n_features=a.shape[1])
+            det.learn_many(a[:240])
+            t0 = time.perf_counter()
+            for i in range(240, len(a), 120):
+                det.learn_many(a[i:i + 120])
+            times[a.shape[1]].append((time.perf_counter() - t0) / (len(a) - 240))
+    m17, m19 = np.median(times[17]) * 1e6, np.median(times[19]) * 1e6
+    print(f"learn_many, {len(a17)} frames (86_01 x 3), us/frame, median of 9: 17 features "
+          f"{m17:.3f}, 19 (pelvis) {m19:.3f}, ratio {m19 / m17:.3f}")
+
+
+def main():
+    if "--diagnose" in sys.argv:
+        diagnose()
+        return
+    if "--speed" in sys.argv:
+        speed()
+        return
+    recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
+    train_only = "--train" in sys.argv
+    fresh = {} if train_only else fresh_recordings()
+    allrecs = {**recs, **fresh}
+    feats = {k: np.ascontiguousarray(features(r, True)) for k, (r, _, _) in allrecs.items()}
+    vels = {k: pelvis_speeds(r) for k, (r, _, _) in allrecs.items()}
+    cfg = LOFConfig()
+
+    def run(n, v, online=True):
+        a = feats[n] if v is None else with_pelvis(feats[n], vels[n], v)
+        cuts, lats = lof_cuts(a, cfg, online)
+        return score(cuts, allrecs[n][1], allrecs[n][2], len(a)), list(lats or []), cuts
+
+    def score_all(names, v):
+        return {n: run(n, v) for n in names}
+
+    print(f"train {' + '.join(TRAIN)}: F1 per recording, mean, smoothed")
+    base = score_all(TRAIN, None)
+    base_mean = float(np.mean([base[n][0]["f1"] for n in TRAIN]))
+    print("  pelvis off (defaults): " + " ".join(f"{base[n][0]['f1']:.3f}" for n in TRAIN)
+          + f"  mean {base_mean:.3f}  cuts " + " ".join(str(base[n][2]) for n in TRAIN))
+    res, means, best = train_grid(score_all, TRAIN, V_MAX_GRID, "v_max")
+    chosen = V_MAX_GRID[best]
+    for n in TRAIN:  # online == offline with the extra columns
+        if run(n, chosen, online=False)[2] != res[best][n][2]:
+            raise SystemExit(f"{n}: offline cuts differ from streaming with v_max {chosen}")
+    print(f"streaming == offline cuts on the train pair with v_max {chosen}")
+    if train_only:
+        return
+    if not means[best] > base_mean:
+        print("train mean F1 not higher than the defaults': not adopted, held out not scored")
+        return
+    names14, namesf = list(recs), list(fresh)
+    h0 = score_all(names14 + namesf, None)
+    h1 = score_all(names14 + namesf, chosen)
+    label = f"pelvis v_max {chosen}"
+    print("\nthe 14 existing recordings (all, the train pair included), scored once")
+    print("| detector | mean F1 | pooled F1 | cmu | cmu02 | hdm | latency median |")
+    print("|---|---|---|---|---|---|---|")
+    a = table("defaults", h0, names14)
+    b = table(label, h1, names14)
+    print("\nthe 9 fresh HDM05 joins, scored once")
+    print("| detector | mean F1 | pooled F1 (true found / true, cuts) | worst | latency median |")
+    print("|---|---|---|---|---|")
+    fr = []
+    for lab, h in (("defaults", h0), (label, h1)):
+        pf, tp, nt, npred = pooled(h, namesf)
+        f1s = {n: h[n][0]["f1"] for n in namesf}
+        worst = min(f1s, key=f1s.get)
+        lats = [x for n in namesf for x in h[n][1]]
+        print(f"| {lab} | {np.mean(list(f1s.values())):.3f} | {pf:.3f} ({tp}/{nt}, {npred} "
+              f"cuts) | {f1s[worst]:.2f} ({worst}) | {np.median(lats) / FPS:.2f} s |")
+        fr.append(pf)
+    print("\nper recording: defaults -> chosen (F1, cuts, correct of true)")
+    for n in names14 + namesf:
+        print(f"  {n:26s} {h0[n][0]['f1']:.2f} -> {h1[n][0]['f1']:.2f}   cuts {h0[n][0]['n']} "
+              f"-> {h1[n][0]['n']}, correct {h0[n][0]['tp']} -> {h1[n][0]['tp']} of "
+              f"{h0[n][0]['n_true']}")
+    lats = [x for n in names14 + namesf for x in h1[n][1]]
+    med = float(np.median(lats)) / FPS
+    ok = (means[best] > base_mean, fr[1] >= fr[0], b["pooled"] >= a["pooled"],
+          all(b["sets"][s] >= a["sets"][s] for s in a["sets"]), med <= 2.5)
+    print(f"\nrule: train better {ok[0]} ({means[best]:.3f} vs {base_mean:.3f}); fresh pooled F1 "
+          f"not lower {ok[1]} ({fr[0]:.3f} -> {fr[1]:.3f}); 14 pooled F1 not lower {ok[2]} "
+          f"({a['pooled']:.3f} -> {b['pooled']:.3f}); no set lower {ok[3]}; median latency "
+          f"{med:.2f} s <= 2.5 s {ok[4]}; speed: see --speed -> "
+          + ("adopt if --speed within 20 %" if all(ok) else "do not adopt"))
+
+
+if __name__ == "__main__":
+    main()
