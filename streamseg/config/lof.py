@@ -136,6 +136,16 @@ class LOFConfig:
     statistics hardly separate hits from inside-action false cuts (AUC 0.58-0.64); the LOF
     value does best (0.84).
 
+    Round 10 (``benchmarks/lof_pelvis.py``; train pair hdm_bk_2 + 14_20, rule declared before
+    the first run): at the HDM05 joins into jogging and sneaking the angle and inclination
+    histograms change about half as much as at the other joins (median cosine distance 0.22
+    and 0.14 against 0.40 and 0.32) and the LOF curve stays near its level; the pelvis speed
+    changes at each of them. Two pelvis-speed columns (horizontal and vertical, over 0.1 s,
+    1 m/s mapped to pi) fed with the features raised train F1 0.476 -> 0.705, pooled F1 on the
+    14 recordings 0.718 -> 0.763 and on the fresh nine 0.740 -> 0.795, but the cmu02 mean fell
+    (0.450 -> 0.367: the swordplay join placed 0.9 s late), so the declared rule does not adopt
+    them; they are not in the library (the features would need the pelvis position).
+
     Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
     02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
 
