@@ -245,17 +245,18 @@ def main():
     h1 = score_all(names14 + list(fresh), chosen)
     held_out_report(h0, h1, names14, list(fresh), f"{key} {chosen}", means[best], base_mean)
 
-def held_out_report(h0, h1, names14, namesf, label, train_mean, base_mean, verdict=None):
+def held_out_report(h0, h1, names14, namesf, label, train_mean, base_mean, verdict=None,
+                    fresh_title="the 9 fresh HDM05 joins"):
     """Print the held-out tables of the defaults ``h0`` and the chosen value ``h1`` (``{name:
-    (score, latencies, cuts)}``) on the 14 recordings and the fresh nine, per recording, and
-    the declared rule; return whether every condition holds. ``verdict``: the last words
-    when it holds (default "ADOPT")."""
+    (score, latencies, cuts)}``) on the 14 recordings and the fresh set ``namesf``, per
+    recording, and the declared rule; return whether every condition holds. ``verdict``: the
+    last words when it holds (default "ADOPT")."""
     print("\nthe 14 existing recordings (all, the train pair included), scored once")
     print("| detector | mean F1 | pooled F1 | cmu | cmu02 | hdm | latency median |")
     print("|---|---|---|---|---|---|---|")
     a = table("defaults", h0, names14)
     b = table(label, h1, names14)
-    print("\nthe 9 fresh HDM05 joins, scored once")
+    print(f"\n{fresh_title}, scored once")
     print("| detector | mean F1 | pooled F1 (true found / true, cuts) | worst | latency median |")
     print("|---|---|---|---|---|")
     fr = []

@@ -94,7 +94,7 @@ def pelvis_speeds(recording, fps: float = FPS, lag_s: float = LAG_S, jump_m: flo
 
 
 def with_pelvis(angles, speeds, v_max: float):
-    """The 17 features followed by the two pelvis speeds mapped to [0, pi], (n, 19)."""
+    """The 17 features followed by the pelvis speeds ``speeds`` (n, 1 or 2) mapped to [0, pi]."""
     return np.ascontiguousarray(np.column_stack(
         [angles, np.pi * np.minimum(speeds / v_max, 1.0)]))
 
@@ -146,24 +146,27 @@ def diagnose():
               f"{sum(x[8]['stage'] == 'cut' for x in sel)}/{len(sel)}")
 
 
-def speed():
-    """learn_many on 120-frame packets, 17 features against 19 (pelvis columns), interleaved,
-    median of 31 runs each (the pelvis columns' own cost excluded: they come with the frames)."""
+def speed(columns: int = 2, v_max: float = 2.0, runs: int = 31):
+    """learn_many on 120-frame packets, 17 features against 17 + ``columns`` (the first
+    ``columns`` pelvis speeds), interleaved, median of ``runs`` runs each (the pelvis columns'
+    own cost excluded: they come with the frames). Returns the ratio."""
     r = recordings()["86_01"][0]
     a17 = np.ascontiguousarray(np.tile(features(r, True), (3, 1)))
-    a19 = with_pelvis(a17, np.tile(pelvis_speeds(r), (3, 1)), 2.0)
-    times = {17: [], 19: []}
-    for _ in range(31):
-        for a in (a17, a19):
+    ap = with_pelvis(a17, np.tile(pelvis_speeds(r)[:, :columns], (3, 1)), v_max)
+    d = ap.shape[1]
+    times = {17: [], d: []}
+    for _ in range(runs):
+        for a in (a17, ap):
             det = StreamingLOFSegmenter(LOFConfig(), FPS, n_features=a.shape[1])
             det.learn_many(a[:240])
             t0 = time.perf_counter()
             for i in range(240, len(a), 120):
                 det.learn_many(a[i:i + 120])
             times[a.shape[1]].append((time.perf_counter() - t0) / (len(a) - 240))
-    m17, m19 = np.median(times[17]) * 1e6, np.median(times[19]) * 1e6
-    print(f"learn_many, {len(a17)} frames (86_01 x 3), us/frame, median of 31: 17 features "
-          f"{m17:.3f}, 19 (pelvis) {m19:.3f}, ratio {m19 / m17:.3f}")
+    m17, md = np.median(times[17]) * 1e6, np.median(times[d]) * 1e6
+    print(f"learn_many, {len(a17)} frames (86_01 x 3), us/frame, median of {runs}: 17 features "
+          f"{m17:.3f}, {d} (pelvis) {md:.3f}, ratio {md / m17:.3f}")
+    return md / m17
 
 
 def main():
