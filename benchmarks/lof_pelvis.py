@@ -99,6 +99,16 @@ def with_pelvis(angles, speeds, v_max: float):
         [angles, np.pi * np.minimum(speeds / v_max, 1.0)]))
 
 
+def train_baseline(score_all, train):
+    """Print the defaults' (no pelvis column: ``score_all(names, None)``) train F1 and cuts;
+    return their mean."""
+    base = score_all(train, None)
+    mean = float(np.mean([base[n][0]["f1"] for n in train]))
+    print("  pelvis off (defaults): " + " ".join(f"{base[n][0]['f1']:.3f}" for n in train)
+          + f"  mean {mean:.3f}  cuts " + " ".join(str(base[n][2]) for n in train))
+    return mean
+
+
 def _cos(a, b):
     den = np.sqrt(float(a @ a) * float(b @ b))
     return 1.0 - float(a @ b) / den if den else 0.0
@@ -193,10 +203,7 @@ def main():
         return {n: run(n, v) for n in names}
 
     print(f"train {' + '.join(TRAIN)}: F1 per recording, mean, smoothed")
-    base = score_all(TRAIN, None)
-    base_mean = float(np.mean([base[n][0]["f1"] for n in TRAIN]))
-    print("  pelvis off (defaults): " + " ".join(f"{base[n][0]['f1']:.3f}" for n in TRAIN)
-          + f"  mean {base_mean:.3f}  cuts " + " ".join(str(base[n][2]) for n in TRAIN))
+    base_mean = train_baseline(score_all, TRAIN)
     res, means, best = train_grid(score_all, TRAIN, V_MAX_GRID, "v_max")
     chosen = V_MAX_GRID[best]
     for n in TRAIN:  # online == offline with the extra columns

@@ -146,6 +146,13 @@ class LOFConfig:
     (0.450 -> 0.367: the swordplay join placed 0.9 s late), so the declared rule does not adopt
     them; they are not in the library (the features would need the pelvis position).
 
+    Round 11 (``benchmarks/lof_pelvis2.py``; train 02_wash_sword_walk_punch + fresh_dg_1, grid
+    v_max 0.5-1.5 m/s x {both columns, horizontal alone}, rule declared before the run; held
+    out on 4 new HDM05 joins, all the unused clips allowed): the rule chose both columns at
+    0.5 m/s (train 0.486 -> 0.508, one false cut fewer); fresh2 pooled F1 0.667 -> 0.720, the
+    14 recordings' 0.718 -> 0.720, but cmu02 0.450 -> 0.389 (the same swordplay join placed
+    0.9 s late) and hdm 0.745 -> 0.741, so again not adopted.
+
     Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
     02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
 
