@@ -24,7 +24,11 @@ With ``--counts`` (issue 14, round 9) the wrong counts instead: a table class x 
 why (:func:`count_cause`): rejected as not repetitive (which test), the spectral count
 (``align="none"``: the primary frequency's cycles against the true count, i.e. the period
 estimate, or the boundaries) or the DTW re-cut (the spectral count right and the tiling
-changing it: pieces merging two true repetitions, or splitting one).
+changing it: pieces merging two true repetitions, or splitting one). With ``--objective``
+also, for each wrongly counted sequence the re-cut ran on, the DTW tiling objective (the sum of
+piece length x mean DTW cost against the template that cut the pieces) of the true tiling
+against that of the pieces found: when the true one costs more, the objective itself prefers
+the wrong count (no bound or search change can fix it); otherwise the search missed it.
 
 Round 9 protocol (declared after the ``--counts`` diagnosis on draws 0-5 of bd, bk and dg,
 before any other run of the mechanism; draws 10-13 drawn by no earlier round):
@@ -49,8 +53,8 @@ segmenter at 30 Hz without the UKF running at 30 Hz). The UKF output is cached
 (``.bench_cache/``, see ``benchmarks/rep_data.py``).
 
 Run: ``nice -n 5 .venv/bin/python benchmarks/rep_diagnosis.py [--actors bd] [--seeds 0,1]
-[--degradations] [--aggregate] [--counts] [--set refine_band=4.0]``. Choose on one actor (bd); for
-the held-out actors look at ``--aggregate`` only.
+[--degradations] [--aggregate] [--counts [--objective]] [--set refine_band=4.0]``. Choose
+on one actor (bd); for the held-out actors look at ``--aggregate`` only.
 """
 
 from __future__ import annotations
@@ -66,7 +70,12 @@ from streamseg.config import RepetitionConfig
 from streamseg.evaluation.datasets import HDM05_REPETITIVE
 from streamseg.evaluation.metrics import repetition_accuracy
 from streamseg.offline import repetition_steps as steps
-from streamseg.offline.repetition import RepetitionSegmenter, not_repetitive_reason
+from streamseg.offline.rep_align import align_repetitions, dtw_cost
+from streamseg.offline.repetition import (
+    RepetitionSegmenter,
+    _smooth,
+    not_repetitive_reason,
+)
 from streamseg.recording import Recording
 
 BINS = (0.0, 0.05, 0.1, 0.2, 0.35, 0.5, np.inf)
@@ -189,7 +198,37 @@ def count_cause(s, cfg):
     return stage, f"{where}; {shape}"
 
 
-def count_report(seqs, cfg):
+def tiling_costs(s, cfg):
+    """(template length, objective of the true tiling, of the pieces found), at the
+    alignment's rate, over the stretch the re-cut covered; None when it did not run."""
+    seg, spec = s["seg"], s["spec"]
+    a = seg.analysis_
+    if cfg.align != "dtw" or len(spec) < 2:
+        return None
+    cols = a.selected if cfg.align_features == "selected" else np.arange(seg.angles_.shape[1])
+    F = _smooth(seg.angles_[:, cols], seg.fps_, cfg.refine_band * a.primary_hz,
+                cfg.filter_order)
+    pieces, used = align_repetitions(
+        F, spec, seg.fps_, rate_hz=cfg.align_rate_hz, stretch=cfg.align_stretch,
+        iterations=cfg.align_iterations, max_slope=cfg.align_max_slope,
+        max_compress=cfg.align_max_compress, return_template=True)
+    if used is None:
+        return None
+    q = max(1, int(round(seg.fps_ / cfg.align_rate_hz)))
+    s0, s1 = pieces[0][0], pieces[-1][1]
+    Fd = F[s0:s1:q]
+    T = F[used[0]:used[1]:q]
+
+    def objective(cuts):
+        d = sorted({min(len(Fd), max(0, int(round((c - s0) / q)))) for c in cuts})
+        return sum((y - x) * dtw_cost(T, Fd[x:y], cfg.align_max_slope, cfg.align_max_compress)
+                   for x, y in zip(d[:-1], d[1:]) if y > x)
+
+    true_cuts = [s0] + [c for c in _cuts(s["reps"])[1:-1] if s0 < c < s1] + [s1]
+    return len(T), objective(true_cuts), objective(_cuts(pieces))
+
+
+def count_report(seqs, cfg, objective=False):
     """Class x actor x (over, under, exact) per condition, then each wrong count's cause."""
     conds = list(dict.fromkeys(s["cond"] for s in seqs))
     classes = sorted({s["cls"] for s in seqs})
@@ -215,7 +254,7 @@ def count_report(seqs, cfg):
           "right, the tiling changed it; merged/split = found pieces holding a true join / true "
           "repetitions holding a found cut, away from their ends)")
     print(f"{'condition':9s} {'actor':5s} {'class':16s} {'seed':>4s} {'true':>4s} {'spec':>4s} "
-          f"{'found':>5s} {'stage':12s} cause")
+          f"{'found':>5s} {'stage':12s} cause" + ("; objective true / found" if objective else ""))
     tally = {}
     for s in seqs:
         if len(s["found"]) == len(s["reps"]):
@@ -224,11 +263,20 @@ def count_report(seqs, cfg):
         sign = "over" if len(s["found"]) > len(s["reps"]) else "under"
         key = (s["cond"], stage, sign)
         tally[key] = tally.get(key, 0) + 1
+        obj = ""
+        if objective:
+            tc = tiling_costs(s, cfg)
+            if tc is not None:
+                ratio = tc[1] / tc[2] if tc[2] > 0 else np.inf
+                obj = f"; template {tc[0]} frames, {tc[1]:.1f} / {tc[2]:.1f} = {ratio:.2f}"
+                k = (s["cond"], "objective", "prefers found" if ratio >= 1 else "search missed")
+                tally[k] = tally.get(k, 0) + 1
         print(f"{s['cond']:9s} {s['actor']:5s} {s['cls'][:16]:16s} {s['seed']:4d} "
-              f"{len(s['reps']):4d} {len(s['spec']):4d} {len(s['found']):5d} {stage:12s} {cause}")
+              f"{len(s['reps']):4d} {len(s['spec']):4d} {len(s['found']):5d} {stage:12s} {cause}"
+              + obj)
     print("\ntally: condition, stage, over/under: sequences")
     for key in sorted(tally):
-        print(f"{key[0]:9s} {key[1]:12s} {key[2]:5s} {tally[key]:3d}")
+        print(f"{key[0]:9s} {key[1]:12s} {key[2]:13s} {tally[key]:3d}")
 
 
 def report(seqs, cfg, aggregate):
@@ -335,6 +383,8 @@ def main(argv=None):
                     help="no per-class table (for actors held out of the choice)")
     ap.add_argument("--counts", action="store_true",
                     help="the wrong counts: class x actor x (over, under, exact), and why")
+    ap.add_argument("--objective", action="store_true",
+                    help="with --counts: the DTW objective of the true tiling vs the found one")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="a RepetitionConfig field changed for the analysis (not the UKF cache "
                          "key's fields), e.g. --set refine_band=3.0; repeatable")
@@ -369,7 +419,7 @@ def main(argv=None):
             s["spec"] = _spectral(s["seg"], cfg)
         print(f"actors {args.actors}, seeds {args.seeds}: {len(seqs)} sequences "
               f"({time.perf_counter() - t0:.0f} s){'; ' + str(changes) if changes else ''}")
-        count_report(seqs, cfg)
+        count_report(seqs, cfg, args.objective)
         return
     analyse_all(seqs, cfg)
     print(f"actors {args.actors}, seeds {args.seeds}: {len(seqs)} sequences "

@@ -73,7 +73,7 @@ def _medoid(F, pieces, max_slope, max_compress):
 
 
 def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterations=2,
-                      max_slope=2, max_compress=2):
+                      max_slope=2, max_compress=2, return_template=False):
     """Re-cut the stretch covered by ``repetitions`` into pieces aligned to a template.
 
     Parameters
@@ -98,12 +98,17 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
         Most template frames per sequence frame in one DTW step: a piece may be as short as
         ``1 / max_compress`` of the template (a repetition with a shorter rest than the
         template's).
+    return_template : bool
+        Also return the template that cut the pieces returned (for diagnoses).
 
     Returns
     -------
     list of (int, int)
         Consecutive pieces tiling ``[repetitions[0][0], repetitions[-1][1])``; the input
         unchanged when it holds fewer than two repetitions or no tiling fits the bounds.
+    template : (int, int) or None
+        With ``return_template``: its (start, end) in full-rate frames (None when nothing
+        was cut).
     """
     reps = [(int(a), int(b)) for a, b in repetitions]
     if (not (stretch > 1) or iterations < 1 or max_slope < 1 or max_compress < 1
@@ -112,7 +117,7 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
                              f"max_slope={max_slope!r} and max_compress={max_compress!r} >= 1, "
                              f"rate_hz={rate_hz!r} and fps={fps!r} > 0")
     if len(reps) < 2:
-        return reps
+        return (reps, None) if return_template else reps
     q = max(1, int(round(fps / rate_hz)))
     s0, s1 = reps[0][0], reps[-1][1]
     Fd = np.ascontiguousarray(np.asarray(F, dtype=np.float64)[s0:s1:q])
@@ -120,7 +125,8 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
     pieces = [(int(round((a - s0) / q)), int(round((b - s0) / q))) for a, b in reps]
     pieces = [(a, min(b, n)) for a, b in pieces if min(b, n) - a >= 2]
     if len(pieces) < 2:
-        return reps
+        return (reps, None) if return_template else reps
+    used = None
     for _ in range(iterations):
         a, b = pieces[_medoid(Fd, pieces, max_slope, max_compress)]
         med = float(np.median([y - x for x, y in pieces]))
@@ -130,9 +136,11 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
         cuts = best_tiling(C, n, lo, hi)
         if cuts.size < 2:
             break
+        used = (s0 + q * a, s0 + q * b)
         new = list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
         if new == pieces:
             break
         pieces = new
     cut = [s0 + q * x for x, _ in pieces] + [s1]
-    return [(int(x), int(y)) for x, y in zip(cut[:-1], cut[1:])]
+    out = [(int(x), int(y)) for x, y in zip(cut[:-1], cut[1:])]
+    return (out, used) if return_template else out
