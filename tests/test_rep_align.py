@@ -88,11 +88,17 @@ def test_pauses_of_different_lengths_keep_one_movement_per_piece():
     moves = [(s + p, s + p + 40) for s, p in zip(starts, [10, 60, 15, 5, 45, 20])]
     for (a, b), (ma, mb) in zip(reps, moves):
         assert a <= ma + 2 and mb - 2 <= b, (reps, moves)  # whole movement inside, 2 frames
+    # the template that cut them (for rep_diagnosis --objective) is one of the pieces it
+    # was chosen from: one movement, inside the stretch
+    same, (ta, tb) = align_repetitions(F, even, 30.0, rate_hz=30.0, return_template=True)
+    assert same == reps and 0 <= ta < tb <= n
+    assert sum(ma >= ta - 2 and mb <= tb + 2 for ma, mb in moves) == 1
 
 
 def test_edge_cases_are_left_alone():
     F, _ = _pauses_then_moves([10, 20])
     assert align_repetitions(F, [(0, 50)], 30.0) == [(0, 50)]  # one repetition
+    assert align_repetitions(F, [(0, 50)], 30.0, return_template=True) == ([(0, 50)], None)
     assert align_repetitions(F, [], 30.0) == []
     with pytest.raises(ParameterError, match="stretch"):
         align_repetitions(F, [(0, 50), (50, 110)], 30.0, stretch=1.0)
