@@ -78,11 +78,14 @@ def main(argv=None):
                             (repetition_accuracy(seg.repetitions_, s["reps"]),
                              count_error(seg.count_, len(s["reps"])))))
     held = [a for a in HDM05_ACTORS if a != args.choose_on]
-    print(f"chosen on {args.choose_on}; held out {', '.join(held)}; seeds {seeds}; candidate "
+    who = (f"chosen on {args.choose_on}; held out {', '.join(held)}" if args.choose_on != "none"
+           else f"no actor held back (chosen on other draws); scored {', '.join(held)}")
+    print(f"{who}; seeds {seeds}; candidate "
           f"{parse_set(args.set, base)} ({time.perf_counter() - t0:.0f} s, UKF cached)")
     print(f"{'condition':9s} {'seeds':7s} {'actors':14s} | {'defaults: alpha':>15s} {'exact':>5s} "
           f"{'MAE':>5s} | {'candidate: alpha':>16s} {'exact':>5s} {'MAE':>5s} | {'n':>3s}")
-    groups = [(f"held-out {'+'.join(held)}", set(held))] + [(f"  {a}", {a}) for a in held]
+    pooled = "held-out " if args.choose_on != "none" else "all "
+    groups = [(pooled + "+".join(held), set(held))] + [(f"  {a}", {a}) for a in held]
     if args.choose_on != "none":
         groups.append((f"{args.choose_on} (chosen on)", {args.choose_on}))
     for cond in ("clean", "kinect"):
