@@ -379,10 +379,11 @@ def naive_lloyd(X, centres, n_iter):
 # --- repetitions: slope-constrained DTW against a template, best tiling ----------------------
 
 
-def naive_template_dtw(dist, a, m, max_slope):
+def naive_template_dtw(dist, a, m, max_slope, max_compress=2):
     """Weighted path mean of ``streamseg._kernels.rep_align.open_end_costs`` for one (a, m),
-    by enumerating every path: steps (1, 1) weigh the cell 2; (2, 1) and (1, k), k <= max_slope,
-    add every crossed cell once and the reached cell twice; inf when no path exists."""
+    by enumerating every path: steps (1, 1) weigh the cell 2; (k, 1), k <= max_compress, and
+    (1, k), k <= max_slope, add every crossed cell once and the reached cell twice; inf when no
+    path exists."""
     L = dist.shape[0]
 
     def c(i, j):  # 1-based template frame i, sequence frame j of the stretch
@@ -397,8 +398,10 @@ def naive_template_dtw(dist, a, m, max_slope):
             return float("inf")
         if (i, j) not in memo:
             steps = [D(i - 1, j - 1) + 2 * c(i, j)]
-            if i >= 2:
-                steps.append(D(i - 2, j - 1) + c(i - 1, j) + 2 * c(i, j))
+            for k in range(2, max_compress + 1):
+                if i - k >= 0:
+                    steps.append(D(i - k, j - 1) + sum(c(i - t, j) for t in range(1, k))
+                                 + 2 * c(i, j))
             for k in range(2, max_slope + 1):
                 if j - k >= 0:
                     steps.append(D(i - 1, j - k) + sum(c(i, j - t) for t in range(1, k))

@@ -20,17 +20,21 @@ from tests.naive import naive_best_tiling_cost, naive_template_dtw
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("max_slope", [1, 2, 3])
-def test_open_end_costs_match_the_path_enumeration(seed, max_slope):
+@pytest.mark.parametrize("max_compress", [1, 2, 3])
+def test_open_end_costs_match_the_path_enumeration(seed, max_slope, max_compress):
     rng = np.random.default_rng(seed)
-    L, n, lo, hi = 5, 14, 3, 9
+    L, n, lo, hi = 7, 14, 2, 9
     dist = rng.random((L, n))
-    C = open_end_costs(dist, lo, hi, max_slope)
+    C = open_end_costs(dist, lo, hi, max_slope, max_compress)
     for a in range(n):
         for m in range(1, hi + 1):
             if m < lo or a + m > n:
                 assert C[a, m] == np.inf
             else:
-                assert C[a, m] == pytest.approx(naive_template_dtw(dist, a, m, max_slope))
+                want = naive_template_dtw(dist, a, m, max_slope, max_compress)
+                assert C[a, m] == pytest.approx(want)
+                # a path exists exactly when the slopes allow m frames for L
+                assert np.isfinite(C[a, m]) == (L <= max_compress * m and m <= max_slope * L)
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -54,6 +58,7 @@ def test_dtw_cost_of_a_stretched_copy_is_small_and_out_of_slope_is_inf():
     B = np.c_[np.sin(t2), np.cos(t2)]
     assert dtw_cost(A, B) < 0.01 < dtw_cost(A, B[::-1])
     assert dtw_cost(A, B[:10]) == np.inf  # 10 frames cannot hold 30 at slope >= 1/2
+    assert np.isfinite(dtw_cost(A, B[:10], max_compress=3))  # they can at slope >= 1/3
     with pytest.raises(ParameterError, match="same d"):
         dtw_cost(A, B[:, :1])
 
@@ -83,11 +88,17 @@ def test_pauses_of_different_lengths_keep_one_movement_per_piece():
     moves = [(s + p, s + p + 40) for s, p in zip(starts, [10, 60, 15, 5, 45, 20])]
     for (a, b), (ma, mb) in zip(reps, moves):
         assert a <= ma + 2 and mb - 2 <= b, (reps, moves)  # whole movement inside, 2 frames
+    # the template that cut them (for rep_diagnosis --objective) is one of the pieces it
+    # was chosen from: one movement, inside the stretch
+    same, (ta, tb) = align_repetitions(F, even, 30.0, rate_hz=30.0, return_template=True)
+    assert same == reps and 0 <= ta < tb <= n
+    assert sum(ma >= ta - 2 and mb <= tb + 2 for ma, mb in moves) == 1
 
 
 def test_edge_cases_are_left_alone():
     F, _ = _pauses_then_moves([10, 20])
     assert align_repetitions(F, [(0, 50)], 30.0) == [(0, 50)]  # one repetition
+    assert align_repetitions(F, [(0, 50)], 30.0, return_template=True) == ([(0, 50)], None)
     assert align_repetitions(F, [], 30.0) == []
     with pytest.raises(ParameterError, match="stretch"):
         align_repetitions(F, [(0, 50), (50, 110)], 30.0, stretch=1.0)

@@ -10,15 +10,16 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def open_end_costs(dist, lo, hi, max_slope):
+def open_end_costs(dist, lo, hi, max_slope, max_compress=2):
     """Mean DTW cost of a template against ``X[a:a + m]`` for every start a and length m.
 
     Slope-constrained steps, each weighted by the frames it advances on both axes, so
     ``D[L, m] / (L + m)`` is a weighted mean of the frame distances along the path: a
-    diagonal step (1, 1) weighs its cell 2; a step (2, 1) (two template frames on one
-    sequence frame) and (1, k) for k = 2..``max_slope`` (a sequence frame held) visit every
-    cell they cross. The path's slope stays within [1/2, ``max_slope``]: one stretch of the
-    sequence can never be squeezed onto a single template frame.
+    diagonal step (1, 1) weighs its cell 2; a step (k, 1) for k = 2..``max_compress`` (k
+    template frames on one sequence frame) and (1, k) for k = 2..``max_slope`` (a sequence
+    frame held) visit every cell they cross. The path's slope stays within
+    [1/``max_compress``, ``max_slope``]: one stretch of the sequence can never be squeezed
+    onto a single template frame.
 
     Parameters
     ----------
@@ -28,6 +29,9 @@ def open_end_costs(dist, lo, hi, max_slope):
         Shortest and longest stretch, frames (1 <= lo <= hi).
     max_slope : int
         Most sequence frames per template frame in one step (>= 1).
+    max_compress : int
+        Most template frames per sequence frame in one step (>= 1; 2 before issue 14's
+        round 9).
 
     Returns
     -------
@@ -48,8 +52,12 @@ def open_end_costs(dist, lo, hi, max_slope):
             for j in range(1, w + 1):
                 c = dist[i - 1, a + j - 1]
                 best = D[i - 1, j - 1] + 2.0 * c
-                if i >= 2:
-                    v = D[i - 2, j - 1] + dist[i - 2, a + j - 1] + 2.0 * c
+                acc = 2.0 * c
+                for k in range(2, max_compress + 1):
+                    if i - k < 0:
+                        break
+                    acc += dist[i - k, a + j - 1]
+                    v = D[i - k, j - 1] + acc
                     if v < best:
                         best = v
                 acc = 2.0 * c

@@ -122,6 +122,19 @@ class RepetitionConfig:
         within [1/2, this], so a stretch of the sequence is never squeezed onto one template
         frame (without it, an odd first repetition was absorbed by its neighbour at no
         cost). 3, chosen on bd (2 or 3 in the grid).
+    align_max_compress : int
+        Most template frames per sequence frame in one DTW step: a piece may be as short as
+        1 / this of the template. 2 (the limit before it was a setting). Repetitions that
+        differ in their rest, not their movement (dg's two-leg hops: 70-85 and 138-151
+        frames in one set) might need the template's rest squeezed more than 2x: in issue
+        14's round 9 diagnosis (``benchmarks/rep_diagnosis.py --counts``, draws 0-5 of bd, bk
+        and dg) pieces merging two true repetitions were the commonest wrong count. Grid
+        {2, 3, 4} on those draws (270 sequences per condition): alpha clean / Kinect-like
+        0.901 / 0.855 (exact counts 0.92 / 0.87) at 2, 0.898 / 0.859 (0.93 / 0.90) at 3,
+        0.894 / 0.854 (0.93 / 0.90) at 4: 3 ties 2 on the declared score (mean alpha within
+        0.001), so 2 stays and nothing was held out. It fixes Kinect-like merges of bd and bk
+        (hops, arm circles) but not dg's hops, where the tiling objective itself prefers the
+        wrong count (``--objective``).
     align_snap : float
         Each aligned cut then moves to the frame nearest the rest pose within this fraction
         of its shorter neighbouring piece (0 = off; 0.3, chosen on bd from 0 or 0.3): a
@@ -187,6 +200,7 @@ class RepetitionConfig:
     align_iterations: int = 2
     align_snap: float = 0.3
     align_max_slope: int = 3
+    align_max_compress: int = 2
     align_snap_level: float = 0.0
     align_snap_position: float = 0.5
 
@@ -251,6 +265,9 @@ class RepetitionConfig:
                "an integer >= 1")
         _check("align_max_slope", self.align_max_slope,
                isinstance(self.align_max_slope, int) and self.align_max_slope >= 1,
+               "an integer >= 1")
+        _check("align_max_compress", self.align_max_compress,
+               isinstance(self.align_max_compress, int) and self.align_max_compress >= 1,
                "an integer >= 1")
         _check("align_snap", self.align_snap,
                isinstance(self.align_snap, (int, float)) and 0 <= self.align_snap < 0.5,

@@ -28,7 +28,7 @@ def _sq_dist(A, B):
     return np.ascontiguousarray(np.maximum(d, 0.0))
 
 
-def dtw_cost(A, B, max_slope=2) -> float:
+def dtw_cost(A, B, max_slope=2, max_compress=2) -> float:
     """Weighted mean squared frame distance along the best slope-constrained DTW path.
 
     Parameters
@@ -38,12 +38,16 @@ def dtw_cost(A, B, max_slope=2) -> float:
     B : ndarray, shape (m, d)
     max_slope : int
         Most frames of ``B`` per frame of ``A`` in one step; at most two frames of ``A`` per
-        frame of ``B`` (:func:`streamseg._kernels.rep_align.open_end_costs`).
+        frame of ``B``.
+    max_compress : int
+        Most frames of ``A`` per frame of ``B`` in one step
+        (:func:`streamseg._kernels.rep_align.open_end_costs`).
 
     Returns
     -------
     float
-        ``D[L, m] / (L + m)``; inf when ``m`` is outside ``[L / 2, max_slope * L]`` (no path).
+        ``D[L, m] / (L + m)``; inf when ``m`` is outside ``[L / max_compress, max_slope * L]``
+        (no path).
     """
     A = np.ascontiguousarray(A, dtype=np.float64)
     B = np.ascontiguousarray(B, dtype=np.float64)
@@ -51,10 +55,10 @@ def dtw_cost(A, B, max_slope=2) -> float:
         raise ParameterError(f"A and B must be non-empty (frames, d) arrays of the same d; got "
                              f"shapes {A.shape} and {B.shape}")
     m = B.shape[0]
-    return float(open_end_costs(_sq_dist(A, B), m, m, int(max_slope))[0, m])
+    return float(open_end_costs(_sq_dist(A, B), m, m, int(max_slope), int(max_compress))[0, m])
 
 
-def _medoid(F, pieces, max_slope):
+def _medoid(F, pieces, max_slope, max_compress):
     """Index of the piece of least summed DTW cost (as the template) to the others."""
     k = len(pieces)
     D = np.zeros((k, k))
@@ -62,14 +66,14 @@ def _medoid(F, pieces, max_slope):
         for j in range(k):
             if i != j:
                 D[i, j] = dtw_cost(F[pieces[i][0]:pieces[i][1]], F[pieces[j][0]:pieces[j][1]],
-                                   max_slope)
+                                   max_slope, max_compress)
     finite = D[np.isfinite(D)]
     D[~np.isfinite(D)] = 2.0 * (finite.max() if finite.size else 1.0)  # no path: far
     return int(np.argmin(D.sum(axis=1)))
 
 
 def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterations=2,
-                      max_slope=2):
+                      max_slope=2, max_compress=2, return_template=False):
     """Re-cut the stretch covered by ``repetitions`` into pieces aligned to a template.
 
     Parameters
@@ -90,20 +94,30 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
         Template, re-cut, new template from the new pieces, ... this many times.
     max_slope : int
         Most sequence frames per template frame in one DTW step (:func:`dtw_cost`).
+    max_compress : int
+        Most template frames per sequence frame in one DTW step: a piece may be as short as
+        ``1 / max_compress`` of the template (a repetition with a shorter rest than the
+        template's).
+    return_template : bool
+        Also return the template that cut the pieces returned (for diagnoses).
 
     Returns
     -------
     list of (int, int)
         Consecutive pieces tiling ``[repetitions[0][0], repetitions[-1][1])``; the input
         unchanged when it holds fewer than two repetitions or no tiling fits the bounds.
+    template : (int, int) or None
+        With ``return_template``: its (start, end) in full-rate frames (None when nothing
+        was cut).
     """
     reps = [(int(a), int(b)) for a, b in repetitions]
-    if not (stretch > 1) or iterations < 1 or max_slope < 1 or not rate_hz > 0 or not fps > 0:
-        raise ParameterError(f"stretch={stretch!r} must be > 1, iterations={iterations!r} and "
-                             f"max_slope={max_slope!r} >= 1, rate_hz={rate_hz!r} and "
-                             f"fps={fps!r} > 0")
+    if (not (stretch > 1) or iterations < 1 or max_slope < 1 or max_compress < 1
+            or not rate_hz > 0 or not fps > 0):
+        raise ParameterError(f"stretch={stretch!r} must be > 1, iterations={iterations!r}, "
+                             f"max_slope={max_slope!r} and max_compress={max_compress!r} >= 1, "
+                             f"rate_hz={rate_hz!r} and fps={fps!r} > 0")
     if len(reps) < 2:
-        return reps
+        return (reps, None) if return_template else reps
     q = max(1, int(round(fps / rate_hz)))
     s0, s1 = reps[0][0], reps[-1][1]
     Fd = np.ascontiguousarray(np.asarray(F, dtype=np.float64)[s0:s1:q])
@@ -111,19 +125,22 @@ def align_repetitions(F, repetitions, fps, *, rate_hz=30.0, stretch=2.0, iterati
     pieces = [(int(round((a - s0) / q)), int(round((b - s0) / q))) for a, b in reps]
     pieces = [(a, min(b, n)) for a, b in pieces if min(b, n) - a >= 2]
     if len(pieces) < 2:
-        return reps
+        return (reps, None) if return_template else reps
+    used = None
     for _ in range(iterations):
-        a, b = pieces[_medoid(Fd, pieces, max_slope)]
+        a, b = pieces[_medoid(Fd, pieces, max_slope, max_compress)]
         med = float(np.median([y - x for x, y in pieces]))
         lo = max(2, int(math.floor(med / stretch)))
         hi = max(lo, int(math.ceil(med * stretch)))
-        C = open_end_costs(_sq_dist(Fd[a:b], Fd), lo, hi, int(max_slope))
+        C = open_end_costs(_sq_dist(Fd[a:b], Fd), lo, hi, int(max_slope), int(max_compress))
         cuts = best_tiling(C, n, lo, hi)
         if cuts.size < 2:
             break
+        used = (s0 + q * a, s0 + q * b)
         new = list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))
         if new == pieces:
             break
         pieces = new
     cut = [s0 + q * x for x, _ in pieces] + [s1]
-    return [(int(x), int(y)) for x, y in zip(cut[:-1], cut[1:])]
+    out = [(int(x), int(y)) for x, y in zip(cut[:-1], cut[1:])]
+    return (out, used) if return_template else out

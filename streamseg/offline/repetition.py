@@ -422,7 +422,8 @@ class RepetitionSegmenter(Estimator):
                     cfg.filter_order)
         reps = align_repetitions(F, self.repetitions_, self.fps_, rate_hz=cfg.align_rate_hz,
                                  stretch=cfg.align_stretch, iterations=cfg.align_iterations,
-                                 max_slope=cfg.align_max_slope)
+                                 max_slope=cfg.align_max_slope,
+                                 max_compress=cfg.align_max_compress)
         if cfg.align_snap > 0:
             # a template starts and ends at the rest pose, so a cut may sit anywhere in a
             # pause: it goes to the frame nearest that pose, as the spectral boundaries do,
