@@ -363,17 +363,17 @@ def idle_memory(rec, tmp: Path, n: int = 2000, ring_start=None) -> tuple:
 
 
 def checkpoint_cost(rec, repeats: int = 20) -> None:
-    """Loop time to pack one stream's state (hash its chunks, copy out the new ones), writer
-    time to turn it into a row, and bytes a round stores, for a stream that has sent 4 frames
-    and one whose history is full (60 s at 120 Hz): its first checkpoint (every chunk new) and
-    the next ones, one checkpoint interval of frames apart (only the chunks that changed are
-    copied and stored). CPU times of this thread."""
+    """Loop time to copy one stream's state, writer time to pack it, and bytes a round
+    stores, for a stream that has sent 4 frames and one whose history is full (60 s at
+    120 Hz): its first checkpoint (every chunk new) and the next ones, one checkpoint interval
+    of frames apart (only the chunks that changed are stored)."""
     import statistics
 
     from streamseg.config import DaemonConfig
     from streamseg.daemon.checkpoint import snapshot
     from streamseg.daemon.pipeline import Algorithms, StreamPipeline
-    from streamseg.daemon.state_codec import load
+    from streamseg.daemon.state_codec import load, packable
+    from streamseg.daemon.state_codec import stored as stored_bytes
     from streamseg.daemon.streams import StreamState
 
     alg = Algorithms()
@@ -382,7 +382,7 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
     step = int(DaemonConfig().checkpoint_interval * 120)
     print(f"\ncheckpoint cost per stream (relabel_history {hist:g} s, 120 Hz), median of "
           f"{repeats}")
-    print(f"{'stream':>36} {'loop pack ms':>13} {'writer row ms':>14} {'state kB':>9} "
+    print(f"{'stream':>36} {'loop copy ms':>13} {'writer pack ms':>15} {'state kB':>9} "
           f"{'stored kB':>10} {'restore ms':>11}")
     full = int(hist * 120)
     for label, n, more in (("4 frames", 4, 0), (f"{full} frames (full), first", full, 0),
@@ -391,45 +391,46 @@ def checkpoint_cost(rec, repeats: int = 20) -> None:
         p.push(rec.positions[np.arange(n) % rec.n_frames], 0)
         st = StreamState("s", 1, rec.fps, p, 0.0)
         st.next_seq = n
-        copy, pack, stored, restore, known, held = [], [], [], [], frozenset(), {}
+        copy, pack, stored, restore, previous = [], [], [], [], set()
         for _ in range(repeats):
             if more:  # the next interval's frames
                 p.push(rec.positions[np.arange(n, n + more) % rec.n_frames], n)
                 n += more
                 st.next_seq = n
-            t0 = time.thread_time()
-            state = snapshot(st, known)
-            t1 = time.thread_time()
-            blob = msgpack.packb(state.tree, use_bin_type=True)
-            t2 = time.thread_time()
-            held.update(state.fresh)
+            t0 = time.perf_counter()
+            state = snapshot(st)
+            t1 = time.perf_counter()
+            chunks = {}
+            blob = msgpack.packb(packable(state, chunks), use_bin_type=True)
+            fresh = [stored_bytes(chunks[d]) for d in chunks.keys() - previous]
+            t2 = time.perf_counter()
+            held = {d: stored_bytes(c) for d, c in chunks.items()}
             t3 = time.perf_counter()  # what a restart does: unpack, rebuild derived arrays
             load(msgpack.unpackb(blob, raw=False), held)
             restore.append(time.perf_counter() - t3)
             copy.append(t1 - t0)
             pack.append(t2 - t1)
-            stored.append(len(blob) + sum(map(len, state.fresh.values())))
+            stored.append(len(blob) + sum(len(c) for c in fresh))
             if more:
-                known = state.used
-        state_kb = sum(_array_bytes(state.tree)) / 1e3
+                previous = set(chunks)
+        state_kb = sum(a.nbytes for a in _arrays(state)) / 1e3
         print(f"{label:>36} {statistics.median(copy) * 1e3:>13.3f} "
-              f"{statistics.median(pack) * 1e3:>14.3f} {state_kb:>9.1f} "
+              f"{statistics.median(pack) * 1e3:>15.3f} {state_kb:>9.1f} "
               f"{statistics.median(stored if not more else stored[1:]) / 1e3:>10.1f} "
               f"{statistics.median(restore) * 1e3:>11.2f}")
 
 
-def _array_bytes(tree):
-    """The bytes of each array of a packed state tree."""
+def _arrays(tree):
+    """The arrays of a :func:`streamseg.daemon.state_codec.dump` tree."""
     if isinstance(tree, list):
         for x in tree:
-            yield from _array_bytes(x)
+            yield from _arrays(x)
     elif isinstance(tree, dict):
         if "__nd__" in tree:
-            dtype, shape, _ = tree["__nd__"]
-            yield int(np.prod(shape)) * np.dtype(dtype).itemsize
+            yield tree["__nd__"][2]
         else:
             for v in tree.values():
-                yield from _array_bytes(v)
+                yield from _arrays(v)
 
 
 def main():

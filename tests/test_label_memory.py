@@ -210,7 +210,7 @@ def test_a_take_within_the_history_relabels_as_without_the_memory():
 
 def test_memory_survives_a_checkpoint(tmp_path):
     from streamseg.daemon.checkpoint_store import CheckpointStore
-    from streamseg.daemon.state_codec import pack
+    from streamseg.daemon.state_codec import dump
     from streamseg.offline.relabel import WindowSegmentation
 
     cfg = LabelMemoryConfig()
@@ -221,7 +221,7 @@ def test_memory_survives_a_checkpoint(tmp_path):
     mem = replace(mem, born={1: 0, 2: -1}, pending={2: 1}, revisions=3)  # recall's state
     w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
     store = CheckpointStore(tmp_path)  # the real SQLite file, chunks and all
-    store.put([("s", 1200, pack(w))])
+    store.put([("s", 1200, dump(w))])
     assert store.wait()
     store.close()
     (_, back), = CheckpointStore(tmp_path).read_all()

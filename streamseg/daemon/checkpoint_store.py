@@ -1,12 +1,9 @@
 """``<state_dir>/checkpoints.sqlite``: one row per open stream (its state, packed by
 :mod:`streamseg.daemon.state_codec`) and the stream's array chunks, written by a thread.
 
-The loop packs each state against the digests of the stream's previous checkpoint, so a
-round brings only the chunks the store does not hold yet; the writer inserts them and deletes,
-in the same transaction, those the new state no longer uses; a stream forgotten loses its row
-and its chunks together. A state that refers to a chunk the store lacks (its earlier write
-failed) is not written: the stream is marked :meth:`~CheckpointStore.lost` and its next
-checkpoint brings every chunk.
+A round inserts only the chunks the store does not hold yet for the stream and deletes, in
+the same transaction, those its new state no longer uses; a stream forgotten loses its row
+and its chunks together.
 """
 
 from __future__ import annotations
@@ -21,9 +18,23 @@ import time
 import msgpack
 
 from streamseg.daemon.eventlog import connect
-from streamseg.daemon.state_codec import load
+from streamseg.daemon.state_codec import load, packable, stored
 
 log = logging.getLogger("streamseg.daemon")
+
+PACE = 1.0
+# Packing a stream holds the GIL (0.2-0.3 ms, benchmarks/daemon_faults.py) and a round packs
+# the streams back to back; the loop, wanting the GIL back after each socket call, then waits
+# up to the interpreter's switch interval (5 ms). A pause after each array hands it over (0:
+# no pause). benchmarks/checkpoint_pause.py, 250 streams on a 2-core VM at its capacity knee,
+# medians of 4 interleaved runs (2026-12-02): packet p50 1.94 ms without durability, 4.96 ms
+# with the pause, 8.86 ms without it; durability CPU 2.6 % against 4.4 % (runs scatter widely).
+BREATHE = 0.0001  # seconds
+
+
+def _breathe() -> None:
+    time.sleep(BREATHE)
+
 
 NICE = 10  # the writer thread runs this many nice levels below the daemon (at most 19)
 FORMAT = 5  # of the checkpoint blobs; another value is ignored at restore (with a warning)
@@ -68,8 +79,7 @@ class CheckpointStore:
                 if src.exists():
                     src.rename(str(aside) + suffix)
             self._open()
-        self._queue: list = []  # ("put", stream, frame, Packed) or ("del", stream)
-        self._lost: set = set()  # streams whose next checkpoint must bring every chunk
+        self._queue: list = []  # ("put", stream, frame, state) or ("del", stream)
         self._lock = threading.Lock()
         self._wake = threading.Event()
         self._idle = threading.Event()
@@ -118,23 +128,8 @@ class CheckpointStore:
                           type(err).__name__, err)
         return out
 
-    def digests(self, stream: str) -> frozenset:
-        """The chunk digests stored for ``stream`` (before the first :meth:`put` only: the
-        writer thread owns them afterwards)."""
-        return frozenset(self._stored.get(stream, ()))
-
-    def lost(self, stream: str) -> bool:
-        """True once: the store lacks chunks an earlier checkpoint of ``stream`` referred to
-        (that write failed), so the next one must bring every chunk."""
-        with self._lock:
-            if stream in self._lost:
-                self._lost.discard(stream)
-                return True
-            return False
-
     def put(self, items: list) -> None:
-        """Queue ``[(stream, frame, packed)]`` (``packed`` from
-        :func:`~streamseg.daemon.state_codec.pack`) for writing."""
+        """Queue ``[(stream, frame, state)]`` (states from :func:`dump`) for writing."""
         with self._lock:
             self._queue += [("put", *it) for it in items]
             self._idle.clear()
@@ -184,30 +179,31 @@ class CheckpointStore:
 
     def _write(self, batch: list) -> None:
         t0, c0 = time.perf_counter(), time.thread_time()
-        rows, fresh, gone = {}, collections.defaultdict(dict), set()
+        rows, gone = {}, set()
         for op in batch:  # the newest state of each stream wins; a forget after it too
             if op[0] == "put":
                 rows[op[1]] = op
-                fresh[op[1]].update(op[3].fresh)  # an older state's chunks may be used
                 gone.discard(op[1])
             else:
                 rows.pop(op[1], None)
-                fresh.pop(op[1], None)
                 gone.add(op[1])
-        packed, new_chunks, dead, kept, lost = [], [], [], {}, set()
-        for _, stream, frame, state in rows.values():
-            old = self._stored.get(stream, set())
-            new = fresh[stream]
-            if not state.used <= old | new.keys():
-                lost.add(stream)  # its old checkpoint stays; the next one brings every chunk
-                continue
-            new_chunks += [(stream, d, new[d]) for d in new.keys() - old]
-            dead += [(stream, d) for d in old - state.used]
-            kept[stream] = state.used
-            blob = msgpack.packb(state.tree, use_bin_type=True)
-            self.bytes += len(blob) + sum(len(new[d]) for d in new.keys() - old)
-            packed.append((stream, frame, time.time(), FORMAT, blob))
         try:
+            packed, new_chunks, dead, kept = [], [], [], {}
+            for _, stream, frame, state in rows.values():
+                t1 = time.perf_counter()
+                chunks: dict = {}
+                pause = _breathe if BREATHE else None
+                blob = msgpack.packb(packable(state, chunks, pause), use_bin_type=True)
+                old = self._stored.get(stream, set())
+                fresh = [(stream, d, stored(chunks[d])) for d in chunks.keys() - old]
+                new_chunks += fresh
+                dead += [(stream, d) for d in old - chunks.keys()]
+                kept[stream] = set(chunks)
+                self.bytes += len(blob) + sum(len(c[2]) for c in fresh)
+                packed.append((stream, frame, time.time(), FORMAT, blob))
+                # packing holds the GIL and a core: as long a pause as the packing took, so a
+                # round of many streams never takes the loop's core in one burst
+                time.sleep(min(time.perf_counter() - t1, 0.005) * PACE)
             self._db.execute("BEGIN")
             self._db.executemany("INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)",
                                  packed)
@@ -224,17 +220,13 @@ class CheckpointStore:
         except (sqlite3.Error, TypeError, ValueError, OverflowError) as err:
             log.error("checkpoints %s: %d not written: %s", self.path, len(rows), err)
             self.failed += 1
-            lost.update(kept)
             try:
                 self._db.execute("ROLLBACK")
             except sqlite3.Error:
                 pass
-        if lost:
-            with self._lock:
-                self._lost |= lost
         self.rounds += 1
         self.write_seconds += time.perf_counter() - t0
-        self.cpu_seconds += time.thread_time() - c0
+        self.cpu_seconds += time.thread_time() - c0  # the writer's own CPU, not its pauses
 
 
 def open_store(config) -> CheckpointStore | None:

@@ -97,7 +97,6 @@ class Daemon(Intake):
         self.checkpoints = checkpoint_store.open_store(self.config)
         self.checkpoint_seconds = 0.0  # loop time spent copying stream states
         self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
-        self._ckpt_sent: dict = {}  # stream -> the chunk digests its last checkpoint used
         self._next_ckpt = 0.0  # monotonic time before which no round starts
         self._ckpt_start = 0.0  # monotonic time the last round began
         self._ckpt_round: list = []  # streams still to copy in this checkpoint round
@@ -287,7 +286,6 @@ class Daemon(Intake):
         if self.checkpoints is not None:  # the stream is over: nothing to resume
             self.checkpoints.forget(st.stream)
             self._ckpt_seen.pop(st.stream, None)
-            self._ckpt_sent.pop(st.stream, None)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))

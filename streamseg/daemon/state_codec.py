@@ -1,15 +1,14 @@
 """The checkpoints' serialisation: a small, closed format (no pickle).
 
-:func:`pack` turns a stream's state into msgpack-able values in the loop thread, in one
-pass and without copying it: an array of more than :data:`CHUNK` bytes becomes the digests
-of its content-addressed chunks (XXH3-128 of :data:`CHUNK` bytes each, read from the live
-array), and only the chunks whose digest the store does not hold yet are copied out (trailing
-zero bytes not stored); smaller arrays are copied as bytes. :func:`load` rebuilds it. Only
-plain values, numpy arrays, tuples, deques, dicts and objects of ``streamseg`` classes (their
-``__dict__`` / ``__slots__``, rebuilt field by field) are written or read. A class may name
-fields it can recompute from the others in ``_derived_state``: they are not written, and
-:func:`load` calls the object's ``_rebuild_derived()`` once its other fields are set (the cut
-detector's neighbour lists).
+:func:`dump` copies a stream's state in the loop thread (arrays become private copies,
+nothing is shared with the live stream); :func:`packable` turns the copy into msgpack-able
+values in the writer thread, an array of more than :data:`CHUNK` bytes as the digests of its
+content-addressed chunks (XXH3-128 of :data:`CHUNK` bytes each, trailing zero bytes not
+stored); :func:`load` rebuilds it. Only plain values, numpy arrays, tuples, deques, dicts and
+objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``, rebuilt field by field)
+are written or read. A class may name fields it can recompute from the others in
+``_derived_state``: they are not written, and :func:`load` calls the object's
+``_rebuild_derived()`` once its other fields are set (the cut detector's neighbour lists).
 """
 
 from __future__ import annotations
@@ -29,43 +28,23 @@ CHUNK = 4096  # bytes of an array chunk: smaller ones store less per round, more
 SKIP = {StreamPipeline: ("algorithms", "plan"),
         StreamState: ("pipeline", "pending", "arrivals", "gap_limit")}
 
-class Packed:
-    """One state packed by :func:`pack`: ``tree`` (msgpack-able), ``fresh`` (``{digest:
-    bytes}``, the chunks not in the ``known`` set it was packed against) and ``used`` (every
-    digest the tree refers to)."""
-
-    __slots__ = ("tree", "fresh", "used")
-
-    def __init__(self, tree, fresh: dict, used: set):
-        self.tree, self.fresh, self.used = tree, fresh, used
-
-
-def pack(obj, known=frozenset()) -> Packed:
-    """``obj`` as msgpack-able values: plain values, arrays (bytes, or chunk digests),
-    deques, tuples and objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``).
-    Chunks whose digest is in ``known`` (stored by an earlier checkpoint of the stream) are
-    not copied. Nothing in the result shares memory with ``obj``."""
-    fresh: dict = {}
-    used: set = set()
-    return Packed(_pack(obj, known, fresh, used), fresh, used)
-
-
-def _pack(obj, known, fresh: dict, used: set):
+def dump(obj):
+    """A msgpack-able copy of ``obj``: plain values, arrays (as bytes), deques, tuples and
+    objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``)."""
     if obj is None or isinstance(obj, (bool, int, float, str, bytes)):
         return obj
-    if isinstance(obj, np.ndarray):
-        return {"__nd__": [obj.dtype.str, list(obj.shape), _array(obj, known, fresh, used)]}
+    if isinstance(obj, np.ndarray):  # a copy; the writer thread turns it into bytes (trimmed)
+        return {"__nd__": [obj.dtype.str, list(obj.shape), np.array(obj, order="C")]}
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, list):
-        return [_pack(x, known, fresh, used) for x in obj]
+        return [dump(x) for x in obj]
     if isinstance(obj, tuple):
-        return {"__t__": [_pack(x, known, fresh, used) for x in obj]}
+        return {"__t__": [dump(x) for x in obj]}
     if isinstance(obj, collections.deque):
-        return {"__dq__": [obj.maxlen, [_pack(x, known, fresh, used) for x in obj]]}
+        return {"__dq__": [obj.maxlen, [dump(x) for x in obj]]}
     if isinstance(obj, dict):
-        return {"__d__": [[_pack(k, known, fresh, used), _pack(v, known, fresh, used)]
-                          for k, v in obj.items()]}
+        return {"__d__": [[dump(k), dump(v)] for k, v in obj.items()]}
     cls = type(obj)
     if not cls.__module__.startswith("streamseg."):
         raise TypeError(f"cannot checkpoint a {cls.__module__}.{cls.__qualname__}")
@@ -73,29 +52,13 @@ def _pack(obj, known, fresh: dict, used: set):
     names = [n for c in cls.__mro__ for n in getattr(c, "__slots__", ())]
     if hasattr(obj, "__dict__"):
         names += list(vars(obj))
-    state = {n: _pack(getattr(obj, n), known, fresh, used) for n in dict.fromkeys(names)
+    state = {n: dump(getattr(obj, n)) for n in dict.fromkeys(names)
              if n not in skip and hasattr(obj, n)}
     return {"__obj__": f"{cls.__module__}:{cls.__qualname__}", "s": state}
 
 
-def _array(a: np.ndarray, known, fresh: dict, used: set):
-    """The bytes of ``a`` (at most :data:`CHUNK`), or its chunks' digests."""
-    raw = memoryview(np.ascontiguousarray(a).reshape(-1)).cast("B")
-    if raw.nbytes <= CHUNK:
-        return stored(raw)
-    # content addressing, not security: a changed chunk gets a new key. XXH3-128 reads 745 kB
-    # in 0.03 ms (SHA-1: 0.6 ms), so hashing every chunk of the live array costs less than
-    # copying it; only the chunks the store lacks are copied
-    digests = [xxhash.xxh3_128_digest(raw[i:i + CHUNK]) for i in range(0, raw.nbytes, CHUNK)]
-    at = dict(zip(digests, range(0, raw.nbytes, CHUNK)))
-    for d in at.keys() - known - fresh.keys():
-        fresh[d] = stored(raw[at[d]:at[d] + CHUNK])
-    used.update(at)
-    return digests
-
-
 def load(obj, chunks=None):
-    """Inverse of :func:`pack` after msgpack, given the stream's ``chunks`` (a mapping
+    """Inverse of :func:`packable` after msgpack, given the stream's ``chunks`` (a mapping
     of digest to stored bytes)."""
     if isinstance(obj, list):
         return [load(x, chunks) for x in obj]
@@ -105,7 +68,7 @@ def load(obj, chunks=None):
         dtype, shape, data = obj["__nd__"]
         dtype = np.dtype(dtype)
         n = int(np.prod(shape)) * dtype.itemsize
-        if isinstance(data, list):  # chunk digests (pack), each without trailing zeros
+        if isinstance(data, list):  # chunk digests (packable), each without trailing zeros
             data = b"".join(chunks[d].ljust(min(CHUNK, n - i * CHUNK), b"\0")
                             for i, d in enumerate(data))
         return np.frombuffer(data.ljust(n, b"\0"), dtype=dtype).reshape(shape).copy()
@@ -137,6 +100,34 @@ def load(obj, chunks=None):
             out._rebuild_derived()
         return out
     raise TypeError(f"unknown checkpoint value with keys {sorted(obj)[:5]}")
+
+
+def packable(obj, chunks: dict, pause=None):
+    """:func:`dump`'s output with its arrays as bytes; an array of more than :data:`CHUNK`
+    bytes becomes the list of its chunks' digests, and ``chunks`` gains ``{digest: chunk}``
+    (memoryviews into the dumped copy: :func:`stored` turns the new ones into bytes).
+    ``pause()``, if given, is called after each such array. Writer thread."""
+    if isinstance(obj, list):
+        return [packable(x, chunks, pause) for x in obj]
+    if not isinstance(obj, dict):
+        return obj
+    if "__nd__" in obj:
+        dtype, shape, a = obj["__nd__"]
+        raw = memoryview(a.reshape(-1)).cast("B")
+        if raw.nbytes <= CHUNK:
+            return {"__nd__": [dtype, shape, stored(raw)]}
+        digests = []
+        for i in range(0, raw.nbytes, CHUNK):
+            part = raw[i:i + CHUNK]
+            # content addressing, not security: a changed chunk gets a new key. XXH3-128 reads
+            # 745 kB in 0.03 ms, SHA-1 in 0.6 ms (a round hashes every open stream's state)
+            d = xxhash.xxh3_128_digest(part)
+            chunks[d] = part
+            digests.append(d)
+        if pause is not None:
+            pause()
+        return {"__nd__": [dtype, shape, digests]}
+    return {k: packable(v, chunks, pause) for k, v in obj.items()}
 
 
 def stored(chunk: memoryview) -> bytes:
