@@ -1,7 +1,7 @@
 """The root-height column of the repetition segmenter (``root_height_weight``; issue 14).
 
-Material: four real HDM05 squat clips of actor bd concatenated (data/README.md), as in
-``tests/test_rep_end_to_end.py``.
+Material: four real HDM05 squat clips of actor bd concatenated (the ``bd_squats`` fixture,
+data/README.md).
 """
 
 from __future__ import annotations
@@ -13,20 +13,12 @@ import pytest
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
-from streamseg.io import read
 from streamseg.offline.repetition import RepetitionSegmenter, root_height, with_root_height
-from streamseg.recording import Recording
-
-TAKES = ("001", "002", "003", "004")
 
 
 @pytest.fixture(scope="module")
-def squats(data_dir):
-    asf = data_dir / "hdm05_reps" / "asf" / "HDM_bd.asf"
-    recs = [read(data_dir / "hdm05_reps" / "squat1Reps" / f"HDM_bd_squat1Reps_{t}_120.amc.gz",
-                 skeleton=asf) for t in TAKES]
-    pos = np.concatenate([r.positions for r in recs])
-    return Recording(120.0, recs[0].skeleton, pos, source="4 concatenated squats")
+def squats(bd_squats):
+    return bd_squats[0]
 
 
 def _h(rec, positions=None, up=None):
