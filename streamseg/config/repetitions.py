@@ -164,7 +164,15 @@ class RepetitionConfig:
         analysed as given). The spectrum, the parameter selection and the DTW template all
         see it. Why: the bone directions carry no height, so a bounce (hip +7..13 cm) followed
         by a hop (+19..30 cm) looks like two short hops (issue 14, round 9: dg's two-leg
-        hops, 12 of 18 counted too few clean).
+        hops, 12 of 18 counted too few clean). Off by default: grid {1, 2, 4} on draws 0-5
+        of bd, bk and dg (270 sequences per condition; ``benchmarks/rep_heldout.py
+        --choose-on none``), alpha clean / Kinect-like and exact counts (of 270):
+        0 0.901 / 0.855 (249 / 235), 1 0.902 / 0.857 (250 / 237), 2 0.903 / 0.863 (250 /
+        239), 4 0.905 / 0.865 (248 / 238). The declared rule chose 4 (best mean alpha, 0.0017
+        above 2), and 4 counts one clean sequence fewer exactly than 0, so nothing was held
+        out (issue 14, round 10). dg gains (Kinect-like 0.784 -> 0.824 at 4), bk loses
+        (0.860 -> 0.845); the tiling objective still prefers dg's wrong hop pieces, with the
+        height in the template too.
     repetitive_ratio : float
         Routines (:mod:`streamseg.offline.sets`): a take whose power concentration reaches
         this (and that passes the repetitive test) is one exercise, one set, and is not cut
