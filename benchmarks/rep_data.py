@@ -17,6 +17,7 @@ from __future__ import annotations
 import csv
 import hashlib
 from collections import defaultdict
+from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +97,19 @@ def make_sequences(clips, names, per_pair, seed, classes=None):
     return out
 
 
+def parse_set(items, base: RepetitionConfig) -> dict:
+    """``["field=value", ...]`` (``--set``) -> a dict of typed RepetitionConfig changes."""
+    types = {f.name: type(getattr(base, f.name)) for f in fields(base)}
+    out = {}
+    for item in items:
+        k, _, v = item.partition("=")
+        if k not in types:
+            raise SystemExit(f"--set {item}: no RepetitionConfig field {k!r}")
+        t = types[k]
+        out[k] = (v.lower() in ("1", "true", "yes")) if t is bool else t(v)
+    return out
+
+
 def ukf_key(cfg: RepetitionConfig) -> str:
     return "_".join(f"{getattr(cfg, f)}" for f in UKF_FIELDS)
 
@@ -119,9 +133,18 @@ def bone_features(seq, cfg: RepetitionConfig, cache: Path | None = CACHE) -> np.
     return X
 
 
+def features(seq, cfg: RepetitionConfig, cache: Path | None = CACHE) -> np.ndarray:
+    """What :class:`RepetitionSegmenter` with ``cfg`` analyses for ``seq``: the cached bone
+    directions and, with ``cfg.root_height_weight > 0``, the root height (not cached: cheap)."""
+    from streamseg.offline.repetition import with_root_height
+
+    return with_root_height(bone_features(seq, cfg, cache), seq["recording"], cfg)
+
+
 def single_clips(seed: int, cfg: RepetitionConfig):
     """Every clip of ``clips.csv`` alone, clean and Kinect-like (``seed`` draws the noise):
-    yields ``(row, kind, condition, features, fps)``, ``kind`` "repetition" or "action"."""
+    yields ``(row, kind, condition, seq, fps)``, ``kind`` "repetition" or "action", ``seq``
+    for :func:`features` (the UKF run with ``cfg``'s settings and cached here)."""
     from streamseg.evaluation.datasets import HDM05_REPETITIVE
 
     rng = np.random.default_rng(seed + 7)
@@ -139,4 +162,5 @@ def single_clips(seed: int, cfg: RepetitionConfig):
                 fps = rec.fps / KINECT_FPS_STEP
             seq = {"recording": Recording(fps, rec.skeleton, pos, source=row["file"]),
                    "key": f"clip/{row['file']}/{cond}/{seed}"}
-            yield row, kind, cond, bone_features(seq, cfg), fps
+            bone_features(seq, cfg)  # fills the cache
+            yield row, kind, cond, seq, fps

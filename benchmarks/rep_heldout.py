@@ -23,28 +23,15 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import fields, replace
+from dataclasses import replace
 
 import numpy as np
-from rep_data import bone_features, load_clips, make_sequences
+from rep_data import features, load_clips, make_sequences, parse_set
 
 from streamseg.config import RepetitionConfig
 from streamseg.evaluation.datasets import HDM05_ACTORS, HDM05_REPETITIVE
 from streamseg.evaluation.metrics import count_error, repetition_accuracy
 from streamseg.offline.repetition import RepetitionSegmenter
-
-
-def parse_set(items, base):
-    """``["field=value", ...]`` -> a dict of typed RepetitionConfig changes."""
-    types = {f.name: type(getattr(base, f.name)) for f in fields(base)}
-    out = {}
-    for item in items:
-        k, _, v = item.partition("=")
-        if k not in types:
-            raise SystemExit(f"--set {item}: no RepetitionConfig field {k!r}")
-        t = types[k]
-        out[k] = (v.lower() in ("1", "true", "yes")) if t is bool else t(v)
-    return out
 
 
 def _row(rows):
@@ -71,9 +58,8 @@ def main(argv=None):
     for seed in seeds:
         for s in make_sequences(clips, names, args.per_pair, seed,
                                 classes=set(HDM05_REPETITIVE)):
-            X = bone_features(s, base)
             for name, cfg in configs:
-                seg = RepetitionSegmenter(cfg, s["fps"]).fit(X)
+                seg = RepetitionSegmenter(cfg, s["fps"]).fit(features(s, cfg))
                 res.append((seed, s["actor"], s["cond"], name,
                             (repetition_accuracy(seg.repetitions_, s["reps"]),
                              count_error(seg.count_, len(s["reps"])))))
@@ -106,12 +92,12 @@ def main(argv=None):
 
 def run_clips(configs, seed):
     """Single clips (as ``repetitions.py --clips``): the share each config calls repetitive."""
-    from rep_data import single_clips
+    from rep_data import features, single_clips
 
     out = {}
-    for row, kind, cond, X, fps in single_clips(seed, configs[0][1]):
+    for row, kind, cond, seq, fps in single_clips(seed, configs[0][1]):
         for name, cfg in configs:
-            rep = RepetitionSegmenter(cfg, fps).fit(X).repetitive_
+            rep = RepetitionSegmenter(cfg, fps).fit(features(seq, cfg)).repetitive_
             out.setdefault((cond, row["actor"], kind), {}).setdefault(name, []).append(rep)
     print("\nsingle clips (truth: not repetitive), share counted repetitive")
     print(f"{'condition':9s} {'actor':5s} {'clip':10s} {'n':>3s} "

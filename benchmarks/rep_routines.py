@@ -16,7 +16,7 @@ import csv
 import time
 
 import numpy as np
-from rep_data import DATA, bone_features, load_clips, make_sequences
+from rep_data import DATA, features, load_clips, make_sequences
 
 from streamseg.evaluation.datasets import (
     HDM05_ACTORS,
@@ -126,7 +126,7 @@ def run_live(args, cfg):
     delays, first_err, t_live = [], [], 0.0
     for s in seqs:
         rec = s["recording"]
-        off = RepetitionSegmenter(cfg, s["fps"]).fit(bone_features(s, cfg))
+        off = RepetitionSegmenter(cfg, s["fps"]).fit(features(s, cfg))
         t0 = time.perf_counter()
         ev, ev_end = live_counts(rec.positions, rec, cfg=cfg)
         t_live += time.perf_counter() - t0

@@ -36,7 +36,7 @@ from collections import defaultdict
 from dataclasses import replace
 
 import numpy as np
-from rep_data import bone_features, load_clips, make_sequences
+from rep_data import features, load_clips, make_sequences, parse_set
 
 from streamseg.config import RepetitionConfig
 from streamseg.evaluation.datasets import HDM05_ACTORS, HDM05_REPETITIVE
@@ -98,7 +98,7 @@ def run_hdm05(args, base):
     seqs = make_sequences(clips, names, args.per_pair, args.seed, classes=set(HDM05_REPETITIVE))
     t0 = time.perf_counter()
     for s in seqs:
-        s["X"] = bone_features(s, base)
+        s["X"] = features(s, base)
     print(f"HDM05: {len(seqs) // 2} sequences x 2 conditions ({args.per_pair} per actor and "
           f"class, seed {args.seed}); UKF features {time.perf_counter() - t0:.0f} s (cached)")
     on = args.choose_on
@@ -110,7 +110,7 @@ def run_hdm05(args, base):
             more = [s for s in make_sequences(clips, names, args.per_pair, seed,
                                               classes=set(HDM05_REPETITIVE)) if s["actor"] == on]
             for s in more:
-                s["X"] = bone_features(s, base)
+                s["X"] = features(s, base)
             pool += more
     cfg, chosen = choose(pool, base)
     print(f"chosen on {on} alone ({len(pool) // 2} sequences, seeds {seeds or [args.seed]}; "
@@ -188,9 +188,9 @@ def run_clips(args, base):
     others = [("defaults", base)]
     rows = defaultdict(lambda: defaultdict(list))
     t0 = time.perf_counter()
-    for row, kind, cond, X, fps in single_clips(args.seed, base):
+    for row, kind, cond, seq, fps in single_clips(args.seed, base):
         for name, cfg in others:
-            seg = RepetitionSegmenter(cfg, fps).fit(X)
+            seg = RepetitionSegmenter(cfg, fps).fit(features(seq, cfg))
             rows[(cond, row["actor"], kind)][name].append(seg.repetitive_)
     print(f"\nsingle clips (one repetition or one action; truth: not repetitive), share counted "
           f"repetitive ({time.perf_counter() - t0:.0f} s)")
@@ -216,8 +216,11 @@ def main(argv=None):
     ap.add_argument("--clips", action="store_true",
                     help="single clips of every actor: false 'repetitive' answers")
     ap.add_argument("--skip-hdm05", action="store_true", help="skip part 1")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="a RepetitionConfig field changed from the defaults everywhere (e.g. "
+                         "root_height_weight=2 for parts 2-3); repeatable")
     args = ap.parse_args(argv)
-    base = RepetitionConfig()
+    base = replace(RepetitionConfig(), **parse_set(args.set, RepetitionConfig()))
     if not args.skip_hdm05:
         run_hdm05(args, base)
     if args.clips:

@@ -22,6 +22,24 @@ def rec(data_dir):
 
 
 @pytest.fixture(scope="session")
+def bd_squats(data_dir):
+    """(recording, true repetitions): four real HDM05 squat clips of actor bd concatenated
+    (takes 001-004; the joins are the true boundaries, see data/README.md)."""
+    import numpy as np
+
+    from streamseg.io import read
+    from streamseg.recording import Recording
+
+    asf = data_dir / "hdm05_reps" / "asf" / "HDM_bd.asf"
+    recs = [read(data_dir / "hdm05_reps" / "squat1Reps" / f"HDM_bd_squat1Reps_{t}_120.amc.gz",
+                 skeleton=asf) for t in ("001", "002", "003", "004")]
+    pos = np.concatenate([r.positions for r in recs])
+    ends = np.cumsum([r.n_frames for r in recs])
+    truth = list(zip([0, *ends[:-1].tolist()], ends.tolist()))
+    return Recording(120.0, recs[0].skeleton, pos, source="4 concatenated squats"), truth
+
+
+@pytest.fixture(scope="session")
 def warm_kernels() -> None:
     """Every numba kernel compiled (or loaded from the cache) once per session, so that no
     test's waits include compilation: a daemon started after this is ready at once."""

@@ -13,23 +13,14 @@ import pytest
 
 from streamseg.cli import main
 from streamseg.evaluation.metrics import repetition_accuracy
-from streamseg.io import read, write_npz
+from streamseg.io import write_npz
 from streamseg.offline.repetition import RepetitionSegmenter
 from streamseg.online.repetition import RepetitionCounter, RepEvent
-from streamseg.recording import Recording
-
-TAKES = ("001", "002", "003", "004")
 
 
 @pytest.fixture(scope="module")
-def squats(data_dir):
-    asf = data_dir / "hdm05_reps" / "asf" / "HDM_bd.asf"
-    recs = [read(data_dir / "hdm05_reps" / "squat1Reps" / f"HDM_bd_squat1Reps_{t}_120.amc.gz",
-                 skeleton=asf) for t in TAKES]
-    pos = np.concatenate([r.positions for r in recs])
-    ends = np.cumsum([r.n_frames for r in recs])
-    truth = list(zip([0, *ends[:-1].tolist()], ends.tolist()))
-    return Recording(120.0, recs[0].skeleton, pos, source="4 concatenated squats"), truth
+def squats(bd_squats):
+    return bd_squats
 
 
 @pytest.fixture(scope="module")

@@ -22,9 +22,10 @@ from streamseg.offline import repetition_steps as steps
 from streamseg.offline.missing_frames import bad_frames, bridge_missing_frames, bridge_rows
 from streamseg.offline.rep_align import align_repetitions
 from streamseg.segments import Estimator, Segment
+from streamseg.skeleton.bones import up_vector
 
 __all__ = ["RepetitionAnalysis", "RepetitionSegmenter", "angles_from_positions", "analyse",
-           "min_repetitions", "not_repetitive_reason"]
+           "min_repetitions", "not_repetitive_reason", "root_height", "with_root_height"]
 
 
 def angles_from_positions(positions, names, fps, config: RepetitionConfig | None = None):
@@ -53,6 +54,62 @@ def angles_from_positions(positions, names, fps, config: RepetitionConfig | None
                            angle_speed=cfg.angle_speed, length_speed=cfg.length_speed,
                            passes=cfg.ukf_passes)
     return angles
+
+
+def root_height(positions, names, fps, up="y", config: RepetitionConfig | None = None):
+    """The pelvis height per frame, relative to its median over the take, in body-scale units.
+
+    The bone directions carry no height: a bounce before a hop and a second hop look alike
+    in them, the hip rising 7-13 cm in the one and 19-30 cm in the other (HDM05 dg).
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n_frames, n_joints, 3)
+    names : sequence of str
+        Joint names (any skeleton :func:`streamseg.kinematics.model.limb_points` maps).
+    fps : float
+    up : str
+        World up axis of the positions (``Skeleton.up``: ``"y"``, ``"-z"``, ...).
+    config : RepetitionConfig, optional
+        Its ``torso_cutoff_hz`` enters the body scale's estimate (as in the UKF's).
+
+    Returns
+    -------
+    ndarray, shape (n_frames,)
+        Height along ``up`` minus its median, divided by the body scale (the median long-bone
+        length, :func:`streamseg.kinematics.model.observations`; about 0.4 m on an adult).
+    """
+    cfg = config or RepetitionConfig()
+    pts = limb_points(np.asarray(positions, dtype=np.float64), names)
+    scale = observations(pts, fps, cfg.torso_cutoff_hz)[1]
+    h = pts["pelvis"] @ up_vector(up)
+    return (h - np.nanmedian(h)) / scale
+
+
+def with_root_height(D, recording, config: RepetitionConfig | None = None):
+    """The analysed parameters: ``D`` and, with ``root_height_weight > 0``, the root height.
+
+    Parameters
+    ----------
+    D : ndarray, shape (n_frames, n_params)
+        The bone directions of ``recording`` (:func:`streamseg.kinematics.model.
+        bone_directions` of the UKF angles).
+    recording : Recording
+        Joint positions, names, frame rate and up axis.
+    config : RepetitionConfig, optional
+
+    Returns
+    -------
+    ndarray, shape (n_frames, n_params) or (n_frames, n_params + 1)
+        ``D`` unchanged when ``root_height_weight`` is 0, else with the last column
+        ``root_height_weight`` x :func:`root_height`.
+    """
+    cfg = config or RepetitionConfig()
+    if cfg.root_height_weight <= 0:
+        return D
+    h = root_height(recording.positions, recording.skeleton.names, recording.fps,
+                    recording.skeleton.up, cfg)
+    return np.concatenate([D, cfg.root_height_weight * h[:, None]], axis=1)
 
 
 @dataclass(frozen=True)
@@ -305,7 +362,9 @@ class RepetitionSegmenter(Estimator):
         0 when there was nothing to analyse.
     angles_ : ndarray, shape (n_frames, n_params)
         The parameters analysed: for a recording, the unit directions of the model's 10
-        bones computed from the UKF joint angles (n_params = 30); for an array, the array.
+        bones computed from the UKF joint angles (n_params = 30), and with
+        ``root_height_weight > 0`` the weighted root height (:func:`with_root_height`,
+        n_params = 31); for an array, the array.
     joint_angles_ : ndarray, shape (n_frames, 20)
         The UKF joint angles (recordings only).
     param_names_ : tuple of str
@@ -356,8 +415,9 @@ class RepetitionSegmenter(Estimator):
                 # shoulder's Euler angles jump between equivalent branches when an arm circles
                 # through 360 degrees (and wind by 2 pi per circle); the directions do neither.
                 self.joint_angles_ = angles
-                self.angles_ = bone_directions(angles)
-            self.param_names_ = BONE_NAMES
+                self.angles_ = with_root_height(bone_directions(angles), X, self.config)
+            self.param_names_ = BONE_NAMES + (("root_height",) if self.angles_.shape[1]
+                                              > len(BONE_NAMES) else ())
         else:
             if fps is None or not fps > 0:
                 raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) "
@@ -417,9 +477,7 @@ class RepetitionSegmenter(Estimator):
     def _align(self, a):
         """The repetitions re-cut by DTW against a template (``align="dtw"``)."""
         cfg = self.config
-        cols = a.selected if cfg.align_features == "selected" else np.arange(self.angles_.shape[1])
-        F = _smooth(self.angles_[:, cols], self.fps_, cfg.refine_band * a.primary_hz,
-                    cfg.filter_order)
+        F, cols = self.alignment_features(a)
         reps = align_repetitions(F, self.repetitions_, self.fps_, rate_hz=cfg.align_rate_hz,
                                  stretch=cfg.align_stretch, iterations=cfg.align_iterations,
                                  max_slope=cfg.align_max_slope,
@@ -432,6 +490,29 @@ class RepetitionSegmenter(Estimator):
             reps = _snap(reps, np.sum((F - rest) ** 2, axis=1), cfg.align_snap,
                          cfg.align_snap_level, cfg.align_snap_position)
         return reps
+
+    def alignment_features(self, a):
+        """What the DTW re-cut compares: the aligned columns, low-passed.
+
+        ``align_features`` "selected": the selected parameters; "all": every analysed one.
+        With ``root_height_weight > 0`` the last analysed column (the root height,
+        :func:`with_root_height`; an array is taken to carry it there) is always among them:
+        the selection may drop it where the bones carry most of the power, and the template
+        is what must tell a bounce from a hop.
+
+        Returns
+        -------
+        F : ndarray, shape (n_frames, n_cols)
+        cols : ndarray of int, shape (n_cols,)
+        """
+        cfg = self.config
+        n = self.angles_.shape[1]
+        cols = a.selected if cfg.align_features == "selected" else np.arange(n)
+        if cfg.root_height_weight > 0 and n - 1 not in cols:
+            cols = np.append(cols, n - 1)
+        F = _smooth(self.angles_[:, cols], self.fps_, cfg.refine_band * a.primary_hz,
+                    cfg.filter_order)
+        return F, cols
 
     def predict(self) -> list[Segment]:
         """The repetitions, ``Segment(start, end, index)`` (0-based, end exclusive)."""
