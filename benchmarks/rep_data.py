@@ -136,7 +136,7 @@ def bone_features(seq, cfg: RepetitionConfig, cache: Path | None = CACHE) -> np.
 def features(seq, cfg: RepetitionConfig, cache: Path | None = CACHE) -> np.ndarray:
     """What :class:`RepetitionSegmenter` with ``cfg`` analyses for ``seq``: the cached bone
     directions and, with ``cfg.root_height_weight > 0``, the root height (not cached: cheap)."""
-    from streamseg.offline.repetition import with_root_height
+    from streamseg.offline.root_height import with_root_height
 
     return with_root_height(bone_features(seq, cfg, cache), seq["recording"], cfg)
 

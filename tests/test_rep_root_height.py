@@ -13,7 +13,8 @@ import pytest
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
-from streamseg.offline.repetition import RepetitionSegmenter, root_height, with_root_height
+from streamseg.offline.repetition import RepetitionSegmenter
+from streamseg.offline.root_height import root_height, with_root_height
 
 
 @pytest.fixture(scope="module")

@@ -160,7 +160,7 @@ class RepetitionConfig:
         0 (off): the analysed parameters are the 30 bone directions. Above 0 a 31st
         column is added: the pelvis height relative to its median over the take, in
         body-scale units (1 = the median long-bone length), times this weight
-        (:func:`streamseg.offline.repetition.with_root_height`; recordings only, an array is
+        (:func:`streamseg.offline.root_height.with_root_height`; recordings only, an array is
         analysed as given). The spectrum, the parameter selection and the DTW template all
         see it. Why: the bone directions carry no height, so a bounce (hip +7..13 cm) followed
         by a hop (+19..30 cm) looks like two short hops (issue 14, round 9: dg's two-leg
