@@ -37,8 +37,7 @@ def dtw_cost(A, B, max_slope=2, max_compress=2) -> float:
         The template.
     B : ndarray, shape (m, d)
     max_slope : int
-        Most frames of ``B`` per frame of ``A`` in one step; at most two frames of ``A`` per
-        frame of ``B``.
+        Most frames of ``B`` per frame of ``A`` in one step.
     max_compress : int
         Most frames of ``A`` per frame of ``B`` in one step
         (:func:`streamseg._kernels.rep_align.open_end_costs`).
