@@ -1,0 +1,136 @@
+"""Pelvis-speed columns, round 12 (issue 11): leave-one-out over every labelled recording.
+
+Rounds 10 and 11 (``lof_pelvis.py``, ``lof_pelvis2.py``) each chose v_max on a pair and scored
+the rest once; both raised pooled F1 and both lowered the cmu02 mean, so neither was adopted.
+This round asks the question the issue asks, over all 27 labelled recordings at once (the 14,
+the fresh nine, the fresh2 four): if the value were chosen without a recording, how would that
+recording fare? Declared before it ran (this docstring was committed first):
+
+- candidates: ``CANDIDATES``, pelvis off (the defaults) and both columns at v_max 0.5, 1.0,
+  1.5, 2.0 m/s (round 10's and 11's mechanism unchanged: ``lof_pelvis.pelvis_speeds``,
+  ``with_pelvis``, the teleport rule ``JUMP_M``);
+- for each held-out recording, the candidate with the highest pooled F1 (label window + 0.5 s)
+  over the other 26; ties go to pelvis off, then the smaller v_max;
+- reported: the held-out recording's F1 under its choice, pooled and per set (cmu, cmu02, hdm,
+  fresh, fresh2), beside the defaults; how often each candidate was chosen;
+- adoption, all of: LOO pooled F1 >= the defaults' + 0.02; no set's LOO mean below the
+  defaults'; no more recordings below 0.4 than the defaults have; median latency <= 2.5 s.
+
+Not blind: rounds 10 and 11 showed every one of these recordings with v_max 1.0 or 0.5, and
+the cmu02 loss (the swordplay join localised 0.9 s late) was seen. The rule above was written
+knowing that; it is a check that the gain is not an artefact of one train pair, not new
+evidence. The pelvis columns are benchmark-only (no library option); adopting them would mean a
+``LOFConfig`` option, the daemon's feature pipeline and tests. Joins are abrupt (root teleports
+at each join, hence ``JUMP_M``).
+
+Result: see the bottom of this docstring once run.
+
+Run: .venv/bin/python benchmarks/lof_pelvis_loo.py   (about 3 minutes)
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from lof_accuracy import FPS, features, lof_cuts, recordings, score, set_of  # noqa: E402
+from lof_confirm import fresh_recordings, pooled  # noqa: E402
+from lof_pelvis import pelvis_speeds, with_pelvis  # noqa: E402
+from lof_pelvis2 import fresh2_recordings  # noqa: E402
+
+from streamseg.config import LOFConfig  # noqa: E402
+from streamseg.evaluation.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
+
+#: None = pelvis off (the defaults); a float = both pelvis columns at that v_max (m/s)
+CANDIDATES = (None, 0.5, 1.0, 1.5, 2.0)
+#: a recording below this F1 counts as failed (the issue's "no recording below 0.4")
+FLOOR = 0.4
+
+
+def group(name: str) -> str:
+    """The set a recording belongs to: cmu, cmu02, hdm, fresh or fresh2."""
+    if name.startswith("fresh2_"):
+        return "fresh2"
+    return "fresh" if name.startswith("fresh_") else set_of(name)
+
+
+def label(c) -> str:
+    return "pelvis off" if c is None else f"v_max {c:g}"
+
+
+def loo_choices(res, names):
+    """``{held-out name: candidate}``: the best pooled F1 over the others, ties to the earlier
+    candidate in ``CANDIDATES``."""
+    out = {}
+    for held in names:
+        rest = [n for n in names if n != held]
+        scores = [pooled(res[c], rest)[0] for c in CANDIDATES]
+        out[held] = CANDIDATES[int(np.argmax(scores))]  # argmax: first of equals
+    return out
+
+
+def main():
+    cfg = LOFConfig()
+    recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
+    allrecs = {**recs, **fresh_recordings(), **fresh2_recordings()}
+    names = list(allrecs)
+    feats = {k: np.ascontiguousarray(features(r, True)) for k, (r, _, _) in allrecs.items()}
+    vels = {k: pelvis_speeds(r) for k, (r, _, _) in allrecs.items()}
+
+    def run(n, v):
+        a = feats[n] if v is None else with_pelvis(feats[n], vels[n], v)
+        cuts, lats = lof_cuts(a, cfg, True)
+        return score(cuts, allrecs[n][1], allrecs[n][2], len(a)), list(lats or []), cuts
+
+    res = {c: {n: run(n, c) for n in names} for c in CANDIDATES}
+    choice = loo_choices(res, names)
+    loo = {n: res[choice[n]][n] for n in names}
+    base = res[None]
+    sets = sorted({group(n) for n in names}, key=["cmu", "cmu02", "hdm", "fresh",
+                                                  "fresh2"].index)
+
+    print(f"{len(names)} labelled recordings; every candidate, all recordings (not LOO)")
+    print("| candidate | pooled F1 | " + " | ".join(sets) + " | below 0.4 | latency median |")
+    print("|---|---|" + "---|" * len(sets) + "---|---|")
+    for c in CANDIDATES:
+        _row(label(c), res[c], names, sets)
+    print("\nleave-one-out: each recording scored with the candidate chosen on the other "
+          f"{len(names) - 1}")
+    print("| detector | pooled F1 | " + " | ".join(sets) + " | below 0.4 | latency median |")
+    print("|---|---|" + "---|" * len(sets) + "---|---|")
+    b = _row("defaults (pelvis off)", base, names, sets)
+    m = _row("LOO choice", loo, names, sets)
+    counts = {label(c): sum(v == c for v in choice.values()) for c in CANDIDATES}
+    print("\nchosen: " + ", ".join(f"{k} {v}x" for k, v in counts.items() if v))
+    print("\nper recording: defaults -> LOO (its choice; F1, cuts, correct of true)")
+    for n in names:
+        print(f"  {n:26s} {group(n):6s} {base[n][0]['f1']:.2f} -> {loo[n][0]['f1']:.2f} "
+              f"({label(choice[n])})  cuts {base[n][0]['n']} -> {loo[n][0]['n']}, correct "
+              f"{base[n][0]['tp']} -> {loo[n][0]['tp']} of {base[n][0]['n_true']}")
+    ok = (m["pooled"] >= b["pooled"] + 0.02,
+          all(m["sets"][s] >= b["sets"][s] for s in sets),
+          m["below"] <= b["below"], m["latency"] <= 2.5)
+    print(f"\nrule: pooled +0.02 {ok[0]} ({b['pooled']:.3f} -> {m['pooled']:.3f}); no set lower "
+          f"{ok[1]}; below {FLOOR} not more {ok[2]} ({b['below']} -> {m['below']}); median "
+          f"latency {m['latency']:.2f} s <= 2.5 s {ok[3]} -> "
+          + ("ADOPT (needs the library option)" if all(ok) else "do not adopt"))
+
+
+def _row(name, h, names, sets):
+    pf = pooled(h, names)[0]
+    per = {s: float(np.mean([h[n][0]["f1"] for n in names if group(n) == s])) for s in sets}
+    below = sum(h[n][0]["f1"] < FLOOR for n in names)
+    lat = float(np.median([x for n in names for x in h[n][1]])) / FPS
+    print(f"| {name} | {pf:.3f} | " + " | ".join(f"{per[s]:.3f}" for s in sets)
+          + f" | {below} | {lat:.2f} s |")
+    return dict(pooled=pf, sets=per, below=below, latency=lat)
+
+
+if __name__ == "__main__":
+    main()
