@@ -23,7 +23,12 @@ evidence. The pelvis columns are benchmark-only (no library option); adopting th
 ``LOFConfig`` option, the daemon's feature pipeline and tests. Joins are abrupt (root teleports
 at each join, hence ``JUMP_M``).
 
-Result: see the bottom of this docstring once run.
+Result (2026-12-03, one run, 10 s): LOO chose v_max 1.0 for 25 recordings and 1.5 for two
+(14_20, fresh_bd_2); pooled F1 0.719 -> 0.751 (+0.032), cmu 0.833 -> 0.879, hdm 0.745 ->
+0.808, fresh 0.730 -> 0.753, fresh2 0.664 -> 0.736, but cmu02 0.450 -> 0.367
+(02_walk_punch_sword_wash: the same 9 cuts, one true cut found fewer); 2 recordings below
+0.4 before and after (hdm_bk_2 0.29 -> 0.50 leaves the list, fresh2_bk_1 0.00 -> 0.29
+stays, 02_walk_punch_sword_wash joins); median latency 2.29 s. NOT adopted (a set lower).
 
 Run: .venv/bin/python benchmarks/lof_pelvis_loo.py   (about 3 minutes)
 """
