@@ -110,6 +110,8 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     if fb is None:  # the columns the library histograms (the features and their speeds)
         fb = frame_bins(lof_columns(angles, c, fps), c.bins)
     bins_, valid = fb
+    # the checks read the pose columns only (LOFConfig.check_columns: not the root speeds)
+    bins_ = np.ascontiguousarray(bins_[:, :c.check_columns(angles.shape[1])])
     left = np.zeros(bins_.shape[1] * c.bins, dtype=np.int64)
     right = left.copy()
     keep = np.zeros(2 * delay + 1, dtype=np.uint8)

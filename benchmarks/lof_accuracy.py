@@ -65,7 +65,7 @@ from streamseg.evaluation.datasets import (  # noqa: E402
 from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts  # noqa: E402
 from streamseg.evaluation.metrics import covering, cut_scores, latency_stats  # noqa: E402
 from streamseg.io import read  # noqa: E402
-from streamseg.offline.lof import LOFSegmenter  # noqa: E402
+from streamseg.offline.lof import LOFSegmenter, lof_features  # noqa: E402
 from streamseg.online.lof import StreamingLOFSegmenter  # noqa: E402
 from streamseg.skeleton import bone_angles  # noqa: E402
 
@@ -75,13 +75,15 @@ PELT_PENALTIES = (5, 10, 20, 40, 80)
 CHOSEN_ON = ("86_01", "hdm_bd_0")
 #: the detector before the defaults were chosen for short actions (issue: live cuts)
 PREVIOUS = dict(window_s=2.25, k=10, delay_s=2.5, min_score=1.3, min_contrast=0.0,
-                speed_max=0.0, novelty=0.0, refine_s=0.4)
+                speed_max=0.0, novelty=0.0, refine_s=0.4, root_speed_max=0.0)
 #: the defaults before the wider localisation radius (issue 11, round 8: lof_placement.py)
-RADIUS_04 = dict(refine_s=0.4)
+RADIUS_04 = dict(refine_s=0.4, root_speed_max=0.0)
 #: the defaults before the angular-speed columns (issue 11, round 3: benchmarks/lof_curves.py)
-NO_SPEEDS = dict(speed_max=0.0)
+NO_SPEEDS = dict(speed_max=0.0, root_speed_max=0.0)
 #: the defaults before the novelty check (issue 11, round 4: lof_variants.py --part 7)
-NO_NOVELTY = dict(novelty=0.0)
+NO_NOVELTY = dict(novelty=0.0, root_speed_max=0.0)
+#: the defaults before the root-speed columns (issue 11, round 14: lof_pelvis_loo.py --library)
+NO_ROOT = dict(root_speed_max=0.0)
 #: the paper preset (issue 11, round 5): its one free parameter, the Douglas-Peucker tolerance
 #: the paper does not give, is chosen on this one recording (the paper's own CMU subject
 #: family), declared before any figure of the faithful rule existed; every other recording is
@@ -116,14 +118,23 @@ def recordings():
     return out
 
 
-def features(recording, inclinations: bool):
-    """The 8 bone angles, or those and the 9 bone inclinations (the default), (n, 8 or 17)."""
-    return bone_angles(recording.positions, recording.skeleton, inclinations=inclinations)
+def features(recording, inclinations: bool, root: bool = True):
+    """The 8 bone angles, or those and the 9 bone inclinations (the default), then (``root``)
+    the 2 root speeds of the default ``root_speed_max``: (n, 8 or 17, + 2): the input of a
+    ``LOFConfig(inclinations=inclinations)`` detector, or with ``root=False`` of one with
+    ``root_speed_max=0`` (and the matrix Pelt sees)."""
+    if not root:
+        return bone_angles(recording.positions, recording.skeleton, inclinations=inclinations)
+    return lof_features(recording, LOFConfig(inclinations=inclinations))
 
 
 def lof_cuts(angles, config, online):
     """Cut frames (and latencies online) of the default detector fed ``angles`` (n, d)."""
     d = angles.shape[1]
+    if config.root_columns and d == config.n_features - config.root_columns:
+        raise SystemExit("lof_cuts: the bone features without the root speeds the config "
+                         "expects: feed streamseg.offline.lof.lof_features(recording, config), "
+                         "or LOFConfig(root_speed_max=0)")
     if online:
         det = StreamingLOFSegmenter(config, FPS, n_features=d)
         ev = []
@@ -212,7 +223,7 @@ def score(cuts, truth, windows, n):
 def main():
     t0 = time.perf_counter()
     recs = recordings()
-    feats = {(name, incl): features(r, incl) for name, (r, _, _) in recs.items()
+    feats = {(name, incl): features(r, incl, root=False) for name, (r, _, _) in recs.items()
              for incl in (False, True)}
     pelts = {name: Pelt(feats[name, True]) for name in recs}
     _, truth, windows = recs["86_01"]
@@ -224,6 +235,7 @@ def main():
         "LOF default offline": ("lof", LOFConfig(), False),
         "LOF refine_s 0.4": ("lof", LOFConfig(**RADIUS_04), True),
         "LOF no novelty check": ("lof", LOFConfig(**NO_NOVELTY), True),
+        "LOF no root speeds": ("lof", LOFConfig(**NO_ROOT), True),
         "LOF no speed columns": ("lof", LOFConfig(**NO_SPEEDS), True),
         "LOF previous defaults": ("lof", LOFConfig(**PREVIOUS), True),
         "LOF no contrast check": ("lof", LOFConfig(min_contrast=0.0), True),
@@ -252,13 +264,13 @@ def main():
         for name, (_r, truth, windows) in recs.items():
             lat = None
             if kind == "lof":
-                a = feats[name, param.inclinations]
+                a = lof_features(_r, param)  # the bone features, with the root speeds if any
                 cuts, lat = lof_cuts(a, param, online)
             elif kind == "whole":
-                a = feats[name, param.inclinations]
+                a = lof_features(_r, param)
                 cuts = whole_curve_cuts(a, param)
             elif kind == "paper_whole":
-                a = feats[name, param.inclinations]
+                a = lof_features(_r, param)
                 cuts = paper_whole_curve_cuts(a, param)
             else:
                 a = feats[name, True]

@@ -125,32 +125,39 @@ def pooled(res, names):
 
 def fresh_baseline():
     """The library's defaults (streaming) and ruptures Pelt (its penalty chosen on 86_01 by
-    lof_accuracy.py's rule) on the fresh nine: figures only, no choice is made on them."""
+    lof_accuracy.py's rule, on the 17 bone features) on the fresh nine and the fresh2 four:
+    figures only, no choice is made on them."""
+    from lof_pelvis2 import fresh2_recordings
+
+    from streamseg.offline.lof import lof_features
+
     r, truth, windows = recordings()["86_01"]
-    a = features(r, True)
+    a = features(r, True, root=False)
     pelt = Pelt(a)
     pen = max(PELT_PENALTIES, key=lambda p: (score(pelt.cuts(p), truth, windows, len(a))["f1"],
                                              p))
-    fresh = fresh_recordings()
-    res = {"LOF streaming, defaults": {}, f"ruptures Pelt (pen {pen}), offline": {}}
-    for n, (rec, cuts, _) in fresh.items():
-        a = np.ascontiguousarray(features(rec, True))
-        lc, lats = lof_cuts(a, LOFConfig(), True)
-        res["LOF streaming, defaults"][n] = (score(lc, cuts, None, len(a)), list(lats), lc)
-        pc = Pelt(a).cuts(pen)
-        res[f"ruptures Pelt (pen {pen}), offline"][n] = (score(pc, cuts, None, len(a)), [], pc)
-    names = list(fresh)
-    print("the 9 fresh HDM05 joins (abrupt), scored once, no choice made on them")
-    print("| method | " + " | ".join(names) + " | mean | pooled (true found / true, cuts) | "
-          "latency median |")
-    print("|---" * (len(names) + 4) + "|")
-    for label, h in res.items():
-        pf, tp, nt, npred = pooled(h, names)
-        lats = [x for n in names for x in h[n][1]]
-        med = f"{np.median(lats) / FPS:.2f} s" if lats else "offline"
-        print(f"| {label} | " + " | ".join(f"{h[n][0]['f1']:.2f}" for n in names)
-              + f" | {np.mean([h[n][0]['f1'] for n in names]):.3f} | {pf:.3f} ({tp}/{nt}, "
-              f"{npred} cuts) | {med} |")
+    for title, fresh in (("the 9 fresh HDM05 joins", fresh_recordings()),
+                         ("the 4 fresh2 HDM05 joins", fresh2_recordings())):
+        res = {"LOF streaming, defaults": {}, f"ruptures Pelt (pen {pen}), offline": {}}
+        for n, (rec, cuts, _) in fresh.items():
+            lc, lats = lof_cuts(lof_features(rec, LOFConfig()), LOFConfig(), True)
+            res["LOF streaming, defaults"][n] = (score(lc, cuts, None, rec.n_frames),
+                                                 list(lats), lc)
+            pc = Pelt(np.ascontiguousarray(features(rec, True, root=False))).cuts(pen)
+            res[f"ruptures Pelt (pen {pen}), offline"][n] = (score(pc, cuts, None, rec.n_frames),
+                                                            [], pc)
+        names = list(fresh)
+        print(f"\n{title} (abrupt), scored once, no choice made on them")
+        print("| method | " + " | ".join(names) + " | mean | pooled (true found / true, cuts) | "
+              "latency median |")
+        print("|---" * (len(names) + 4) + "|")
+        for label, h in res.items():
+            pf, tp, nt, npred = pooled(h, names)
+            lats = [x for n in names for x in h[n][1]]
+            med = f"{np.median(lats) / FPS:.2f} s" if lats else "offline"
+            print(f"| {label} | " + " | ".join(f"{h[n][0]['f1']:.2f}" for n in names)
+                  + f" | {np.mean([h[n][0]['f1'] for n in names]):.3f} | {pf:.3f} ({tp}/{nt}, "
+                  f"{npred} cuts) | {med} |")
 
 
 def auc(pos, neg):

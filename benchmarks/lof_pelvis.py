@@ -116,11 +116,11 @@ def _cos(a, b):
 
 def diagnose():
     """The table of the module docstring, on the nine existing HDM05 joins."""
-    cfg = LOFConfig()
+    cfg = LOFConfig(root_speed_max=0)  # the pelvis columns fed as features
     side = int(2 * FPS)
     rows = []
     for name, (r, cuts, plan) in hdm05_action_sequences(ROOT / "data").items():
-        a = np.ascontiguousarray(features(r, True))
+        a = np.ascontiguousarray(features(r, True, root=False))
         fb, valid = frame_bins(lof_columns(a, cfg, FPS), cfg.bins)
         oh = np.zeros((len(a), fb.shape[1], cfg.bins))
         oh[np.arange(len(a))[:, None], np.arange(fb.shape[1])[None], fb] = valid[:, None]
@@ -161,13 +161,13 @@ def speed(columns: int = 2, v_max: float = 2.0, runs: int = 31):
     ``columns`` pelvis speeds), interleaved, median of ``runs`` runs each (the pelvis columns'
     own cost excluded: they come with the frames). Returns the ratio."""
     r = recordings()["86_01"][0]
-    a17 = np.ascontiguousarray(np.tile(features(r, True), (3, 1)))
+    a17 = np.ascontiguousarray(np.tile(features(r, True, root=False), (3, 1)))
     ap = with_pelvis(a17, np.tile(pelvis_speeds(r)[:, :columns], (3, 1)), v_max)
     d = ap.shape[1]
     times = {17: [], d: []}
     for _ in range(runs):
         for a in (a17, ap):
-            det = StreamingLOFSegmenter(LOFConfig(), FPS, n_features=a.shape[1])
+            det = StreamingLOFSegmenter(LOFConfig(root_speed_max=0), FPS, n_features=a.shape[1])
             det.learn_many(a[:240])
             t0 = time.perf_counter()
             for i in range(240, len(a), 120):
@@ -190,9 +190,10 @@ def main():
     train_only = "--train" in sys.argv
     fresh = {} if train_only else fresh_recordings()
     allrecs = {**recs, **fresh}
-    feats = {k: np.ascontiguousarray(features(r, True)) for k, (r, _, _) in allrecs.items()}
+    feats = {k: np.ascontiguousarray(features(r, True, root=False))
+             for k, (r, _, _) in allrecs.items()}
     vels = {k: pelvis_speeds(r) for k, (r, _, _) in allrecs.items()}
-    cfg = LOFConfig()
+    cfg = LOFConfig(root_speed_max=0)  # the pelvis columns fed as features
 
     def run(n, v, online=True):
         a = feats[n] if v is None else with_pelvis(feats[n], vels[n], v)

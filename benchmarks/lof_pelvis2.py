@@ -120,13 +120,14 @@ def main():
         for name, (_actor, parts) in fresh2_plans().items():
             print(name, " | ".join(f"{c} x{len(p)}" for c, p in parts))
         return
-    cfg = LOFConfig()
+    cfg = LOFConfig(root_speed_max=0)  # the pelvis columns fed as features
     recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
     fresh = fresh_recordings()
     train_only = "--train" in sys.argv
     fresh2 = {} if train_only else fresh2_recordings()
     allrecs = {**recs, **fresh, **fresh2}
-    feats = {k: np.ascontiguousarray(features(r, True)) for k, (r, _, _) in allrecs.items()}
+    feats = {k: np.ascontiguousarray(features(r, True, root=False))
+             for k, (r, _, _) in allrecs.items()}
     vels = {k: pelvis_speeds(r) for k, (r, _, _) in allrecs.items()}
 
     def run(n, value, online=True):

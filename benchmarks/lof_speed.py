@@ -1,8 +1,8 @@
 """Speed of LOF cut detection, median of 5 runs, each beside the scikit-learn equivalent.
 
 * offline: a 10,000-frame recording (CMU 86_01 + 14_14 + the start of 14_20 joined, real
-  data, 120 Hz), joint positions -> bone features (the default: 8 angles + 9 inclinations)
-  -> histograms -> LOF -> cuts. The paper
+  data, 120 Hz), joint positions -> bone features (the default: 8 angles + 9 inclinations
+  + 2 root speeds) -> histograms -> LOF -> cuts. The paper
   reports about 1.2 s for 8,000-10,000 frames; target here < 50 ms after compilation.
   Baseline: the same pipeline with ``sklearn.neighbors.LocalOutlierFactor(metric="cosine")``
   in place of the numba LOF.
@@ -20,6 +20,8 @@
 * speed columns (``--speed-columns``): the defaults against ``LOFConfig(speed_max=0)`` (the
   detector without the angular-speed columns), interleaved run by run, median of 25.
 * novelty check (``--novelty``): the defaults against ``LOFConfig(novelty=0)``, the same way.
+* root speeds (``--root-speeds``): the defaults against ``LOFConfig(root_speed_max=0)``, the
+  same way (from positions: the root speeds computed per packet as the daemon does).
 * two stages (``--two-stage``): ``LOFConfig(early_delay_s=1.2)`` (pending cuts at 1.2 s,
   confirmed at the default 1.5 s) against the defaults (one stage), the same way.
 
@@ -28,6 +30,7 @@ Run: .venv/bin/python benchmarks/lof_speed.py      (about half a minute)
      .venv/bin/python benchmarks/lof_speed.py --speed-columns      (about a minute)
      .venv/bin/python benchmarks/lof_speed.py --novelty      (about a minute)
      .venv/bin/python benchmarks/lof_speed.py --two-stage      (about a minute)
+     .venv/bin/python benchmarks/lof_speed.py --root-speeds      (about a minute)
 """
 
 from __future__ import annotations
@@ -45,12 +48,12 @@ from streamseg._kernels.peaks import peak_windows  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
 from streamseg.evaluation.datasets import concatenate  # noqa: E402
 from streamseg.io import read  # noqa: E402
-from streamseg.offline.lof import LOFSegmenter, window_histograms  # noqa: E402
+from streamseg.offline.lof import LOFSegmenter, lof_features, window_histograms  # noqa: E402
 from streamseg.online.lof import StreamingLOFSegmenter, warmup  # noqa: E402
+from streamseg.online.root_speed import RootSpeed  # noqa: E402
 from streamseg.skeleton import bone_angles  # noqa: E402
 
 DATA = ROOT / "data"
-INCL = LOFConfig().inclinations  # the default features: 8 bone angles + 9 inclinations
 N = 10_000
 RUNS = 5
 PACKET = 120
@@ -78,11 +81,23 @@ def offline_ours(rec, cfg):
     return LOFSegmenter(cfg, rec.fps).fit(rec).cuts_
 
 
+def packet_features(rec, cfg):
+    """A function of a packet of positions -> the detector's features, stateful as a live
+    stream's (the bone features, then the root speeds when ``cfg`` has them)."""
+    root = RootSpeed(cfg, rec.fps, rec.skeleton) if cfg.root_columns else None
+
+    def feats(positions):
+        a = bone_angles(positions, rec.skeleton, inclinations=cfg.inclinations)
+        return a if root is None else np.column_stack([a, root(positions)])
+
+    return feats
+
+
 def offline_sklearn(rec, cfg):
     from sklearn.neighbors import LocalOutlierFactor
 
     g = cfg.frames(rec.fps)
-    a = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
+    a = lof_features(rec, cfg)
     counts, centres, _ = window_histograms(a, g["window"], g["step"], cfg.bins, g["min_valid"])
     lof = -LocalOutlierFactor(n_neighbors=cfg.k, metric="cosine").fit(
         counts).negative_outlier_factor_
@@ -93,10 +108,10 @@ def offline_sklearn(rec, cfg):
 
 def stream_many(rec, cfg):
     det = StreamingLOFSegmenter(cfg, rec.fps)
+    feats = packet_features(rec, cfg)
     ev = []
     for i in range(0, rec.n_frames, PACKET):
-        a = bone_angles(rec.positions[i:i + PACKET], rec.skeleton, inclinations=INCL)
-        ev += det.learn_many(a)
+        ev += det.learn_many(feats(rec.positions[i:i + PACKET]))
     return ev + det.finish()
 
 
@@ -104,9 +119,9 @@ def stream_one(rec, cfg, angles=None):
     det = StreamingLOFSegmenter(cfg, rec.fps)
     ev = []
     if angles is None:
+        feats = packet_features(rec, cfg)
         for i in range(rec.n_frames):
-            a = bone_angles(rec.positions[i:i + 1], rec.skeleton, inclinations=INCL)
-            ev += det.learn_one(a[0])
+            ev += det.learn_one(feats(rec.positions[i:i + 1])[0])
     else:
         for row in angles:
             ev += det.learn_one(row)
@@ -125,8 +140,9 @@ def stream_sklearn(rec, cfg):
     cur = np.zeros(d * cfg.bins)
     buf, n_cuts, f = [], 0, 0
     offs = np.arange(d) * cfg.bins
+    feats = packet_features(rec, cfg)
     for i in range(0, rec.n_frames, PACKET):
-        for row in bone_angles(rec.positions[i:i + PACKET], rec.skeleton, inclinations=INCL):
+        for row in feats(rec.positions[i:i + PACKET]):
             b = np.minimum((row * edges_scale).astype(np.int64), cfg.bins - 1) + offs
             if f >= win:
                 np.subtract.at(cur, ring[f % win], 1)
@@ -150,7 +166,7 @@ def steady_state(buffers=(15.0, 30.0, 75.0), n=60_000, runs=3):
     """us/frame while the buffer fills and once it is full, 86_01 angles cycled."""
     asf = DATA / "cmu86" / "86.asf"
     rec = read(DATA / "cmu86" / "86_01.amc.gz", skeleton=asf)
-    a = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
+    a = lof_features(rec)
     angles = np.ascontiguousarray(np.tile(a, (n // len(a) + 1, 1))[:n])
     warmup()
     print(f"steady state: 86_01 bone angles cycled to {n} frames at {rec.fps:g} Hz, "
@@ -187,29 +203,28 @@ def speed_columns_cost(runs=25, n=60_000, cfgs=None, what="speed columns"):
     both alike; the ratio is of medians. ``cfgs`` (two labelled configs, the first measured
     against the second) compares another option the same way (``--novelty``)."""
     rec = recording()
-    angles = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
-    a86 = bone_angles(*(lambda r: (r.positions, r.skeleton))(read(
-        DATA / "cmu86" / "86_01.amc.gz", skeleton=DATA / "cmu86" / "86.asf")),
-        inclinations=INCL)
-    cyc = np.ascontiguousarray(np.tile(a86, (n // len(a86) + 1, 1))[:n])
+    r86 = read(DATA / "cmu86" / "86_01.amc.gz", skeleton=DATA / "cmu86" / "86.asf")
     warmup()
     if cfgs is None:
         cfgs = {"speeds (defaults)": LOFConfig(), "no speeds": LOFConfig(speed_max=0.0)}
+    angles = {c: lof_features(rec, c) for c in cfgs.values()}
+    cyc = {c: np.ascontiguousarray(np.tile(a, (n // len(a) + 1, 1))[:n])
+           for c, a in ((c, lof_features(r86, c)) for c in cfgs.values())}
 
     def full_buffer(cfg):  # us/frame with the 75 s buffer full
         det = StreamingLOFSegmenter(cfg, rec.fps)
         g = det.geometry
         full_at = g["capacity"] * g["step"] + g["window"]
-        det.learn_many(cyc[:full_at])
+        det.learn_many(cyc[cfg][:full_at])
         t = time.perf_counter()
         for i in range(full_at, n, PACKET):
-            det.learn_many(cyc[i:i + PACKET])
+            det.learn_many(cyc[cfg][i:i + PACKET])
         return (time.perf_counter() - t) / (n - full_at) * 1e6
 
     tasks = {"learn_many(120) from positions, frames/s": lambda c: N / median_time(
                  lambda: stream_many(rec, c), 1),
              "learn_one, angles given, frames/s": lambda c: N / median_time(
-                 lambda: stream_one(rec, c, angles), 1),
+                 lambda: stream_one(rec, c, angles[c]), 1),
              "offline, features included, ms": lambda c: 1e3 * median_time(
                  lambda: offline_ours(rec, c), 1),
              "75 s buffer full, us/frame": full_buffer}
@@ -240,6 +255,11 @@ def main():
         speed_columns_cost(cfgs={"novelty (defaults)": LOFConfig(),
                                  "no novelty": LOFConfig(novelty=0.0)}, what="novelty check")
         return
+    if "--root-speeds" in sys.argv[1:]:
+        speed_columns_cost(cfgs={"root speeds (defaults)": LOFConfig(),
+                                 "no root speeds": LOFConfig(root_speed_max=0.0)},
+                           what="root speeds")
+        return
     if "--two-stage" in sys.argv[1:]:
         speed_columns_cost(cfgs={"two stages (early 1.2 s)": LOFConfig(early_delay_s=1.2),
                                  "one stage (defaults)": LOFConfig()}, what="two stages")
@@ -248,7 +268,7 @@ def main():
     warnings.filterwarnings("ignore")
     cfg = LOFConfig()
     rec = recording()
-    angles = bone_angles(rec.positions, rec.skeleton, inclinations=INCL)
+    angles = lof_features(rec, cfg)
     t = time.perf_counter()
     warmup()
     print(f"warmup (compile or load cache): {time.perf_counter() - t:.2f} s")
@@ -258,7 +278,7 @@ def main():
     rows = []
     t_off = median_time(lambda: offline_ours(rec, cfg))
     t_off_sk = median_time(lambda: offline_sklearn(rec, cfg))
-    t_feat = median_time(lambda: bone_angles(rec.positions, rec.skeleton, inclinations=INCL))
+    t_feat = median_time(lambda: lof_features(rec, cfg))
     rows.append(("offline, features included", t_off, t_off_sk))
     t_many = median_time(lambda: stream_many(rec, cfg))
     t_sk = median_time(lambda: stream_sklearn(rec, cfg))
@@ -272,8 +292,8 @@ def main():
     for name, ours, sk in rows:
         print(f"{name:42s} {ours * 1e3:8.1f}ms {N / ours:11,.0f} {sk * 1e3:8.1f}ms "
               f"{N / sk:11,.0f} {sk / ours:7.1f}x")
-    print(f"\n(bone angles alone for {N} frames: {t_feat * 1e3:.1f} ms; targets: offline < 50 ms, "
-          f"learn_many >= 100,000 frames/s)")
+    print(f"\n(the features alone, bone angles and root speeds, for {N} frames: "
+          f"{t_feat * 1e3:.1f} ms; targets: offline < 50 ms, learn_many >= 100,000 frames/s)")
 
 
 if __name__ == "__main__":

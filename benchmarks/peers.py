@@ -6,9 +6,11 @@ Usage: bash benchmarks/peers.sh [--runs 3] [--only NAME ...] [--markdown FILE] [
 numba and scikit-learn than streamseg's own environment, so the peers get a venv of their own
 and streamseg runs there too, unchanged, on the same feature matrices.)
 
-Every method sees the same feature matrix per recording: streamseg's default LOF features per
-frame, the paper's 8 bone angles and the 9 bones' inclinations from the up axis
-(``streamseg.offline.lof.lof_features``), at the recording's 120 Hz. Methods that need one
+Every method sees the same feature matrix per recording: streamseg's default LOF bone features
+per frame, the paper's 8 bone angles and the 9 bones' inclinations from the up axis
+(``streamseg.offline.lof.lof_features`` with ``root_speed_max=0``), at the recording's 120 Hz;
+streamseg's own LOF rows also read their 2 root-speed columns (since issue 11 round 14; the
+table in docs/peers_table.md predates them). Methods that need one
 signal (stumpy FLUSS/FLOSS, streaming ClaSP) get its first principal component. Parameters
 that are chosen (Pelt's penalty, FLOSS's threshold) are chosen on CMU 86_01 only and held for
 the rest; methods given the true number of cuts (KernelCPD, FLUSS) or of actions (ACA, HACA)
@@ -146,7 +148,10 @@ def choose(train: LabelledRecording, fps, make, grid):
 
 
 def angles(item):
-    return lof_features(item.recording)
+    """The bone features (17 columns); streamseg's LOF rows add their 2 root speeds."""
+    from streamseg.config import LOFConfig
+
+    return lof_features(item.recording, LOFConfig(root_speed_max=0))
 
 
 def main() -> None:

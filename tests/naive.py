@@ -45,11 +45,12 @@ def naive_inclinations(positions, points, up):
     return out
 
 
-def naive_speed_columns(x, lag, speed_max, fps):
+def naive_speed_columns(x, lag, speed_max, fps, n_root=0):
     """The features and their angular speeds by the definition (``LOFConfig.speed_max``):
     ``pi * min(|x[t] - x[r]| / (speed_max * lag / fps), 1)`` with ``r`` the latest frame
     without NaN at least ``lag`` frames before ``t``, else the first frame without NaN; NaN
-    speeds for a frame with a NaN."""
+    speeds for a frame with a NaN. With ``n_root`` root-speed columns (the last ones), the
+    order is: the other features, their speeds, the root columns, their speeds."""
     import math
 
     x = np.asarray(x, dtype=float)
@@ -65,7 +66,9 @@ def naive_speed_columns(x, lag, speed_max, fps):
         for a in range(d):
             change = abs(x[t, a] - x[r, a]) / (speed_max * lag / fps)
             out[t, d + a] = math.pi * min(change, 1.0)
-    return out
+    m = d - n_root
+    order = list(range(m)) + list(range(d, d + m)) + list(range(m, d)) + list(range(d + m, 2 * d))
+    return out[:, order]
 
 
 # --- LOF, sliding histograms, peaks ------------------------------------------------
@@ -456,4 +459,36 @@ def naive_settle(pending, finals, g, n_frames):
         if s - early in pend:
             open_.append((s - early, pend[s - early]))
             out.append(("pending", pend[s - early], at))
+    return out
+
+
+def naive_root_speeds(pos, root, limbs, up, fps, lag, v_max, jump):
+    """The root-speed columns by the definition (``LOFConfig.root_speed_max``), frame by frame:
+    step ``t`` = (root[t] - root[t-1]) / (mean limb length at t) (frame 0: 0), a step longer
+    than ``jump`` body scales per frame counts as 0, speed = the sum of the last ``lag`` steps
+    (fewer at the start) x fps / lag, split along ``up`` into horizontal and vertical,
+    ``pi * min(speed / v_max, 1)``; NaN while a NaN step is among the last ``lag``."""
+    import math
+
+    pos = np.asarray(pos, dtype=float)
+    n = pos.shape[0]
+    steps = []
+    for t in range(n):
+        scale = sum(math.dist(pos[t, b], pos[t, a]) for a, b in limbs) / len(limbs)
+        if t == 0:
+            ok = all(math.isfinite(v) for v in pos[0, root]) and scale > 0
+            step = [0.0] * 3 if ok else [math.nan] * 3
+        else:
+            step = [(pos[t, root, a] - pos[t - 1, root, a]) / scale if scale > 0 else math.nan
+                    for a in range(3)]
+        if math.sqrt(sum(v * v for v in step)) > jump:
+            step = [0.0] * 3
+        steps.append(step)
+    out = np.zeros((n, 2))
+    for t in range(n):
+        moved = [sum(steps[r][a] for r in range(max(0, t - lag + 1), t + 1)) for a in range(3)]
+        vert = sum(moved[a] * up[a] for a in range(3))
+        hor = math.sqrt(sum((moved[a] - vert * up[a]) ** 2 for a in range(3)))
+        speed = (hor * fps / lag, abs(vert) * fps / lag)
+        out[t] = [math.nan if math.isnan(v) else math.pi * min(v / v_max, 1.0) for v in speed]
     return out

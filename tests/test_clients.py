@@ -18,8 +18,8 @@ from streamseg.daemon import Daemon
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.skeleton import bone_angles
 from tests.conftest import wait_ready
+from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -66,7 +66,7 @@ def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
     events = [json.loads(x) for x in out.splitlines()]
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    feats = lof_input(rec.positions, rec.skeleton, rec.fps)
     want = [c.frame for c in seg.learn_many(feats) + seg.finish()]
     cuts = [e for e in events if e["type"] == "cut"]
     assert [e["frame"] for e in cuts] == want
@@ -146,7 +146,7 @@ def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
     assert lines, "the listener printed nothing"
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    feats = lof_input(rec.positions, rec.skeleton, rec.fps)
     want = [c.frame for c in seg.learn_many(feats) + seg.finish()]
     got = [int(x.split("cut at frame ")[1].split()[0]) for x in lines if "cut at frame" in x]
     assert got == want

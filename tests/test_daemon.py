@@ -19,7 +19,7 @@ from streamseg.daemon.pipeline import Algorithms
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.skeleton import bone_angles
+from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -28,8 +28,7 @@ LOOP = "tcp://127.0.0.1:0"
 def offline_cuts(rec, positions=None):
     """Cut frames of the streaming segmenter run over the whole file in one call."""
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = bone_angles(rec.positions if positions is None else positions, rec.skeleton,
-                      inclinations=True)
+    ang = lof_input(rec.positions if positions is None else positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 

@@ -19,7 +19,7 @@ from streamseg.commands.listen import fetch_since, listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.skeleton import bone_angles
+from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -28,7 +28,7 @@ LOOP = "tcp://127.0.0.1:0"
 @pytest.fixture(scope="module")
 def want(rec):
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    ang = lof_input(rec.positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 

@@ -7,6 +7,7 @@ import numpy as np
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
 from streamseg.offline.relabel import WindowSegmentation
 from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.online.root_speed import root_speed_columns
 from streamseg.skeleton import bone_angles
 
 
@@ -21,9 +22,11 @@ def test_cached_angles_are_bone_angles(rec):
 def test_chunking_and_gaps_keep_stream_frames(rec):
     """Any packet sizes give the offline cuts; a short gap acts as NaN frames."""
     pos = rec.positions
-    ref = bone_angles(pos, rec.skeleton, inclinations=True)
-    ref[1500:1530] = np.nan
+    lost = pos.copy()
+    lost[1500:1530] = np.nan  # offline, the lost frames are NaN frames
+    ref = bone_angles(lost, rec.skeleton, inclinations=True)
     seg = StreamingLOFSegmenter(fps=rec.fps)
+    ref = np.column_stack([ref, root_speed_columns(lost, rec.skeleton, rec.fps)])
     want = [(c.frame, c.emitted_at) for c in seg.learn_many(ref) + seg.finish()]
     p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), history=5.0)
     got, a, rng = [], 0, np.random.default_rng(1)
@@ -41,7 +44,7 @@ def test_chunking_and_gaps_keep_stream_frames(rec):
     feats, frames = p.snapshot()
     assert feats.shape == (600, 17) and np.array_equal(frames, np.arange(rec.n_frames - 600,
                                                                         rec.n_frames))
-    assert np.allclose(feats, ref[-600:], atol=1e-6)  # float32 ring
+    assert np.allclose(feats, ref[-600:, :17], atol=1e-6)  # float32 ring, no root speeds
 
 
 def test_nan_frames_are_skipped_in_the_ring_and_mapped_back(rec):

@@ -20,14 +20,14 @@ from streamseg.commands.listen import fetch_since, request, subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.skeleton import bone_angles
+from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
 
 
 def offline_cuts(rec, positions):
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = bone_angles(positions, rec.skeleton, inclinations=True)
+    ang = lof_input(positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 

@@ -17,7 +17,7 @@ from streamseg.daemon import Daemon
 from streamseg.daemon.security import ClientKeys, generate, is_loopback
 from streamseg.exceptions import ParameterError
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.skeleton import bone_angles
+from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -53,7 +53,7 @@ def handshake(sock, endpoint) -> int:
 
 def offline_cuts(rec):
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    ang = lof_input(rec.positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 

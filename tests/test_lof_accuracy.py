@@ -23,8 +23,8 @@ from streamseg.evaluation.datasets import hdm05_action_sequences
 from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts
 from streamseg.evaluation.metrics import cut_scores
 from streamseg.io import read
+from streamseg.offline.lof import lof_features
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.skeleton import bone_angles
 
 FPS = 120.0
 
@@ -45,7 +45,8 @@ def _f1(cuts, truth, windows=None):
 
 
 def _angles(rec):
-    return bone_angles(rec.positions, rec.skeleton, inclinations=True)
+    """The default detector's features: the 17 bone features and the 2 root speeds."""
+    return lof_features(rec)
 
 
 def test_86_01_live_cuts_agree_with_the_labels(data_dir):
@@ -57,8 +58,9 @@ def test_86_01_live_cuts_agree_with_the_labels(data_dir):
     assert max(c.latency for c in ev) <= StreamingLOFSegmenter(LOFConfig(), FPS).latency_frames()
 
 
-# measured 0.83 and 0.67 (14_20: 0.50 with the 0.4 s localisation radius of before round 8)
-@pytest.mark.parametrize("name,floor", [("14_14", 0.8), ("14_20", 0.6)])
+# measured 1.00 and 0.83 (0.83 and 0.67 without the root speeds; 14_20: 0.50 with the 0.4 s
+# localisation radius of before round 8)
+@pytest.mark.parametrize("name,floor", [("14_14", 0.95), ("14_20", 0.8)])
 def test_exercise_routines_held_out(data_dir, name, floor):
     rec = read(data_dir / f"cmu_exercise/{name}.amc.gz", skeleton=data_dir / "cmu86/86.asf")
     truth = true_cuts(read_labels(data_dir / "cmu_exercise/labels.csv", name), rec.n_frames)
@@ -79,7 +81,10 @@ def test_short_actions_hdm05_joins_get_cuts(data_dir):
         assert len(found) >= 2, f"{name}: {found}"
         f1s[name] = _f1(found, cuts)
         lat += [c.latency for c in ev]
-    assert np.mean(list(f1s.values())) >= 0.7, f1s  # measured 0.745 (0.704 without speeds)
+    # measured 0.815 (0.745 without the root speeds, 0.704 without the angular speeds too);
+    # worst 0.40 (hdm_bk_1; hdm_bk_2 0.29 -> 0.50 with the root speeds)
+    assert np.mean(list(f1s.values())) >= 0.79, f1s
+    assert min(f1s.values()) >= 0.38, f1s
     assert np.median(lat) <= 2.5 * FPS  # measured 2.3 s (both radii)
 
 

@@ -59,24 +59,41 @@ def test_segment_options_and_paper_preset(capsys, files):
     assert centre["cuts"] and all((c - g["window"] // 2) % g["step"] == 0 for c in centre["cuts"])
 
 
-def test_features_options_match_the_library(capsys, files):
-    """--inclinations off runs on the paper's 8 angles, --up names the recording's axis; each
-    gives the cuts the library gives on the same features."""
+def test_features_options_match_the_library(capsys, files, tmp_path):
+    """--inclinations off runs on the paper's 8 angles, --up names the recording's axis,
+    --root-speed sets or turns off the root speeds; each gives the cuts the library gives on
+    the same features. A matrix of the 17 bone features alone runs without the root speeds."""
+    import numpy as np
+
     from streamseg.config import LOFConfig
     from streamseg.io import read
     from streamseg.offline.lof import LOFSegmenter
+    from streamseg.online.root_speed import root_speed_columns
     from streamseg.skeleton import bone_angles
 
     amc, asf, _ = files
     rec = read(amc, asf)
     for argv, kw, up in ((("--inclinations", "off"), dict(inclinations=False), None),
-                         ((), {}, None), (("--up", "x"), {}, "x")):
+                         ((), {}, None), (("--up", "x"), {}, "x"),
+                         (("--root-speed", "0"), dict(root_speed_max=0.0), None),
+                         (("--root-speed", "6"), dict(root_speed_max=6.0), None)):
         out = _run(capsys, "segment", amc, "--skeleton", asf, "--method", "lof", *argv,
                    "--json")
         cfg = LOFConfig(**kw)
         assert out["params"]["inclinations"] == cfg.inclinations
+        assert out["params"]["root_speed_max"] == cfg.root_speed_max
         feats = bone_angles(rec.positions, rec.skeleton, inclinations=cfg.inclinations, up=up)
+        if cfg.root_columns:
+            feats = np.column_stack([feats, root_speed_columns(rec.positions, rec.skeleton,
+                                                               rec.fps, cfg, up=up)])
         assert out["cuts"] == LOFSegmenter(cfg, rec.fps).fit(feats).cuts_.tolist()
+    bone = bone_angles(rec.positions, rec.skeleton)
+    npy = tmp_path / "bone.npy"
+    np.save(npy, bone)
+    out = _run(capsys, "segment", npy, "--fps", "120", "--method", "lof", "--json")
+    assert out["params"]["root_speed_max"] == 0.0
+    off = LOFConfig(root_speed_max=0.0)
+    assert out["cuts"] == LOFSegmenter(off, 120.0).fit(bone).cuts_.tolist()
     assert cli.main(["segment", str(amc), "--skeleton", str(asf), "--method", "lof", "--up", "z",
                      "--inclinations", "off"]) == 2
     assert "no effect" in capsys.readouterr().err

@@ -56,10 +56,13 @@ def test_cmu02_sequences_follow_the_single_action_rule(data_dir):
 
 
 def test_fit_recording_equals_fit_bone_angles(data_dir):
+    from streamseg.online.root_speed import root_speed_columns
+
     rec = io.read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     a = LOFSegmenter(LOFConfig(), rec.fps).fit(rec)
-    b = LOFSegmenter(LOFConfig(), rec.fps).fit(
-        skeleton.bone_angles(rec.positions, rec.skeleton, inclinations=True))
+    b = LOFSegmenter(LOFConfig(), rec.fps).fit(np.column_stack([
+        skeleton.bone_angles(rec.positions, rec.skeleton, inclinations=True),
+        root_speed_columns(rec.positions, rec.skeleton, rec.fps)]))
     np.testing.assert_array_equal(a.lof_, b.lof_)
     np.testing.assert_array_equal(a.predict(), b.predict())
     assert a.n_frames_ == rec.n_frames

@@ -183,7 +183,7 @@ def test_config_validates_and_paper_preset():
         LOFConfig(refine_s=-0.1)
     with pytest.raises(ParameterError, match="inclinations"):
         LOFConfig(inclinations=1)
-    assert (LOFConfig().n_features, LOFConfig.paper().n_features) == (17, 8)
+    assert (LOFConfig().n_features, LOFConfig.paper().n_features) == (19, 8)
     g = LOFConfig.paper().frames(120)
     assert (g["window"], g["step"], LOFConfig.paper().k) == (500, 45, 20)
     # seconds, so a 30 Hz stream keeps the durations (2 s: a whole number of frames at both)
@@ -231,7 +231,8 @@ def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
     # the previous cut's gap (first) bounds the search from below
     assert refine_cut(fb, valid, 600, 300, 48, 60, 10, 600, 0, 310, left, right) == 310
     # the centre rule: every cut is a window centre
-    seg = LOFSegmenter(LOFConfig(refine_s=0.0, inclinations=False), fps=120).fit(a)
+    cfg = LOFConfig(refine_s=0.0, inclinations=False, root_speed_max=0)
+    seg = LOFSegmenter(cfg, fps=120).fit(a)
     assert len(seg.cuts_) and np.isin(seg.cuts_, seg.centres_).all()
     assert LOFConfig.paper().refine_s == 0.0
 

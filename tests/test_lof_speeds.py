@@ -27,10 +27,14 @@ def test_kernel_equals_naive_twin(nan_rows):
     a[list(nan_rows), 2] = np.nan  # one NaN makes the whole frame invalid
     cfg = LOFConfig(speed_max=1.5, speed_lag_s=0.1)
     got = lof_columns(a, cfg, FPS)
-    want = naive_speed_columns(a, 12, 1.5, FPS)
+    want = naive_speed_columns(a, 12, 1.5, FPS, n_root=cfg.root_columns)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
-    assert np.isnan(got[list(nan_rows), 5:]).all() if nan_rows else np.isfinite(got).all()
-    assert np.nanmax(got[:, 5:]) <= np.pi and np.nanmin(got[:, 5:]) >= 0
+    speeds = got[:, [3, 4, 5, 8, 9]]  # the last 2 of the 5 are root speeds: after theirs
+    assert np.isnan(speeds[list(nan_rows)]).all() if nan_rows else np.isfinite(got).all()
+    assert np.nanmax(speeds) <= np.pi and np.nanmin(speeds) >= 0
+    off = LOFConfig(speed_max=1.5, speed_lag_s=0.1, root_speed_max=0)
+    np.testing.assert_allclose(lof_columns(a, off, FPS), naive_speed_columns(a, 12, 1.5, FPS),
+                               rtol=0, atol=1e-12)
 
 
 def test_packets_do_not_change_the_columns():

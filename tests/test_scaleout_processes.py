@@ -30,8 +30,8 @@ from streamseg.daemon import Daemon  # noqa: E402
 from streamseg.daemon.pipeline import Algorithms  # noqa: E402
 from streamseg.io import read  # noqa: E402
 from streamseg.online.lof import StreamingLOFSegmenter  # noqa: E402
-from streamseg.skeleton import bone_angles  # noqa: E402
 from tests import dask_gate  # noqa: E402
+from tests.motion import lof_input  # noqa: E402
 
 pytestmark = [pytest.mark.daemon, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parents[1]
@@ -103,8 +103,8 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
         # while that job is stuck on the cluster, another stream is cut and closed as usual
         short = rec.slice(0, 900)  # its final window is too short to be gated
         seg = StreamingLOFSegmenter(fps=rec.fps)
-        want = [c.frame for c in seg.learn_many(bone_angles(short.positions, short.skeleton,
-                                                            inclinations=True)) + seg.finish()]
+        want = [c.frame for c in seg.learn_many(lof_input(short.positions, short.skeleton,
+                                                          short.fps)) + seg.finish()]
         replay(short, ep["ingest"], stream="c", speed=0, batch=60)
         other = [e for e in listen(s, stream="c", until_end=True, timeout=120)
                  if getattr(e, "stream", None) == "c"]  # the subscriber has every stream's events

@@ -250,33 +250,37 @@ def test_view_started_late_catches_up_through_state(browser, rec):
 
 
 def test_a_withdrawn_pending_cut_leaves_the_page(live, browser, rec):
-    """The two-stage decision: the page draws the pending cut at 86_01's frame 1128 (the
-    replay pauses right after it was emitted), then, once the rest arrives and it is
-    withdrawn, redraws without it; the page ends with the final cuts."""
+    """The two-stage decision: the page draws 86_01's first pending cut that is later
+    withdrawn (the replay pauses right after it was emitted), then, once the rest arrives and
+    it is withdrawn, redraws without it; the page ends with the final cuts."""
     from streamseg.daemon.pipeline import Algorithms
     from streamseg.online import StreamingLOFSegmenter, WithdrawEvent, final_cuts
-    from streamseg.skeleton import bone_angles
+    from tests.motion import lof_input
 
     two = LOFConfig(delay_s=1.5, early_delay_s=1.2)  # as tests/test_lof_two_stage.py
     det = StreamingLOFSegmenter(two, rec.fps)
-    events = det.learn_many(bone_angles(rec.positions, rec.skeleton, inclinations=True))
+    events = det.learn_many(lof_input(rec.positions, rec.skeleton, rec.fps))
     events += det.finish()
-    pending = [e for e in events if getattr(e, "pending", False) and e.frame == 1128]
-    withdraw = [e for e in events if isinstance(e, WithdrawEvent) and e.frame == 1128]
-    assert pending and withdraw and pending[0].emitted_at < withdraw[0].emitted_at
+    withdrawn = {e.frame for e in events if isinstance(e, WithdrawEvent)}
+    pending = [e for e in events if getattr(e, "pending", False) and e.frame in withdrawn]
+    assert pending
+    f = pending[0].frame
+    withdraw = [e for e in events if isinstance(e, WithdrawEvent) and e.frame == f]
+    assert pending[0].emitted_at < withdraw[0].emitted_at
     final = sorted(c.frame for c in final_cuts(events))
+    assert f not in final
     lv = live(algorithms=Algorithms(two), relabel_interval=0)
     page = browser.new_page()
     page.goto(lv.url + "#stream=w")
     wait_view_live(page)
     stop = pending[0].emitted_at + 1  # the frame that emits the pending cut, not the withdraw
     replay(part(rec, stop), lv.ep["ingest"], stream="w", speed=0, batch=8, end=False)
-    page.wait_for_selector('#cut-layer line.cut[data-frame="1128"]', state="attached")
+    page.wait_for_selector(f'#cut-layer line.cut[data-frame="{f}"]', state="attached")
     send_rest(lv.ep["ingest"], rec, "w", stop)
     lv.wait_closed("w")
     page.wait_for_selector('.row[data-stream="w"][data-closed="end"]')
     page.wait_for_function("() => !document.querySelector('#cut-layer line.cut"
-                           "[data-frame=\"1128\"]')")
+                           f"[data-frame=\"{f}\"]')")
     page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut').length "
                            f"=== {len(final)}")
     assert frames_of(page, "#cut-layer line.cut", "data-frame") == final

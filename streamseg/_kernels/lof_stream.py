@@ -58,7 +58,8 @@ GEO_K = 4
 GEO_EXCLUSION = 5
 GEO_REFINE = 6
 GEO_CONTRAST = 7
-GEO_SIZE = 8
+GEO_CHECK = 8  # the first ring columns the cut's localisation, contrast and novelty read
+GEO_SIZE = 9
 P_DELAY = 0
 P_TOLERANCE = 1
 P_MADS = 2
@@ -128,6 +129,8 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
     whole buffered curve instead of the local one.
     """
     rb, rv, _, left, right = frames
+    # the checks read the pose columns only (LOFConfig.check_columns: not the root speeds)
+    rc = rb[:, :geo[GEO_CHECK]]
     seqs, lof, centres = lofs[2], lofs[9], lofs[11]
     work, curve, keep, stack = scratch
     tol, n_mads = p[P_TOLERANCE], p[P_MADS]
@@ -169,7 +172,7 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
             size = rb.shape[0]
             # cut frames keep the minimum gap too (min_gap windows of step frames)
             seen = st[ST_FRAMES]
-            c = refine_cut(rb, rv, size, c, geo[GEO_REFINE], geo[GEO_WINDOW], geo[GEO_BINS],
+            c = refine_cut(rc, rv, size, c, geo[GEO_REFINE], geo[GEO_WINDOW], geo[GEO_BINS],
                            seen, max(0, seen - size),
                            st[lf] + int(min_gap) * geo[GEO_STEP], left, right)
         if p[P_MIN_CONTRAST] > 0.0:
@@ -180,7 +183,7 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
             size = rb.shape[0]
             # the before side starts no earlier than the previous cut: the new segment is
             # compared with the current one, not with a change already reported
-            con = contrast_at(rb, rv, size, c, geo[GEO_CONTRAST], geo[GEO_BINS], st[ST_FRAMES],
+            con = contrast_at(rc, rv, size, c, geo[GEO_CONTRAST], geo[GEO_BINS], st[ST_FRAMES],
                               max(0, st[ST_FRAMES] - size, st[lf]), left, right)
             if con < p[P_MIN_CONTRAST]:
                 return -1, 0.0
@@ -189,7 +192,7 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
             # undoes a brief excursion inside the segment does not start a new one
             size = rb.shape[0]
             seen = st[ST_FRAMES]
-            nov = span_contrast(rb, rv, size, max(0, seen - size, st[lf]), c,
+            nov = span_contrast(rc, rv, size, max(0, seen - size, st[lf]), c,
                                 min(c + geo[GEO_CONTRAST], seen), geo[GEO_BINS], left, right)
             if nov < p[P_NOVELTY]:
                 return -1, 0.0
@@ -282,9 +285,9 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     """Feed ``angles`` (n, n_angles) frames; return the number of events written.
 
     ``geo`` (int64, slots ``GEO_*``) = (bins, window, step, min_valid, k, exclusion frames,
-    refine radius frames, contrast frames); ``p`` (float64, slots ``P_*``) = (delay, tol,
-    n_mads, min_score, min_gap, min_contrast, novelty, early delay: 0 for one stage). The
-    arrays come in groups (tuples):
+    refine radius frames, contrast frames, check columns); ``p`` (float64, slots ``P_*``) =
+    (delay, tol, n_mads, min_score, min_gap, min_contrast, novelty, early delay: 0 for one
+    stage). The arrays come in groups (tuples):
     ``frames = (rb, rv, cur, left, right)``, ``lofs = (vecs, norms, seqs, nn_idx, nn_d, nn_key,
     nn_cnt, trunc, lrd, lof, mark, centres)``, ``scratch = (work, curve, keep, stack)``,
     ``events = (ev_frame, ev_score, ev_emit, ev_kind, ev_window)``, ``pend`` (int64, rows

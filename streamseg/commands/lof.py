@@ -2,8 +2,9 @@
 
 FILE is a recording (features: ``streamseg.skeleton.bone_angles``, the paper's 8 bone angles
 and, unless ``--inclinations off`` or ``--preset paper``, the 9 bone inclinations from the up
-axis) or such a feature matrix ``.npy``/``.csv`` with 17 (or 8) columns (then ``--fps`` is
-required). Offline
+axis, then the 2 root-speed columns unless ``--root-speed 0``) or such a feature matrix
+``.npy``/``.csv`` with 17 (or 8) columns, the root speeds then off, or with them, 19 (or 10)
+(``--fps`` is required). Offline
 by default; ``--online`` streams the frames through the live detector in 120-frame packets and
 reports each cut's latency.
 """
@@ -26,7 +27,8 @@ _FIELDS = {"window": "window_s", "step": "step_s", "bins": "bins", "k": "k",
            "buffer": "buffer_s", "delay": "delay_s", "threshold": "threshold_mads",
            "min_score": "min_score", "exclusion": "exclusion", "refine": "refine_s",
            "inclinations": "inclinations", "min_contrast": "min_contrast",
-           "contrast": "contrast_s", "novelty": "novelty", "early_delay": "early_delay_s"}
+           "contrast": "contrast_s", "novelty": "novelty", "early_delay": "early_delay_s",
+           "root_speed": "root_speed_max"}
 
 
 def add_arguments(group) -> None:
@@ -79,6 +81,11 @@ def add_arguments(group) -> None:
     group.add_argument("--inclinations", choices=("on", "off"), type=str.lower,
                        help="add each bone's inclination from the up axis to the 8 bone "
                             "angles (default on; the paper preset: off)")
+    group.add_argument("--root-speed", type=float, metavar="V",
+                       help="the root's horizontal and vertical speed (body scales per "
+                            "second mapped to the last bin) in the LOF windows, not in the "
+                            f"checks that place a cut (default {_D.root_speed_max:g}; 0: off, "
+                            "as in the paper; a feature matrix without them: off)")
     group.add_argument("--up", choices=UP_AXES,
                        help="world up axis of the recording's positions (default: the "
                             "format's, y for AMC/BVH)")
@@ -95,7 +102,8 @@ def config_from_args(args) -> LOFConfig:
 
 
 def _angles(args, config: LOFConfig):
-    """(features (n, config.n_features), fps) of ``args.file``."""
+    """(features (n, d), fps, config) of ``args.file``: ``config``'s features, or, for a
+    matrix of the bone features alone, those with the root speeds turned off."""
     from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
 
     if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
@@ -106,23 +114,32 @@ def _angles(args, config: LOFConfig):
                                  "are already computed")
         m = read_matrix(args.file)
         width = m.shape[1] if m.ndim == 2 else None
-        if width in (8, 17) and width != config.n_features:  # the other feature set
+        bone = config.n_features - config.root_columns
+        if width in (8, 17) and width != bone:  # the other feature set
             raise ParameterError(f"{args.file} has {width} columns, the features of "
                                  f"--inclinations {'off' if width == 8 else 'on'}; these "
-                                 f"options take {config.n_features}")
-        return lof_features(m, config), float(args.fps)  # validates any other width
+                                 f"options take {bone}")
+        if width == bone and config.root_columns:  # no positions: no root speeds
+            config = dataclasses.replace(config, root_speed_max=0.0)
+        return lof_features(m, config), float(args.fps), config  # validates any other width
     if getattr(args, "up", None) and not config.inclinations:
         raise ParameterError("--up has no effect without the inclinations (--inclinations off "
                              "or --preset paper)")
+    import numpy as np
+
     from streamseg.io import read
+    from streamseg.online.root_speed import root_speed_columns
     from streamseg.skeleton import bone_angles
 
     rec = read(args.file, args.skeleton, fps=args.fps)
     up = getattr(args, "up", None) or rec.skeleton.up
     if config.inclinations:
         _warn_up(args, rec, up)
-    return bone_angles(rec.positions, rec.skeleton, inclinations=config.inclinations,
-                       up=up), float(rec.fps)
+    a = bone_angles(rec.positions, rec.skeleton, inclinations=config.inclinations, up=up)
+    if config.root_columns:
+        a = np.column_stack([a, root_speed_columns(rec.positions, rec.skeleton, rec.fps,
+                                                   config, up=up)])
+    return a, float(rec.fps), config
 
 
 def _warn_up(args, rec, up: str) -> None:
@@ -159,8 +176,7 @@ def _plot(args, res, n, fps, title, truth=None):
 
 def segment(args) -> dict:
     """Cut ``args.file``; the JSON of the issue (n_frames, fps, method, cuts, segments, ...)."""
-    config = config_from_args(args)
-    angles, fps = _angles(args, config)
+    angles, fps, config = _angles(args, config_from_args(args))
     res = _run(args, angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     if args.plot:
@@ -188,8 +204,7 @@ def evaluate(args) -> dict:
     from streamseg.evaluation.labels import cut_windows, read_labels, true_cuts
     from streamseg.evaluation.metrics import covering, cut_scores, latency_stats
 
-    config = config_from_args(args)
-    angles, fps = _angles(args, config)
+    angles, fps, config = _angles(args, config_from_args(args))
     res = _run(args, angles, fps, config, bool(args.online))
     n = int(angles.shape[0])
     sequence = args.sequence or Path(args.file).name.split(".")[0]

@@ -153,6 +153,25 @@ class LOFConfig:
     14 recordings' 0.718 -> 0.720, but cmu02 0.450 -> 0.389 (the same swordplay join placed
     0.9 s late) and hdm 0.745 -> 0.741, so again not adopted.
 
+    The root speeds (issue 11, rounds 12-14, ``benchmarks/lof_pelvis_loo.py``; leave-one-out
+    over all 27 labelled recordings, the 14 + the fresh nine + the fresh2 four, each fold
+    choosing on the other 26 by pooled F1; rule declared before each run: LOO pooled F1 at
+    least the defaults' + 0.02, no set mean lower, no more recordings below 0.4, median latency
+    <= 2.5 s). Not blind: rounds 10-11 had shown these recordings with pelvis columns.
+
+    - ``root_speed_max = 3.0`` body scales/s (about 0.95 m/s for the 0.315 m median scale of
+      these subjects), ``root_jump = 20`` (about 6.3 m/s): the root's horizontal and vertical
+      speed enter the windows' histograms, so the LOF, but not the histograms that place and
+      confirm a cut (``check_columns``). Round 12, the pelvis columns everywhere: LOO pooled
+      F1 0.719 -> 0.751 but cmu02 0.450 -> 0.367 (the swordplay join placed late: the root
+      moves before the pose changes), not adopted. Round 13, in the LOF only: 0.719 -> 0.762,
+      no set lower, passed. Round 14, the library's own columns in body scales (so no length
+      unit is needed), grid 1.5, 3, 4.5, 6: every fold chose 3.0; LOO pooled F1 0.719 ->
+      0.771, cmu 0.833 -> 0.944, cmu02 0.450 -> 0.450, hdm 0.745 -> 0.815, fresh 0.730 ->
+      0.753, fresh2 0.664 -> 0.736, recordings below 0.4: 2 -> 1 (hdm_bk_2 0.29 -> 0.50;
+      fresh2_bk_1 0.00 -> 0.29 stays), median latency 2.27 -> 2.30 s. A change of the root
+      speed alone therefore never makes a cut: the pose histograms must differ too.
+
     Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
     02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
 
@@ -248,6 +267,16 @@ class LOFConfig:
         simplified curve is a cut, with no threshold (``threshold_mads`` and ``min_score`` are
         unused), and the tolerance is ``dp_tolerance`` times the range of the whole buffered
         curve, as the paper simplifies its whole curve (:meth:`paper`).
+    root_speed_max : float
+        Root-speed columns (0: none, as in the paper): the root's horizontal and vertical speed
+        over ``speed_lag_s``, in body scales per second (the mean length of the 8 limb bones
+        in the frame), mapped to ``pi * min(speed / root_speed_max, 1)``
+        (:mod:`streamseg.online.root_speed`). They are a frame's last 2 columns
+        (:attr:`n_features`), histogrammed for the LOF with their own speeds, and not read by
+        the cut's localisation, contrast and novelty check.
+    root_jump : float
+        A root step faster than this (body scales per second) counts as no motion: a tracker
+        re-centring, or the join of joined recordings, teleports the root.
     early_delay_s : float or None
         Two-stage decision (None or 0: one stage, the decision above alone). Each window is
         also decided this long after it is complete (``< delay_s``), with the same rule over
@@ -281,6 +310,8 @@ class LOFConfig:
     novelty: float = 0.15
     peak_rule: str = "adaptive"
     early_delay_s: float | None = None
+    root_speed_max: float = 3.0
+    root_jump: float = 20.0
 
     def __post_init__(self):
         _check("window_s", self.window_s, self.window_s > 0, "a window length > 0 seconds")
@@ -324,6 +355,9 @@ class LOFConfig:
         _check("speed_max", self.speed_max, self.speed_max >= 0,
                "a speed >= 0 rad/s (0: no speed columns)")
         _check("speed_lag_s", self.speed_lag_s, self.speed_lag_s > 0, "a lag > 0 seconds")
+        _check("root_speed_max", self.root_speed_max, self.root_speed_max >= 0,
+               "a speed >= 0 body scales/s (0: no root-speed columns)")
+        _check("root_jump", self.root_jump, self.root_jump > 0, "a speed > 0 body scales/s")
         _check("novelty", self.novelty, 0 <= self.novelty <= 1,
                "a cosine distance in [0, 1] (0: no novelty check)")
         _check("peak_rule", self.peak_rule, self.peak_rule in PEAK_RULES,
@@ -336,12 +370,24 @@ class LOFConfig:
 
     @property
     def n_features(self) -> int:
-        """Columns of a feature frame: 8 bone angles, plus 9 inclinations when enabled."""
-        return 17 if self.inclinations else 8
+        """Columns of a feature frame: 8 bone angles, plus 9 inclinations when enabled, plus
+        the 2 root-speed columns when ``root_speed_max > 0``."""
+        return (17 if self.inclinations else 8) + self.root_columns
+
+    @property
+    def root_columns(self) -> int:
+        """How many of a feature frame's last columns are root speeds (LOF only): 2 or 0."""
+        return 2 if self.root_speed_max > 0 else 0
 
     def histogram_columns(self, n_features: int) -> int:
         """Columns histogrammed for ``n_features`` input columns: doubled by the speeds."""
         return 2 * n_features if self.speed_max > 0 else n_features
+
+    def check_columns(self, n_features: int) -> int:
+        """The first histogrammed columns the cut's localisation, contrast and novelty read:
+        all but the root speeds and their speeds (see :func:`streamseg.online.speed_features.
+        lof_columns` for the order)."""
+        return self.histogram_columns(n_features - self.root_columns)
 
     @classmethod
     def paper(cls, **overrides) -> LOFConfig:
@@ -349,9 +395,9 @@ class LOFConfig:
 
         From the paper: 500-frame windows, step 45 (at 120 Hz; here in seconds), L = 10 bins
         over [0, pi], k = 20, cosine distance, the 8 bone angles of its Tables 1-2 (no
-        inclinations, no speed columns, no temporal exclusion), and the decision "the peaks
-        of the LOF curve", located by Douglas-Peucker curve simplification, the cut at the peak
-        window's centre (``refine_s = 0``). Every peak vertex is a cut (``peak_rule =
+        inclinations, no speed or root-speed columns, no temporal exclusion), and the decision
+        "the peaks of the LOF curve", located by Douglas-Peucker curve simplification, the cut at
+        the peak window's centre (``refine_s = 0``). Every peak vertex is a cut (``peak_rule =
         "paper"``): no LOF floor (``min_score = 0``), no threshold above the curve's level, no
         minimum gap, no contrast or novelty confirmation; the paper states none.
 
@@ -381,6 +427,7 @@ class LOFConfig:
         values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0,
                       refine_s=0.0, inclinations=False, min_contrast=0.0, speed_max=0.0,
                       novelty=0.0, peak_rule="paper", min_score=0.0, threshold_mads=0.0,
+                      root_speed_max=0.0,
                       min_gap_s=0.0, dp_tolerance=PAPER_TOLERANCE,
                       delay_s=(6 + 20) * 45 / 120)
         values.update(overrides)
@@ -443,6 +490,11 @@ def feature_width(config: LOFConfig, n_features) -> int:
     if isinstance(n_features, bool) or not isinstance(n_features, numbers.Integral) \
             or n_features < 1:
         raise ParameterError(f"n_features={n_features!r} is invalid: expected an int >= 1")
+    if n_features <= config.root_columns:
+        raise ParameterError(
+            f"n_features={n_features!r} is invalid: the last {config.root_columns} columns are "
+            f"root speeds (root_speed_max={config.root_speed_max:g}); expected more than "
+            f"{config.root_columns}, or LOFConfig(root_speed_max=0)")
     return int(n_features)
 
 
@@ -455,7 +507,11 @@ def width_message(shape, d: int, config: LOFConfig, n_features, row: bool = Fals
         return msg
     msg += (f": the config's features, streamseg.skeleton.bone_angles(..., "
             f"inclinations={config.inclinations})")
+    if config.root_columns:
+        msg += (" then the 2 root-speed columns (streamseg.offline.lof_features(recording) makes "
+                "both; LOFConfig(root_speed_max=0) takes the bone features alone)")
     other = not config.inclinations
-    if len(shape) in (1, 2) and shape[-1] == LOFConfig(inclinations=other).n_features:
+    if len(shape) in (1, 2) and shape[-1] == LOFConfig(
+            inclinations=other, root_speed_max=config.root_speed_max).n_features:
         msg += f"; {shape[-1]} columns are for LOFConfig(inclinations={other})"
     return msg

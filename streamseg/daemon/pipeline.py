@@ -111,6 +111,18 @@ class Algorithms:
 
         return self.aca_config or ACAConfig()
 
+    def root_speed(self, fps: float, skeleton: Skeleton):
+        """The stream's root-speed columns (:class:`streamseg.online.root_speed.RootSpeed`),
+        or None when the cut detector has none (``LOFConfig.root_speed_max = 0``)."""
+        from streamseg.config import LOFConfig
+
+        config = self.lof_config or LOFConfig()
+        if not config.root_columns:
+            return None
+        from streamseg.online.root_speed import RootSpeed
+
+        return RootSpeed(config, fps, skeleton)
+
     def rep_counter(self, fps: float, skeleton: Skeleton):
         """A live repetition counter for one stream, or None when turned off."""
         if not self.repetitions:
@@ -132,6 +144,11 @@ class Algorithms:
         plan = np.arange(18).reshape(9, 2) % 9
         angles_at(np.zeros((2, 9, 3)), plan)
         angles_at(np.zeros((2, 9, 3)), plan, np.array([0.0, 1.0, 0.0]))
+        from streamseg._kernels import root_speed as _kr
+
+        _kr.root_speeds(np.ones((2, 9, 3)), 0, plan[1:].astype(np.int64),
+                        np.array([0.0, 1.0, 0.0]), np.array([0, 1]), np.zeros((3, 3)),
+                        np.zeros(3), 1.0, 1.0, 1.0, np.empty((2, 2)))
         rng = np.random.default_rng(0)
         # a random walk of angles: enough frames for the LOF windows to fill and cut
         fps = 120.0
@@ -141,7 +158,8 @@ class Algorithms:
         seg.learn_many(walk)
         seg.finish()
         if relabel:
-            self.relabel(walk[-int(4 * fps):], 0, fps)
+            # the relabels read the bone features, not the root speeds
+            self.relabel(walk[-int(4 * fps):, :seg.n_features - seg.config.root_columns], 0, fps)
         return time.perf_counter() - t
 
 
@@ -194,7 +212,7 @@ class StreamPipeline:
         Seconds of features kept for relabelling (the ring's size).
     """
 
-    __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "reps", "_feat",
+    __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "root", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
                  "notices", "_spine", "_spine_n", "cut_frames", "rep_sets", "_cap")
 
@@ -204,6 +222,8 @@ class StreamPipeline:
         self.fps = float(fps)
         self.algorithms = algorithms
         self.segmenter = algorithms.segmenter(fps)
+        # the root speeds go to the cut detector only, not into the relabels' feature ring
+        self.root = algorithms.root_speed(fps, skeleton)
         self.reps = algorithms.rep_counter(fps, skeleton)
         self.rep_offset = None  # stream frame of the counter's frame 0
         self.rep_sets = None  # streamseg.online.rep_sets.SetTracker, with the first rep
@@ -219,7 +239,7 @@ class StreamPipeline:
         # stream does not hold the whole history's memory (547 kB at 60 s x 120 Hz)
         self._feat = None  # allocated on the first packet, when the feature width is known
         self._frames = np.zeros(min(cap, RING_START), dtype=np.int64)
-        self._width = self.segmenter.n_features
+        self._width = self.segmenter.n_features - self.segmenter.config.root_columns
         self.learned = 0  # finite feature rows stored so far
         self.previous = None  # the last relabel result (algorithm's own object)
         self.offset = 0  # stream frame of the segmenter's frame 0
@@ -273,14 +293,20 @@ class StreamPipeline:
         gap = first_frame - self.next_frame
         if gap > 0:
             if gap <= GAP_FILL_S * self.fps:
-                out += self._cuts(self.segmenter.learn_many(np.full((gap, self._width), np.nan)))
+                if self.root is not None:  # the missing frames' positions are NaN too
+                    self.root(np.full((gap,) + positions.shape[1:], np.nan))
+                out += self._cuts(self.segmenter.learn_many(
+                    np.full((gap, self.segmenter.n_features), np.nan)))
             else:
                 out += self._cuts(self.segmenter.finish())
                 self.segmenter = self.algorithms.segmenter(self.fps)
                 self.offset = first_frame
+                if self.root is not None:  # a new detector: a stream's first frame
+                    self.root.reset()
         n = angles.shape[0]
         self.next_frame = first_frame + n
-        out += self._cuts(self.segmenter.learn_many(angles))
+        lof_in = angles if self.root is None else np.column_stack([angles, self.root(positions)])
+        out += self._cuts(self.segmenter.learn_many(lof_in))
         ok = np.isfinite(angles).all(axis=1)
         n_bad = n - int(np.count_nonzero(ok))
         frames = first_frame + np.arange(n, dtype=np.int64)

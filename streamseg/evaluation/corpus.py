@@ -246,10 +246,20 @@ class Progress:
 
 
 def _angles(item: LabelledRecording) -> np.ndarray:
-    """The default cut detector's features (8 bone angles + 9 inclinations), (n, 17)."""
+    """The default cut detector's features (8 bone angles + 9 inclinations + 2 root
+    speeds), (n, 19)."""
     from streamseg.offline.lof import lof_features
 
     return lof_features(item.recording)
+
+
+def _bone_features(item: LabelledRecording) -> np.ndarray:
+    """The bone features alone (8 bone angles + 9 inclinations), (n, 17): what the daemon's
+    relabels cluster."""
+    from streamseg.config import LOFConfig
+    from streamseg.offline.lof import lof_features
+
+    return lof_features(item.recording, LOFConfig(root_speed_max=0))
 
 
 def lof_prediction(angles: np.ndarray, fps: float, online: bool) -> Prediction:
@@ -281,17 +291,20 @@ def aca_prediction(features: np.ndarray, n_clusters: int | None, fps: float,
     return Prediction(cuts=label_cuts(labels), labels=labels)
 
 
-# Every method sees the cut detector's features (8 bone angles + 9 inclinations), as the
-# daemon does (a live stream carries positions only). For ACA they also did better than the
-# 8 angles alone and than joint quaternions on the labelled recordings (mean Hungarian
-# accuracy over 86_01, 14_14, 14_20: 0.893, docs/peers_table.md; 0.875 with the 8 angles and
-# 0.839 with joint quaternions, measured with this table's earlier runs).
+# Every method sees the cut detector's bone features (8 bone angles + 9 inclinations), as
+# the daemon does (a live stream carries positions only); LOF also its 2 root speeds. For
+# ACA the bone features also did better than the 8 angles alone and than joint quaternions
+# on the labelled recordings (mean Hungarian accuracy over 86_01, 14_14, 14_20: 0.893,
+# docs/peers_table.md; 0.875 with the 8 angles and 0.839 with joint quaternions, measured
+# with this table's earlier runs).
 STREAMSEG_METHODS = {
     "LOF offline": lambda item, fps: lof_prediction(_angles(item), fps, False),
     "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),
-    "ACA (K=true)": lambda item, fps: aca_prediction(_angles(item), item.n_actions, fps, False),
-    "HACA (K=true)": lambda item, fps: aca_prediction(_angles(item), item.n_actions, fps, True),
-    "HACA (K found)": lambda item, fps: aca_prediction(_angles(item), None, fps, True),
+    "ACA (K=true)": lambda item, fps: aca_prediction(_bone_features(item), item.n_actions, fps,
+                                                     False),
+    "HACA (K=true)": lambda item, fps: aca_prediction(_bone_features(item), item.n_actions, fps,
+                                                      True),
+    "HACA (K found)": lambda item, fps: aca_prediction(_bone_features(item), None, fps, True),
 }
 
 

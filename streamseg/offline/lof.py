@@ -53,16 +53,24 @@ def lof_features(recording_or_angles, config: LOFConfig | None = None,
     -------
     ndarray of float64, shape (n_frames, config.n_features)
         :func:`streamseg.skeleton.bone_angles` with ``inclinations=config.inclinations``:
-        angles in [0, pi] (NaN rows allowed).
+        angles in [0, pi] (NaN rows allowed), then, with ``config.root_speed_max > 0``, the
+        two root-speed columns of :class:`streamseg.online.root_speed.RootSpeed` (the
+        recording's frame rate and up axis).
     """
     config = LOFConfig() if config is None else config
     d = feature_width(config, n_features)
     if hasattr(recording_or_angles, "positions") and hasattr(recording_or_angles, "skeleton"):
         from streamseg.skeleton import bone_angles
 
-        return np.asarray(bone_angles(recording_or_angles.positions,
-                                      recording_or_angles.skeleton,
-                                      inclinations=config.inclinations), dtype=np.float64)
+        rec = recording_or_angles
+        angles = np.asarray(bone_angles(rec.positions, rec.skeleton,
+                                        inclinations=config.inclinations), dtype=np.float64)
+        if not config.root_columns:
+            return angles
+        from streamseg.online.root_speed import root_speed_columns
+
+        root = root_speed_columns(rec.positions, rec.skeleton, rec.fps, config)
+        return np.ascontiguousarray(np.column_stack([angles, root]))
     angles = np.asarray(recording_or_angles, dtype=np.float64)
     if angles.ndim != 2 or angles.shape[1] != d:
         raise ParameterError(width_message(angles.shape, d, config, n_features))

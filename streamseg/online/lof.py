@@ -17,7 +17,10 @@ class StreamingLOFSegmenter:
     """Online version of :class:`streamseg.offline.LOFSegmenter`, bounded memory.
 
     Each frame's features are followed by their angular speeds (``config.speed_max``,
-    :mod:`streamseg.online.speed_features`, causal), and both are histogrammed. Per frame, the
+    :mod:`streamseg.online.speed_features`, causal), and both are histogrammed. With
+    ``config.root_speed_max > 0`` a frame's last two columns are the root speeds
+    (:mod:`streamseg.online.root_speed`): they enter the windows' histograms, so the LOF, but
+    not the histograms that place and confirm a cut (``config.check_columns``). Per frame, the
     window histogram is updated in O(bins) (the entering frame is added, the leaving one
     removed). Each completed window's count vector enters a ring buffer of
     ``capacity`` windows (``config.buffer_s`` seconds) whose LOF values are maintained
@@ -87,7 +90,8 @@ class StreamingLOFSegmenter:
         n, k, d, w = g["capacity"], c.k, self._cols * c.bins, g["window"]
         # in the order of the kernel's GEO_* and P_* slots
         self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
-                              g["refine"], g["contrast"]], dtype=np.int64)
+                              g["refine"], g["contrast"], c.check_columns(self.n_features)],
+                             dtype=np.int64)
         # the kernel reads a negative MAD count as the paper's rule (no threshold)
         mads = c.threshold_mads if c.peak_rule == "adaptive" else -1.0
         self._p = np.array([g["delay"], c.dp_tolerance, mads, c.min_score,
@@ -148,6 +152,8 @@ class StreamingLOFSegmenter:
         (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
         if not hasattr(self, "_pend"):  # saved before the two-stage decision: one stage
             self._pend = np.zeros((0, 2), dtype=np.int64)
+        if self._geo.size < _ks.GEO_SIZE:  # saved before the root speeds: checks read all
+            self._geo = np.append(self._geo, self._cols)
         self._allocate_derived()
         _kl.ext_rebuild(self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d,
                         self._nn_key, self._nn_cnt, self._trunc, self._lrd, self._lof,

@@ -19,6 +19,10 @@ class SpeedColumns:
     The speed of a frame uses only frames before it (see :mod:`streamseg._kernels.speeds`),
     so feeding a stream in any blocks gives the same columns as the whole array at once.
     Memory: ``(lag + 2) * d`` floats (``lag = speed_lag_s * fps`` frames).
+
+    Column order: the first ``d - r`` columns, their speeds, then the last ``r =
+    config.root_columns`` (the root speeds) and their speeds: the checks that place and
+    confirm a cut read the first ``config.check_columns(d)`` columns only.
     """
 
     def __init__(self, config: LOFConfig, fps: float, d: int):
@@ -29,16 +33,21 @@ class SpeedColumns:
         self._ring = np.zeros((lag, self.d))
         self._ref = np.zeros(self.d)
         self._first = np.zeros(self.d)
+        m = self.d - config.root_columns
+        self._order = (None if m == self.d else np.r_[0:m, self.d:self.d + m, m:self.d,
+                                                       self.d + m:2 * self.d])
 
     def __call__(self, block: np.ndarray) -> np.ndarray:
         out = np.empty((block.shape[0], 2 * self.d))
         _ks.append_speeds(block, out, self._st, self._ring, self._ref, self._first, self.scale)
-        return out
+        order = getattr(self, "_order", None)  # None in checkpoints made before the order
+        return out if order is None else np.ascontiguousarray(out[:, order])
 
 
 def lof_columns(angles: np.ndarray, config: LOFConfig, fps: float) -> np.ndarray:
     """The columns the LOF histograms are made of for a whole array (n, d): the features,
-    followed by their speeds when ``config.speed_max > 0``."""
+    followed by their speeds when ``config.speed_max > 0`` (the root speeds and theirs last,
+    see :class:`SpeedColumns`)."""
     a = np.ascontiguousarray(angles, dtype=np.float64)
     if config.speed_max <= 0:
         return a
