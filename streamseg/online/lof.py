@@ -60,10 +60,11 @@ class StreamingLOFSegmenter:
 
     Memory: fixed at construction, ``capacity * (2 * d * bins + 40 * k + 73)`` +
     ``(d + 1) * history`` bytes, ``d`` the histogrammed columns (``n_features``, doubled by
-    the speed columns of ``config.speed_max``: 34 by default), ``history = delay * step +
-    window + refine + max(window, contrast) + 1`` frames, plus ``(lag + 2) * n_features``
-    floats for the speeds (defaults at 120 Hz: 375 windows and 739 frames, 289 kB per stream,
-    289 MB for 1,000 streams; without speeds 195 kB; the ``2 * k`` candidates take 30 kB).
+    the speed columns of ``config.speed_max``: 38 by default, 34 without the root speeds),
+    ``history = delay * step + window + refine + max(window, contrast) + 1`` frames, plus
+    ``(lag + 2) * n_features`` floats for the speeds (defaults at 120 Hz: 375 windows and 739
+    frames, 311 kB per stream, 311 MB for 1,000 streams; without the root speeds 289 kB,
+    without any speeds 195 kB; the ``2 * k`` candidates take 30 kB).
 
     Parameters
     ----------
