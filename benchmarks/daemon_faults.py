@@ -40,6 +40,7 @@ from streamseg.commands.replay import announce_of
 from streamseg.daemon.security import ClientKeys, generate
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.online.root_speed import root_speed_columns
 from streamseg.skeleton import bone_angles
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "cmu86"
@@ -49,7 +50,8 @@ MID = 2000  # the fault happens after this many good frames
 
 def offline_cuts(rec, positions):
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = bone_angles(positions, rec.skeleton, inclinations=True)
+    ang = np.column_stack([bone_angles(positions, rec.skeleton, inclinations=True),
+                           root_speed_columns(positions, rec.skeleton, rec.fps)])
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 
