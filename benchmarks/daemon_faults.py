@@ -39,9 +39,8 @@ from streamseg.commands.listen import fetch_since, request, subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.daemon.security import ClientKeys, generate
 from streamseg.io import read
+from streamseg.offline.lof import position_features
 from streamseg.online.lof import StreamingLOFSegmenter
-from streamseg.online.root_speed import root_speed_columns
-from streamseg.skeleton import bone_angles
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "cmu86"
 STEP = 20
@@ -50,8 +49,7 @@ MID = 2000  # the fault happens after this many good frames
 
 def offline_cuts(rec, positions):
     seg = StreamingLOFSegmenter(fps=rec.fps)
-    ang = np.column_stack([bone_angles(positions, rec.skeleton, inclinations=True),
-                           root_speed_columns(positions, rec.skeleton, rec.fps)])
+    ang = position_features(positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 

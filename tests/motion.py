@@ -38,8 +38,6 @@ def revisions(algorithms, X, fps=FPS, history=6.0, interval=1.0):
 def lof_input(positions, skeleton, fps=FPS):
     """What the default cut detector reads of joint positions (n, J, 3): the 17 bone features
     and the 2 root speeds (as the daemon computes them, with the skeleton's up axis)."""
-    from streamseg.online.root_speed import root_speed_columns
-    from streamseg.skeleton import bone_angles
+    from streamseg.offline.lof import position_features
 
-    return np.column_stack([bone_angles(positions, skeleton, inclinations=True),
-                            root_speed_columns(positions, skeleton, fps)])
+    return position_features(positions, skeleton, fps)

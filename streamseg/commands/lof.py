@@ -125,21 +125,15 @@ def _angles(args, config: LOFConfig):
     if getattr(args, "up", None) and not config.inclinations:
         raise ParameterError("--up has no effect without the inclinations (--inclinations off "
                              "or --preset paper)")
-    import numpy as np
-
     from streamseg.io import read
-    from streamseg.online.root_speed import root_speed_columns
-    from streamseg.skeleton import bone_angles
+    from streamseg.offline.lof import position_features
 
     rec = read(args.file, args.skeleton, fps=args.fps)
     up = getattr(args, "up", None) or rec.skeleton.up
     if config.inclinations:
         _warn_up(args, rec, up)
-    a = bone_angles(rec.positions, rec.skeleton, inclinations=config.inclinations, up=up)
-    if config.root_columns:
-        a = np.column_stack([a, root_speed_columns(rec.positions, rec.skeleton, rec.fps,
-                                                   config, up=up)])
-    return a, float(rec.fps), config
+    return position_features(rec.positions, rec.skeleton, rec.fps, config, up), \
+        float(rec.fps), config
 
 
 def _warn_up(args, rec, up: str) -> None:

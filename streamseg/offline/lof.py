@@ -60,21 +60,44 @@ def lof_features(recording_or_angles, config: LOFConfig | None = None,
     config = LOFConfig() if config is None else config
     d = feature_width(config, n_features)
     if hasattr(recording_or_angles, "positions") and hasattr(recording_or_angles, "skeleton"):
-        from streamseg.skeleton import bone_angles
-
         rec = recording_or_angles
-        angles = np.asarray(bone_angles(rec.positions, rec.skeleton,
-                                        inclinations=config.inclinations), dtype=np.float64)
-        if not config.root_columns:
-            return angles
-        from streamseg.online.root_speed import root_speed_columns
-
-        root = root_speed_columns(rec.positions, rec.skeleton, rec.fps, config)
-        return np.ascontiguousarray(np.column_stack([angles, root]))
+        return position_features(rec.positions, rec.skeleton, rec.fps, config)
     angles = np.asarray(recording_or_angles, dtype=np.float64)
     if angles.ndim != 2 or angles.shape[1] != d:
         raise ParameterError(width_message(angles.shape, d, config, n_features))
     return angles
+
+
+def position_features(positions: np.ndarray, skeleton, fps: float,
+                      config: LOFConfig | None = None, up: str | None = None) -> np.ndarray:
+    """The LOF features of joint positions: the bone features, then the root speeds.
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n_frames, n_joints, 3)
+    skeleton : Skeleton or sequence of joint names
+    fps : float
+        Frame rate (the root speeds are per second).
+    config : LOFConfig or None
+        ``inclinations`` and ``root_speed_max`` select the columns (None: the default).
+    up : str or None
+        Up axis of the positions; None: the skeleton's.
+
+    Returns
+    -------
+    ndarray of float64, shape (n_frames, config.n_features)
+    """
+    from streamseg.skeleton import bone_angles
+
+    config = LOFConfig() if config is None else config
+    angles = np.asarray(bone_angles(positions, skeleton, inclinations=config.inclinations,
+                                    up=up), dtype=np.float64)
+    if not config.root_columns:
+        return angles
+    from streamseg.online.root_speed import root_speed_columns
+
+    root = root_speed_columns(positions, skeleton, fps, config, up=up)
+    return np.ascontiguousarray(np.column_stack([angles, root]))
 
 
 def frame_bins(angles: np.ndarray, bins: int):
