@@ -228,3 +228,30 @@ def test_a_secret_key_readable_by_others_is_warned_about(tmp_path, caplog):
     assert len(caplog.records) == 1
     msg = caplog.records[0].getMessage()
     assert str(secret) in msg and "644" in msg and f"chmod 600 {secret}" in msg
+
+
+def test_a_daemon_that_tears_every_handshake_is_a_refusal_not_a_timeout():
+    """A CURVE daemon may close a client without CURVE before the client has read its
+    greeting: the client then sees only torn handshakes (no PROTOCOL event), at each
+    reconnection. A peer that does that every time must be reported as a refusal, at once,
+    not as a daemon that never answered (the 30 s timeout)."""
+    import socket
+    import threading
+
+    server = socket.create_server(("127.0.0.1", 0))
+    stop = threading.Event()
+
+    def tear():
+        while not stop.is_set():
+            conn, _ = server.accept()
+            conn.recv(10)  # the start of the ZMTP greeting, then hang up mid-handshake
+            conn.close()
+
+    threading.Thread(target=tear, daemon=True).start()
+    endpoint = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    try:
+        with pytest.raises(ConnectionRefusedError, match="it has CURVE on"):
+            request(endpoint, "ping", timeout=60)
+    finally:
+        stop.set()
+        server.close()

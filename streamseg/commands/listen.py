@@ -54,8 +54,9 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
     sock.setsockopt(zmq.SNDTIMEO, int(timeout * 1000))
     if curve is not None:
         curve.apply(sock)
-    # a refused CURVE handshake is silent on the socket itself: its monitor says so at once
-    monitor = sock.get_monitor_socket(_HANDSHAKE_FAILED)
+    # a refused CURVE handshake is silent on the socket itself: its monitor says so
+    monitor = sock.get_monitor_socket(Refusal.EVENTS)
+    refusal = Refusal(endpoint, curve)
     sock.connect(endpoint)
     try:
         sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
@@ -68,7 +69,7 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
             if sock in ready:
                 return msgpack.unpackb(sock.recv(), raw=False)
             if monitor in ready:
-                _refused(endpoint, recv_monitor_message(monitor)["event"], curve)
+                refusal.check(recv_monitor_message(monitor)["event"])
     except zmq.Again:
         pass
     finally:
@@ -79,21 +80,42 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
                        "the daemon running there? (with CURVE on it needs --curve-dir)")
 
 
-# not NO_DETAIL: a connection torn during the handshake (a daemon stopping) is no refusal
-_HANDSHAKE_FAILED = zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+class Refusal:
+    """Decide from a socket's monitor events that the daemon refuses its handshake.
 
+    A refused key (``AUTH``) or a mechanism mismatch seen by this side (``PROTOCOL``) is
+    decisive. But when a CURVE daemon meets a client without CURVE, it may close the
+    connection before this side reads its greeting: then only ``NO_DETAIL`` is seen, at each
+    reconnection. One such tear can be a daemon stopping; :attr:`TEARS` in a row, with no
+    handshake in between that succeeded, are a refusal.
+    """
 
-def _refused(endpoint: str, event: int, curve) -> None:
-    """Raise ConnectionRefusedError saying why the daemon refused the handshake."""
-    if event == zmq.EVENT_HANDSHAKE_FAILED_AUTH:
+    EVENTS = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+              | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL | zmq.EVENT_HANDSHAKE_SUCCEEDED)
+    TEARS = 3
+
+    def __init__(self, endpoint: str, curve=None):
+        self.endpoint, self.curve, self.tears = endpoint, curve, 0
+
+    def check(self, event: int) -> None:
+        """Take one monitor event; raise ConnectionRefusedError once the refusal is sure."""
+        if event == zmq.EVENT_HANDSHAKE_SUCCEEDED:
+            self.tears = 0
+            return
+        if event == zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL:
+            self.tears += 1
+            if self.tears < self.TEARS:
+                return
+        if event == zmq.EVENT_HANDSHAKE_FAILED_AUTH:
+            raise ConnectionRefusedError(
+                f"the daemon at {self.endpoint} refused this client's CURVE key: copy the "
+                "client's public key (client.key of --curve-dir) into the daemon's "
+                "authorized/ folder")
         raise ConnectionRefusedError(
-            f"the daemon at {endpoint} refused this client's CURVE key: copy the client's "
-            "public key (client.key of --curve-dir) into the daemon's authorized/ folder")
-    raise ConnectionRefusedError(
-        f"the daemon at {endpoint} refused the security handshake: " +
-        ("it has no CURVE keys or other ones (check --curve-dir: its server.key must be the "
-         "daemon's)" if curve is not None else
-         "it has CURVE on: give --curve-dir DIR with keys made by `streamseg keys`"))
+            f"the daemon at {self.endpoint} refused the security handshake: " +
+            ("it has no CURVE keys or other ones (check --curve-dir: its server.key must be "
+             "the daemon's)" if self.curve is not None else
+             "it has CURVE on: give --curve-dir DIR with keys made by `streamseg keys`"))
 
 
 def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None):
@@ -402,7 +424,7 @@ def run(args) -> int:
     sock = subscriber(args.source, args.stream, args.kind, ctx, curve=curve)
     # without --control nothing else would notice a refused key: the SUB socket's monitor
     # does (a failure before it is attached recurs at the next reconnection)
-    monitor = sock.get_monitor_socket(_HANDSHAKE_FAILED)
+    monitor = sock.get_monitor_socket(Refusal.EVENTS)
     out = sys.stdout
     since, backlog, pending = None, [], []
 
@@ -468,7 +490,7 @@ def run(args) -> int:
                          timeout=args.timeout, since=since, backlog=backlog or (),
                          on_hole=on_hole if args.kind is None else None, pending=pending,
                          monitor=monitor,
-                         on_monitor=lambda event: _refused(args.source, event, curve)):
+                         on_monitor=Refusal(args.source, curve).check):
             line = book.apply(ev)  # the stream's cuts after its withdraws, at its close
             if line is not None:
                 out.write((strict_json.dumps(line) if args.jsonl else
