@@ -84,8 +84,9 @@ class DaemonConfig:
         on 127.0.0.1).
     relabel_share : float
         With relabelling in a thread and jobs waiting, the worker pauses after each job so
-        relabelling takes at most this share of the time (it shares the GIL with ingest);
-        1 = no pause.
+        relabelling takes at most this share of the time (it shares the GIL with ingest):
+        the pause is the job's CPU time x (1 / share - 1), so time it waited for the GIL is
+        not counted as its own; 1 = no pause.
     receive_thread : bool
         Receive and decode packets in a thread of their own, overlapping the detector's
         GIL-free kernels. Faster for one high-rate stream of small packets, slower with many

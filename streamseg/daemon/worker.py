@@ -36,7 +36,10 @@ class RelabelWorker(threading.Thread):
     def __init__(self, algorithms, processes: int = 0, share: float = 1.0):
         super().__init__(name="streamseg-relabel", daemon=True)
         # In-thread relabels share the GIL with ingest; when jobs keep coming, pause after each
-        # so relabelling takes at most this share of the time and ingest keeps the rest.
+        # so relabelling takes at most this share of the time and ingest keeps the rest. A
+        # job's cost is this thread's CPU time, not its wall time: waiting for the GIL while
+        # other threads (ingest, the event log and checkpoint writers) hold it is not time
+        # relabelling took from them, and counting it slowed relabels whenever they were busy.
         self.share = share
         self.algorithms = algorithms
         self.pool = None
@@ -102,7 +105,7 @@ class RelabelWorker(threading.Thread):
                     return
                 key, job = self._queue.popitem(last=False)
                 self.busy_key = key
-            started = time.monotonic()
+            started = time.thread_time()
             try:
                 if self.pool is not None:
                     result = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
@@ -112,7 +115,7 @@ class RelabelWorker(threading.Thread):
                                      job.previous, job.cuts)
             except Exception as err:  # reported as an error event; the worker lives on
                 result = err
-            elapsed = time.monotonic() - started
+            elapsed = time.thread_time() - started
             self._done.append((job, result))
             with self._cond:
                 self.busy_key = None
