@@ -35,7 +35,8 @@ The three recordings below F1 0.4 with the defaults (hdm_bk_2, 02_walk_punch_swo
 ``benchmarks/lof_accuracy.py``. These are diagnoses, not choices: round 7's mechanism, the
 recurrence check, was chosen on 14_20 + hdm_bk_1 (``benchmarks/lof_recur.py``, not adopted).
 
-Run: .venv/bin/python benchmarks/lof_misses.py [--all | --only NAME,NAME]   (half a minute)
+Run: .venv/bin/python benchmarks/lof_misses.py [--all | --only NAME,NAME]   (half a minute;
+``--only`` also takes the fresh sets' joins, e.g. fresh2_bk_1)
 """
 
 from __future__ import annotations
@@ -85,9 +86,19 @@ def segment_labels(name, truth, n):
     if name.startswith("02_"):
         names = [CMU02_TRIAL_ACTIONS[t][0] for t in CMU02_SEQUENCES[name]]
     else:
-        names = [cls for cls, _ in hdm05_action_plans(DATA)[name][1]]
+        names = [cls for cls, _ in _plans()[name][1]]
     b = [0, *truth, n]
     return [(b[i], b[i + 1], names[i]) for i in range(len(names))]
+
+
+def _plans():
+    """The HDM05 join plans of every set: the 14's hdm, the fresh nine, the fresh2 four."""
+    from lof_confirm import FRESH_SEED
+    from lof_pelvis2 import fresh2_plans
+
+    old = hdm05_action_plans(DATA)
+    fresh = hdm05_action_plans(DATA, per_actor=3, seed=FRESH_SEED, exclude=old, prefix="fresh")
+    return {**old, **fresh, **fresh2_plans(DATA)}
 
 
 def where(frame, segs):
@@ -198,6 +209,11 @@ def main():
     names = (list(recs) if "--all" in sys.argv else
              sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv
              else list(LOW))
+    if any(n.startswith("fresh") for n in names):  # the held-out sets, named with --only
+        from lof_confirm import fresh_recordings
+        from lof_pelvis2 import fresh2_recordings
+
+        recs.update(fresh_recordings(), **fresh2_recordings())
     config = LOFConfig()
     total = Counter()
     for name in names:
