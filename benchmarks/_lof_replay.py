@@ -69,13 +69,20 @@ def snapshots(angles, config: LOFConfig, fps: float) -> Snapshots:
                      len(angles))
 
 
+#: with ``thr_exclude``, the fewest LOF values the threshold may read (else: all of them)
+THR_MIN_WINDOWS = 10
+
+
 def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=None,
            mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
            novelty=None, min_seg=0, contrast2=0, min_contrast2=0.0,
            adaptive_k=None, fb=None, trace=None, recur=0.0, seg_contrast=0.0,
-           min_energy=None):
+           min_energy=None, thr_exclude=0):
     """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
 
+    ``thr_exclude`` (windows, 0: off; issue 11, round 15): the threshold's median and MAD
+    read the buffered LOF values without those within this many windows of an earlier cut's
+    peak window (all of them when fewer than :data:`THR_MIN_WINDOWS` remain).
     ``mads`` overrides ``config.threshold_mads`` (for the recent-window z-score), ``novelty``
     ``config.novelty`` (the library's check since round 4; None: the config's).
     ``adaptive_k = (snaps_by_k, alpha, k_max)``: each decision reads the LOF curve of
@@ -116,7 +123,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
     right = left.copy()
     keep = np.zeros(2 * delay + 1, dtype=np.uint8)
     stack = np.zeros(4 * (2 * delay + 1) + 4, dtype=np.int64)
-    st = dict(last_decided=-1, last_seq=-(1 << 40), last_frame=-(1 << 40))
+    st = dict(last_decided=-1, last_seq=-(1 << 40), last_frame=-(1 << 40), cut_ws=[])
     cuts, lats = [], []
     cum = None
     if novelty > 0 or recur > 0 or seg_contrast > 0:
@@ -152,6 +159,14 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
             ref = curve
         else:
             ref = np.ascontiguousarray(curve[max(0, size - recent):])
+        if thr_exclude > 0 and st["cut_ws"]:
+            # the level without the windows around earlier cuts (their own peaks)
+            seqs = np.arange(size - ref.shape[0], size) + oldest
+            far = np.ones(ref.shape[0], dtype=bool)
+            for cw in st["cut_ws"]:
+                far &= np.abs(seqs - cw) > thr_exclude
+            if far.sum() >= THR_MIN_WINDOWS:
+                ref = np.ascontiguousarray(ref[far])
         thr = max(c.min_score, robust_threshold(ref, ref.shape[0], n_mads,
                                                 np.empty(max(1, ref.shape[0]))))
         yw = curve[w - oldest]
@@ -255,6 +270,7 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
         rec["stage"] = "cut"
         st["last_frame"] = cf
         st["last_seq"] = w
+        st["cut_ws"].append(w)
         cuts.append(cf)
         lats.append(emitted - cf)
 

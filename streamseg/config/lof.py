@@ -172,6 +172,12 @@ class LOFConfig:
       fresh2_bk_1 0.00 -> 0.29 stays), median latency 2.27 -> 2.30 s. A change of the root
       speed alone therefore never makes a cut: the pose histograms must differ too.
 
+    Round 15 (``benchmarks/lof_threshold_loo.py``, the same LOO and rule): the threshold's
+    level read without the LOF values within 5-15 windows of earlier cuts (a short stream's
+    first transition raised fresh2_bk_1's level from 1.06 to 1.25). 25 folds chose 15; LOO
+    pooled F1 0.771 -> 0.765, hdm 0.815 -> 0.791, below 0.4: 1 -> 2 (hdm_bk_2 0.50 -> 0.29;
+    fresh2_bk_1's own fold chose off): not adopted, not in the library.
+
     Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
     02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
 
