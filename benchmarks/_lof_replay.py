@@ -77,9 +77,12 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
            mads=None, confirm: Snapshots | None = None, confirm_r=0, confirm_mads=1.0,
            novelty=None, min_seg=0, contrast2=0, min_contrast2=0.0,
            adaptive_k=None, fb=None, trace=None, recur=0.0, seg_contrast=0.0,
-           min_energy=None, thr_exclude=0):
+           min_energy=None, thr_exclude=0, recur_lookback=0):
     """Cut frames and latencies (frames) of the streaming decision replayed on ``snaps``.
 
+    ``recur_lookback`` (frames, 0: the current segment; issue 11, round 16): how far back the
+    recurrence check (``recur``) looks for a window like the cut's after side, whatever cuts
+    lie between.
     ``thr_exclude`` (windows, 0: off; issue 11, round 15): the threshold's median and MAD
     read the buffered LOF values without those within this many windows of an earlier cut's
     peak window (all of them when fewer than :data:`THR_MIN_WINDOWS` remain).
@@ -214,7 +217,8 @@ def decide(angles, config: LOFConfig, fps: float, snaps: Snapshots, recent_s=Non
             if den == 0 or 1.0 - float(a @ b) / den < novelty:
                 return
         if recur > 0:
-            seg0 = max(st["last_frame"], 0)
+            # the current segment (round 7), or the last recur_lookback frames whatever the cuts
+            seg0 = max(st["last_frame"], 0) if recur_lookback <= 0 else max(cf - recur_lookback, 0)
             after = (cum[cf + window] - cum[cf]).astype(np.float64)
             starts = src.centres[i] - window // 2
             starts = starts[(starts >= seg0) & (starts + window <= cf)]

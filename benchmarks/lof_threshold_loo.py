@@ -44,51 +44,53 @@ from lof_recur import checked_replay  # noqa: E402
 from streamseg.config import LOFConfig  # noqa: E402
 from streamseg.evaluation.datasets import CMU02_MULTI_ACTION_SEQUENCES  # noqa: E402
 
-CANDIDATES = (0, 5, 10, 15)
+#: label -> the replay's keyword arguments; the first is the defaults (nothing extra)
+CANDIDATES = {"threshold over all windows": {},
+              **{f"without +-{r} windows of cuts": {"thr_exclude": r} for r in (5, 10, 15)}}
 
 
-def label(r: int) -> str:
-    return "threshold over all windows" if r == 0 else f"without +-{r} windows of cuts"
-
-
-def main():
+def loo_round(candidates: dict) -> None:
+    """Score every candidate (``label -> decide() keywords``, the first the defaults) on all 27
+    labelled recordings, then leave-one-out (each fold choosing by pooled F1 over the other 26,
+    ties: the earlier candidate), and print the tables and the declared rule's verdict."""
     recs = {k: v for k, v in recordings().items() if k not in CMU02_MULTI_ACTION_SEQUENCES}
     allrecs = {**recs, **fresh_recordings(), **fresh2_recordings()}
     names = list(allrecs)
     feats, snaps = checked_replay(allrecs)
     cfg = LOFConfig()
+    labels = list(candidates)
 
-    def run(n, r):
-        cuts, lats = decide(feats[n], cfg, FPS, snaps[n], thr_exclude=r)
+    def run(n, kw):
+        cuts, lats = decide(feats[n], cfg, FPS, snaps[n], **kw)
         return score(cuts, allrecs[n][1], allrecs[n][2], len(feats[n])), list(lats), cuts
 
-    res = {r: {n: run(n, r) for n in names} for r in CANDIDATES}
+    res = {c: {n: run(n, candidates[c]) for n in names} for c in labels}
     choice = {}
     for held in names:
         rest = [n for n in names if n != held]
-        scores = [pooled(res[r], rest)[0] for r in CANDIDATES]
-        choice[held] = CANDIDATES[int(np.argmax(scores))]
+        scores = [pooled(res[c], rest)[0] for c in labels]
+        choice[held] = labels[int(np.argmax(scores))]
     loo = {n: res[choice[n]][n] for n in names}
-    base = res[0]
+    base = res[labels[0]]
     sets = sorted({group(n) for n in names},
                   key=["cmu", "cmu02", "hdm", "fresh", "fresh2"].index)
     print(f"\n{len(names)} labelled recordings; every candidate, all recordings (not LOO)")
     print("| candidate | pooled F1 | " + " | ".join(sets) + " | below 0.4 | latency median |")
     print("|---|---|" + "---|" * len(sets) + "---|---|")
-    for r in CANDIDATES:
-        _row(label(r), res[r], names, sets)
+    for c in labels:
+        _row(c, res[c], names, sets)
     print(f"\nleave-one-out: each recording scored with the candidate chosen on the other "
           f"{len(names) - 1}")
     print("| detector | pooled F1 | " + " | ".join(sets) + " | below 0.4 | latency median |")
     print("|---|---|" + "---|" * len(sets) + "---|---|")
-    b = _row(f"defaults ({label(0)})", base, names, sets)
+    b = _row(f"defaults ({labels[0]})", base, names, sets)
     m = _row("LOO choice", loo, names, sets)
-    counts = {label(r): sum(v == r for v in choice.values()) for r in CANDIDATES}
+    counts = {c: sum(v == c for v in choice.values()) for c in labels}
     print("\nchosen: " + ", ".join(f"{k} {v}x" for k, v in counts.items() if v))
     print("\nper recording: defaults -> LOO (its choice; F1, cuts, correct of true)")
     for n in names:
         print(f"  {n:26s} {group(n):6s} {base[n][0]['f1']:.2f} -> {loo[n][0]['f1']:.2f} "
-              f"({label(choice[n])})  cuts {base[n][0]['n']} -> {loo[n][0]['n']}, correct "
+              f"({choice[n]})  cuts {base[n][0]['n']} -> {loo[n][0]['n']}, correct "
               f"{base[n][0]['tp']} -> {loo[n][0]['tp']} of {base[n][0]['n_true']}")
     ok = (m["pooled"] >= b["pooled"] + 0.02,
           all(m["sets"][s] >= b["sets"][s] for s in sets),
@@ -100,4 +102,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    loo_round(CANDIDATES)
