@@ -186,11 +186,18 @@ def main():
     m = _row("LOO choice", loo, names, sets)
     counts = {label(c): sum(v == c for v in choice.values()) for c in CANDIDATES}
     print("\nchosen: " + ", ".join(f"{k} {v}x" for k, v in counts.items() if v))
+    verdict(names, base, loo, b, m, lambda n: label(choice[n]))
+
+
+def verdict(names, base, loo, b, m, chose):
+    """Print each recording's defaults -> LOO figures (``chose(name)``: the label of its
+    fold's choice) and the declared rule of rounds 12-16 on the rows ``b`` and ``m``."""
     print("\nper recording: defaults -> LOO (its choice; F1, cuts, correct of true)")
     for n in names:
         print(f"  {n:26s} {group(n):6s} {base[n][0]['f1']:.2f} -> {loo[n][0]['f1']:.2f} "
-              f"({label(choice[n])})  cuts {base[n][0]['n']} -> {loo[n][0]['n']}, correct "
+              f"({chose(n)})  cuts {base[n][0]['n']} -> {loo[n][0]['n']}, correct "
               f"{base[n][0]['tp']} -> {loo[n][0]['tp']} of {base[n][0]['n_true']}")
+    sets = list(b["sets"])
     ok = (m["pooled"] >= b["pooled"] + 0.02,
           all(m["sets"][s] >= b["sets"][s] for s in sets),
           m["below"] <= b["below"], m["latency"] <= 2.5)

@@ -38,7 +38,7 @@ from _lof_replay import decide  # noqa: E402
 from lof_accuracy import FPS, recordings, score  # noqa: E402
 from lof_confirm import fresh_recordings, pooled  # noqa: E402
 from lof_pelvis2 import fresh2_recordings  # noqa: E402
-from lof_pelvis_loo import FLOOR, _row, group  # noqa: E402
+from lof_pelvis_loo import _row, group, verdict  # noqa: E402
 from lof_recur import checked_replay  # noqa: E402
 
 from streamseg.config import LOFConfig  # noqa: E402
@@ -87,19 +87,7 @@ def loo_round(candidates: dict) -> None:
     m = _row("LOO choice", loo, names, sets)
     counts = {c: sum(v == c for v in choice.values()) for c in labels}
     print("\nchosen: " + ", ".join(f"{k} {v}x" for k, v in counts.items() if v))
-    print("\nper recording: defaults -> LOO (its choice; F1, cuts, correct of true)")
-    for n in names:
-        print(f"  {n:26s} {group(n):6s} {base[n][0]['f1']:.2f} -> {loo[n][0]['f1']:.2f} "
-              f"({choice[n]})  cuts {base[n][0]['n']} -> {loo[n][0]['n']}, correct "
-              f"{base[n][0]['tp']} -> {loo[n][0]['tp']} of {base[n][0]['n_true']}")
-    ok = (m["pooled"] >= b["pooled"] + 0.02,
-          all(m["sets"][s] >= b["sets"][s] for s in sets),
-          m["below"] <= b["below"], m["latency"] <= 2.5)
-    print(f"\nrule: pooled +0.02 {ok[0]} ({b['pooled']:.3f} -> {m['pooled']:.3f}); no set lower "
-          f"{ok[1]}; below {FLOOR} not more {ok[2]} ({b['below']} -> {m['below']}); median "
-          f"latency {m['latency']:.2f} s <= 2.5 s {ok[3]} -> "
-          + ("ADOPT (needs the library option)" if all(ok) else "do not adopt"))
-
+    verdict(names, base, loo, b, m, choice.get)
 
 if __name__ == "__main__":
     loo_round(CANDIDATES)

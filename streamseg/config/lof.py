@@ -176,7 +176,11 @@ class LOFConfig:
     level read without the LOF values within 5-15 windows of earlier cuts (a short stream's
     first transition raised fresh2_bk_1's level from 1.06 to 1.25). 25 folds chose 15; LOO
     pooled F1 0.771 -> 0.765, hdm 0.815 -> 0.791, below 0.4: 1 -> 2 (hdm_bk_2 0.50 -> 0.29;
-    fresh2_bk_1's own fold chose off): not adopted, not in the library.
+    fresh2_bk_1's own fold chose off): not adopted, not in the library. Round 16
+    (``benchmarks/lof_recur_loo.py``): round 7's recurrence check looking back 10 or 20 s
+    whatever the cuts trades the CMU takes, whose actions recur (cmu 0.944 -> 0.61-0.88), for
+    the CMU 02 joins (0.450 -> up to 0.700); 26 folds chose off, LOO pooled F1 0.771 -> 0.754:
+    not adopted.
 
     Cut placement (issue 11, round 8, ``benchmarks/lof_placement.py``; train pair
     02_wash_sword_walk_punch + hdm_bd_1, grid and rule declared before the first run):
