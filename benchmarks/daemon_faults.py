@@ -35,7 +35,7 @@ import numpy as np
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import fetch_since, request, subscriber
+from streamseg.client import fetch_since, request, subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.daemon.security import ClientKeys, generate
 from streamseg.io import read

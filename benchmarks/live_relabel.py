@@ -77,7 +77,7 @@ def live(rec, stream, speed, config, algorithms=None, revisions=None):
 
     ``algorithms``: the daemon's (default: its own); ``revisions``: a list that receives every
     revision as ``(start, end, segments)``."""
-    from streamseg.commands.listen import listen, subscriber
+    from streamseg.client import listen, subscriber
     from streamseg.commands.replay import replay
     from streamseg.daemon import Daemon
 

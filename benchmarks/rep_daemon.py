@@ -17,7 +17,7 @@ import time
 
 from rep_routines import hdm_routine
 
-from streamseg.commands.listen import listen, subscriber
+from streamseg.client import listen, subscriber
 from streamseg.commands.replay import replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon

@@ -40,7 +40,7 @@ import numpy as np
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import subscriber
+from streamseg.client import subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon

@@ -167,7 +167,7 @@ def test_rounds_space_out_when_they_cost_more_than_the_cpu_budget(tmp_path, rec,
     import zmq
 
     from streamseg import protocol as P
-    from streamseg.commands.listen import request
+    from streamseg.client import request
     from streamseg.commands.replay import announce_of
     from streamseg.daemon import checkpoint as ck
 

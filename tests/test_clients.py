@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from streamseg.cli import main
+from streamseg.client import listen, subscribe
 from streamseg.commands import serve
-from streamseg.commands.listen import listen, subscribe
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 from streamseg.exceptions import ParameterError

@@ -14,7 +14,7 @@ import zmq
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.commands.listen import fetch_since, handshake, listen, request, subscribe
+from streamseg.client import fetch_since, handshake, listen, request, subscribe
 from streamseg.commands.replay import announce_of, replay
 from streamseg.daemon.eventlog import EventLog
 

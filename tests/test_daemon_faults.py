@@ -15,7 +15,7 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import fetch_since, listen, request, subscribe
+from streamseg.client import fetch_since, listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.online.lof import StreamingLOFSegmenter

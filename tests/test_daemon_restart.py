@@ -16,7 +16,7 @@ import zmq
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.commands.listen import fetch_since, request, subscriber
+from streamseg.client import fetch_since, request, subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter

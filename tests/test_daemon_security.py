@@ -10,7 +10,7 @@ from zmq.utils.monitor import recv_monitor_message
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.commands.listen import listen, request, subscriber
+from streamseg.client import listen, request, subscriber
 from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon

@@ -11,7 +11,7 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import listen, request, subscribe
+from streamseg.client import listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
 

@@ -126,7 +126,7 @@ def _replay_in_steps(rec, endpoint, sub, stream, step):
     import zmq
 
     from streamseg import protocol
-    from streamseg.commands.listen import listen
+    from streamseg.client import listen
     from streamseg.commands.replay import announce_of
 
     push = zmq.Context.instance().socket(zmq.PUSH)
@@ -166,7 +166,7 @@ def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start
     an action not seen before; abrupt joins). The returning jumping jacks start 15.4 s after
     the first ones ended, beyond the history: with the memory they get the first ones' id;
     without it, a new one. The punches get a new id either way."""
-    from streamseg.commands.listen import listen, subscriber
+    from streamseg.client import listen, subscriber
     from streamseg.evaluation.datasets import _cmu_take, _slice, concatenate
 
     a, _ = _cmu_take(data_dir, "14_14")

@@ -210,7 +210,7 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, 
     # numbered like every event, in the event log
     seqs = [r["seq"] for r in rows if "seq" in r]
     assert seqs == list(range(1, len(seqs) + 1))
-    from streamseg.commands.listen import fetch_since, request
+    from streamseg.client import fetch_since, request
 
     # the late joiner's snapshot: withdrawn cuts gone, confirmed ones final (no relabel ran)
     state = request(ep["control"], "state", stream="w")

@@ -11,7 +11,7 @@ import threading
 import numpy as np
 import pytest
 
-from streamseg.commands.listen import listen, subscriber
+from streamseg.client import listen, subscriber
 from streamseg.commands.replay import replay
 from streamseg.config import ACAConfig, DaemonConfig
 from streamseg.daemon import Daemon

@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from streamseg.commands.listen import listen, request, subscriber
+from streamseg.client import listen, request, subscriber
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 

@@ -23,7 +23,7 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from streamseg.cli import main  # noqa: E402
-from streamseg.commands.listen import listen, subscriber  # noqa: E402
+from streamseg.client import listen, subscriber  # noqa: E402
 from streamseg.commands.replay import replay  # noqa: E402
 from streamseg.config import DaemonConfig  # noqa: E402
 from streamseg.daemon import Daemon  # noqa: E402

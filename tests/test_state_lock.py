@@ -14,7 +14,7 @@ import time
 import pytest
 
 from streamseg.cli import main
-from streamseg.commands.listen import request, subscribe
+from streamseg.client import request, subscribe
 from streamseg.commands.replay import replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon

@@ -15,7 +15,7 @@ import pytest
 import zmq
 
 from streamseg import protocol as P
-from streamseg.commands.listen import subscriber
+from streamseg.client import subscriber
 from streamseg.commands.replay import replay
 from streamseg.config import DaemonConfig, LOFConfig
 from streamseg.daemon import Daemon
@@ -232,7 +232,7 @@ def test_view_started_late_catches_up_through_state(browser, rec):
         wait_view_live(page)
         send_rest(ep["ingest"], rec, "late", half)
         page.wait_for_selector('.row[data-stream="late"][data-closed="end"]', timeout=120_000)
-        from streamseg.commands.listen import request
+        from streamseg.client import request
 
         state = request(ep["control"], "state", stream="late")
         assert state["closed"] == "end"

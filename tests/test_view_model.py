@@ -9,7 +9,7 @@ import pytest
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.commands.listen import request
+from streamseg.client import request
 from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon

@@ -35,7 +35,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from streamseg.cli import check_plot
-    from streamseg.commands.listen import format_event, listen, subscribe
+    from streamseg.client import listen, subscribe
+    from streamseg.commands.listen import format_event
     from streamseg.commands.replay import replay
     from streamseg.config import DaemonConfig
     from streamseg.daemon import Daemon
