@@ -44,7 +44,8 @@ from rep_data import bone_features, load_clips, make_sequences
 from streamseg.config import RepetitionConfig
 from streamseg.evaluation.datasets import HDM05_REPETITIVE
 from streamseg.evaluation.metrics import repetition_accuracy
-from streamseg.offline.repetition import RepetitionSegmenter, _rest_pose, _smooth
+from streamseg.offline.rep_analysis import rest_pose, smooth
+from streamseg.offline.repetition import RepetitionSegmenter
 
 CHOICE_ACTOR = "bd"
 CHOICE_SEEDS = (0, 1)
@@ -89,9 +90,9 @@ def diagnose(seqs):
         if seg.count_ != n_true or til.count_ != n_true:
             continue
         a = seg.analysis_
-        F = _smooth(seg.angles_[:, a.selected], s["fps"], base.refine_band * a.primary_hz,
+        F = smooth(seg.angles_[:, a.selected], s["fps"], base.refine_band * a.primary_hz,
                     base.filter_order)
-        curve = np.sum((F - _rest_pose(seg.angles_[:, a.selected], a.period)) ** 2, axis=1)
+        curve = np.sum((F - rest_pose(seg.angles_[:, a.selected], a.period)) ** 2, axis=1)
         speed = np.sum(np.gradient(F, axis=0) ** 2, axis=1)
         L = float(np.median([y - x for x, y in s["reps"]]))
         for (t, _), (f, _), (d, _) in zip(s["reps"][1:], seg.repetitions_[1:],

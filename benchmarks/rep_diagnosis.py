@@ -93,10 +93,8 @@ from streamseg.evaluation.datasets import HDM05_REPETITIVE
 from streamseg.evaluation.metrics import repetition_accuracy
 from streamseg.offline import repetition_steps as steps
 from streamseg.offline.rep_align import align_repetitions, dtw_cost
-from streamseg.offline.repetition import (
-    RepetitionSegmenter,
-    not_repetitive_reason,
-)
+from streamseg.offline.rep_analysis import not_repetitive_reason
+from streamseg.offline.repetition import RepetitionSegmenter
 from streamseg.recording import Recording
 
 BINS = (0.0, 0.05, 0.1, 0.2, 0.35, 0.5, np.inf)

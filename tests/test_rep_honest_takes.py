@@ -15,7 +15,8 @@ from streamseg.cli import main
 from streamseg.config import RepetitionConfig
 from streamseg.io import read
 from streamseg.io.npz import write_npz
-from streamseg.offline.repetition import RepetitionSegmenter, min_repetitions
+from streamseg.offline.rep_analysis import min_repetitions
+from streamseg.offline.repetition import RepetitionSegmenter
 from streamseg.online.repetition import RepetitionCounter
 from streamseg.plotting.repetitions import title
 

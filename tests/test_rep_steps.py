@@ -228,3 +228,19 @@ def test_wider_bandpass_lets_boundaries_follow_uneven_repetitions():
     # the DTW re-cut (the default, align="dtw") follows them even from the paper's band
     err_dtw, alpha_dtw = join_error(3.0, align="dtw")
     assert err_dtw < 3.0 and alpha_dtw > 0.94
+
+
+def test_analyse_with_a_given_primary_uses_that_bin():
+    from streamseg.offline.rep_analysis import analyse
+
+    fps, lengths = 60.0, [70, 80, 75, 72, 78, 74]
+    phase = np.concatenate([np.linspace(0, 2 * np.pi, L, endpoint=False) for L in lengths])
+    X = np.stack([0.5 * (1 - np.cos(phase)), 0.2 * np.sin(phase)], axis=1)
+    own = analyse(X, fps)
+    assert own.primary_cycles == pytest.approx(6.0, abs=0.25)
+    same = analyse(X, fps, primary_cycles=own.primary_cycles)
+    assert same.primary_cycles == own.primary_cycles
+    assert np.array_equal(same.boundaries, own.boundaries)
+    half = analyse(X, fps, primary_cycles=own.primary_cycles / 2)
+    assert half.primary_cycles == pytest.approx(own.primary_cycles / 2, abs=0.125)  # bin 1/4
+    assert half.period == pytest.approx(2 * own.period, rel=0.05)

@@ -202,7 +202,7 @@ def true_sets(rows) -> list:
 
     Consecutive rows of one label are one set; a set of one row is an action take or a
     single repetition, whose true count is 0 (one movement is not counted; see
-    :func:`streamseg.offline.repetition.not_repetitive_reason`).
+    :func:`streamseg.offline.rep_analysis.not_repetitive_reason`).
     """
     out = []
     for r in rows:

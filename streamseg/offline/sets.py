@@ -6,7 +6,7 @@ quaternion features, the number of actions found by :func:`fit_aca`); adjacent s
 one label are one *set*; the repetition segmenter then runs inside each set on the bone
 directions of the kinematic UKF fitted once on the whole take. A recording without joint
 rotations is cut on :func:`streamseg.skeleton.body_features` instead of the quaternions. A
-set that fails the "repetitive" test (:func:`streamseg.offline.repetition.
+set that fails the "repetitive" test (:func:`streamseg.offline.rep_analysis.
 not_repetitive_reason`) has count 0.
 
 A take that is one repetitive exercise as a whole (it passes the repetitive test with a power

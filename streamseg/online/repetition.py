@@ -5,14 +5,14 @@ the last ``buffer_s`` are analysed every ``hop_s`` with the offline steps of
 section 4 (primary frequency, parameter selection, band-pass, candidates, adaptive k-means,
 eq. 14).
 
-"Repetitive" test: the offline one (:func:`streamseg.offline.repetition.
+"Repetitive" test: the offline one (:func:`streamseg.offline.rep_analysis.
 not_repetitive_reason`) on the buffer: at least ``min_cycles + 0.5`` cycles of its primary
 frequency (a primary frequency at the lowest admissible bin may be a longer period cut short),
 half the primary frequency has less than ``max_subharmonic`` of its power (else the "primary"
 is a harmonic of a movement not yet seen twice), and the band of ``band_width_cycles`` around
 it holds at least ``min_concentration`` of the summed (detrended) power of all parameters
 above ``min_cycles``; a new set also needs its boundaries to cut the buffer into at least
-``min_cycles + 0.5`` pieces (:func:`streamseg.offline.repetition.min_repetitions`, as
+``min_cycles + 0.5`` pieces (:func:`streamseg.offline.rep_analysis.min_repetitions`, as
 offline). While it fails nothing is emitted; after a whole buffer without passing,
 the running count restarts at 0 (a new set). At the stream's end :meth:`RepetitionCounter.
 finish` reports the repetitions the last frames hold.
@@ -38,7 +38,7 @@ from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 from streamseg.kinematics.model import bone_directions, estimate_noise, limb_points, observations
 from streamseg.kinematics.tracker import AngleTracker
-from streamseg.offline.repetition import analyse, min_repetitions, not_repetitive_reason
+from streamseg.offline.rep_analysis import analyse, min_repetitions, not_repetitive_reason
 from streamseg.offline.repetition_steps import to_repetitions
 
 __all__ = ["RepEvent", "RepetitionCounter"]
