@@ -4,7 +4,8 @@ On dg's front kicks the spectral primary frequency is often about twice the kick
 cycles for 4 kicks, ``rep_diagnosis.py --counts``): the spectral pieces are half kicks and so
 is the DTW template cut from them. An octave check would re-run the analysis at half the
 primary frequency (``analyse(..., primary_cycles=fc / 2)``), re-cut by DTW as the segmenter
-does, and keep whichever tiling explains the sequence better: the lower mean objective per
+does (before the snap, which moves inner cuts only and so changes no count), and keep
+whichever tiling explains the sequence better: the lower mean objective per
 frame (piece length x mean DTW cost against that tiling's own template, on the same
 features). This measures, on the choosing draws only (0-5 of bd, bk, dg, clean and
 Kinect-like; no held-out draw is touched), how often the half-frequency tiling is cheaper,
