@@ -91,7 +91,7 @@ def diagnose(seqs):
             continue
         a = seg.analysis_
         F = smooth(seg.angles_[:, a.selected], s["fps"], base.refine_band * a.primary_hz,
-                    base.filter_order)
+                   base.filter_order)
         curve = np.sum((F - rest_pose(seg.angles_[:, a.selected], a.period)) ** 2, axis=1)
         speed = np.sum(np.gradient(F, axis=0) ** 2, axis=1)
         L = float(np.median([y - x for x, y in s["reps"]]))

@@ -167,13 +167,37 @@ def _refine(bounds, Xs, fps, f_hz, period, cfg, rest=None):
 
 
 def rest_pose(Xs, period):
-    """The mean of ``Xs`` over the first and last 5 % of a period (where a set starts/ends)."""
+    """The mean of ``Xs`` over the first and last 5 % of a period (where a set starts/ends).
+
+    Parameters
+    ----------
+    Xs : ndarray, shape (n_frames, n_params)
+    period : float
+        Frames per repetition.
+
+    Returns
+    -------
+    ndarray, shape (n_params,)
+    """
     ends = max(1, int(round(0.05 * period)))
     return 0.5 * (Xs[:ends].mean(axis=0) + Xs[-ends:].mean(axis=0))
 
 
 def smooth(Xs, fps, cutoff_hz, order):
-    """``Xs`` low-passed at ``cutoff_hz`` (the filter detrends: the trend is put back)."""
+    """``Xs`` low-passed at ``cutoff_hz`` (the filter detrends: the trend is put back).
+
+    Parameters
+    ----------
+    Xs : ndarray, shape (n_frames, n_params)
+    fps : float
+    cutoff_hz : float
+    order : int
+        Butterworth order.
+
+    Returns
+    -------
+    ndarray, shape (n_frames, n_params)
+    """
     return steps.bandpass(Xs, fps, 0.0, cutoff_hz, order) + (Xs - detrend(Xs, axis=0))
 
 

@@ -274,7 +274,7 @@ class RepetitionSegmenter(Estimator):
         if cfg.root_height_weight > 0 and n - 1 not in cols:
             cols = np.append(cols, n - 1)
         F = smooth(self.angles_[:, cols], self.fps_, cfg.refine_band * a.primary_hz,
-                    cfg.filter_order)
+                   cfg.filter_order)
         return F, cols
 
     def predict(self) -> list[Segment]:
