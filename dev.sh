@@ -25,9 +25,11 @@ case "${1:-}" in
         exec .venv/bin/streamseg demo "$@"
         ;;
     test)
-        ensure_env test,plot,dev
+        ensure_env test,plot,dev,docs
         shift
         .venv/bin/ruff check .
+        # the documentation site, strictly: a broken link or reference fails the run
+        NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --quiet
         set +e
         .venv/bin/python -m pytest -q "$@"
         rc=$?
