@@ -31,7 +31,7 @@ from streamseg.config import ACAConfig
 from streamseg.evaluation.labels import frame_labels, read_labels
 from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.io import read
-from streamseg.offline.relabel import model_from_config
+from streamseg.offline.model_selection import model_from_config
 from streamseg.skeleton import quaternion_features
 
 DATA = Path(__file__).resolve().parents[1] / "data"

@@ -93,8 +93,8 @@ from streamseg.offline.model_selection import (  # noqa: E402
     SILHOUETTE_FRAMES,
     fit_aca,
     merge_interleaved,
+    model_from_config,
 )
-from streamseg.offline.relabel import model_from_config  # noqa: E402
 
 #: declared before any result was seen: parameters are chosen on these two only
 TRAIN = ("02_walk_punch_sword_wash", "hdm_bd_0")

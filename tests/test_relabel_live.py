@@ -86,7 +86,7 @@ def test_boundaries_snap_to_live_cuts():
 def test_haca_search_shares_the_fine_level_and_equals_single_fits():
     from dataclasses import replace
 
-    from streamseg.offline.relabel import model_from_config
+    from streamseg.offline.model_selection import model_from_config
 
     X = _actions([0.4, 1.4, 2.4], seed=7)
     cfg = ACAConfig(n_clusters=None)

@@ -34,7 +34,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--skeleton", help="ASF for AMCs whose folder has none (each AMC "
                         "takes the ASF beside it whose name starts the file's name, or the "
                         "only one there)")
-    from streamseg.cli import frame_rate
+    from streamseg.commands.args import frame_rate
 
     parser.add_argument("--fps", type=frame_rate, default=None,
                         help="frame rate for feature matrices (.npy/.csv) or AMCs")

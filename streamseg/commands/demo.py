@@ -34,8 +34,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from streamseg.cli import check_plot
     from streamseg.client import listen, subscribe
+    from streamseg.commands.args import check_plot
     from streamseg.commands.listen import format_event
     from streamseg.commands.replay import replay
     from streamseg.config import DaemonConfig

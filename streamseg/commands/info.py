@@ -70,3 +70,14 @@ def info(path, skeleton=None, fps=None) -> str:
         angle = 2 * np.arccos(np.clip(np.abs(q[..., 0]), 0, 1))
         out += _table("joint rotation from rest (ACA joints)", ACA_SEGMENTS, angle, "rad")
     return "\n".join(out)
+
+
+def add_arguments(parser) -> None:
+    from streamseg.commands.args import add_input_arguments
+
+    add_input_arguments(parser)
+
+
+def run(args) -> int:
+    print(info(args.file, skeleton=args.skeleton, fps=args.fps))
+    return 0

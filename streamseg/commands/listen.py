@@ -19,7 +19,7 @@ from streamseg.client import Refusal, fetch_since, handshake, listen, request, s
 
 
 def add_arguments(parser) -> None:
-    from streamseg.cli import endpoint
+    from streamseg.commands.args import endpoint
 
     parser.add_argument("--from", dest="source", required=True, type=endpoint,
                         metavar="ENDPOINT", help="daemon publish endpoint")

@@ -22,7 +22,7 @@ from streamseg.recording import UP_AXES
 
 
 def add_arguments(parser) -> None:
-    from streamseg.cli import endpoint
+    from streamseg.commands.args import endpoint
 
     parser.add_argument("file", help="recording (.amc[.gz], .bvh, .npz)")
     parser.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")

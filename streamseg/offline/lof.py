@@ -264,3 +264,15 @@ class LOFSegmenter(Estimator):
         self.segments_ = segments_from_cuts(self.cuts_, self.n_frames_)
         return self
 
+
+
+def warmup() -> None:
+    """Compile (or load from cache) the kernels of the live detector and of this offline
+    path."""
+    from streamseg.online.lof import warmup as warmup_live
+
+    warmup_live()
+    cfg = LOFConfig(window_s=0.1, step_s=0.05, k=2, buffer_s=0.5, delay_s=0.05)
+    angles = np.random.default_rng(0).uniform(0, np.pi, (40, cfg.n_features))
+    angles[5] = np.nan
+    LOFSegmenter(cfg, fps=100.0).fit(angles).predict()

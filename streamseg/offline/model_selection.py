@@ -142,6 +142,27 @@ def _single(n: int, reason: str) -> Fitted:
     return Fitted(np.zeros(n, dtype=np.int64), [(0, n, 0)] if n else [], 1, reason=reason)
 
 
+def model_from_config(config: ACAConfig, fps: float):
+    """Unfitted ACA or HACA for ``config`` with its second-based lengths at ``fps``."""
+    from streamseg.offline.aca import ACA
+    from streamseg.offline.haca import HACA
+
+    def frames(seconds):
+        return max(1, int(round(seconds * fps)))
+
+    common = dict(n_init=config.n_init, max_iter=config.max_iter, kernel=config.kernel,
+                  sigma=config.sigma, k_reduce=config.k_reduce,
+                  reduce_cap=frames(config.reduce_cap), random_state=config.random_state)
+    if config.hierarchical:
+        return HACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
+                    fine_clusters=config.fine_clusters,
+                    fine_min_len_frames=frames(config.fine_min_len_s),
+                    fine_max_len_frames=frames(config.fine_max_len_s),
+                    coarse_kernel=config.coarse_kernel, **common)
+    return ACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
+               init=config.init, **common)
+
+
 def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
     """Fit (H)ACA to ``X`` with ``config``; K found by segment silhouette when not given.
 
@@ -158,8 +179,6 @@ def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
     -------
     Fitted
     """
-    from streamseg.offline.relabel import model_from_config
-
     if not (np.isfinite(fps) and fps > 0):
         raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
     X = np.asarray(X, dtype=np.float64)

@@ -21,6 +21,7 @@ from scipy.optimize import linear_sum_assignment
 
 from streamseg.config import ACAConfig
 from streamseg.exceptions import ParameterError
+from streamseg.offline.model_selection import fit_aca
 
 
 @dataclass(frozen=True)
@@ -58,27 +59,6 @@ class WindowSegmentation:
         for s, e, lab in self.segments:
             out[s - self.start:e - self.start] = lab
         return out
-
-
-def model_from_config(config: ACAConfig, fps: float):
-    """Unfitted ACA or HACA for ``config`` with its second-based lengths at ``fps``."""
-    from streamseg.offline.aca import ACA
-    from streamseg.offline.haca import HACA
-
-    def frames(seconds):
-        return max(1, int(round(seconds * fps)))
-
-    common = dict(n_init=config.n_init, max_iter=config.max_iter, kernel=config.kernel,
-                  sigma=config.sigma, k_reduce=config.k_reduce,
-                  reduce_cap=frames(config.reduce_cap), random_state=config.random_state)
-    if config.hierarchical:
-        return HACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
-                    fine_clusters=config.fine_clusters,
-                    fine_min_len_frames=frames(config.fine_min_len_s),
-                    fine_max_len_frames=frames(config.fine_max_len_s),
-                    coarse_kernel=config.coarse_kernel, **common)
-    return ACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
-               init=config.init, **common)
 
 
 def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
@@ -148,8 +128,6 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
     X = np.asarray(features, dtype=np.float64)
     if X.ndim != 2 or X.shape[0] == 0:
         raise ParameterError(f"features must be a non-empty (n, d) array, got {X.shape}")
-    from streamseg.offline.model_selection import fit_aca
-
     start = int(start_frame)
     n = X.shape[0]
     model = fit_aca(X, config, fps)

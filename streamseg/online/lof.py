@@ -278,8 +278,9 @@ class StreamingLOFSegmenter:
 
 
 def warmup() -> None:
-    """Compile (or load from cache) every LOF kernel, e.g. at daemon start."""
-    from streamseg.offline.lof import LOFSegmenter
+    """Compile (or load from cache) every kernel of the live detector, e.g. at daemon start
+    (:func:`streamseg.offline.lof.warmup` covers the offline path too)."""
+    from streamseg._kernels.histogram import bin_frames, contrast_at
 
     cfg = LOFConfig(window_s=0.1, step_s=0.05, k=2, buffer_s=0.5, delay_s=0.05)
     rng = np.random.default_rng(0)
@@ -289,12 +290,10 @@ def warmup() -> None:
     s.learn_many(angles)
     s.learn_one(angles[0])
     s.finish()
-    LOFSegmenter(cfg, fps=100.0).fit(angles).predict()  # the whole offline path
     # the confirming contrast, whether or not the random stream had a candidate
-    from streamseg._kernels.histogram import contrast_at
-    from streamseg.offline.lof import frame_bins
-
-    fb, valid = frame_bins(angles, cfg.bins)
+    fb = np.empty(angles.shape, dtype=np.int8)
+    valid = np.empty(angles.shape[0], dtype=np.uint8)
+    bin_frames(angles, cfg.bins, fb, valid)
     scratch = np.zeros(fb.shape[1] * cfg.bins, dtype=np.int64)
     contrast_at(fb, valid, fb.shape[0], 20, 10, cfg.bins, fb.shape[0], 0, scratch,
                 scratch.copy())
