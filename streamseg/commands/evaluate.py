@@ -9,22 +9,20 @@ from streamseg.exceptions import ParameterError
 
 
 def add_arguments(parser) -> None:
+    from streamseg.commands import eval_all
+
     add_common_arguments(parser, optional_file=True)
-    parser.add_argument(
-        "--all",
-        metavar="DIR",
-        help="score all of streamseg's methods on every recording with a label CSV "
-        "under DIR and print one table (--skeleton: ASF for AMCs whose folder has none)",
-    )
-    parser.add_argument(
-        "--runs", type=int, default=1, help="with --all: timed runs (median), default 1"
-    )
+    eval_all.add_arguments(parser)
 
 
 def run(args) -> int:
+    if not args.all:
+        args.method = args.method or "lof"
     check_options(args)
     if args.all:
-        return _run_all(args)
+        from streamseg.commands import eval_all
+
+        return eval_all.run(args)
     if not args.file:
         raise ParameterError("eval needs FILE --labels CSV, or --all DIR")
     if not args.labels:
@@ -33,27 +31,4 @@ def run(args) -> int:
         )
     check_plot(args.plot)
     emit(args, args.methods[args.method].evaluate(args))
-    return 0
-
-
-def _run_all(args) -> int:
-    from streamseg import strict_json
-    from streamseg.evaluation.corpus import (
-        STREAMSEG_METHODS,
-        discover,
-        evaluate_all,
-        format_table,
-        json_row,
-    )
-
-    items = discover(args.all, skeleton=args.skeleton)
-    if not items:
-        raise ParameterError(f"no label CSVs with recordings under {args.all}")
-    rows, _ = evaluate_all(items, STREAMSEG_METHODS, runs=args.runs)
-    if args.json:
-        print(strict_json.dumps({"schema": 1, "command": "eval --all", "folder": args.all,
-                                 "rows": [{"recording": r, "method": m, **json_row(row)}
-                                          for r, m, row in rows]}))
-    else:
-        print(format_table(rows))
     return 0

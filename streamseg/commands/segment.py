@@ -32,7 +32,8 @@ def add_common_arguments(p, *, optional_file: bool = False) -> None:
     """The options segment and eval share, then every method's own group."""
     add_input_arguments(p, optional=optional_file)
     methods = available_methods()
-    p.add_argument("--method", choices=sorted(methods), default="lof")
+    p.add_argument("--method", choices=sorted(methods), default=None,
+                   help="default: lof (with eval --all: lof and aca)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="PNG", help="write a picture of the result")
     p.add_argument("--labels", metavar="CSV", help="human labels (sequence,start,end,label,...)")
@@ -55,7 +56,8 @@ def check_options(args) -> None:
     from streamseg.commands.output import warn
 
     for dest, owner in args.owners.items():
-        if owner != args.method and getattr(args, dest) != args.option_defaults.get(dest):
+        if owner != (args.method or "lof") and \
+                getattr(args, dest) != args.option_defaults.get(dest):
             flag = "--" + dest.replace("_", "-")
             warn(args, f"{flag} is a {owner} option: it does nothing with --method "
                        f"{args.method}")
@@ -71,6 +73,7 @@ def check_options(args) -> None:
 
 
 def run(args) -> int:
+    args.method = args.method or "lof"
     check_options(args)
     check_plot(args.plot)
     emit(args, args.methods[args.method].segment(args))

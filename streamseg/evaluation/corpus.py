@@ -42,12 +42,15 @@ class LabelledRecording:
         0-based, end exclusive; ``lo``/``hi`` are each cut's acceptance window.
     note : str
         How the sequence was made (e.g. "concatenated clips: joins are abrupt").
+    group : str
+        The set it belongs to (``streamseg.evaluation.labelled_sets``); "" when none.
     """
 
     name: str
     recording: object
     segments: list
     note: str = ""
+    group: str = ""
 
     @property
     def cuts(self) -> list[int]:
@@ -262,12 +265,13 @@ def _bone_features(item: LabelledRecording) -> np.ndarray:
     return lof_features(item.recording, LOFConfig(root_speed_max=0))
 
 
-def lof_prediction(angles: np.ndarray, fps: float, online: bool) -> Prediction:
-    """Default-config LOF cuts of a bone-angle matrix, offline or streamed in 120-frame packets."""
+def lof_prediction(angles: np.ndarray, fps: float, online: bool, config=None) -> Prediction:
+    """LOF cuts of a feature matrix (``config``'s features; None: the defaults), offline or
+    streamed in 120-frame packets."""
     from streamseg.config import LOFConfig
     from streamseg.offline.lof_report import lof_report
 
-    res = lof_report(angles, fps, LOFConfig(), online)
+    res = lof_report(angles, fps, config or LOFConfig(), online)
     return Prediction(cuts=list(res["cuts"]), latencies=res["latency"] if online else None)
 
 
@@ -278,15 +282,15 @@ def label_cuts(labels: np.ndarray) -> list[int]:
 
 
 def aca_prediction(features: np.ndarray, n_clusters: int | None, fps: float,
-                   hierarchical: bool) -> Prediction:
-    """Default-config (H)ACA with ``n_clusters`` actions (None: found): frame labels and
-    their cuts."""
+                   hierarchical: bool, config=None) -> Prediction:
+    """(H)ACA (``config``; None: the defaults) with ``n_clusters`` actions (None: found): frame
+    labels and their cuts."""
     from dataclasses import replace
 
     from streamseg.config import ACAConfig
     from streamseg.offline.model_selection import fit_aca
 
-    config = replace(ACAConfig(), n_clusters=n_clusters, hierarchical=hierarchical)
+    config = replace(config or ACAConfig(), n_clusters=n_clusters, hierarchical=hierarchical)
     labels = np.asarray(fit_aca(features, config, fps).labels_)
     return Prediction(cuts=label_cuts(labels), labels=labels)
 

@@ -145,7 +145,7 @@ def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: i
     ----------
     exclude : dict or None
         Plans (this function's output) whose clips are not used again: fresh sequences for a
-        held-out test (``benchmarks/lof_fresh.py``).
+        held-out test (:func:`fresh_action_plans`).
     prefix : str
         Start of the sequence names.
 
@@ -212,6 +212,57 @@ def hdm05_action_sequences(data_dir, per_actor: int = 3, seed: int = 0) -> dict:
         rec, cuts = hdm05_sequence(data_dir, actor, parts)
         out[name] = (rec, cuts, parts)
     return out
+
+
+
+#: Seeds of the fresh held-out joins: drawn once, after the nine ``hdm`` joins were in use.
+FRESH_SEED = 11
+FRESH2_SEED = 12
+
+
+def fresh_action_plans(data_dir) -> dict:
+    """Plans of the nine "fresh" HDM05 joins: the construction of :func:`hdm05_action_plans`
+    (seed :data:`FRESH_SEED`) from the clips no ``hdm`` join uses; names ``fresh_<actor>_<i>``."""
+    old = hdm05_action_plans(data_dir)
+    return hdm05_action_plans(data_dir, per_actor=3, seed=FRESH_SEED, exclude=old,
+                              prefix="fresh")
+
+
+def fresh2_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5,
+                        min_classes: int = 3) -> dict:
+    """Plans of the "fresh2" joins, from the clips neither the ``hdm`` nor the fresh joins use.
+
+    Per actor, up to ``per_actor`` sequences of ``min(n_classes, k)`` distinct classes drawn
+    (seed :data:`FRESH2_SEED`) from the ``k`` classes with a clip left, none when
+    ``k < min_classes``; a repetitive class is a set of ``min(HDM05_SET_REPS, left)``
+    consecutive repetitions, a whole-action class one clip: what the remaining clips allow.
+
+    Returns
+    -------
+    dict
+        ``name -> (actor, [(class, [path, ...]), ...])``, names ``fresh2_<actor>_<i>``.
+    """
+    old = hdm05_action_plans(data_dir)
+    done = {**old, **fresh_action_plans(data_dir)}
+    taken = {p for _a, parts in done.values() for _c, paths in parts for p in paths}
+    clips = {k: [p for p in v if p not in taken] for k, v in hdm05_clips(data_dir).items()}
+    rng = np.random.default_rng(FRESH2_SEED)
+    plans = {}
+    for actor in HDM05_ACTORS:
+        used = dict.fromkeys(HDM05_REPETITIVE + HDM05_ACTIONS, 0)
+        for i in range(per_actor):
+            left = {c: len(clips.get((actor, c), [])) - used[c] for c in used}
+            avail = [c for c in used if left[c] > 0]
+            if len(avail) < min_classes:
+                break
+            parts = []
+            for c in rng.choice(avail, min(n_classes, len(avail)), replace=False):
+                c = str(c)
+                need = min(HDM05_SET_REPS, left[c]) if c in HDM05_REPETITIVE else 1
+                parts.append((c, clips[actor, c][used[c]:used[c] + need]))
+                used[c] += need
+            plans[f"fresh2_{actor}_{i}"] = (actor, parts)
+    return plans
 
 
 # --- streams where actions return after the relabel history -----------------------------------
