@@ -1,7 +1,7 @@
 """Live relabelling against offline HACA: the real daemon over loopback, scored on human labels.
 
-For each labelled recording (CMU 86_01, the exercise routines 14_14 and 14_20, the two CMU 02
-joins and the nine HDM05 joins of ``streamseg.evaluation.datasets``; the joins are ABRUPT,
+For each labelled recording (sets cmu, cmu02 and hdm of ``eval --all data``:
+CMU 86_01, 14_14 and 14_20, the two CMU 02 joins, the nine HDM05 joins; the joins are abrupt,
 not natural transitions) this starts the daemon in this process on free loopback ports, replays the
 recording as a live stream (``--speeds``, times real time), and collects every ``segments``
 event. The live answer is, for every frame, the label of the newest revision covering it
@@ -24,46 +24,20 @@ Run: .venv/bin/python benchmarks/live_relabel.py [--speeds 1,4] [--only 86_01,hd
 from __future__ import annotations
 
 import argparse
-import sys
 import threading
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
+from _common import labelled
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from streamseg.config import ACAConfig, DaemonConfig  # noqa: E402
-from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence, hdm05_action_sequences  # noqa
-from streamseg.evaluation.labels import frame_labels, read_labels  # noqa: E402
-from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
-from streamseg.io import read  # noqa: E402
-
-DATA = ROOT / "data"
+from streamseg.config import ACAConfig, DaemonConfig
+from streamseg.evaluation.metrics import matched_frame_accuracy
 
 
 def recordings():
-    """name -> (Recording, per-frame human label ids)."""
-    out = {}
-    r = read(DATA / "cmu86/86_01.amc.gz", skeleton=DATA / "cmu86/86.asf")
-    out["86_01"] = (r, frame_labels(read_labels(DATA / "cmu86/labels_86_01.csv", "86_01"),
-                                    r.n_frames))
-    for name in ("14_14", "14_20"):
-        r = read(DATA / f"cmu_exercise/{name}.amc.gz", skeleton=DATA / "cmu86/86.asf")
-        out[name] = (r, frame_labels(read_labels(DATA / "cmu_exercise/labels.csv", name),
-                                     r.n_frames))
-    for name, trials in CMU02_SEQUENCES.items():
-        r, cuts = cmu02_sequence(DATA, trials)
-        out[name] = (r, _parts(cuts, r.n_frames))
-    for name, (r, cuts, _plan) in hdm05_action_sequences(DATA).items():
-        out[name] = (r, _parts(cuts, r.n_frames))
-    return out
-
-
-def _parts(cuts, n):
-    b = [0, *cuts, n]
-    return np.concatenate([np.full(b[i + 1] - b[i], i) for i in range(len(b) - 1)])
+    """name -> (Recording, per-frame human label ids): the sets cmu, cmu02 and hdm of
+    ``eval --all data``."""
+    return {i.name: (i.recording, i.frame_labels) for i in labelled(("cmu", "cmu02", "hdm"))}
 
 
 def ari(a, b) -> float:
