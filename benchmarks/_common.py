@@ -1,14 +1,12 @@
-"""Helpers shared by the benchmark scripts: where things are, the labelled sets, medians.
+"""Helpers shared by the benchmark scripts: where things are, the labelled sets, tables.
 
 Every script runs on its own (``.venv/bin/python benchmarks/NAME.py``) and prints the table
-of ``docs/results.md`` it owns; this module only saves them repeating themselves.
+of ``docs/results.md`` it owns; this module only saves them repeating themselves (timing: ``streamseg.evaluation.corpus.timed``).
 """
 
 from __future__ import annotations
 
-import statistics
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,16 +20,6 @@ def labelled(sets=None):
     from streamseg.evaluation.labelled_sets import labelled_sets
 
     return labelled_sets(DATA, sets=sets)
-
-
-def median_time(fn, runs: int = 3) -> tuple:
-    """``(result of the last run, median seconds over runs)``."""
-    times, result = [], None
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - t0)
-    return result, statistics.median(times)
 
 
 def markdown_table(header, rows) -> str:
