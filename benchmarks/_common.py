@@ -1,7 +1,8 @@
 """Helpers shared by the benchmark scripts: where things are, the labelled sets, tables.
 
 Every script runs on its own (``.venv/bin/python benchmarks/NAME.py``) and prints the table
-of ``docs/results.md`` it owns; this module only saves them repeating themselves (timing: ``streamseg.evaluation.corpus.timed``).
+of ``docs/results.md`` it owns; this module only saves them repeating themselves (timing:
+``streamseg.evaluation.corpus.timed``).
 """
 
 from __future__ import annotations
