@@ -95,8 +95,12 @@ class Refusal:
              "it has CURVE on: give --curve-dir DIR with keys made by `streamseg keys`"))
 
 
-def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None):
-    """A SUB socket connected to ``endpoint`` with the prefixes selecting stream/type."""
+def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None, monitor=None):
+    """A SUB socket connected to ``endpoint`` with the prefixes selecting stream/type.
+
+    ``monitor``: monitor events (e.g. :attr:`Refusal.EVENTS`) to watch from before the
+    connection starts; then returns ``(sock, monitor socket)``.
+    """
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.SUB)
     if curve is not None:
@@ -105,8 +109,46 @@ def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None):
     sock.setsockopt(zmq.RCVHWM, 0)  # a listener should not lose events to its own slowness
     for prefix in protocol.subscriptions(stream, kind):
         sock.setsockopt(zmq.SUBSCRIBE, prefix)
+    watch = None if monitor is None else sock.get_monitor_socket(monitor)
     sock.connect(endpoint)
-    return sock
+    return sock if watch is None else (sock, watch)
+
+
+class _ConnectWait:
+    """Whether a SUB socket's connection to its publisher stands, from its monitor events;
+    how long it has not, and what to say about it (see :func:`listen`)."""
+
+    def __init__(self, limit, on_waiting, endpoint):
+        self.limit, self.on_waiting, self.endpoint = limit, on_waiting, endpoint
+        self.since = time.monotonic()  # without a connection since; None while connected
+        self.said = False
+
+    def on_event(self, event: int) -> None:
+        if event == zmq.EVENT_HANDSHAKE_SUCCEEDED:
+            self.since, self.said = None, False
+        elif event == zmq.EVENT_DISCONNECTED and self.since is None:
+            self.since = time.monotonic()
+
+    def next_check(self):
+        """When :meth:`check` has something to do next (None: nothing)."""
+        if self.since is None:
+            return None
+        if not self.said and self.on_waiting is not None:
+            return self.since + 1.0
+        return None if self.limit is None else self.since + self.limit
+
+    def check(self) -> None:
+        if self.since is None:
+            return
+        waited = time.monotonic() - self.since
+        if not self.said and self.on_waiting is not None and waited >= 1.0:
+            self.said = True
+            more = "" if self.limit is None else f" (giving up after {self.limit:g} s)"
+            self.on_waiting(f"waiting for a daemon at {self.endpoint}{more}")
+        if self.limit is not None and waited >= self.limit:
+            raise TimeoutError(f"no daemon at {self.endpoint} for {self.limit:g} s: is "
+                               "`streamseg serve` running, and is this its publish endpoint? "
+                               "(--timeout waits longer)")
 
 
 def handshake(sock, control: str, ctx=None, timeout: float = 30.0, curve=None) -> list:
@@ -191,7 +233,8 @@ def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve
 
 
 def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
-           backlog=(), on_hole=None, pending=(), monitor=None, on_monitor=None):
+           backlog=(), on_hole=None, pending=(), monitor=None, on_monitor=None,
+           connect_timeout=None, on_waiting=None, endpoint="the daemon"):
     """Yield decoded events from a SUB socket until a stop condition.
 
     ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
@@ -204,6 +247,12 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     subscribed); it returns the missing events it could fetch, which are yielded then.
     ``monitor``: a monitor socket of ``sock``; ``on_monitor(event)`` is called with each of its
     events (it may raise: a refused handshake is silent on the socket itself).
+
+    ``timeout``: raise TimeoutError after that many seconds without an event.
+    ``connect_timeout`` (needs ``monitor`` with ``EVENT_HANDSHAKE_SUCCEEDED`` and
+    ``EVENT_DISCONNECTED``): raise TimeoutError when no connection to the publisher
+    (``endpoint``) stands for that many seconds, at the start or after it was lost;
+    ``on_waiting(text)`` is called once a second has passed without one, saying so.
     """
     if isinstance(sock, Subscription):
         pending, sock.pending = list(sock.pending) + list(pending), []
@@ -229,18 +278,33 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     if monitor is not None:
         poller.register(monitor, zmq.POLLIN)
     pending = list(pending)
+    wait = _ConnectWait(connect_timeout, on_waiting, endpoint) if monitor is not None else None
+    idle_end = None if timeout is None else time.monotonic() + timeout
     while count is None or seen < count:
         if pending:
             frames = pending.pop(0)
         else:
-            ready = dict(poller.poll(None if timeout is None else int(timeout * 1000)))
+            now = time.monotonic()
+            ends = [t for t in (idle_end, wait and wait.next_check()) if t is not None]
+            ready = dict(poller.poll(None if not ends else max(0, int((min(ends) - now)
+                                                                     * 1000)) + 1))
+            if wait is not None:
+                wait.check()
             if not ready:
-                raise TimeoutError(f"no event for {timeout} s")
+                if idle_end is not None and time.monotonic() >= idle_end:
+                    raise TimeoutError(f"no event for {timeout} s")
+                continue
             if monitor in ready:
-                on_monitor(recv_monitor_message(monitor)["event"])
+                event = recv_monitor_message(monitor)["event"]
+                if wait is not None:
+                    wait.on_event(event)
+                if event != zmq.EVENT_DISCONNECTED and on_monitor is not None:
+                    on_monitor(event)
             if sock not in ready:
                 continue
             frames = sock.recv_multipart()
+            if timeout is not None:
+                idle_end = time.monotonic() + timeout
         try:
             ev = protocol.decode(frames)
         except protocol.WireError:

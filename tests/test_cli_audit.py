@@ -102,7 +102,8 @@ def test_default_stream_ids_are_ascii():
 @pytest.mark.parametrize("argv, said", [
     (["--control", "tcp://127.0.0.1:9", "--stream", "s", "--since", "-5"], "--since -5"),
     (["--count", "0"], "--count 0"),
-    (["--timeout", "0"], "--timeout 0"),
+    (["--timeout", "-1"], "--timeout -1"),
+    (["--idle", "0"], "--idle 0"),
 ])
 def test_listen_refuses_bad_numbers_before_connecting(capsys, argv, said):
     line = _one_line(capsys, ["listen", "--from", "tcp://127.0.0.1:9", *argv])

@@ -55,7 +55,7 @@ def _listener(daemon, *argv):
 
 
 def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
-    proc, first = _listener(daemon, "--stream", "x", "--jsonl", "--until-end", "--timeout",
+    proc, first = _listener(daemon, "--stream", "x", "--jsonl", "--until-end", "--idle",
                             "30")
     assert json.loads(first) == {"type": "state", "stream": "x", "open": False}
     assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
@@ -93,7 +93,7 @@ def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
     closed.close()
     # the stream is closed: the control endpoint still has its final state
     proc, first = _listener(daemon, "--stream", "y", "--type", "cut", "--count", "2",
-                            "--timeout", "20")
+                            "--idle", "20")
     assert first.startswith("[y] state    frame 4579  revision 0")
     main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
           "y"])

@@ -75,9 +75,8 @@ def test_human_output_is_a_table_in_frames_and_seconds(capsys, recording, tmp_pa
 def test_options_that_do_nothing_are_named(capsys, recording):
     out = _json(capsys, "segment", *recording, "--method", "aca", "--online", "--json")
     assert out["warnings"] == ["--online is a lof option: it does nothing with --method aca"]
-    out = _json(capsys, "segment", *recording, "--clusters", "3", "--labels", "x.csv", "--json")
+    out = _json(capsys, "segment", *recording, "--clusters", "3", "--json")
     assert any("--clusters is a aca option" in w for w in out["warnings"])
-    assert any("--labels does nothing with segment" in w for w in out["warnings"])
 
 
 

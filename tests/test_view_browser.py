@@ -370,3 +370,54 @@ def test_repetitions_gaps_and_errors_reach_the_page(live, browser, data_dir):
                            ".textContent.includes('duplicate×30')")
     assert "errors duplicate×30" in page.text_content('.row[data-stream="reps"]')
     page.close()
+
+
+def test_the_only_stream_opens_by_itself(live, browser, rec):
+    """No stream asked for in the address: the page opens the only one, not "Pick a stream"."""
+    lv = live()
+    page = browser.new_page()
+    page.goto(lv.url)
+    wait_view_live(page)
+    replay(part(rec, 600), lv.ep["ingest"], stream="solo", speed=0, batch=8)
+    page.wait_for_function("() => document.querySelector('#title').textContent === 'solo'")
+    assert page.is_hidden("#empty") and page.is_visible("#open")
+    assert page.evaluate("location.hash") == "#stream=solo"
+    page.close()
+
+
+def test_the_page_says_when_no_daemon_is_there(browser):
+    """A view of an endpoint where no daemon runs says so (not "connected"); once a daemon
+    binds there the page says connected, and when it stops, says so again."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    publish = f"tcp://127.0.0.1:{port}"
+    view = ViewThread(publish, None, interval=0.05)
+    daemon = thread = None
+    try:
+        url = view.start()
+        page = browser.new_page()
+        page.goto(url)
+        page.wait_for_function("() => document.querySelector('#conn').dataset.state === "
+                               "'nodaemon'")
+        assert page.text_content("#conn") == f"no daemon at {publish}: waiting for it"
+        daemon = Daemon(DaemonConfig(ingest=LOOP, publish=publish, control=LOOP,
+                                     heartbeat=0.2))
+        daemon.bind()
+        thread = threading.Thread(target=daemon.run, daemon=True)
+        thread.start()
+        page.wait_for_function("() => document.querySelector('#conn').textContent === "
+                               "'connected'")
+        daemon.stop()
+        thread.join(30)
+        daemon = None
+        page.wait_for_function("() => document.querySelector('#conn').dataset.state === "
+                               "'nodaemon'")
+        page.close()
+    finally:
+        view.stop()
+        if daemon is not None:
+            daemon.stop()
+            thread.join(30)

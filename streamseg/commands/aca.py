@@ -137,14 +137,24 @@ def _run(args, n_labels: int | None = None):
     return X, fps, config, model, seconds
 
 
+def _name(config) -> str:
+    return "HACA" if config.hierarchical else "ACA"
+
+
+def _k_text(k: int, config) -> str:
+    how = "found" if config.n_clusters is None else "given"
+    return f"{k} action{'s' if k != 1 else ''} ({how})"
+
+
 def segment(args) -> dict:
     """Segment ``args.file``; returns the JSON-able result (same shape as the LOF method)."""
     X, fps, config, model, seconds = _run(args)
     if args.plot:
         from streamseg.plotting.segments import plot_segments
 
-        plot_segments(args.plot, X, model.segments_, fps=fps,
-                      title=f"{Path(args.file).name}: ACA k={model.n_clusters_}")
+        plot_segments(args.plot, X, model.segments_, fps=fps, method=_name(config),
+                      title=f"{Path(args.file).name}: {_name(config)}, "
+                            f"{_k_text(model.n_clusters_, config)}")
     if model.reason:
         warn(args, f"{Path(args.file).name} was not clustered ({model.reason}): one segment")
     return segmentation(
@@ -179,10 +189,12 @@ def evaluate(args) -> dict:
     if args.plot:
         from streamseg.plotting.segments import plot_segments
 
-        # colour clusters like the labels they are matched to
-        shown = [(s, e, int(mapping.get(lab, len(names) + lab))) for s, e, lab in model.segments_]
-        plot_segments(args.plot, X, shown, fps=fps, truth=truth,
-                      title=f"{sequence}: accuracy {acc:.3f}")
+        # clusters in the colour (and with the name) of the action they are matched to
+        plot_segments(args.plot, X, model.segments_, fps=fps, truth=truth, truth_names=names,
+                      matching={int(c): int(t) for c, t in mapping.items()},
+                      method=_name(config),
+                      title=f"{sequence}: {_name(config)}, "
+                            f"{_k_text(model.n_clusters_, config)}: frame accuracy {acc:.3f}")
     return evaluation(
         args, method="haca" if config.hierarchical else "aca", n_frames=int(X.shape[0]),
         fps=fps,

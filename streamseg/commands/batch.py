@@ -3,8 +3,11 @@
 ``streamseg batch PATH... --method lof|aca|rep --output FILE.jsonl`` runs ``segment`` with
 the same options on every recording (files, globs, folders), on a local cluster (one worker
 process per core, 127.0.0.1) or on ``--scheduler tcp://HOST:8786``. Each line is the
-``segment --json`` object plus ``"file"``, or ``{"file", "error"}``; a rerun skips recordings
-already in FILE. ``--labels`` scores each against human labels as ``eval --all`` does. Exit
+``segment --json`` object plus ``"file"``, or ``{"file", "error"}``, each with
+``"batch_options"`` (the method and options it was made with);
+a rerun skips recordings already in FILE (and refuses to mix results of other options;
+``--retry-failed`` replaces their error lines). ``--labels`` scores each against human labels
+as ``eval --all`` does. Exit
 code 1 when any recording failed. Needs ``pip install streamseg[dask]``.
 """
 
@@ -20,7 +23,7 @@ from streamseg.exceptions import ParameterError
 
 # options of the batch itself; every other parsed option is a `segment` option for the task
 _OWN = {"inputs", "output", "scheduler", "workers", "labels", "retry_failed", "method",
-        "command", "run", "log_level"}
+        "command", "run", "log_level", "method_options"}
 
 
 def add_arguments(parser) -> None:
@@ -48,13 +51,68 @@ def add_arguments(parser) -> None:
                              "for them; sequence = file name before the first dot)")
     parser.add_argument("--retry-failed", action="store_true",
                         help="run again the recordings whose line in FILE is an error")
+    owned = {}  # method -> the option names of its group: what its results depend on
     for name in sorted(METHODS):
         module = importlib.import_module(METHODS[name])
-        module.add_arguments(parser.add_argument_group(f"{name} options (as for segment)"))
+        group = parser.add_argument_group(f"{name} options (as for segment)")
+        module.add_arguments(group)
+        owned[name] = [a.dest for a in group._group_actions]
+    parser.set_defaults(method_options=owned)
 
 
 def _options(args) -> dict:
     return {k: v for k, v in vars(args).items() if k not in _OWN}
+
+
+def batch_key(args) -> dict:
+    """What a line's result depends on: the method and its options, the skeleton and fps.
+    Stored in every line (``"batch_options"``) so a rerun knows what it would mix."""
+    dests = [*args.method_options.get(args.method, ()), "skeleton", "fps"]
+    return {"method": args.method, **{d: getattr(args, d, None) for d in dests}}
+
+
+def _refuse_mixing(done: dict, files, key: dict, output) -> None:
+    """A rerun into a file whose lines for these recordings were made with other options
+    would skip them and report the old results as if they were the new ones: refuse."""
+    for f in files:
+        line = done.get(os.path.abspath(f))
+        if line is None:
+            continue
+        theirs = line.get("batch_options")
+        if theirs is None:  # a line of an older batch: only its method is known
+            method = line.get("method")
+            if "error" in line or method is None or method.startswith(key["method"]) or (
+                    key["method"] == "aca" and method == "haca"):
+                continue
+            theirs = {"method": method}
+        diff = [k for k in sorted(set(theirs) | set(key)) if theirs.get(k) != key.get(k)
+                and k in theirs]
+        if diff:
+            def show(v):
+                return "default" if v is None else repr(v)
+
+            said = ", ".join(f"--{k.replace('_', '-')} {show(theirs.get(k))} (now "
+                             f"{show(key.get(k))})" for k in diff[:3])
+            raise ParameterError(
+                f"--output {output} already holds {os.path.basename(f)} made with other "
+                f"options: {said}; a rerun would skip it and report the old result. Write to "
+                "another --output file, or give the same options to resume that batch")
+
+
+def _compact(output, files) -> None:
+    """Rewrite ``output`` with one line per recording (the newest), so a retried recording
+    does not keep its old error line; lines of other recordings stay, in their order."""
+    from streamseg.commands import batch_tasks as batch
+
+    done = batch.read_done(output)
+    order = list(dict.fromkeys([*done, *(os.path.abspath(f) for f in files)]))
+    tmp = f"{output}.tmp"
+    with open(tmp, "w", encoding="utf-8") as fh:
+        for path in order:
+            if path in done:
+                batch.write_line(fh, done[path])
+        os.fsync(fh.fileno())
+    os.replace(tmp, output)
 
 
 def run(args) -> int:
@@ -73,8 +131,11 @@ def run(args) -> int:
         raise ParameterError(f"no recordings in {' '.join(args.inputs)}")
     labels = batch.label_index(args.labels) if args.labels else {}
     done = batch.read_done(args.output)
+    key = batch_key(args)
+    _refuse_mixing(done, files, key, args.output)
     todo = [f for f in files if os.path.abspath(f) not in done
             or (args.retry_failed and "error" in done[os.path.abspath(f)])]
+    rerun = any(os.path.abspath(f) in done for f in todo)
     options = _options(args)
     cluster = client = None
     t0 = time.perf_counter()
@@ -109,10 +170,13 @@ def run(args) -> int:
                         obj = {"file": f, "error": f"the cluster lost this task "
                                                    f"({type(err).__name__}: {err})"[:300]}
                     fut.release()
+                    obj["batch_options"] = key
                     batch.write_line(fh, obj)
                     done[os.path.abspath(f)] = obj
                     bar.step(("FAILED " if "error" in obj else "") + os.path.basename(f))
                 os.fsync(fh.fileno())
+            if rerun:  # retried recordings: their new line replaces the old one
+                _compact(args.output, files)
         else:
             print(f"streamseg batch: all {len(files)} recordings are already in {args.output}",
                   file=sys.stderr)

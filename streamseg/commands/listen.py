@@ -39,8 +39,12 @@ def add_arguments(parser) -> None:
     parser.add_argument("--curve-dir", metavar="DIR",
                         help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
                              "server.key)")
-    parser.add_argument("--timeout", type=float, default=None,
-                        help="give up after this many seconds without an event (exit 1)")
+    parser.add_argument("--timeout", type=float, default=10.0, metavar="S",
+                        help="give up (exit 1) when no daemon is reached at --from for this "
+                             "many seconds, at the start or after the connection is lost; "
+                             "0: wait forever (default 10, as replay's --wait)")
+    parser.add_argument("--idle", type=float, default=None, metavar="S",
+                        help="give up (exit 1) after this many seconds without an event")
 
 
 def json_event(ev) -> dict:
@@ -153,8 +157,10 @@ def _bad_option(args):
         return f"--since {args.since} is invalid: expected a sequence number >= 0 (0: all)"
     if args.count is not None and args.count < 1:
         return f"--count {args.count} is invalid: expected a number of events >= 1"
-    if args.timeout is not None and not args.timeout > 0:
-        return f"--timeout {args.timeout:g} is invalid: expected seconds > 0"
+    if not args.timeout >= 0:
+        return f"--timeout {args.timeout:g} is invalid: expected seconds >= 0 (0: forever)"
+    if args.idle is not None and not args.idle > 0:
+        return f"--idle {args.idle:g} is invalid: expected seconds > 0"
     return None
 
 
@@ -169,10 +175,11 @@ def run(args) -> int:
 
         curve = ClientKeys.load(args.curve_dir)
     ctx = zmq.Context.instance()
-    sock = subscriber(args.source, args.stream, args.kind, ctx, curve=curve)
-    # without --control nothing else would notice a refused key: the SUB socket's monitor
-    # does (a failure before it is attached recurs at the next reconnection)
-    monitor = sock.get_monitor_socket(Refusal.EVENTS)
+    # the SUB socket's monitor, attached before it connects: it notices a refused key (which
+    # nothing else would without --control) and whether a daemon is there at all
+    sock, monitor = subscriber(args.source, args.stream, args.kind, ctx, curve=curve,
+                               monitor=Refusal.EVENTS | zmq.EVENT_DISCONNECTED)
+    wait_s = args.timeout or None  # 0: wait for the daemon forever
     out = sys.stdout
     since, backlog, pending = None, [], []
 
@@ -201,7 +208,8 @@ def run(args) -> int:
     try:
         if args.control:
             # the subscription is live before the snapshot: nothing falls between them
-            pending = handshake(sock, args.control, ctx, curve=curve)
+            pending = handshake(sock, args.control, ctx, curve=curve,
+                                timeout=wait_s or 30.0)
             if args.stream:
                 since = request(args.control, "state", ctx, curve=curve, stream=args.stream)
                 if since.get("ok"):
@@ -235,10 +243,12 @@ def run(args) -> int:
             out.flush()
         book = CutBook()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
-                         timeout=args.timeout, since=since, backlog=backlog or (),
+                         timeout=args.idle, since=since, backlog=backlog or (),
                          on_hole=on_hole if args.kind is None else None, pending=pending,
-                         monitor=monitor,
-                         on_monitor=Refusal(args.source, curve).check):
+                         monitor=monitor, on_monitor=Refusal(args.source, curve).check,
+                         connect_timeout=wait_s, endpoint=args.source,
+                         on_waiting=lambda text: print(f"streamseg listen: {text}",
+                                                       file=sys.stderr, flush=True)):
             line = book.apply(ev)  # the stream's cuts after its withdraws, at its close
             if line is not None:
                 out.write((strict_json.dumps(line) if args.jsonl else

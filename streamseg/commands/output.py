@@ -86,12 +86,22 @@ def format_segmentation(result: dict) -> str:
     # rep: the segments are its action sets, each with its own count (docs/output.md)
     sets = result.get("sets") if len(result.get("sets") or ()) == len(segs) else None
     extra = "  count" if sets else ""
+    # segment --online: the latency of the cut that starts each segment but the first
+    lat = result.get("cut_latency_s")
+    lat = lat if lat is not None and len(lat) == len(segs) - 1 else None
+    first = result.get("cut_first_latency_s") if lat is not None else None
+    if lat is not None:
+        extra += "  decided after s" + ("  first shown after s" if first else "")
     lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  "
                    f"label{extra}"]
     for i, s in enumerate(segs):
         label = f"{_cell(s['label']):>5}  {sets[i]['count']:>5}" if sets else _cell(s["label"])
+        if lat is not None:
+            label = f"{label:>5}  " + (f"{lat[i - 1]:>16.2f}" if i else f"{'':>16}")
+            if first:
+                label += f"  {first[i - 1]:>20.2f}" if i else ""
         lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
-                     f"{s['end_s']:>9.2f}  {label}")
+                     f"{s['end_s']:>9.2f}  {label}".rstrip())
     skip = {"schema", "command", "file", "method", "n_frames", "fps", "duration_s", "cuts",
             "cuts_s", "segments", "warnings", "params", "repetitions", "sets"}
     for key, value in result.items():
@@ -99,6 +109,19 @@ def format_segmentation(result: dict) -> str:
             continue
         lines.append(f"  {key}: {_cell(value)}")
     return "\n".join(lines)
+
+
+def _confusion_lines(matrix, clusters, names) -> list[str]:
+    """The confusion matrix with its headers: a row per found cluster, a column per human
+    action, frames in each cell."""
+    clusters = clusters or list(range(len(matrix)))
+    names = names or [str(j) for j in range(len(matrix[0]) if matrix else 0)]
+    width = max([6, *(len(str(n)) for n in names)])
+    lines = ["  confusion (frames; rows: found clusters, columns: human actions):",
+             "    " + f"{'cluster':>8} " + " ".join(f"{n:>{width}}" for n in names)]
+    lines += ["    " + f"{c:>8} " + " ".join(f"{v:>{width}d}" for v in row)
+              for c, row in zip(clusters, matrix, strict=True)]
+    return lines
 
 
 def format_evaluation(result: dict) -> str:
@@ -109,8 +132,7 @@ def format_evaluation(result: dict) -> str:
         if key in skip:
             continue
         if key == "confusion":
-            lines.append(f"  {key}:")
-            lines += ["    " + " ".join(f"{v:6d}" for v in row) for row in value]
+            lines += _confusion_lines(value, result.get("clusters"), result.get("label_names"))
         elif key == "sets" and value and isinstance(value[0], dict):  # eval --rep-sets
             lines += [f"  {key}:", f"    {'start':>7} {'end':>7} {'true':>5} {'found':>5} "
                                     f"{'alpha':>6}  label"]

@@ -36,8 +36,10 @@ def add_common_arguments(p, *, optional_file: bool = False) -> None:
                    help="default: lof (with eval --all: lof and aca)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="PNG", help="write a picture of the result")
-    p.add_argument("--labels", metavar="CSV", help="human labels (sequence,start,end,label,...)")
-    p.add_argument("--sequence", help="label rows to use (default: the file's stem)")
+    if optional_file:  # eval: segment has no labels to score against
+        p.add_argument("--labels", metavar="CSV",
+                       help="human labels (sequence,start,end,label,...)")
+        p.add_argument("--sequence", help="label rows to use (default: the file's stem)")
     owners = {}  # option dest -> the method whose option it is
     for mname, module in methods.items():
         before = {a.dest for a in p._actions}
@@ -65,11 +67,6 @@ def check_options(args) -> None:
     if args.skeleton and name and not name.endswith((".amc", ".amc.gz")):
         warn(args, f"--skeleton does nothing for {Path(name).name}: only AMC files take an "
                    "ASF skeleton (BVH and .npz carry their own, matrices need none)")
-    if args.command == "segment":
-        for dest in ("labels", "sequence"):
-            if getattr(args, dest):
-                warn(args, f"--{dest} does nothing with segment (use eval to score against "
-                           "labels)")
 
 
 def run(args) -> int:

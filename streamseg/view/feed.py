@@ -54,6 +54,7 @@ class Feed:
         self.ctx = zmq.asyncio.Context()
         self.live = asyncio.Event()  # set at the first event: the subscription works
         self.connected = None  # None: not asked yet; True/False: control answered or not
+        self.reachable = False  # the publisher's connection stands (the SUB socket's monitor)
         self.changed = asyncio.Event()  # the hub has dirty streams
         self.wanted = asyncio.Event()  # the hub wants a snapshot
         self.check: set = set()  # open streams the daemon's stats did not list
@@ -67,8 +68,12 @@ class Feed:
         self.sub.setsockopt(zmq.SUBSCRIBE, b"")
         if self.curve is not None:
             self.curve.apply(self.sub)
+        # watched from before the connection starts: is a daemon there at all?
+        self._monitor = self.sub.get_monitor_socket(zmq.EVENT_HANDSHAKE_SUCCEEDED
+                                                    | zmq.EVENT_DISCONNECTED)
         self.sub.connect(self.publish)
-        self._tasks = [asyncio.create_task(self._events(), name="view-events")]
+        self._tasks = [asyncio.create_task(self._events(), name="view-events"),
+                       asyncio.create_task(self._watch(), name="view-watch")]
         if self.control:
             self._tasks.append(asyncio.create_task(self._snapshots(), name="view-control"))
 
@@ -76,7 +81,10 @@ class Feed:
         for t in self._tasks:
             t.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
-        self.sub.close()
+        if hasattr(self, "sub"):  # (a feed that never started has none)
+            self.sub.disable_monitor()
+            self._monitor.close(linger=0)
+            self.sub.close()
         if self._req is not None:
             self._req.close()
         self.ctx.term()
@@ -104,6 +112,22 @@ class Feed:
             if self.hub.want_state:
                 self.wanted.set()
             self.changed.set()
+
+    @property
+    def daemon_ok(self) -> bool:
+        """Whether the daemon is there: its publisher connected and, with a control endpoint,
+        its last control request answered."""
+        return self.reachable and self.connected is not False
+
+    async def _watch(self) -> None:
+        from zmq.utils.monitor import parse_monitor_message
+
+        while True:
+            event = parse_monitor_message(await self._monitor.recv_multipart())["event"]
+            reachable = event == zmq.EVENT_HANDSHAKE_SUCCEEDED
+            if reachable != self.reachable:
+                self.reachable = reachable
+                self.changed.set()  # the pages' header says so at the next tick
 
     async def request(self, op: str, **fields) -> dict | None:
         """One control request; None when the daemon does not answer in ``timeout``."""

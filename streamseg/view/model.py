@@ -180,7 +180,7 @@ class StreamView:
                 "last": None if self.last_type is None else
                 {"type": self.last_type, "at": round(self.last_at, 3)},
                 "agreement": self.agreement, "labels_error": self.labels_error,
-                "events": self.events}
+                "events": self.events, "created": round(self.created, 3)}
 
     def timeline(self, cut_from: int = 0, rep_from: int = 0, seg_version: int = -1,
                  human: bool = True) -> dict:

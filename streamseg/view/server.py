@@ -94,12 +94,18 @@ class ViewServer:
         return app
 
     async def start(self) -> str:
-        """Connect to the daemon, bind the HTTP socket; returns the page's address."""
-        await self.feed.start()
-        self._runner = web.AppRunner(self.app(), access_log=None)
-        await self._runner.setup()
-        site = web.TCPSite(self._runner, self.host, self.port)
-        await site.start()
+        """Connect to the daemon, bind the HTTP socket; returns the page's address. On a
+        failure (e.g. the address in use) what was started is stopped before it is raised,
+        so no task is left pending on a loop that closes."""
+        try:
+            await self.feed.start()
+            self._runner = web.AppRunner(self.app(), access_log=None)
+            await self._runner.setup()
+            site = web.TCPSite(self._runner, self.host, self.port)
+            await site.start()
+        except BaseException:
+            await self.stop()
+            raise
         sock = site._server.sockets[0]  # the bound port when port was 0
         host, port = sock.getsockname()[:2]
         self.url = f"http://{host if ':' not in host else f'[{host}]'}:{port}/"
@@ -148,7 +154,8 @@ class ViewServer:
 
     def header(self) -> dict:
         return {**self.hub.header(), "publish": self.publish, "control": self.control,
-                "connected": self.feed.connected, "live": self.feed.live.is_set(),
+                "connected": self.feed.connected, "daemon": self.feed.daemon_ok,
+                "live": self.feed.live.is_set(),
                 "now": self.hub.clock()}
 
     # --- WebSocket ------------------------------------------------------------------------------

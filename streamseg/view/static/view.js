@@ -57,6 +57,7 @@ function connect() {
   ws.onopen = () => {
     conn.dataset.state = "open";
     conn.textContent = "connected";
+    if (header) applyHeader(header);  // what the view server last said of the daemon
     if (open) send({op: "open", stream: open.id});
   };
   ws.onclose = () => {
@@ -83,6 +84,13 @@ function applyHeader(h) {
   const daemon = h.connected === false ? " · control endpoint not answering" : "";
   $("totals").textContent = `${h.streams} streams, ${h.open} open · ${h.applied} events${lat}` +
     ` · ${h.publish}${daemon}`;
+  // the page reaches the view server; say whether the view server reaches the daemon
+  const conn = $("conn");
+  if (ws && ws.readyState === 1) {
+    conn.dataset.state = h.daemon === false ? "nodaemon" : "open";
+    conn.textContent = h.daemon === false ? `no daemon at ${h.publish}: waiting for it` :
+      "connected";
+  }
 }
 
 // --- the list ---------------------------------------------------------------------------------
@@ -107,7 +115,18 @@ function applyRows(msg) {
   if (!open) {
     const want = decodeURIComponent((location.hash.match(/stream=([^&]+)/) || [])[1] || "");
     if (want && rows.has(want)) openStream(want);
+    else if (!want && rows.size) openStream(newest());
   }
+}
+// the stream to open when none is asked for: the newest open one (else the newest closed one)
+function newest() {
+  let best = null;
+  for (const r of rows.values()) {
+    const key = [r.closed ? 0 : 1, r.created || 0];
+    if (!best || key[0] > best.key[0] || (key[0] === best.key[0] && key[1] > best.key[1]))
+      best = {key, id: r.stream};
+  }
+  return best.id;
 }
 function insertSorted(id) {
   let lo = 0, hi = order.length;
