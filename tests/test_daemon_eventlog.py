@@ -146,7 +146,7 @@ def test_listen_since_says_what_the_log_cannot_give(start_daemon, rec, capsys, t
     wait_closed(ep, "c2")
     last = fetch_since(ep["control"], "c2", 0)[-1].seq
     base = ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "c2",
-            "--jsonl", "--timeout", "0.5"]
+            "--jsonl", "--idle", "0.5"]
     capsys.readouterr()
     # beyond the newest number: said, then the live events are followed (none come)
     assert main(base + ["--since", str(last + 100)]) == 1

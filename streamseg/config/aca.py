@@ -11,8 +11,7 @@ from streamseg.config._base import _check
 class ACAConfig:
     """Aligned Cluster Analysis relabelling; lengths in seconds.
 
-    Defaults were chosen on one recording, CMU 86_01 (``benchmarks/aca_mocap.py``), among a
-    handful of round settings, and are held fixed for every other one.
+    Why each default: ``docs/decisions.md`` (Labels).
 
     Attributes
     ----------
@@ -41,9 +40,7 @@ class ACAConfig:
     reduce_cap : float
         At most this many seconds of consecutive same-class frames become one reduced frame.
     hierarchical : bool
-        Two-level HACA (the default) instead of ACA: HACA matched the human labels better
-        given the true K (mean frame accuracy 0.881 against 0.865 over 86_01, 14_14, 14_20 and
-        the CMU 02 joins, ``docs/peers_table.md``), and live relabelling is measured against it.
+        Two-level HACA (the default) instead of one-level ACA.
     fine_clusters : int
         HACA fine level: number of primitives.
     fine_min_len_s, fine_max_len_s : float

@@ -23,29 +23,13 @@ class DaemonConfig:
         Seconds without a packet after which a stream is closed (reason ``idle``).
     relabel_interval, relabel_history : float
         Relabel each stream every R seconds of its own time over its last H seconds
-        (``relabel_interval=0`` turns relabelling off). H also bounds each stream's buffer:
-        H x fps x 17 float32 features + int64 frame numbers, 60 s at 120 Hz = 547 kB. A take
-        no longer than H is relabelled whole each time, so its last revision is offline HACA
-        of the whole take; an action that returns after H gets a new id unless the exemplar
-        memory (``label_memory``) recognises it (:mod:`streamseg.offline.identity`). With
-        H = 20 s the live frame accuracy over the 14 labelled recordings was 0.725 against
-        0.749 with 60 s (14_20: 0.744 against 0.872; ``benchmarks/live_relabel.py --speeds 4
-        --history 20``).
+        (``relabel_interval=0``: off); H also bounds each stream's buffer (60 s at 120 Hz:
+        547 kB). Why these values: ``docs/decisions.md`` (Labels).
     label_memory : bool
-        Keep a bounded memory of each stream's actions (two exemplar segments of at most 2 s
-        for up to 16 ids, :class:`streamseg.config.memory.LabelMemoryConfig`: at most 130 kB
-        per stream) so an action that returns after ``relabel_history`` gets its old id. It
-        never changes a window's clustering: a cluster the overlap does not explain takes an
-        absent remembered id only when its DTAK to that id's exemplars is strong relative to
-        its own and the exemplars' mutual DTAK and beats every other id
-        (:mod:`streamseg.offline.recall`). On by default because it generalised: on five
-        streams whose actions return (``benchmarks/label_memory.py``, settings chosen on two)
-        the whole-stream accuracy rose on the three held-out streams (simulated revisions:
-        0.718 to 0.745, 0.554 to 0.622, 0.728 to 0.810; the real daemon at real time: 0.722
-        to 0.751, 0.495 to 0.563, 0.684 to 0.770) with no new action given an old id. The
-        14 labelled takes, shorter than the history, are relabelled exactly as without it.
-        Off (``--no-label-memory``), ids are carried only by the overlap of successive
-        windows.
+        Keep a bounded memory of each stream's actions (at most 130 kB per stream,
+        :class:`streamseg.config.memory.LabelMemoryConfig`) so an action that returns after
+        ``relabel_history`` gets its old id; off, ids are carried only by the overlap of
+        successive windows.
     heartbeat : float
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int

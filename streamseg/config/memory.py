@@ -48,28 +48,11 @@ class LabelMemoryConfig:
         revision (the two clusters of a split action tile it;
         :func:`streamseg.offline.recall.touches`).
 
-    ``merge_present`` and ``merge_adjacent`` are on (issue 12, 2026-12-02,
-    ``benchmarks/id_fragments.py``; train pair ret_14_86_14 and 02_walk_punch_sword_wash, the
-    17 other streams held out; rule declared before the held-out run: mean accuracy not
-    lower, no stream lower by more than 0.01, ids per action lower). Ratio 0.5 and margin
-    0.1 are the recall's, the middle of the plateau ratio 0.3-0.7 x margin 0.1-0.2 on the
-    train pair. Without the guard the merge cost 14_20 0.028 (its arm circles joined the
-    twist's id, the two 23 s apart in one revision) and stayed off. With it, held out, in
-    simulated revisions: mean accuracy 0.749 -> 0.765, ids per action 1.263 -> 1.200
-    (published 1.913 -> 1.769), purity 0.806 -> 0.820; the real daemon at real time
-    (``--daemon 1``): 0.744 -> 0.764, ids per action 1.253 -> 1.195 (published 1.940 ->
-    1.761), purity 0.812 -> 0.827; no stream lower in either mode (14_20 +0.057 / +0.067,
-    hdm_bd_1 +0.120 / +0.120, 02_wash_sword_walk_punch +0.075 / +0.075).
-
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
     rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB
     (:meth:`max_bytes`), plus a few integers per id (run length, last frame, birth revision,
     a pending proposal) for at most ``max_ids`` ids and those of the last revision.
-    ``max_ids``, ``per_id``, ``exemplar_s`` and ``rate_hz`` were chosen on two streams of
-    ``benchmarks/label_memory.py`` in issue 12's second round; the ``recall_*`` settings on
-    the same two (``--grid``, :mod:`streamseg.offline.recall`): ratios 0.3-0.7, margins
-    0-0.2 and ``recall_within`` 2-3 gave the same best result there, the defaults sit in the
-    middle; a ratio of 1 (as similar as the cluster to itself) recalled nothing.
+    Why each default: ``docs/decisions.md`` (Labels).
     """
 
     max_ids: int = 16
