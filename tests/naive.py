@@ -312,6 +312,27 @@ def naive_dp(K, old_segs, old_labels, k, wmin, wmax):
     return best
 
 
+def naive_forward_dp(K, old_segs, old_labels, k, wmin, wmax):
+    """Eq. 9 by its forward recursion with every candidate's distances computed directly;
+    returns (cost, [(start, end, label), ...]) (the first best on ties, as the kernel)."""
+    n = K.shape[0]
+    used = [c for c in range(k) if c in set(old_labels)]
+    L = [0.0] + [float("inf")] * n
+    back = [None] * (n + 1)
+    for v in range(1, n + 1):
+        for w in range(wmin, min(wmax, v) + 1):
+            if L[v - w] == float("inf"):
+                continue
+            d, c = min((naive_dist(K, (v - w, v), old_segs, old_labels, c), c) for c in used)
+            if L[v - w] + d < L[v]:
+                L[v], back[v] = L[v - w] + d, (v - w, c)
+    segs, v = [], n
+    while v > 0 and back[v] is not None:
+        segs.append((back[v][0], v, back[v][1]))
+        v = back[v][0]
+    return L[n], segs[::-1]
+
+
 def naive_objective(K, segs, labels):
     """Eq. 5 for segmentation ``segs`` with ``labels`` (centres from the segmentation itself)."""
     return sum(naive_dist(K, seg, segs, labels, c) for seg, c in zip(segs, labels))

@@ -7,12 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from streamseg._kernels.aca import dp_search, dp_search_padded
+from streamseg._kernels.aca import candidate_sums, relax
 from streamseg._kernels.dtak import segment_kernel
 from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.exceptions import ParameterError
 from streamseg.offline.aca import (
     ACA,
+    NEG,
     cluster_stats,
     dp_step,
     feasible_min_len,
@@ -21,7 +22,13 @@ from streamseg.offline.aca import (
 )
 from streamseg.offline.aca_init import random_tiling
 from streamseg.offline.dtak import frame_kernel
-from tests.naive import naive_dist, naive_dp, naive_kernel_kmeans, naive_objective
+from tests.naive import (
+    naive_dist,
+    naive_dp,
+    naive_forward_dp,
+    naive_kernel_kmeans,
+    naive_objective,
+)
 
 
 def _problem(seed, n, k, wmin, wmax, binary=False):
@@ -37,29 +44,32 @@ def _problem(seed, n, k, wmin, wmax, binary=False):
 
 
 def _dp(K, starts, ends, labels, k, wmin, wmax, variant):
+    """The DP step with the given work dtype, old segments in the given (unsorted) order
+    only when they are already sorted as dp_step sorts them."""
     T = segment_kernel(K, starts, ends)
     n_c, const = cluster_stats(T, labels, k)
-    if variant == "column":
-        return dp_search(K, starts, ends, labels, n_c, const, wmin, wmax)
-    # padded layout, in the given (unsorted) segment order, float64 or int16 work arrays
-    narrow = variant == "padded16"
-    dtype = np.int16 if narrow else np.float64
-    lmax = int((ends - starts).max())
-    m = starts.size
-    work = [np.empty((lmax + 1, wmax + 1, m), dtype), np.empty((lmax + 1, wmax + 1, m), dtype),
-            np.empty((lmax + 1, m), dtype)]
-    neg = dtype(-16000) if narrow else -np.inf
-    return dp_search_padded(K, starts, ends, labels, n_c, const, wmin, wmax, *work, neg, narrow)
+    if variant == "step":
+        return dp_step(K, starts, ends, labels, n_c, const, wmin, wmax)
+    dtype = {"int16": np.int16, "int8": np.int8}.get(variant, np.float64)
+    order = np.lexsort((labels, starts - ends))
+    n = K.shape[0]
+    work = [np.empty((wmax + 1, n + 1), dtype) for _ in range(2)]
+    acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
+    F = np.zeros((k, wmax + 1, n + 1))
+    candidate_sums(K.astype(dtype), starts[order], ends[order], labels[order], wmin, wmax,
+                   *work, acc, F, NEG[dtype])
+    return relax(F, n_c, const, wmin, wmax)
 
 
 CASES = [(0, 9, 2, 2, 4), (1, 10, 3, 1, 3), (2, 11, 2, 3, 5), (3, 8, 3, 1, 8)]
 
 
-@pytest.mark.parametrize("variant", ["column", "padded64", "padded16"])
+@pytest.mark.parametrize("variant", ["step", "float64", "int16", "int8"])
 @pytest.mark.parametrize("seed,n,k,wmin,wmax", CASES)
 def test_dp_equals_brute_force(seed, n, k, wmin, wmax, variant):
-    # int16 work arrays are only used (and only exact) for a 0/1 frame kernel
-    K, starts, ends, labels = _problem(seed, n, k, wmin, wmax, binary=variant == "padded16")
+    # integer work arrays are only used (and only exact) for a 0/1 frame kernel
+    K, starts, ends, labels = _problem(seed, n, k, wmin, wmax,
+                                       binary=variant in ("int16", "int8"))
     ns, ne, nl, cost = _dp(K, starts, ends, labels, k, wmin, wmax, variant)
     old = list(zip(starts.tolist(), ends.tolist(), strict=True))
     assert cost == pytest.approx(naive_dp(K, old, labels.tolist(), k, wmin, wmax), abs=1e-9)
@@ -97,16 +107,22 @@ def test_dp_never_worse_than_a_random_segmentation(seed, n, k, wmin, extra):
 
 
 @pytest.mark.parametrize("binary", [False, True])
-def test_dp_step_kernels_agree_on_larger_input(binary):
-    # the two layouts (and float32 for 0/1 kernels) give the same optimum on a realistic size
-    K, starts, ends, labels = _problem(11, 300, 4, 8, 14, binary=binary)
+@pytest.mark.parametrize("long_old", [False, True])
+def test_dp_step_equals_the_forward_recursion(binary, long_old):
+    # a realistic segment count, old segments unsorted; with long_old one old segment is
+    # longer than wmax (as after an initialization), which takes int16 tables for 0/1
+    K, starts, ends, labels = _problem(12, 70, 3, 6, 12, binary=binary)
+    if long_old:
+        starts, ends = np.r_[0, ends[ends > 50][:-1]], np.r_[ends[ends > 50]]
+        labels = labels[: starts.size] % 3
+        labels[:3] = [0, 1, 2]
     T = segment_kernel(K, starts, ends)
-    n_c, const = cluster_stats(T, labels, 4)
-    a = dp_search(K, starts, ends, labels, n_c, const, 8, 14)
-    b = dp_step(K, starts, ends, labels, n_c, const, 8, 14)
-    assert b[3] == pytest.approx(a[3], abs=1e-9)
-    np.testing.assert_array_equal(a[0], b[0])
-    np.testing.assert_array_equal(a[2], b[2])
+    n_c, const = cluster_stats(T, labels, 3)
+    ns, ne, nl, cost = dp_step(K, starts, ends, labels, n_c, const, 6, 12)
+    old = list(zip(starts.tolist(), ends.tolist(), strict=True))
+    want, segs = naive_forward_dp(K, old, labels.tolist(), 3, 6, 12)
+    assert cost == pytest.approx(want, abs=1e-9)
+    assert [tuple(x) for x in zip(ns.tolist(), ne.tolist(), nl.tolist())] == segs
 
 
 def test_min_len_one_equals_kernel_kmeans():

@@ -120,7 +120,7 @@ def _run(args, n_labels: int | None = None):
         args.clusters = n_labels
     config = _config(args, is_matrix, X.shape[0])
     t0 = time.perf_counter()
-    model = fit_aca(X, config, fps)
+    model = fit_aca(X, config, fps, n_jobs=-1)  # restarts on every core; same result
     seconds = time.perf_counter() - t0
     if config.n_clusters is not None and model.n_clusters_ != config.n_clusters \
             and not model.reason:

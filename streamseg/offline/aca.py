@@ -21,8 +21,9 @@ Decisions (see also :class:`ACA`):
   answer does not depend on ``n_jobs``).
 
 Speed: the DP step (``streamseg._kernels.aca``) costs O(n^2 max_len_frames) per iteration and
-O(n max_len_frames) memory besides the (n, n) frame kernel, as in section 3.5. For the 0/1 equality
-kernel it runs in exact int16 arithmetic. Restarts can run in threads (``n_jobs``).
+O(k n max_len_frames) memory besides the (n, n) frame kernel, as in section 3.5. For the 0/1
+equality kernel it runs in exact int8 (int16 for long segments) arithmetic, and the kernel is
+kept as int8. Restarts can run in threads (``n_jobs``).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from streamseg._kernels.aca import dp_search, dp_search_padded
+from streamseg._kernels.aca import candidate_sums, relax
 from streamseg._kernels.dtak import segment_kernel_within
 from streamseg.exceptions import ParameterError
 from streamseg.offline.aca_init import kmeans, propagated_init, random_init
@@ -65,6 +66,16 @@ def single_threaded_blas():
     if controller is None:
         return contextlib.nullcontext()
     return controller.limit(limits=1)
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (its affinity where the OS tells it)."""
+    import os
+
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
 
 
 def feasible_min_len(n: int, wmin: int, wmax: int) -> int:
@@ -114,37 +125,48 @@ def reseed_empty(T: np.ndarray, labels: np.ndarray, k: int) -> np.ndarray:
 
 
 def dp_step(K, starts, ends, labels, n_c, const, wmin: int, wmax: int, *, binary=None):
-    """One DP segmentation step; picks the faster of the two equivalent kernels.
+    """One DP segmentation step (eq. 9) under the centres of the old segmentation.
 
-    The padded layout is used when padding the old segments to the longest one adds at most
-    half again the work (``m * lmax <= 1.5 n``, the usual case once lengths are in range);
-    its work arrays are int16 when ``K`` is 0/1 (exact there, see the kernel), float64
-    otherwise.
-    Returns ``(starts, ends, labels, cost)`` as the kernels do.
+    ``K`` (n, n) is read as ``K[old frame, candidate frame]``: symmetric, or pass its
+    transpose (:func:`dp_kernel`). For a 0/1 kernel the eq. 7 tables are exact narrow
+    integers (:func:`work_dtype`). Returns ``(starts, ends, labels, cost)``.
     """
-    m = starts.shape[0]
-    lmax = int((ends - starts).max())
     n = K.shape[0]
-    if m * lmax > 1.5 * n:
-        return dp_search(K, starts, ends, labels, n_c, const, wmin, wmax)
+    k = n_c.shape[0]
     if binary is None:
-        binary = bool(np.all((K == 0.0) | (K == 1.0)))
-    narrow = binary and lmax + wmax < 4000
-    dtype = np.int16 if narrow else np.float64
-    if narrow and K.dtype != np.int16:
-        K = K.astype(np.int16)  # callers in a loop pass it converted once (dp_kernel)
-    prev = np.empty((lmax + 1, wmax + 1, m), dtype)
-    cur = np.empty((lmax + 1, wmax + 1, m), dtype)
-    kv = np.empty((lmax + 1, m), dtype)
-    neg = dtype(-16000) if narrow else dtype(-np.inf)
-    order = np.lexsort((labels, starts - ends))  # longest first, then by label: see the kernel
-    return dp_search_padded(K, starts[order], ends[order], labels[order], n_c, const, wmin,
-                            wmax, prev, cur, kv, neg, narrow)
+        binary = bool(np.all((K == 0) | (K == 1)))
+    # longest first, then by label: runs of one (length, label) are summed before dividing
+    order = np.lexsort((labels, starts - ends))
+    starts, ends, labels = starts[order], ends[order], labels[order]
+    dtype = work_dtype(binary, int((ends - starts).max()), wmax)
+    if dtype != np.float64 and K.dtype not in (np.int8, np.int16):
+        K = K.astype(np.int8)  # callers in a loop pass it converted once (dp_kernel)
+    A = np.empty((wmax + 1, n + 1), dtype)
+    B = np.empty((wmax + 1, n + 1), dtype)
+    acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
+    F = np.zeros((k, wmax + 1, n + 1))
+    candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, NEG[dtype])
+    return relax(F, n_c, const, wmin, wmax)
+
+
+#: the -inf of each work dtype of the DP tables (exact ranges: :func:`work_dtype`)
+NEG = {np.int8: np.int8(-64), np.int16: np.int16(-16000), np.float64: -np.inf}
+
+
+def work_dtype(binary: bool, lmax: int, wmax: int):
+    """The narrowest exact dtype of the DP tables: for a 0/1 kernel every entry is an
+    integer at most ``lmax + wmax`` (see ``streamseg._kernels.aca.candidate_sums``)."""
+    if not binary or lmax + wmax >= 4000:
+        return np.float64
+    return np.int8 if lmax + wmax <= 60 else np.int16
 
 
 def dp_kernel(K, binary: bool):
-    """K as the DP step reads it: every step reads all of K, so a 0/1 kernel goes as int16."""
-    return K.astype(np.int16, copy=False) if binary else K
+    """K as every DP step reads it, prepared once per fit: a 0/1 kernel as int8; a float
+    kernel as its transpose unless it is exactly symmetric (rows = old frames)."""
+    if binary:
+        return K.astype(np.int8, copy=False)
+    return K if np.array_equal(K, K.T) else np.ascontiguousarray(K.T)
 
 
 def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int, *,
@@ -152,7 +174,7 @@ def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int
     """Coordinate descent from one initial segmentation on frame kernel ``K`` (n, n).
 
     ``binary``: whether K is 0/1 (computed when None); ``K_dp``: K as the DP step reads it
-    (int16 for a 0/1 kernel; converted here when None).
+    (:func:`dp_kernel`; prepared here when None).
     Returns ``(starts, ends, labels, objective, n_iter)``.
     """
     starts = np.ascontiguousarray(starts, dtype=np.int64)
@@ -210,7 +232,8 @@ class ACA(Estimator):
     k_frame : int
         Frame classes for the propagated initialization without reduction.
     n_jobs : int
-        Threads running restarts in parallel (results do not depend on it).
+        Threads running restarts in parallel (results do not depend on it); -1: one per
+        CPU this process may use.
     random_state : int, numpy Generator or None
 
     Attributes
@@ -255,7 +278,8 @@ class ACA(Estimator):
         posint("max_iter", self.max_iter)
         posint("reduce_cap", self.reduce_cap)
         posint("k_frame", self.k_frame)
-        posint("n_jobs", self.n_jobs)
+        if self.n_jobs != -1:
+            posint("n_jobs", self.n_jobs)
         if self.max_len_frames < self.min_len_frames:
             raise ParameterError(
                 f"max_len_frames={self.max_len_frames!r} is invalid: expected >= "
@@ -301,7 +325,7 @@ class ACA(Estimator):
             else:
                 Xr = X
             K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma,
-                                                  binary_dtype=np.int16))
+                                                  binary_dtype=np.int8))
         nr = K.shape[0]
         # Lengths are given in original frames; a reduced frame stands for n / nr of them.
         scale = nr / n
@@ -321,9 +345,10 @@ class ACA(Estimator):
                 return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary,
                                K_dp=K_dp)
 
-            if self.n_jobs > 1 and len(inits) > 1:
+            jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
+            if jobs > 1 and len(inits) > 1:
                 # the kernels release the GIL, so restarts run in parallel threads
-                with ThreadPoolExecutor(min(self.n_jobs, len(inits))) as pool:
+                with ThreadPoolExecutor(min(jobs, len(inits))) as pool:
                     results = list(pool.map(run, inits))
             else:
                 results = [run(init) for init in inits]

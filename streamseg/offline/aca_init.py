@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.linalg import eigh
+from scipy.sparse.linalg import eigsh
 
 from streamseg._kernels.dtak import segment_kernel
 from streamseg._kernels.kmeans import lloyd
@@ -35,22 +36,39 @@ def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray
     return lloyd(X, centres, n_iter)
 
 
+#: Above this many items the spectral embedding's k leading eigenvectors come from ARPACK
+#: (``scipy.sparse.linalg.eigsh``: matrix-vector products, O(m^2) each, on a float32 copy)
+#: instead of a dense eigendecomposition, which is O(m^3): 17-69 s at m = 4,600 on this
+#: project's machine against 0.8 s. Below it the dense one is faster and exactly as before.
+DENSE_EIGH_MAX = 1000
+
+
 def spectral_labels(A, k: int, rng: np.random.Generator) -> np.ndarray:
     """Spectral clustering of Ng, Jordan & Weiss on affinity ``A`` (m, m). Returns (m,) labels.
 
     Embedding: the ``k`` leading eigenvectors of ``D^-1/2 A D^-1/2`` (zero diagonal), rows
     normalized to unit length, then k-means. With ``m <= k`` every item is its own cluster.
+    At most O(m^2) time per matrix-vector product and O(m^2) memory (see
+    :data:`DENSE_EIGH_MAX`).
     """
-    A = np.array(A, dtype=np.float64)
-    m = A.shape[0]
+    m = np.shape(A)[0]
     if m <= k:
         return np.arange(m)
-    np.fill_diagonal(A, 0.0)
-    A = 0.5 * (A + A.T)
-    deg = A.sum(1)
+    large = m > DENSE_EIGH_MAX
+    M = np.array(A, dtype=np.float32 if large else np.float64)
+    np.fill_diagonal(M, 0.0)
+    M += M.T  # numpy buffers the overlapping transpose
+    M *= 0.5
+    deg = M.sum(1, dtype=np.float64)
     inv = np.where(deg > 0, 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0)), 0.0)
-    M = inv[:, None] * A * inv[None, :]
-    _, vecs = eigh(M, subset_by_index=[m - k, m - 1])
+    M *= inv[:, None].astype(M.dtype)
+    M *= inv[None, :].astype(M.dtype)
+    if large:
+        v0 = rng.uniform(0.5, 1.0, m).astype(np.float32)
+        _, vecs = eigsh(M, k, which="LA", v0=v0)
+        vecs = vecs.astype(np.float64)
+    else:
+        _, vecs = eigh(M, subset_by_index=[m - k, m - 1])
     norms = np.linalg.norm(vecs, axis=1, keepdims=True)
     emb = vecs / np.where(norms > 0, norms, 1.0)
     return kmeans(emb, k, rng)
@@ -83,7 +101,7 @@ def random_init(K, k: int, wmin: int, wmax: int, rng: np.random.Generator):
 
 
 def propagated_similarity(frame_classes, wmax: int) -> np.ndarray:
-    """Eq. 10: (n, n) 0/1 frame similarity from per-frame classes, propagated along time.
+    """Eq. 10: (n, n) boolean frame similarity from per-frame classes, propagated along time.
 
     ``kappa[i, j] = 1`` for frames of one class; then for every pair ``(i1, i2)`` of the same
     class whose frames ``d`` steps earlier (``1 <= d <= wmax``) also share a class, the
@@ -102,7 +120,7 @@ def propagated_similarity(frame_classes, wmax: int) -> np.ndarray:
         ii = idx[d:][has]
         out[ii, ii - d] = True
     out |= out.T
-    return out.astype(np.float64)
+    return out
 
 
 def runs_to_segments(frame_labels, wmin: int, wmax: int):

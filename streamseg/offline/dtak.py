@@ -76,7 +76,7 @@ def frame_kernel(X, Y=None, *, kernel: str = "gaussian", sigma: float | None = N
     sigma : float or None
         Gaussian bandwidth; None = :func:`default_sigma` of ``X``. Ignored for "equality".
     binary_dtype : dtype
-        dtype of the 0/1 "equality" kernel (ACA uses int16: exact, 4x less memory).
+        dtype of the 0/1 "equality" kernel (ACA uses int8: exact, 8x less memory).
 
     Returns
     -------

@@ -38,7 +38,7 @@ class HACA(Estimator):
         Fine level: number of primitives and their lengths in frames.
     coarse_kernel : {"labels", "dtak"}
         Kernel between primitives at the coarse level (module docstring).
-    n_init, max_iter, kernel, sigma, init, k_reduce, reduce_cap, random_state
+    n_init, max_iter, kernel, sigma, init, k_reduce, reduce_cap, n_jobs, random_state
         As in :class:`streamseg.offline.aca.ACA` (``init`` applies to the fine level). The
         coarse level starts its first restart from the propagated initialization (eq. 10)
         with the fine labels as unit classes, the others from random ones.
@@ -58,7 +58,7 @@ class HACA(Estimator):
                  fine_min_len_frames=None,
                  fine_max_len_frames=None, coarse_kernel="dtak", n_init=10, max_iter=50,
                  kernel="gaussian", sigma=None, init="random", k_reduce=None, reduce_cap=20,
-                 random_state=None):
+                 n_jobs=1, random_state=None):
         self.n_clusters = n_clusters
         self.min_len_frames = min_len_frames
         self.max_len_frames = max_len_frames
@@ -73,6 +73,7 @@ class HACA(Estimator):
         self.init = init
         self.k_reduce = k_reduce
         self.reduce_cap = reduce_cap
+        self.n_jobs = n_jobs
         self.random_state = random_state
 
     def fit(self, X):
@@ -117,7 +118,8 @@ class HACA(Estimator):
         scale = nr / n  # reduced frames per frame
         fine = ACA(self.fine_clusters, max(1, round(fmin * scale)),
                    max(1, round(fmax * scale)), n_init=self.n_init, max_iter=self.max_iter,
-                   kernel="precomputed", init=self.init, random_state=rng).fit(
+                   kernel="precomputed", init=self.init, n_jobs=self.n_jobs,
+                   random_state=rng).fit(
                        K, frame_classes=classes)
         fs = np.array([s for s, _, _ in fine.segments_], dtype=np.int64)
         fe = np.array([e for _, e, _ in fine.segments_], dtype=np.int64)
@@ -138,7 +140,7 @@ class HACA(Estimator):
         for k in n_clusters:
             # first coarse restart: eq. 10 propagation over the primitives' labels
             coarse = ACA(k, cmin, cmax, n_init=self.n_init, max_iter=self.max_iter,
-                         kernel="precomputed", init="propagated",
+                         kernel="precomputed", init="propagated", n_jobs=self.n_jobs,
                          random_state=copy.deepcopy(rng)).fit(T, frame_classes=fine_labels)
             fitted = copy.copy(self)
             fitted.n_clusters = k

@@ -142,8 +142,9 @@ def _single(n: int, reason: str) -> Fitted:
     return Fitted(np.zeros(n, dtype=np.int64), [(0, n, 0)] if n else [], 1, reason=reason)
 
 
-def model_from_config(config: ACAConfig, fps: float):
-    """Unfitted ACA or HACA for ``config`` with its second-based lengths at ``fps``."""
+def model_from_config(config: ACAConfig, fps: float, n_jobs: int = 1):
+    """Unfitted ACA or HACA for ``config`` with its second-based lengths at ``fps``; restarts
+    in ``n_jobs`` threads (-1: one per CPU)."""
     from streamseg.offline.aca import ACA
     from streamseg.offline.haca import HACA
 
@@ -152,7 +153,8 @@ def model_from_config(config: ACAConfig, fps: float):
 
     common = dict(n_init=config.n_init, max_iter=config.max_iter, kernel=config.kernel,
                   sigma=config.sigma, k_reduce=config.k_reduce,
-                  reduce_cap=frames(config.reduce_cap), random_state=config.random_state)
+                  reduce_cap=frames(config.reduce_cap), random_state=config.random_state,
+                  n_jobs=n_jobs)
     if config.hierarchical:
         return HACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
                     fine_clusters=config.fine_clusters,
@@ -163,7 +165,7 @@ def model_from_config(config: ACAConfig, fps: float):
                init=config.init, **common)
 
 
-def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
+def fit_aca(X, config: ACAConfig, fps: float, n_jobs: int = 1) -> Fitted:
     """Fit (H)ACA to ``X`` with ``config``; K found by segment silhouette when not given.
 
     Parameters
@@ -174,6 +176,9 @@ def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
         ``n_clusters`` None: K is found in ``[2, k_max]``.
     fps : float
         Frame rate converting the config's seconds to frames.
+    n_jobs : int
+        Threads running each fit's restarts (-1: one per CPU; the result does not depend
+        on it). The daemon relabels with 1: its cores go to other streams.
 
     Returns
     -------
@@ -200,11 +205,12 @@ def fit_aca(X, config: ACAConfig, fps: float) -> Fitted:
         range(2, config.k_max + 1))
     ks = [k for k in ks if k * min_len <= m] or [1]
     piece = max(2, int(round(config.max_len_s * fps / 2)))  # half the longest segment
-    model = model_from_config(config, fps)
+    model = model_from_config(config, fps, n_jobs)
     if config.hierarchical:  # one fine level for every K
         fits = model.fit_each(Xf, ks)
     else:
-        fits = [(k, model_from_config(replace(config, n_clusters=k), fps).fit(Xf)) for k in ks]
+        fits = [(k, model_from_config(replace(config, n_clusters=k), fps, n_jobs).fit(Xf))
+                for k in ks]
     scores = {}
     if len(fits) > 1:
         sil = PieceSilhouette(Xf, piece, kernel=config.kernel, sigma=config.sigma)
