@@ -119,9 +119,17 @@ def test_broken_gzip(tmp_path, data_dir, asf):
 
 
 def test_unknown_suffix(tmp_path):
+    f = tmp_path / "take.fbx"
+    f.write_bytes(b"x")
+    with pytest.raises(RecordingError, match=r"take.fbx: found suffix '.fbx'; expected one of"):
+        read(f)
+
+
+def test_garbage_c3d(tmp_path):
+    pytest.importorskip("ezc3d")
     f = tmp_path / "take.c3d"
     f.write_bytes(b"x")
-    with pytest.raises(RecordingError, match=r"take.c3d: found suffix '.c3d'; expected one of"):
+    with pytest.raises(RecordingError, match=r"take.c3d: found an unreadable C3D file"):
         read(f)
 
 

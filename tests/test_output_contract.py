@@ -30,7 +30,7 @@ def recording(data_dir):
                                   ["--method", "aca"], ["--method", "rep"]])
 def test_segment_prints_the_documented_keys(capsys, recording, argv):
     out = _json(capsys, "segment", *recording, *argv, "--json")
-    assert COMMON - {"plot"} <= set(out), COMMON - set(out)
+    assert COMMON - {"plot", "events_file", "events_written"} <= set(out), COMMON - set(out)
     assert out["schema"] == 1 and out["command"] == "segment"
     segs = out["segments"]
     # the segments tile the frames, cuts are their starts, seconds are frames / fps
@@ -88,7 +88,8 @@ def test_a_skeleton_given_to_a_file_that_carries_its_own_is_named(capsys, record
     write_npz(f, read(recording[0], skeleton=recording[2]))
     out = _json(capsys, "segment", f, "--skeleton", recording[2], "--json")
     assert out["warnings"] == ["--skeleton does nothing for take.npz: only AMC files take an "
-                               "ASF skeleton (BVH and .npz carry their own, matrices need none)"]
+                               "ASF skeleton (BVH, C3D and .npz carry their own, positions are "
+                               "named by their header or --joints, matrices need none)"]
 
 
 def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):

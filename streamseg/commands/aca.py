@@ -62,19 +62,19 @@ def _clusters(text: str):
 
 def _load(args):
     """(features (n, d), fps, is_matrix) for ``args.file``."""
-    from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
+    from streamseg.commands.inputs import is_matrix, read_recording
+    from streamseg.io.matrix import read_matrix
 
-    if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
+    if is_matrix(args):
         if args.fps is None:  # as lof and rep: a guessed rate would silently rescale lengths
             raise ParameterError(f"{Path(args.file).name} is a feature matrix with no frame "
                                  "rate: give --fps (rows per second; --min-len/--max-len are "
                                  "in seconds)")
         fps = float(args.fps)
         return read_matrix(args.file), fps, True
-    from streamseg.io import read
     from streamseg.skeleton import body_features, quaternion_features
 
-    rec = read(args.file, args.skeleton, fps=args.fps)
+    rec = read_recording(args)
     if rec.rotations is None:  # positions only (a Kinect-like or converted take): as `rep` does
         warn(args, f"{Path(args.file).name} holds joint positions only (no rotations): ACA "
                    "runs on the body's limb directions (streamseg.skeleton.body_features) "

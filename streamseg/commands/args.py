@@ -36,21 +36,28 @@ def endpoint(text: str) -> str:
                                      "port in 1..65535 (e.g. tcp://127.0.0.1:5560)")
 
 
-def add_input_arguments(p: argparse.ArgumentParser, optional: bool = False) -> None:
-    """FILE, --skeleton and --fps, as every command reading one recording takes them."""
+def add_input_arguments(p: argparse.ArgumentParser, optional: bool = False,
+                        write_events: bool = False) -> None:
+    """FILE, --skeleton and --fps, as every command reading one recording takes them, and
+    the reading flags of :func:`streamseg.commands.inputs.add_source_arguments`."""
+    from streamseg.commands.inputs import add_source_arguments
+
     p.add_argument(
         "file",
         nargs="?" if optional else None,
-        help="recording (.amc[.gz], .bvh, .npz) or feature matrix (.npy, .csv)",
+        help="recording (.amc[.gz], .bvh, .c3d, .npz; joint positions .csv/.npy/.npz) or "
+             "feature matrix (.npy, .csv)",
     )
     p.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
     p.add_argument(
         "--fps",
         type=frame_rate,
         default=None,
-        help="frame rate: needed for a feature matrix (.npy/.csv, rows per second); for a "
-             "recording it replaces the file's own (AMC: 120)",
+        help="frame rate: needed for a feature matrix (.npy/.csv, rows per second) and for "
+             "positions without a time column; for a recording it replaces the file's own "
+             "(AMC: 120)",
     )
+    add_source_arguments(p, write_events=write_events)
 
 
 def check_plot(plot, need_matplotlib: bool = True) -> None:

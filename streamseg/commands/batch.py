@@ -41,6 +41,9 @@ def add_arguments(parser) -> None:
 
     parser.add_argument("--fps", type=frame_rate, default=None,
                         help="frame rate for feature matrices (.npy/.csv) or AMCs")
+    from streamseg.commands.inputs import add_source_arguments
+
+    add_source_arguments(parser)
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a "
                              "local cluster on 127.0.0.1)")

@@ -37,16 +37,18 @@ def _matrix_info(path, fps) -> str:
     return "\n".join(out)
 
 
-def info(path, skeleton=None, fps=None) -> str:
+def info(path, skeleton=None, fps=None, joints=None, gap_fill=None) -> str:
     """A readable summary of ``path``: size, rate, joints and feature ranges (a recording),
     or rows, columns and column ranges (a feature matrix ``.npy``/``.csv``)."""
     from pathlib import Path
 
-    from streamseg.io.matrix import MATRIX_SUFFIXES
+    from streamseg.commands.inputs import MATRIX_SUFFIXES, is_positions_table
+    from streamseg.io.gaps import FILL_S
 
-    if Path(path).suffix.lower() in MATRIX_SUFFIXES:
+    if Path(path).suffix.lower() in MATRIX_SUFFIXES and not is_positions_table(path, joints):
         return _matrix_info(path, fps)
-    rec = read(path, skeleton, fps=fps, lenient=True)
+    rec = read(path, skeleton, fps=fps, lenient=True, joints=joints,
+               gap_fill=FILL_S if gap_fill is None else gap_fill)
     n_nan = int(np.isnan(rec.positions).any(axis=(1, 2)).sum())
     out = [
         f"file:      {path}" + (f" (converted from {rec.source})"
@@ -59,6 +61,14 @@ def info(path, skeleton=None, fps=None) -> str:
         f"units:     {rec.skeleton.units}",
         f"NaN frames: {n_nan}",
     ]
+    if rec.metadata.get("marker_set"):
+        out.append(f"markers:   {len(rec.metadata['markers'])}, mapped by the "
+                   f"{rec.metadata['marker_set']} set; up axis {rec.skeleton.up}")
+    if rec.metadata.get("filled_frames") or rec.metadata.get("gaps"):
+        gaps = rec.metadata.get("gaps", [])
+        out.append(f"gaps:      {rec.metadata.get('filled_frames', 0)} frames filled by "
+                   f"interpolation; {len(gaps)} longer gaps ("
+                   f"{sum(e - s for s, e in gaps)} frames) the detectors skip")
     out += [f"warning:   {w}" for w in rec.metadata.get("warnings", [])]
     feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
     out += _table("bone angles (Xing et al. Table 2)", ANGLE_NAMES, feats[:, :8], "rad")
@@ -79,5 +89,6 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    print(info(args.file, skeleton=args.skeleton, fps=args.fps))
+    print(info(args.file, skeleton=args.skeleton, fps=args.fps, joints=args.joints,
+               gap_fill=args.gap_fill))
     return 0

@@ -104,9 +104,10 @@ def config_from_args(args) -> LOFConfig:
 def _angles(args, config: LOFConfig):
     """(features (n, d), fps, config) of ``args.file``: ``config``'s features, or, for a
     matrix of the bone features alone, those with the root speeds turned off."""
-    from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
+    from streamseg.commands.inputs import is_matrix, read_recording
+    from streamseg.io.matrix import read_matrix
 
-    if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
+    if is_matrix(args):
         if args.fps is None:
             raise ParameterError("a bone-angle matrix has no frame rate: give --fps (e.g. 120)")
         if getattr(args, "up", None):
@@ -121,14 +122,20 @@ def _angles(args, config: LOFConfig):
                                  f"options take {bone}")
         if width == bone and config.root_columns:  # no positions: no root speeds
             config = dataclasses.replace(config, root_speed_max=0.0)
+        if width not in (bone, config.n_features):
+            hint = (f"; if they are joint positions ({width // 3} joints x 3), give --joints "
+                    "kinect|blazepose|coco17|body25 or a header row naming each column "
+                    "<joint>_x,<joint>_y,<joint>_z" if width and width % 3 == 0 else "")
+            raise ParameterError(f"{args.file} has {width} columns, not the cut detector's "
+                                 f"features ({bone}, or {config.n_features} with the root "
+                                 f"speeds; --inclinations off: 8 or 10){hint}")
         return lof_features(m, config), float(args.fps), config  # validates any other width
     if getattr(args, "up", None) and not config.inclinations:
         raise ParameterError("--up has no effect without the inclinations (--inclinations off "
                              "or --preset paper)")
-    from streamseg.io import read
     from streamseg.offline.lof import position_features
 
-    rec = read(args.file, args.skeleton, fps=args.fps)
+    rec = read_recording(args)
     up = getattr(args, "up", None) or rec.skeleton.up
     if config.inclinations:
         _warn_up(args, rec, up)

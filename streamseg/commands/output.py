@@ -58,6 +58,9 @@ def segmentation(args, *, method: str, n_frames: int, fps: float, segments, **ex
            "duration_s": round(n_frames / fps, 4) if fps else None,
            "cuts": cuts, "cuts_s": [round(c / fps, 4) for c in cuts], "segments": segs}
     out.update(extra)
+    if getattr(args, "gaps", None) is not None:  # a recording (not a feature matrix)
+        out["gaps"] = list(args.gaps)
+        out["filled_frames"] = int(getattr(args, "filled_frames", 0))
     out["warnings"] = list(getattr(args, "warnings", []))
     return out
 
@@ -103,7 +106,7 @@ def format_segmentation(result: dict) -> str:
         lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
                      f"{s['end_s']:>9.2f}  {label}".rstrip())
     skip = {"schema", "command", "file", "method", "n_frames", "fps", "duration_s", "cuts",
-            "cuts_s", "segments", "warnings", "params", "repetitions", "sets"}
+            "cuts_s", "segments", "warnings", "params", "repetitions", "sets", "filled_frames"}
     for key, value in result.items():
         if key in skip or isinstance(value, (dict, list)):
             continue

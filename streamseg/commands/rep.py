@@ -56,20 +56,19 @@ def _config(args) -> RepetitionConfig:
 def _run(args, sets=False):
     """(config, fitted segmenter, seconds); with ``sets`` a :class:`RoutineSegmenter` for a
     recording (a parameter matrix has no joint positions to cut into actions: one set)."""
-    from streamseg.io.matrix import MATRIX_SUFFIXES, read_matrix
+    from streamseg.commands.inputs import is_matrix, read_recording
+    from streamseg.io.matrix import read_matrix
     from streamseg.offline.repetition import RepetitionSegmenter
 
     cfg = _config(args)
     t0 = time.perf_counter()
-    if Path(args.file).suffix.lower() in MATRIX_SUFFIXES:
+    if is_matrix(args):
         if args.fps is None:
             raise ParameterError("--fps is required with a parameter matrix (.npy/.csv): "
                                  "the frame rate of its rows")
         seg = RepetitionSegmenter(cfg, float(args.fps)).fit(read_matrix(args.file))
     else:
-        from streamseg.io import read
-
-        rec = read(args.file, args.skeleton, fps=args.fps)
+        rec = read_recording(args)
         if sets:
             from streamseg.offline.sets import RoutineSegmenter
 

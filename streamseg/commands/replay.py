@@ -22,10 +22,16 @@ from streamseg.recording import UP_AXES
 
 
 def add_arguments(parser) -> None:
-    from streamseg.commands.args import endpoint
+    from streamseg.commands.args import endpoint, frame_rate
+    from streamseg.commands.inputs import add_source_arguments
 
-    parser.add_argument("file", help="recording (.amc[.gz], .bvh, .npz)")
+    parser.add_argument("file", help="recording (.amc[.gz], .bvh, .c3d, .npz; joint positions "
+                                     ".csv/.npy/.npz)")
     parser.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
+    parser.add_argument("--fps", type=frame_rate, default=None,
+                        help="frame rate of positions without a time column; replaces the "
+                             "file's own")
+    add_source_arguments(parser)
     parser.add_argument("--to", required=True, type=endpoint, metavar="ENDPOINT",
                         help="daemon ingest endpoint")
     parser.add_argument("--speed", type=float, default=1.0, help="times real time; 0 = max")
@@ -187,7 +193,7 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
-    from streamseg.io import read
+    from streamseg.commands.inputs import read_recording
 
     # what the daemon would refuse, refused here: it would only log it, and we would say "sent"
     if args.stream is not None and not protocol.valid_stream_id(args.stream):
@@ -202,7 +208,7 @@ def _run(args) -> int:
             raise ParameterError(f"--labels {args.labels}: no such file (a label CSV: "
                                  "sequence,start_frame,end_frame,action_label)")
         read_labels(args.labels, args.labels_sequence or stream_id(args.file))
-    rec = read(args.file, skeleton=args.skeleton)
+    rec = read_recording(args)
     if args.up:
         rec = dataclasses.replace(rec, skeleton=dataclasses.replace(rec.skeleton, up=args.up))
     stream = args.stream or stream_id(args.file)

@@ -28,9 +28,9 @@ def available_methods() -> dict:
     return found
 
 
-def add_common_arguments(p, *, optional_file: bool = False) -> None:
+def add_common_arguments(p, *, optional_file: bool = False, write_events: bool = False) -> None:
     """The options segment and eval share, then every method's own group."""
-    add_input_arguments(p, optional=optional_file)
+    add_input_arguments(p, optional=optional_file, write_events=write_events)
     methods = available_methods()
     p.add_argument("--method", choices=sorted(methods), default=None,
                    help="default: lof (with eval --all: lof and aca)")
@@ -50,7 +50,7 @@ def add_common_arguments(p, *, optional_file: bool = False) -> None:
 
 
 def add_arguments(parser) -> None:
-    add_common_arguments(parser)
+    add_common_arguments(parser, write_events=True)
 
 
 def check_options(args) -> None:
@@ -66,14 +66,21 @@ def check_options(args) -> None:
     name = str(getattr(args, "file", "") or "").lower()
     if args.skeleton and name and not name.endswith((".amc", ".amc.gz")):
         warn(args, f"--skeleton does nothing for {Path(name).name}: only AMC files take an "
-                   "ASF skeleton (BVH and .npz carry their own, matrices need none)")
+                   "ASF skeleton (BVH, C3D and .npz carry their own, positions are named by "
+                   "their header or --joints, matrices need none)")
 
 
 def run(args) -> int:
+    from streamseg.commands.inputs import check_write_events, write_events
+
     args.method = args.method or "lof"
     check_options(args)
     check_plot(args.plot)
-    emit(args, args.methods[args.method].segment(args))
+    check_write_events(args)
+    result = args.methods[args.method].segment(args)
+    if args.write_events:
+        write_events(args, result)
+    emit(args, result)
     return 0
 
 

@@ -2,43 +2,85 @@
 
 >>> from streamseg.io import READERS
 >>> sorted(READERS)
-['.amc', '.bvh', '.npz']
+['.amc', '.bvh', '.c3d', '.csv', '.npy', '.npz']
+
+Every reader returns a :class:`~streamseg.recording.Recording`; :func:`read` then fills the
+short gaps of its joint positions (:mod:`streamseg.io.gaps`), the same way the daemon fills
+a live stream's.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from streamseg.exceptions import RecordingError
 from streamseg.io._text import base_suffix
 from streamseg.io.amc import read_amc
 from streamseg.io.bvh import read_bvh
+from streamseg.io.gaps import FILL_S, fill_gaps
 from streamseg.io.npz import read_npz, write_npz
+from streamseg.io.positions import read_positions
 from streamseg.recording import Recording
 
-READERS = {".amc": read_amc, ".bvh": read_bvh, ".npz": read_npz}
 
-__all__ = ["READERS", "read", "read_amc", "read_bvh", "read_npz", "write_npz"]
+def _read_c3d(path, skeleton=None, **kw):
+    from streamseg.io.c3d import read_c3d  # ezc3d is imported only for a C3D file
+
+    return read_c3d(path, skeleton, **kw)
 
 
-def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None) -> Recording:
+def _read_npz(path, skeleton=None, **kw):
+    """streamseg's own ``.npz``, or any other archive of joint positions."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            ours = "parents" in z.files and "names" in z.files
+    except Exception:  # unreadable: read_npz says so
+        ours = True
+    if ours:
+        kw.pop("joints", None)
+        return read_npz(path, skeleton, **kw)
+    return read_positions(path, skeleton, **kw)
+
+
+READERS = {".amc": read_amc, ".bvh": read_bvh, ".c3d": _read_c3d, ".csv": read_positions,
+           ".npy": read_positions, ".npz": _read_npz}
+#: readers that take ``joints=`` (the joint set of unnamed columns) or ``markers=``
+_JOINTS = (".csv", ".npy", ".npz")
+
+__all__ = ["READERS", "read", "read_amc", "read_bvh", "read_npz", "read_positions",
+           "write_npz"]
+
+
+def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None,
+         joints: str | None = None, gap_fill: float = FILL_S) -> Recording:
     """Read any supported recording.
 
     Parameters
     ----------
     path : str or Path
-        ``.amc`` (optionally ``.gz``), ``.bvh`` or ``.npz``.
+        ``.amc`` (optionally ``.gz``), ``.bvh``, ``.c3d``, ``.npz``, or joint positions
+        ``.csv``/``.npy`` (:mod:`streamseg.io.positions`).
     skeleton : str or Path, optional
         ASF skeleton, required for AMC.
     lenient : bool, default=False
-        Return the good frames before a truncated last frame instead of raising.
+        Return the good frames before a truncated last frame instead of raising (the
+        recording's ``metadata["warnings"]`` says how many were dropped).
     fps : float, optional
         Override the frame rate (AMC files carry none; default 120).
+    joints : str, optional
+        Joint set of a positions file whose columns carry no names (``kinect``,
+        ``blazepose``, ``coco17``, ``body25``).
+    gap_fill : float, default :data:`~streamseg.io.gaps.FILL_S`
+        Fill gaps (NaN runs) of a joint up to this many seconds by interpolation; longer
+        ones stay NaN and are listed in ``metadata["gaps"]`` as ``[start, end)``. 0: none.
     """
     if not Path(path).is_file():  # before anything else: a typo is not a format problem
         raise RecordingError(Path(path), None,
                              "no such file" if not Path(path).exists() else "not a file",
-                             "the path of a recording (.amc[.gz], .bvh, .npz)")
+                             "the path of a recording (.amc[.gz], .bvh, .c3d, .npz, .csv, "
+                             ".npy)")
     suffix = base_suffix(path)
     reader = READERS.get(suffix)
     if reader is None:
@@ -48,4 +90,23 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
             f"suffix {suffix or '(none)'!r}",
             f"one of {', '.join(sorted(READERS))} (optionally .gz)",
         )
-    return reader(path, skeleton, lenient=lenient, fps=fps)
+    extra = {"joints": joints} if suffix in _JOINTS else {}
+    rec = reader(path, skeleton, lenient=lenient, fps=fps, **extra)
+    return with_gaps_filled(rec, gap_fill)
+
+
+def with_gaps_filled(rec: Recording, seconds: float = FILL_S) -> Recording:
+    """``rec`` with its short gaps filled and its long ones in ``metadata["gaps"]``."""
+    from dataclasses import replace
+
+    from streamseg.exceptions import SkeletonError
+    from streamseg.skeleton.bones import bone_point_indices
+
+    try:
+        watch = np.unique(bone_point_indices(rec.skeleton))
+    except SkeletonError:
+        watch = None
+    positions, report = fill_gaps(rec.positions, rec.fps, seconds, watch)
+    meta = {**rec.metadata, "gaps": [list(g) for g in report.gaps],
+            "filled_frames": report.filled_frames, "gap_fill_s": float(seconds)}
+    return replace(rec, positions=positions, metadata=meta)

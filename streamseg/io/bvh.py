@@ -146,7 +146,12 @@ def read_bvh(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
             err = err_cls(path, k + 1, f"{found} in frame {len(rows)}", f"{width} values")
             if err_cls is RecordingError or not lenient:
                 raise err
-            warnings.append(str(err))
+            said = int(header["frames"])
+            lost = f"{said - len(rows)} of the {said} the header announces" \
+                if said > len(rows) else "1"
+            warnings.append(f"{Path(path).name}: frame {len(rows)} (line {k + 1}) is "
+                            f"incomplete (the file was cut off): dropped {lost}, kept "
+                            f"{len(rows)}")
             break
         rows.append(row)
     if len(rows) != int(header["frames"]) and not warnings:
