@@ -18,6 +18,7 @@ from streamseg.daemon import Daemon
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
+from streamseg.io.gaps import fill_gaps
 from streamseg.online.lof import StreamingLOFSegmenter
 from tests.motion import lof_input
 
@@ -139,8 +140,9 @@ def test_garbage_between_good_packets(start_daemon, rec, receive_thread):
         "type": [b"frames/g/", msgpack.packb({"v": 1, "type": [1], "stream": "g"})],
         "huge_seq": P.encode(P.Frames("g", 2**60, 0.0, pos[:2])),  # a "field" error
     }
-    nan_rows = np.arange(2010, 2016)
+    nan_rows = np.arange(2010, 2070)  # 0.5 s without positions: a gap the detectors skip
     pos[nan_rows] = np.nan
+    pos[2500:2506] = np.nan  # 0.05 s: filled by interpolation, as a file's would be
     step, n_garbage, n_bad_arrays, n_dups = 10, 0, 0, 0
     for a in range(0, rec.n_frames, step):
         if a == 3000:
@@ -161,13 +163,16 @@ def test_garbage_between_good_packets(start_daemon, rec, receive_thread):
     events = list(listen(s, stream="g", until_end=True, timeout=30))
     ref = pos.copy()
     ref[3000:3010] = np.nan  # the offline run sees the lost frames as missing
+    ref, report = fill_gaps(ref, rec.fps)  # ... and fills its short gaps the same way
+    assert report.gaps == [(2010, 2070)]
     assert cuts_of(events, "g") == offline_cuts(rec, ref)
     stats = request(ep["control"], "stats")["totals"]["errors_by_reason"]
     assert stats == {"decode": n_garbage, "version": n_garbage, "field": 2 * n_garbage,
                      "type": n_garbage, "unknown_stream": n_garbage, "array": n_bad_arrays,
                      "duplicate": n_dups * step, "nan": len(nan_rows), "gap": 1}
     gaps = [e for e in events if e.type == "gap"]
-    assert [(e.expected, e.got) for e in gaps] == [(3000, 3010)]
+    assert [(e.expected, e.got, e.filled) for e in gaps] == [(2010, 2070, False),
+                                                             (3000, 3010, True)]
     errors = [e for e in events if e.type == "error" and e.stream == "g"]
     assert {e.reason for e in errors} >= {"array", "duplicate", "nan", "version", "field"}
 

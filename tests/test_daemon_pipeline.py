@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
+from streamseg.io.gaps import fill_gaps
 from streamseg.offline.relabel import WindowSegmentation
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.online.root_speed import root_speed_columns
@@ -20,10 +21,12 @@ def test_cached_angles_are_bone_angles(rec):
 
 
 def test_chunking_and_gaps_keep_stream_frames(rec):
-    """Any packet sizes give the offline cuts; a short gap acts as NaN frames."""
+    """Any packet sizes give the offline cuts; a short loss is filled as a file's gap is."""
     pos = rec.positions
     lost = pos.copy()
-    lost[1500:1530] = np.nan  # offline, the lost frames are NaN frames
+    lost[1500:1530] = np.nan  # offline, the lost frames are NaN frames ...
+    lost, _ = fill_gaps(lost, rec.fps)  # ... filled as the gaps of a file
+    assert np.isfinite(lost).all()
     ref = bone_angles(lost, rec.skeleton, inclinations=True)
     seg = StreamingLOFSegmenter(fps=rec.fps)
     ref = np.column_stack([ref, root_speed_columns(lost, rec.skeleton, rec.fps)])
@@ -49,12 +52,13 @@ def test_chunking_and_gaps_keep_stream_frames(rec):
 
 def test_nan_frames_are_skipped_in_the_ring_and_mapped_back(rec):
     pos = rec.positions[:400].copy()
-    pos[100:110] = np.nan
+    pos[100:160] = np.nan  # 0.5 s: longer than the gap filler fills
+    pos[300:305] = np.nan  # filled
     p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), history=10.0)
     _, _, bad = p.push(pos, 0)
-    assert bad == 10
+    assert bad == 60 and p.gaps == [(100, 160)]
     feats, frames = p.snapshot()
-    assert feats.shape[0] == 390 and 100 not in frames and frames[100] == 110
+    assert feats.shape[0] == 340 and 100 not in frames and frames[100] == 160
 
     def fake(features, *, start_frame, fps, config, previous):
         n = features.shape[0]  # rows, not frames: two segments split at row 100
@@ -64,7 +68,7 @@ def test_nan_frames_are_skipped_in_the_ring_and_mapped_back(rec):
 
     out = relabel(Algorithms(relabel=fake), feats, frames, 120.0, None)
     assert (out.start, out.end) == (0, 400)
-    assert out.segments == ((0, 100, 0), (110, 400, 1))
+    assert out.segments == ((0, 100, 0), (160, 400, 1))
 
 
 def test_stable_labels_follow_the_previous_window():

@@ -91,6 +91,13 @@ def test_holds_only_what_may_still_be_filled():
     assert [g[:2] for g in filler.take_gaps()] == [(8, 12)]
 
 
+def test_the_cli_default_is_the_library_default():
+    from streamseg.commands import inputs
+    from streamseg.io import gaps
+
+    assert inputs.FILL_S == gaps.FILL_S
+
+
 def test_fill_frames_of_seconds():
     assert fill_frames(120, 0.25) == 30 and fill_frames(30, 0.25) == 7 and fill_frames(100, 0) == 0
     with pytest.raises(ValueError):
@@ -142,7 +149,7 @@ def test_a_file_with_gaps_segments_with_a_warning(take_with_gaps, capsys):
     res = json.loads(out)
     assert [(g["start"], g["end"]) for g in res["gaps"]] == [(1500, 1620), (3000, 3100)]
     assert res["filled_frames"] > 100
-    assert "2 gaps longer than 0.25 s" in err and "the detectors skip them" in err
+    assert "2 gaps longer than 0.25 s" in err and "skipped by the detectors" in err
     assert any("2 gaps" in w for w in res["warnings"])
     assert res["cuts"]  # the rest of the take is still cut
     assert not any(1500 < c < 1620 for c in res["cuts"])

@@ -52,6 +52,8 @@ COMMANDS = {
               "segment or evaluate a whole corpus on a Dask cluster (JSON lines)"),
     "keys": ("streamseg.commands.keys",
              "generate CURVE key pairs for the daemon and its clients"),
+    "lsl": ("streamseg.commands.lsl",
+            "feed Lab Streaming Layer mocap streams to a daemon (LSL time, reconnecting)"),
 }
 
 METHODS = {

@@ -15,9 +15,10 @@ from pathlib import Path
 
 from streamseg.commands.output import warn
 from streamseg.exceptions import ParameterError
-from streamseg.io.gaps import FILL_S
 
 MATRIX_SUFFIXES = (".npy", ".csv")
+#: streamseg.io.gaps.FILL_S, here without importing numpy (the parser is built first)
+FILL_S = 0.25
 
 
 def _seconds(text: str) -> float:
@@ -107,8 +108,8 @@ def read_recording(args):
         fill = rec.metadata.get("gap_fill_s", FILL_S)
         warn(args, f"{Path(str(args.file)).name}: {len(gaps)} gap{'s' if len(gaps) > 1 else ''}"
                    f" longer than {fill:g} s without the joint positions the features use "
-                   f"(frames {shown}; {total} frames, {total / rec.fps:.2f} s in all): the "
-                   "detectors skip them (--gap-fill S fills longer gaps)")
+                   f"(frames {shown}; {total} frames, {total / rec.fps:.2f} s in all): "
+                   "skipped by the detectors (--gap-fill S fills longer gaps)")
     return rec
 
 

@@ -76,8 +76,8 @@ def _run(args, sets=False):
         else:
             seg = RepetitionSegmenter(cfg).fit(rec)
     n_bad = int(getattr(seg, "n_missing_frames_", 0))
-    if n_bad:
-        n = int(getattr(seg, "whole_", seg).n_frames_)
+    n = int(getattr(seg, "whole_", seg).n_frames_) if n_bad else 0
+    if n_bad and (n_bad >= n or not getattr(args, "gaps", None)):  # gaps: said at reading
         # (a matrix with a NaN is refused by read_matrix; a recording's frames are skipped)
         what = "frames have NaN joint positions"
         warn(args, f"{n_bad} of {n} {what}: skipped (bridged by interpolation from the "

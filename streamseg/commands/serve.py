@@ -46,6 +46,13 @@ def add_arguments(parser) -> None:
     parser.add_argument("--http", metavar="HOST:PORT",
                         help="also serve the live web page (streamseg view) at this address, "
                              "e.g. 127.0.0.1:8765 (needs the view extra)")
+    from streamseg.commands.lsl import add_lsl_source_arguments
+
+    lsl = parser.add_argument_group("Lab Streaming Layer (needs the lsl extra)")
+    lsl.add_argument("--lsl-markers", action="store_true",
+                     help="publish cut, segments, rep and closed events as an LSL marker "
+                          "stream (type Markers), stamped with the LSL time of their frame")
+    add_lsl_source_arguments(lsl, prefix="lsl-")
     described = field_help(DaemonConfig)
     said: dict = {}  # a paragraph shared by several options is printed once, at the first
     for f in dataclasses.fields(DaemonConfig):
@@ -125,6 +132,7 @@ def run(args) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: daemon.stop())
     print("streamseg serve: " + " ".join(f"{k}={v}" for k, v in endpoints.items()), flush=True)
+    lsl = _start_lsl(args, daemon, endpoints, view_keys or _client_keys(config))
     view = None
     if getattr(args, "http", None):
         from streamseg.commands.view import start_view
@@ -137,3 +145,39 @@ def run(args) -> int:
     finally:
         if view is not None:
             view.stop()
+        for part in lsl:
+            part.stop()
+
+
+def _client_keys(config):
+    if not config.curve_dir:
+        return None
+    from streamseg.daemon.security import ClientKeys
+
+    return ClientKeys.load(config.curve_dir)
+
+
+def _start_lsl(args, daemon, endpoints: dict, curve) -> list:
+    """The LSL inlet bridge (``--lsl-type/--lsl-name/--lsl-source-id``) and the marker outlet
+    (``--lsl-markers``), each a client of the daemon in this process."""
+    parts = []
+    if args.lsl_markers:
+        from streamseg.lsl.markers import MarkerOutlet
+
+        def time_of(stream, frame):
+            st = daemon.streams.get(stream)
+            return None if st is None or st.t0 is None else st.time_of(frame)
+
+        parts.append(MarkerOutlet(endpoints["publish"], endpoints["control"], time_of,
+                                  curve=curve).start())
+        print("streamseg serve: LSL marker stream 'streamseg' (type Markers)", flush=True)
+    if args.lsl_type or args.lsl_name or args.lsl_source_id:
+        from streamseg.lsl.bridge import Bridge
+
+        def say(line):
+            print(f"streamseg serve: {line}", flush=True)
+
+        parts.append(Bridge(endpoints["ingest"], args.lsl_type, args.lsl_name,
+                            args.lsl_source_id, args.lsl_up, curve=curve,
+                            on_error=lambda m: say(f"error: {m}"), on_open=say).start())
+    return parts

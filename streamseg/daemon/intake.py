@@ -195,7 +195,8 @@ class Intake:
                 st.lost += seq - st.next_seq
                 self.errors.add(st.stream, "gap", f"frames {st.next_seq}..{seq - 1} missing")
                 if st.gap_limit.allow(now):  # the rest are counted in the `gap` error
-                    self._publish(st, protocol.Gap(st.stream, st.next_seq, seq))
+                    filled = seq - st.next_seq <= st.pipeline.fill_frames
+                    self._publish(st, protocol.Gap(st.stream, st.next_seq, seq, filled))
             else:
                 overlap = st.next_seq - seq
                 st.dropped += min(overlap, n)
@@ -212,6 +213,19 @@ class Intake:
         self.n_frames += n
         self._dirty[st] = None
 
+    def _report_gaps(self, st: StreamState, bad: int) -> None:
+        """Frames skipped without positions (``nan``), and a ``gap`` event (not filled) for
+        each gap of frames that came without the features' joints, longer than the gap
+        filler fills (docs/guide/formats.md, Gaps)."""
+        if bad:
+            st.dropped += bad
+            self._error(st.stream, "nan", "frames without the joint positions the features "
+                        "use, in gaps too long to fill: skipped", bad)
+        for start, end in st.pipeline.gaps:
+            if st.gap_limit.allow(time.monotonic()):
+                self._publish(st, protocol.Gap(st.stream, start, end, False))
+        st.pipeline.gaps.clear()
+
     def _flush(self, st: StreamState) -> None:
         if not st.pending:
             return
@@ -227,9 +241,7 @@ class Intake:
                         f"processed: {type(err).__name__}: {err}", pos.shape[0])
             return
         self._report_notices(st)
-        if bad:
-            st.dropped += bad
-            self._error(st.stream, "nan", "frames with non-finite joint positions skipped", bad)
+        self._report_gaps(st, bad)
         self._publish_results(st, cuts, reps)
         self.latency.add(time.perf_counter() - np.array(arrivals))
         if (self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel

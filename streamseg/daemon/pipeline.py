@@ -54,16 +54,22 @@ class Algorithms:
     memory_config : LabelMemoryConfig or None
         The exemplar memory that keeps ids beyond the relabel history
         (:mod:`streamseg.offline.label_memory`); None: off (ids carried by overlap only).
+    gap_fill_s : float or None
+        Longest gap filled by interpolation, seconds (None: :data:`streamseg.io.gaps.FILL_S`,
+        as ``streamseg segment``).
     """
 
     def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
-                 rep_config=None, memory_config=None):
+                 rep_config=None, memory_config=None, gap_fill_s=None):
         self.lof_config = lof_config
         self.aca_config = aca_config
         self._relabel = relabel
         self.repetitions = repetitions
         self.rep_config = rep_config
         self.memory_config = memory_config
+        from streamseg.io.gaps import FILL_S
+
+        self.gap_fill_s = FILL_S if gap_fill_s is None else float(gap_fill_s)
 
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
@@ -176,7 +182,7 @@ def _segment_triplets(window) -> list:
 
 RECENT_CUTS = 256  # live cuts a stream keeps for its relabels
 RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
-GAP_FILL_S = 10.0  # gaps up to this long are fed to the segmenter as NaN frames
+RESTART_GAP_S = 10.0  # lost frames up to this long go through the gap filler; longer: restart
 UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 #: kinds of the cut events a pipeline step returns: a cut final when emitted, a pending cut
 #: (two-stage detector), its confirmation, its withdrawal, its withdrawal before a cut nearby
@@ -195,10 +201,13 @@ def cut_kind(ev) -> str:
 class StreamPipeline:
     """One stream's algorithm state: segmenter, feature ring, frame clock.
 
-    The segmenter sees stream frames one for one: a frame with non-finite features is fed
-    as is (the segmenter skips it but its clock advances), and a gap of up to
-    :data:`GAP_FILL_S` seconds is fed as NaN frames, so cut frames are stream frames and match
-    an offline run. A longer gap restarts the segmenter at the frame after it.
+    The segmenter sees stream frames one for one, after the gap filler
+    (:class:`streamseg.io.gaps.GapFiller`, the mechanism ``streamseg segment`` applies to a
+    file): short gaps of a joint are interpolated, a frame still without the features'
+    positions is fed as is (the segmenter skips it but its clock advances), and lost frames
+    of up to :data:`RESTART_GAP_S` seconds are frames without positions, so cut frames are
+    stream frames and match an offline run of the file. A longer loss restarts the segmenter
+    at the frame after it.
 
     Parameters
     ----------
@@ -214,7 +223,8 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "root", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "notices", "_spine", "_spine_n", "cut_frames", "rep_sets", "_cap")
+                 "notices", "_spine", "_spine_n", "cut_frames", "rep_sets", "_cap", "filler",
+                 "gaps", "final_bad", "final_reps")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -244,6 +254,19 @@ class StreamPipeline:
         self.previous = None  # the last relabel result (algorithm's own object)
         self.offset = 0  # stream frame of the segmenter's frame 0
         self.next_frame = 0  # stream frame expected next
+        from streamseg.io.gaps import GapFiller, fill_frames
+
+        # the joints of the bone features decide what a gap is; every joint is filled
+        self.filler = GapFiller(skeleton.n_joints, fill_frames(fps, algorithms.gap_fill_s),
+                                watch=np.unique(self.plan[0]))
+        self.gaps = []  # (start, end) of gaps closed and not yet reported
+        self.final_bad = 0  # frames skipped among those released at finish()
+        self.final_reps = []  # repetitions completed by the frames released at finish()
+
+    @property
+    def fill_frames(self) -> int:
+        """The longest gap filled by interpolation, in frames."""
+        return self.filler.max_frames
 
     @property
     def capacity(self) -> int:
@@ -270,6 +293,11 @@ class StreamPipeline:
     def push(self, positions: np.ndarray, first_frame: int):
         """Learn stream frames ``first_frame ...`` of ``positions`` (n, J, 3).
 
+        Frames first go through the stream's gap filler (:mod:`streamseg.io.gaps`, as a file
+        of the take would): a joint's gap of at most ``fill_frames`` frames, lost frames
+        included, is filled by interpolation once it closes (its frames wait until then);
+        frames of longer gaps are skipped by the detectors and listed in :attr:`gaps`.
+
         Returns
         -------
         cuts : list of (frame, score, emitted_at, kind)
@@ -279,42 +307,62 @@ class StreamPipeline:
             current set, the action ``label`` (None: not yet relabelled) and the set's index
             (:mod:`streamseg.online.rep_sets`).
         n_bad : int
-            Frames whose features are not finite (skipped by the segmenter and the ring).
+            Frames received whose features are not finite after the gap filling (skipped by
+            the segmenter and the ring).
 
         Problems that do not stop the stream (the repetition counter failed, the up axis
         looks wrong) are appended to ``notices`` as ``(reason, message)``; the caller reports
         and clears them.
         """
+        out, reps, n_bad = [], [], 0
+        gap = first_frame - self.next_frame
+        lost = None
+        if 0 < gap <= RESTART_GAP_S * self.fps:  # lost frames: frames without positions
+            positions = np.concatenate([np.full((gap,) + positions.shape[1:], np.nan),
+                                        positions])
+            lost = np.zeros(positions.shape[0], dtype=bool)
+            lost[:gap] = True
+            first_frame = self.next_frame
+        elif gap > 0:  # a long absence: the detector starts anew at first_frame
+            out, reps, n_bad = self._learn(*self.filler.finish(), self.filler.released_lost)
+            out += self._cuts(self.segmenter.finish())
+            self.segmenter = self.algorithms.segmenter(self.fps)
+            self.offset = first_frame
+            if self.root is not None:  # a new detector: a stream's first frame
+                self.root.reset()
+        self.next_frame = first_frame + positions.shape[0]
+        released, start = self.filler.push(positions, first_frame if not self.filler.held
+                                           else None, lost)
+        c, r, b = self._learn(released, start, self.filler.released_lost)
+        self._take_gaps()
+        return out + c, reps + r, n_bad + b
+
+    def _learn(self, positions: np.ndarray, first_frame: int, lost=None):
+        """:meth:`push` on frames the gap filler released (contiguous from ``first_frame``)."""
+        n = positions.shape[0]
+        if n == 0:
+            return [], [], 0
         angles = self.algorithms.angles(positions, self.plan)
         if self._spine_n >= 0:
             self._check_up(positions)
         self._width = angles.shape[1]
-        out = []
-        gap = first_frame - self.next_frame
-        if gap > 0:
-            if gap <= GAP_FILL_S * self.fps:
-                if self.root is not None:  # the missing frames' positions are NaN too
-                    self.root(np.full((gap,) + positions.shape[1:], np.nan))
-                out += self._cuts(self.segmenter.learn_many(
-                    np.full((gap, self.segmenter.n_features), np.nan)))
-            else:
-                out += self._cuts(self.segmenter.finish())
-                self.segmenter = self.algorithms.segmenter(self.fps)
-                self.offset = first_frame
-                if self.root is not None:  # a new detector: a stream's first frame
-                    self.root.reset()
-        n = angles.shape[0]
-        self.next_frame = first_frame + n
         lof_in = angles if self.root is None else np.column_stack([angles, self.root(positions)])
-        out += self._cuts(self.segmenter.learn_many(lof_in))
+        out = self._cuts(self.segmenter.learn_many(lof_in))
         ok = np.isfinite(angles).all(axis=1)
         n_bad = n - int(np.count_nonzero(ok))
+        if n_bad and lost is not None:  # frames that never came are counted as lost
+            n_bad -= int(np.count_nonzero(~ok & lost))
         frames = first_frame + np.arange(n, dtype=np.int64)
-        if n_bad:
+        if not ok.all():
             angles, frames = angles[ok], frames[ok]
         self._remember(angles, frames)
         reps = self._repetitions(positions, first_frame, ok) if self.reps is not None else []
         return out, reps, n_bad
+
+    def _take_gaps(self) -> None:
+        """Gaps the filler closed that hold frames which came without positions (gaps of lost
+        frames only are reported where the loss is seen)."""
+        self.gaps += [(s, e) for s, e, all_lost in self.filler.take_gaps() if not all_lost]
 
     def _check_up(self, positions: np.ndarray) -> None:
         """Add an ``up`` notice (once) when the body stands along another axis than the
@@ -355,9 +403,10 @@ class StreamPipeline:
     def finish_reps(self) -> list:
         """The repetitions the counter still holds at the stream's end (its ``finish``), as
         :meth:`push` gives them."""
+        flushed, self.final_reps = self.final_reps, []
         if self.reps is None or self.rep_offset is None:
-            return []
-        return self._rep_tuples(self.reps.finish())
+            return flushed
+        return flushed + self._rep_tuples(self.reps.finish())
 
     def _rep_tuples(self, reps) -> list:
         o = self.rep_offset
@@ -381,6 +430,10 @@ class StreamPipeline:
         A stream that ended before its first complete detector window adds a ``short``
         notice: it could not have had a cut, which a listener should not read as "no change".
         """
+        cuts, reps, self.final_bad = self._learn(*self.filler.finish(),
+                                                 self.filler.released_lost)
+        self._take_gaps()
+        self.final_reps = reps
         seen = self.segmenter.n_frames_
         window = self.segmenter.geometry["window"]
         if self.offset == 0 and seen < window:
@@ -388,7 +441,7 @@ class StreamPipeline:
                 f"the stream ended after {seen} frames ({seen / self.fps:.2f} s), shorter than "
                 f"the cut detector's window of {window} frames ({window / self.fps:.2f} s): no "
                 "cut could be found"))
-        return self._cuts(self.segmenter.finish())
+        return cuts + self._cuts(self.segmenter.finish())
 
     def _remember(self, angles: np.ndarray, frames: np.ndarray) -> None:
         cap = self.capacity

@@ -265,6 +265,7 @@ class Daemon(Intake):
         except Exception as err:  # never die: report, close without the final cuts
             final = []
             self._error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
+        self._report_gaps(st, st.pipeline.final_bad)  # frames the gap filler held till now
         try:
             final_reps = st.pipeline.finish_reps()
         except Exception as err:  # the counter is optional: report, close without them

@@ -164,21 +164,14 @@ def _announced_frames(path: Path, c) -> int:
 
 
 def _up_axis(joints: np.ndarray, c) -> str:
-    """The axis the body stands along (pelvis to neck), else ``POINT:Y_SCREEN``, else z."""
+    """The axis the body stands along, else ``POINT:Y_SCREEN``, else z."""
     from streamseg.recording import UP_AXES
-    from streamseg.skeleton.bones import up_vector
+    from streamseg.skeleton.bones import upright_axis
+    from streamseg.skeleton.marker_sets import JOINTS
 
-    trunk = joints[:, 3] - joints[:, 0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        trunk = trunk / np.linalg.norm(trunk, axis=1, keepdims=True)
-    ok = np.isfinite(trunk).all(axis=1)
-    if ok.sum() >= 10:
-        mean = trunk[ok].mean(axis=0)
-        norm = float(np.linalg.norm(mean))
-        if norm > 0:
-            best = max(UP_AXES, key=lambda a: float(mean @ up_vector(a)))
-            if mean @ up_vector(best) >= 0.8 * norm:  # within 37 degrees of the axis
-                return best
+    axis = upright_axis(joints, JOINTS)
+    if axis is not None:
+        return axis
     screen = _param(c, "POINT", "Y_SCREEN", [""])
     screen = str(screen[0]).strip().lower().lstrip("+") if len(screen) else ""
     return screen if screen in UP_AXES else "z"

@@ -92,6 +92,7 @@ class GapFiller:
         self._gap_lost = True  # every frame of that open gap was lost (never arrived)
         self.gaps = []  # closed gaps ``(start, end, all_lost)`` not yet taken
         self.filled_frames = 0
+        self.released_lost = np.zeros(0, dtype=bool)  # ``lost`` of the last frames released
 
     @property
     def held(self) -> int:
@@ -144,6 +145,7 @@ class GapFiller:
         """Release every held frame (gaps still open stay NaN); returns ``(released,
         start)`` as :meth:`push`. Any open reported gap is closed."""
         if self._held is None:
+            self.released_lost = np.zeros(0, dtype=bool)
             out = np.zeros((0, self.n_joints, 3)), self.next_frame
         else:
             pos, lost, touched = self._held, self._lost, self._touched
@@ -189,6 +191,7 @@ class GapFiller:
     def _release(self, pos: np.ndarray, lost: np.ndarray, touched: np.ndarray):
         start = self.next_frame
         n = pos.shape[0]
+        self.released_lost = lost
         if n == 0:
             return pos, start
         self.filled_frames += int(np.count_nonzero(touched))

@@ -63,7 +63,8 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
 
 
 # left out when None (older readers)
-_OPTIONAL = {"announce": ("labels", "labels_sequence"), "cut": ("pending",)}
+_OPTIONAL = {"announce": ("labels", "labels_sequence"), "cut": ("pending",),
+             "gap": ("filled",)}
 
 
 def encode(msg, seq: int | None = None) -> list[bytes]:
@@ -271,6 +272,14 @@ def _pending(obj):
     return True if value else None
 
 
+def _flag(obj, key: str, kind: str):
+    """An optional bool field: True/False, or None when absent."""
+    value = obj.get(key)
+    _need(value is None or isinstance(value, bool), kind, key, value, "a bool",
+          obj.get("stream") if isinstance(obj.get("stream"), str) else None)
+    return value
+
+
 def _stats(obj):
     totals, streams = obj["totals"], obj["streams"]
     _need(isinstance(totals, dict) and isinstance(streams, dict), "stats", "totals", totals,
@@ -303,7 +312,7 @@ _BUILDERS = {
                          _rep_label(o), _int(o, "set_index", "rep", None) if "set_index" in o
                          else 0),
     "gap": lambda o: Gap(_stream(o, "gap"), _int(o, "expected", "gap", None),
-                         _int(o, "got", "gap", None)),
+                         _int(o, "got", "gap", None), _flag(o, "filled", "gap")),
     "error": _error,
     "stats": _stats,
     "hello": lambda o: Hello(str(o["token"])),
@@ -316,7 +325,7 @@ _NUMBERED = frozenset({"cut", "confirm", "withdraw", "segments", "rep", "gap", "
                        "closed"})
 
 
-_JSON_OPTIONAL = {"cut": ("pending",)}  # left out when None, as on the wire
+_JSON_OPTIONAL = {"cut": ("pending",), "gap": ("filled",)}  # left out when None, as on the wire
 
 
 def to_json(msg) -> dict:

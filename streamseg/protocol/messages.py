@@ -209,11 +209,15 @@ class Rep:
 
 @dataclass(frozen=True)
 class Gap:
-    """Event: frames ``[expected, got)`` of a stream never arrived (``got - expected`` lost)."""
+    """Event: frames ``[expected, got)`` of a stream have no positions: they never arrived
+    (lost), or came without the joints the features use. ``filled``: True when the gap was
+    short enough to be filled by interpolation (the detectors saw the filled frames), False
+    when the detectors skip it; None from a sender of the field's absence (older daemons)."""
 
     stream: str
     expected: int
     got: int
+    filled: bool | None = None
     seq: int | None = _seq()
 
     type = "gap"

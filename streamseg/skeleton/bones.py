@@ -189,3 +189,31 @@ def _unit(up) -> np.ndarray:
         raise ParameterError(f"up={up!r} is invalid: expected an axis name ({', '.join(UP_AXES)}) "
                          "or a finite nonzero 3-vector")
     return v / norm
+
+
+def upright_axis(positions: np.ndarray, skeleton) -> str | None:
+    """The axis of :data:`UP_AXES` the body stands along (pelvis to neck, mean over the
+    finite frames) when it is within 37 degrees of it; None when no axis is that clear (or
+    fewer than 10 frames, or the trunk points cannot be named).
+
+    Parameters
+    ----------
+    positions : ndarray, shape (n_frames, n_joints, 3)
+    skeleton : Skeleton or sequence of joint names
+    """
+    from streamseg.exceptions import SkeletonError
+
+    names = skeleton.names if hasattr(skeleton, "names") else skeleton
+    try:
+        pelvis, neck = resolve(names, ("pelvis", "neck"), POINTS)
+    except SkeletonError:
+        return None
+    trunk = positions[:, neck] - positions[:, pelvis]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        trunk = trunk / np.linalg.norm(trunk, axis=1, keepdims=True)
+    ok = np.isfinite(trunk).all(axis=1)
+    if ok.sum() < 10:
+        return None
+    mean = trunk[ok].mean(axis=0)
+    best = max(UP_AXES, key=lambda a: float(mean @ up_vector(a)))
+    return best if mean @ up_vector(best) >= 0.8 * np.linalg.norm(mean) else None
