@@ -156,7 +156,13 @@ class Feeder(threading.Thread):
         step = 1.0 / self.fps
         while not self.stopping.is_set():
             try:
-                chunk, stamps = inlet.pull_chunk(timeout=0.2, max_samples=4096)
+                # the first sample as soon as it comes, then what else is there: a chunk
+                # read with a timeout would wait for the timeout (or a full chunk)
+                first, when = inlet.pull_sample(timeout=0.2)
+                if when is None:
+                    continue
+                chunk, stamps = inlet.pull_chunk(timeout=0.0, max_samples=4095)
+                chunk, stamps = [first, *chunk], [when, *stamps]
             except Exception as err:  # LostError: the outlet is gone (no source id)
                 self.on_open(f"LSL stream {self.meta['name']!r} lost ({type(err).__name__}); "
                              f"ended stream {self.stream}")
