@@ -107,9 +107,10 @@ def read_recording(args):
         total = sum(e - s for s, e in gaps)
         fill = rec.metadata.get("gap_fill_s", FILL_S)
         warn(args, f"{Path(str(args.file)).name}: {len(gaps)} gap{'s' if len(gaps) > 1 else ''}"
-                   f" longer than {fill:g} s without the joint positions the features use "
-                   f"(frames {shown}; {total} frames, {total / rec.fps:.2f} s in all): "
-                   "skipped by the detectors (--gap-fill S fills longer gaps)")
+                   f" without the joint positions the features use, longer than {fill:g} s "
+                   f"or at an end of the take (frames {shown}; {total} frames, "
+                   f"{total / rec.fps:.2f} s in all): skipped by the detectors (--gap-fill S "
+                   "fills longer gaps)")
     return rec
 
 

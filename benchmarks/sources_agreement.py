@@ -1,0 +1,71 @@
+"""Sources: the same take in three formats, and markerless keypoints of three exercises.
+
+Usage: python benchmarks/sources_agreement.py
+
+Table 1: CMU 01_01 (data/sources) as Vicon C3D markers (Plug-in Gait map), as the solved
+ASF/AMC and as a BVH on a Character Creator rig: the cuts of the live detector's decisions
+(offline, defaults), in seconds.
+
+Table 2: the Keraal takes of one participant (exercises CTK, ELK, RTK, ~6.5 s each, 30 Hz)
+joined back to back, per sensor (Kinect v2, BlazePose, AlphaPose COCO-17 and OpenPose COCO-18
+keypoints): the cuts, the two joins, and how far the nearest cut is from each join. The joins
+are abrupt, not natural transitions (a concatenation, as data/README.md describes).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from streamseg.config import LOFConfig
+from streamseg.io import read
+from streamseg.offline.lof import position_features
+from streamseg.offline.lof_report import lof_report
+
+SRC = Path(__file__).resolve().parents[1] / "data" / "sources"
+
+
+def cuts(positions, skeleton, fps, up=None) -> list[int]:
+    cfg = LOFConfig()
+    feats = position_features(positions, skeleton, fps, cfg, up)
+    return lof_report(feats, fps, cfg, False)["cuts"]
+
+
+def formats() -> None:
+    takes = [("C3D markers (Vicon, plug-in-gait)", read(SRC / "c3d/cmu_01_01.c3d")),
+             ("ASF/AMC (CMU solve)", read(SRC / "cmu01/01_01.amc.gz",
+                                          skeleton=SRC / "cmu01/01.asf")),
+             ("BVH (Character Creator rig)", read(SRC / "bvh/cc_01_01.bvh.gz"))]
+    print(f"{'CMU 01_01 as':<36}{'fps':>6}{'frames':>8}  cuts (s)")
+    for name, rec in takes:
+        found = cuts(rec.positions, rec.skeleton, rec.fps)
+        print(f"{name:<36}{rec.fps:>6.0f}{rec.n_frames:>8}  "
+              f"{', '.join(f'{c / rec.fps:.2f}' for c in found)}")
+
+
+def keypoints() -> None:
+    kinds = [("Kinect v2 (25 joints)", "kinect_{}.csv", "kinect", None),
+             ("BlazePose (33 landmarks)", "blazepose_{}.npy", "blazepose", None),
+             ("AlphaPose COCO-17 (2-D)", "alphapose_coco17_{}.npy", "coco17", None),
+             ("OpenPose COCO-18 (2-D, header)", "openpose_coco18_{}.csv", None, "-y")]
+    print(f"{'sensor':<32}{'frames':>7}  {'joins':<10} {'cuts':<28} nearest cut to each join")
+    for name, pattern, joints, up in kinds:
+        recs = [read(SRC / "keraal" / pattern.format(e), fps=30, joints=joints)
+                for e in ("ctk", "elk", "rtk")]
+        pos = np.concatenate([r.positions for r in recs])
+        joins = np.cumsum([r.n_frames for r in recs])[:-1]
+        found = cuts(pos, recs[0].skeleton, 30.0, up)
+        near = [min(abs(c - j) for c in found) / 30 if found else float("nan") for j in joins]
+        print(f"{name:<32}{pos.shape[0]:>7}  {', '.join(map(str, joins)):<10} "
+              f"{', '.join(map(str, found)):<28} {', '.join(f'{d:.2f} s' for d in near)}")
+
+
+def main() -> None:
+    formats()
+    print()
+    keypoints()
+
+
+if __name__ == "__main__":
+    main()
