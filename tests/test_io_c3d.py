@@ -131,3 +131,36 @@ def test_truncated_c3d_keeps_the_frames_it_has(c3d_dir, tmp_path):
     rec = read(cut, lenient=True)
     assert 1000 < rec.n_frames < 2751
     assert "the file was cut off" in rec.metadata["warnings"][0]
+
+
+@pytest.mark.daemon
+@pytest.mark.parametrize("name", ["cmu_01_01.c3d", "qualisys_isb.c3d"])
+def test_c3d_replayed_into_the_daemon_gives_the_cuts_of_segment_online(
+        name, c3d_dir, start_daemon, capsys, tmp_path):
+    """A Vicon and a Qualisys C3D through `replay` (with dropouts cut into a copy: short
+    ones filled, a long one skipped, the same way live as in the file): the daemon's cuts are
+    `segment --online`'s on the file, and the skipped gap is a gap event."""
+    from streamseg.client import listen, subscribe
+    from streamseg.commands.replay import replay
+    from streamseg.io import write_npz
+
+    rec = read(c3d_dir / name)
+    pos = rec.positions.copy()
+    n = rec.n_frames
+    pos[n // 3:n // 3 + 4, 5] = np.nan  # the left elbow lost for a few frames: filled
+    pos[n // 2:n // 2 + int(0.4 * rec.fps)] = np.nan  # 0.4 s without the body: skipped
+    holes = tmp_path / "holes.npz"
+    from dataclasses import replace
+
+    write_npz(holes, replace(rec, positions=pos, metadata={}))
+    assert main(["segment", str(holes), "--online", "--json"]) == 0
+    want = json.loads(capsys.readouterr().out)
+    assert [(g["start"], g["end"]) for g in want["gaps"]] == [(n // 2, n // 2 +
+                                                               int(0.4 * rec.fps))]
+    _, ep = start_daemon()
+    sub = subscribe(ep["publish"], ep["control"], stream="c3d")
+    replay(read(holes, gap_fill=0), ep["ingest"], stream="c3d", speed=0, batch=7)
+    events = list(listen(sub, stream="c3d", until_end=True, timeout=60))
+    assert [e.frame for e in events if e.type == "cut"] == want["cuts"]
+    gaps = [(e.expected, e.got, e.filled) for e in events if e.type == "gap"]
+    assert gaps == [(n // 2, n // 2 + int(0.4 * rec.fps), False)]
