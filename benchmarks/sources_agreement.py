@@ -14,16 +14,15 @@ are abrupt, not natural transitions (a concatenation, as data/README.md describe
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
+from _common import DATA
 
 from streamseg.config import LOFConfig
 from streamseg.io import read
 from streamseg.offline.lof import position_features
 from streamseg.offline.lof_report import lof_report
 
-SRC = Path(__file__).resolve().parents[1] / "data" / "sources"
+SRC = DATA / "sources"
 
 
 def cuts(positions, skeleton, fps, up=None) -> list[int]:

@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import os
 import socket
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -30,17 +29,13 @@ from pathlib import Path
 
 import numpy as np
 import zmq
-
-DATA = Path(__file__).resolve().parents[1] / "data"
+from _common import DATA
 
 
 def median_time(fn, runs: int) -> float:
-    times = []
-    for _ in range(runs):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    from streamseg.evaluation.corpus import timed
+
+    return timed(fn, runs)[1]
 
 
 def parsing(runs: int) -> None:
