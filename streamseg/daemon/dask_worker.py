@@ -108,6 +108,19 @@ class DaskRelabelWorker(threading.Thread):
         with self._cond:
             return len(self._queue) + self.local.queued()
 
+    def free(self) -> int:
+        """Jobs it would start now: room on the cluster (or in the local fallback while no
+        cluster is usable) not taken by jobs out or queued."""
+        with self._cond:
+            if not self._usable():
+                return max(self.local.free() - len(self._queue), 0)
+            return max(self._capacity() - len(self._out) - len(self._queue), 0)
+
+    def running(self, key) -> bool:
+        """True while a job of ``key`` is out on the cluster or runs locally."""
+        with self._cond:
+            return key in self._out or self.local.running(key)
+
     @property
     def busy_key(self):
         """A key with a job out (None when none is): the daemon polls faster while busy."""

@@ -81,6 +81,9 @@ class Daemon(Intake):
         self._stop = threading.Event()
         self._gen = 0
         self._dirty: dict = {}  # streams with frames received in this drain
+        # streams due for a relabel, oldest first: each gets its snapshot when the worker has
+        # a free slot, so the interval a stream gets adapts to the cores (round robin)
+        self.due: collections.OrderedDict = collections.OrderedDict()
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
@@ -199,6 +202,7 @@ class Daemon(Intake):
                 if self.control is not None and self.control in events:
                     self._serve_control()
                 self._collect()
+                self._feed()
                 if now >= self._next_sweep:
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
@@ -210,6 +214,14 @@ class Daemon(Intake):
         return 0
 
     # --- ingest ------------------------------------------------------------------------------
+
+    def _feed(self) -> None:
+        """Hand the oldest due streams' snapshots to the worker while it has free slots."""
+        while self.due and self.worker.free() > 0:
+            st, _ = self.due.popitem(last=False)
+            if (self.streams.get(st.stream) is st
+                    and not self.worker.pending((st.stream, st.gen))):
+                self._submit(st, final=False)
 
     def _submit(self, st: StreamState, final: bool) -> bool:
         feats, frames = st.pipeline.snapshot()
@@ -260,6 +272,7 @@ class Daemon(Intake):
         """Final cuts now; the final relabel in the worker; then ``closed``."""
         self._flush(st)
         self._dirty.pop(st, None)
+        self.due.pop(st, None)
         try:
             final = st.pipeline.finish()
         except Exception as err:  # never die: report, close without the final cuts
@@ -326,7 +339,7 @@ class Daemon(Intake):
             self.closing.pop(job.key, None)
             self._closed(st, reason)
         elif reason is None and st.pipeline.learned >= st.next_relabel:
-            self._submit(st, final=False)  # became due while this one ran: catch up now
+            self.due[st] = None  # became due while this one ran: next in line
 
     def _sweep(self, now: float) -> None:
         self._next_sweep = now + 0.5

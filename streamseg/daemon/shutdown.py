@@ -58,7 +58,7 @@ def final_events(daemon) -> None:
     daemon._collect()
     for key, (st, reason) in list(daemon.closing.items()):
         feats, frames = st.pipeline.snapshot()
-        if (time.monotonic() < deadline and daemon.worker.busy_key != key
+        if (time.monotonic() < deadline and not daemon.worker.running(key)
                 and feats.shape[0] >= 2):
             try:
                 res = relabel(daemon.algorithms, feats, frames, st.fps, st.pipeline.previous,

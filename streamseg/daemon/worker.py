@@ -1,12 +1,18 @@
-"""The relabel worker thread: one job per stream at a time, newest snapshot wins."""
+"""The relabel worker: one job per stream at a time, run in a thread of the daemon or in a
+pool of processes, as many at once as it has slots."""
 
 from __future__ import annotations
 
 import collections
+import os
 import threading
 import time
 
 from streamseg.daemon.pipeline import relabel
+
+#: Relabel processes run this much nicer than the daemon: a relabel takes the CPU ingest
+#: leaves, so cuts stay on time whatever the number of streams and the cadence adapts.
+PROCESS_NICE = 10
 
 
 class RelabelJob:
@@ -25,12 +31,26 @@ class RelabelJob:
         self.queued = time.monotonic()
 
 
+def _lower_priority() -> None:
+    """Process pool initializer: below the daemon's loop thread in the scheduler's eyes."""
+    try:
+        os.nice(PROCESS_NICE)
+    except OSError:  # not permitted here: run at the daemon's priority
+        pass
+
+
 class RelabelWorker(threading.Thread):
     """Runs relabel jobs off the ingest thread; results are collected with :meth:`results`.
 
     The ingest thread never waits on it: :meth:`submit` only takes a lock held for a few
-    dictionary operations, and a stream with a job still queued has that job's snapshot
-    replaced by the newer one (so a slow worker skips stale work instead of piling it up).
+    dictionary operations. The daemon asks :meth:`free` how many jobs it would start now and
+    takes a stream's snapshot only then (it keeps the due streams, oldest first), so a job
+    is never stale and no snapshot waits in memory; a stream with a job still queued has
+    that job's snapshot replaced by a newer one.
+
+    With ``processes = N > 0`` up to N jobs run at once in a pool of spawned processes, at
+    :data:`PROCESS_NICE` (ACA's Python parts then run outside the daemon's GIL); with 0, one
+    job at a time in this thread.
     """
 
     def __init__(self, algorithms, processes: int = 0, share: float = 1.0):
@@ -43,18 +63,19 @@ class RelabelWorker(threading.Thread):
         self.share = share
         self.algorithms = algorithms
         self.pool = None
+        self.slots = max(int(processes), 1)
         if processes > 0:
-            # ACA's Python parts then run outside this process's GIL; this thread only waits
             import concurrent.futures
             import multiprocessing
 
             self.pool = concurrent.futures.ProcessPoolExecutor(
-                processes, mp_context=multiprocessing.get_context("spawn"))
+                processes, mp_context=multiprocessing.get_context("spawn"),
+                initializer=_lower_priority)
         self._cond = threading.Condition()
         self._queue = collections.OrderedDict()
+        self._busy: set = set()
         self._done = collections.deque()
         self._stopping = False
-        self.busy_key = None
 
     def submit(self, job: RelabelJob) -> None:
         with self._cond:
@@ -64,7 +85,23 @@ class RelabelWorker(threading.Thread):
     def pending(self, key) -> bool:
         """True while a job of ``key`` is queued or running."""
         with self._cond:
-            return key in self._queue or self.busy_key == key
+            return key in self._queue or key in self._busy
+
+    def running(self, key) -> bool:
+        """True while a job of ``key`` runs."""
+        with self._cond:
+            return key in self._busy
+
+    def free(self) -> int:
+        """Jobs this worker would start now (slots neither running nor claimed by the queue)."""
+        with self._cond:
+            return max(self.slots - len(self._busy) - len(self._queue), 0)
+
+    @property
+    def busy_key(self):
+        """A key whose job runs (None when none does): the daemon polls faster while busy."""
+        with self._cond:
+            return next(iter(self._busy), None)
 
     def queued(self) -> int:
         with self._cond:
@@ -84,41 +121,60 @@ class RelabelWorker(threading.Thread):
     def warm(self) -> None:
         """Load the kernels in the worker processes too (before the first packet)."""
         if self.pool is not None:
-            self.pool.submit(self.algorithms.warmup).result()
+            for fut in [self.pool.submit(self.algorithms.warmup) for _ in range(self.slots)]:
+                fut.result()
 
     def stop(self, timeout: float | None = None) -> None:
         with self._cond:
             self._stopping = True
             self._queue.clear()
-            self._cond.notify()
+            self._cond.notify_all()
         if self.is_alive():
             self.join(timeout)
         if self.pool is not None:
             self.pool.shutdown(wait=False, cancel_futures=True)
 
+    def _finished(self, job, result) -> None:
+        self._done.append((job, result))
+        with self._cond:
+            self._busy.discard(job.key)
+            self._cond.notify_all()
+
+    def _returned(self, job, fut) -> None:
+        """A process job's callback (the pool's thread)."""
+        try:
+            result = fut.result()
+        except Exception as err:  # reported as an error event; the worker lives on
+            result = err
+        self._finished(job, result)
+
     def run(self) -> None:
         while True:
             with self._cond:
-                while not self._queue and not self._stopping:
+                while not self._stopping and not (self._queue and len(self._busy) < self.slots):
                     self._cond.wait()
                 if self._stopping:
                     return
                 key, job = self._queue.popitem(last=False)
-                self.busy_key = key
+                self._busy.add(key)
+            if self.pool is not None:
+                try:
+                    fut = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
+                                           job.fps, job.previous, job.cuts)
+                except RuntimeError as err:  # the pool was shut down under us
+                    self._finished(job, err)
+                    continue
+                fut.add_done_callback(lambda f, job=job: self._returned(job, f))
+                continue
             started = time.thread_time()
             try:
-                if self.pool is not None:
-                    result = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
-                                              job.fps, job.previous, job.cuts).result()
-                else:
-                    result = relabel(self.algorithms, job.features, job.frames, job.fps,
-                                     job.previous, job.cuts)
+                result = relabel(self.algorithms, job.features, job.frames, job.fps,
+                                 job.previous, job.cuts)
             except Exception as err:  # reported as an error event; the worker lives on
                 result = err
             elapsed = time.thread_time() - started
-            self._done.append((job, result))
-            with self._cond:
-                self.busy_key = None
-                if self.pool is None and self.share < 1.0 and self._queue:
+            self._finished(job, result)
+            if self.share < 1.0:  # the daemon hands the next job in meanwhile (free() is 1)
+                with self._cond:
                     self._cond.wait_for(lambda: self._stopping,
                                         elapsed * (1.0 / self.share - 1.0))
