@@ -362,7 +362,8 @@ class StreamPipeline:
     def _take_gaps(self) -> None:
         """Gaps the filler closed that hold frames which came without positions (gaps of lost
         frames only are reported where the loss is seen)."""
-        self.gaps += [(s, e) for s, e, all_lost in self.filler.take_gaps() if not all_lost]
+        if self.filler.gaps:
+            self.gaps += [(s, e) for s, e, all_lost in self.filler.take_gaps() if not all_lost]
 
     def _check_up(self, positions: np.ndarray) -> None:
         """Add an ``up`` notice (once) when the body stands along another axis than the

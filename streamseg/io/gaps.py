@@ -88,11 +88,12 @@ class GapFiller:
         self.next_frame = 0  # stream frame of the first held frame (or the next one)
         self._last = np.full((self.n_joints, 3), np.nan)  # last finite released value
         self._last_frame = np.full(self.n_joints, -1, dtype=np.int64)
+        self._tail = None  # the last frame passed through by _pass (all joints finite)
         self._gap_start = None  # start of a reported gap still open at the release edge
         self._gap_lost = True  # every frame of that open gap was lost (never arrived)
         self.gaps = []  # closed gaps ``(start, end, all_lost)`` not yet taken
         self.filled_frames = 0
-        self.released_lost = np.zeros(0, dtype=bool)  # ``lost`` of the last frames released
+        self.released_lost = None  # ``lost`` of the last frames released (None: none lost)
 
     @property
     def held(self) -> int:
@@ -125,9 +126,9 @@ class GapFiller:
         elif first_frame is not None and first_frame != self.next_frame + self.held:
             raise ValueError(f"packet at frame {first_frame} does not continue frame "
                              f"{self.next_frame + self.held}")
+        if self._held is None and np.isfinite(pos).all():  # the common case: no copy, no scan
+            return self._pass(pos, lost)
         lost = np.zeros(pos.shape[0], dtype=bool) if lost is None else np.asarray(lost, bool)
-        if self._held is None and np.isfinite(pos).all():  # the common case, no copy
-            return self._release(pos, lost, np.zeros(pos.shape[0], dtype=bool))
         if self._held is not None:
             pos = np.concatenate([self._held, pos])
             lost = np.concatenate([self._lost, lost])
@@ -145,7 +146,7 @@ class GapFiller:
         """Release every held frame (gaps still open stay NaN); returns ``(released,
         start)`` as :meth:`push`. Any open reported gap is closed."""
         if self._held is None:
-            self.released_lost = np.zeros(0, dtype=bool)
+            self.released_lost = None
             out = np.zeros((0, self.n_joints, 3)), self.next_frame
         else:
             pos, lost, touched = self._held, self._lost, self._touched
@@ -161,9 +162,17 @@ class GapFiller:
         out, self.gaps = self.gaps, []
         return out
 
+    def _settle(self) -> None:
+        """Every joint's last finite value from the last frame :meth:`_pass` let through."""
+        if self._tail is not None:
+            self._last[:] = self._tail
+            self._last_frame[:] = self.next_frame - 1
+            self._tail = None
+
     def _fill(self, pos: np.ndarray, touched: np.ndarray) -> int:
         """Fill the closed short gaps of ``pos`` (in place); return how many leading frames
         can be released (the rest belong to a gap that may still be filled)."""
+        self._settle()
         m = pos.shape[0]
         f0 = self.next_frame
         hold = m
@@ -188,7 +197,20 @@ class GapFiller:
                 touched[a:b] = True
         return hold
 
+    def _pass(self, pos: np.ndarray, lost):
+        """Release finite frames with nothing held (a live stream's every packet, mostly)."""
+        start, n = self.next_frame, pos.shape[0]
+        self.released_lost = lost
+        if n:
+            self._tail = pos[-1].copy()  # every joint's last value: set in _settle, if needed
+            if self._gap_start is not None:  # the open gap ended at ``start``
+                self.gaps.append((self._gap_start, start, self._gap_lost))
+                self._gap_start = None
+            self.next_frame = start + n
+        return pos, start
+
     def _release(self, pos: np.ndarray, lost: np.ndarray, touched: np.ndarray):
+        self._settle()
         start = self.next_frame
         n = pos.shape[0]
         self.released_lost = lost
