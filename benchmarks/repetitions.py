@@ -1,234 +1,286 @@
-"""Repetition counting: held-out HDM05 actors, whole routines, and the live counter.
+"""Repetition counting: one table, held-out HDM05 actors, routines, live, CMU exercise blocks.
 
-Part 1, leave-one-actor-out (``benchmarks/rep_data.py`` says how the sequences are made):
-sequences of 3-8 real single-repetition HDM05 clips of one actor and class (five classes,
-actors bd, bk, dg), clean (120 Hz mocap) and Kinect-like (30 Hz, 2.5 cm noise). The
-section-4 parameters are chosen by a small grid on ONE actor's sequences (``--choose-on``,
-default bd; the chosen values are the RepetitionConfig defaults) and held for the other two;
-the table prints every class and actor with its count found / true per sequence and alpha
-(eq. 15); "held-out" rows are the actors not used to choose. ``--rotate`` repeats the choice
-on each actor in turn and prints the held-out means of each choice.
+Material (``streamseg.evaluation.rep_sets``): sets of 2, 3, 4, 6 and 10 consecutive
+one-repetition HDM05 takes of one actor and class (the joins are the true boundaries; up to
+four windows per actor, class and size), and routines (per actor six: the five classes in a
+random order, each a set of 2-6 takes, some followed by a whole-action clip). The counter's
+parameters (RepetitionConfig defaults) were chosen on actor bd alone (``--choose``: the grid
+and its objective) and are held for bk and dg: their rows are leave-one-actor-out.
 
-Part 2, routines (``--routines``): whole takes are split into actions by HACA (K found, as
-``segment --method aca``) and counted inside each repetitive set (``streamseg.offline.sets``):
-CMU 14_14 and 14_20 (exercise blocks labelled by people, no repetition labels: the counts
-are printed for inspection) and sequences joined from HDM05 classes (a repetitive class is a
-set of several consecutive takes; every join is abrupt).
+Columns: sets, exact-count rate, off-by-one rate (OBO), normalised MAE (|found - true| /
+true), alpha (Wang et al.'s eq. 15 with repetitions matched by overlap,
+``matched_repetition_accuracy``). A set's count is the count of the found set with the most
+repetitions inside it. Routines: a true set is counted right when the repetitions found inside
+it (by middle frame) are its count and of one found set; "no set in actions" counts the
+whole-action clips where none was found. Live: the counter fed 1, 30 and 120 frames at a time
+must give the offline sets exactly; delay = emission frame - end of the repetition, and the
+share of events within the repetition's own duration + 0.5 s. CMU 14_14 / 14_20: every
+labelled block's sets (counts unknown to us: check them on the pictures, ``--plots DIR``).
 
-Part 3, live (``--live``): the live counter over the same material: its final count against
-the offline count, the error of the first repetitions of each set and the delay of each
-``rep`` event.
-
-Run: ``.venv/bin/python benchmarks/repetitions.py [--per-pair 3] [--seed 0] [--choose-seeds
-0,1] [--rotate] [--routines] [--live]``. The defaults are the choice on bd's sequences of seeds
-0 and 1 (six per class; ``--choose-seeds 0,1``, the default). GRID's values were first chosen
-with ``--seed 0`` alone; ALIGN_GRID's ``align="dtw"`` wins only on both draws (on seed 0 alone
-"none" scores higher, so ``--rotate``, which chooses on one draw, reports that for bd): the
-choice on three sequences per class is noisy.
+Run: ``.venv/bin/python benchmarks/repetitions.py [--choose] [--plots DIR] [--speed]``
+(about a minute; ``--choose`` a few more).
 """
 
 from __future__ import annotations
 
 import argparse
-import itertools
+import csv
+import sys
 import time
 from collections import defaultdict
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
-from rep_data import features, load_clips, make_sequences, parse_set
 
 from streamseg.config import RepetitionConfig
-from streamseg.evaluation.datasets import HDM05_ACTORS, HDM05_REPETITIVE
-from streamseg.evaluation.metrics import count_error, repetition_accuracy
-from streamseg.offline.repetition import RepetitionSegmenter
+from streamseg.evaluation.metrics import matched_repetition_accuracy
+from streamseg.evaluation.rep_sets import hdm05_rep_sets, hdm05_routines, load_plan
+from streamseg.online.repetition import RepetitionCounter, stream_features
 
-#: The grid the section-4 parameters are chosen from (on one actor).
-GRID = {
-    "refine_to": ("speed", "rest"),
-    "refine_fraction": (0.2, 0.3, 0.4),
-    "refine_band": (3.0, 4.0, 6.0),
-    "bandpass_width_cycles": (4.0, 6.0, 8.0),
-}
+DATA = Path(__file__).resolve().parents[1] / "data"
+CHOOSE_ON = "bd"
+#: Where the choice starts: the values the prototypes were chosen with on bd (the
+#: exploration at commit acc2a5e, benchmarks/rep_explore/grid.py).
+START = {"return_ratio": 0.55, "max_dissimilarity": 0.7, "lowpass_hz": 3.0}
+#: The grid the counter's parameters were chosen from on CHOOSE_ON (``--choose``: from
+#: START, each value of each parameter in turn, a change kept when it raises the objective,
+#: two rounds; objective: exact + alpha on its sets of 2-6 + the share of its routine sets
+#: counted right).
+GRID = {"return_ratio": (0.45, 0.55, 0.65, 0.75), "max_dissimilarity": (0.5, 0.6, 0.7),
+        "min_amplitude": (0.6, 0.8, 1.0), "spread_ratio": (0.75, 0.85, 0.9),
+        "lowpass_hz": (2.0, 3.0, 4.0, 5.0), "amplitude_ratio": (0.4, 0.5, 0.6),
+        "rise_ratio": (0.25, 0.35, 0.45), "end_return_ratio": (0.5, 0.6, 0.7)}
 
-#: The second stage, chosen on the same actor after GRID: the DTW re-cut of the repetitions
-#: against a template (``RepetitionConfig.align``; issue 14, round 3). ``align_stretch`` (2)
-#: and ``align_rate_hz`` (30) stay fixed: stretch 1.5-3 scored alike on bd.
-ALIGN_GRID = [{"align": "none"}] + [
-    {"align": "dtw", "align_features": f, "align_max_slope": m, "align_snap": sn}
-    for f in ("selected", "all") for m in (2, 3) for sn in (0.0, 0.3)]
+
+def count_sets(X, fps, cfg):
+    """Repetitions of every set the counter finds in feature rows ``X``."""
+    c = RepetitionCounter(cfg, fps)
+    c.learn_many(X)
+    c.finish()
+    return [s.repetitions for s in c.sets_]
 
 
-def score(seqs, cfg):
-    """[(alpha, count error, count)] of ``cfg`` on cached features."""
+class Material:
+    """The plans, their recordings' features (computed once) and truth; ``per`` windows of
+    consecutive takes per actor, class and size (None: every window)."""
+
+    def __init__(self, actors=("bd", "bk", "dg"), per=4):
+        cache = {}
+        self.sets = []
+        for plan in hdm05_rep_sets(DATA, actors, per=per):
+            rec, truth = load_plan(DATA, plan, cache)
+            self.sets.append((plan, stream_features(rec), truth[0][3], rec))
+        self.routines = []
+        for plan in hdm05_routines(DATA, actors):
+            rec, truth = load_plan(DATA, plan, cache)
+            self.routines.append((plan, stream_features(rec), truth, rec))
+
+
+def score_set(found, reps):
+    """(count, alpha) of the found set that holds most of the true repetitions' frames."""
+    if not found:
+        return 0, 0.0
+    inside = [sum(max(0, min(b, reps[-1][1]) - max(a, reps[0][0])) for a, b in s)
+              for s in found]
+    best = found[int(np.argmax(inside))]
+    return len(best), matched_repetition_accuracy(best, reps)
+
+
+def score_routine(found, truth):
+    """Per true part: (class, true count, found count, right)."""
+    mids = [((a + b) // 2, i) for i, s in enumerate(found) for a, b in s]
     out = []
-    for s in seqs:
-        seg = RepetitionSegmenter(cfg, s["fps"]).fit(s["X"])
-        out.append((repetition_accuracy(seg.repetitions_, s["reps"]),
-                    count_error(seg.count_, len(s["reps"])), seg.count_))
+    for s, e, cls, reps in truth:
+        mine = [i for m, i in mids if s <= m < e]
+        k = len(reps)
+        right = len(mine) == k and len(set(mine)) <= 1
+        out.append((cls, k, len(mine), right))
     return out
 
 
-def _best(seqs, candidates):
-    """(cfg, changes) of the best mean alpha + share of exact counts on ``seqs``."""
-    best = None
-    for cfg, changes in candidates:
-        r = np.array(score(seqs, cfg))
-        value = r[:, 0].mean() + np.mean(r[:, 1] == 0)
-        if best is None or value > best[0] + 1e-12:
-            best = (value, cfg, changes)
-    return best[1], best[2]
-
-
-def choose(seqs, base):
-    """GRID, then ALIGN_GRID on its choice: the best mean alpha + share of exact counts."""
-    cfg, chosen = _best(seqs, [(replace(base, **dict(zip(GRID, v))), dict(zip(GRID, v)))
-                               for v in itertools.product(*GRID.values())])
-    cfg, more = _best(seqs, [(replace(cfg, **g), g) for g in ALIGN_GRID])
-    return cfg, {**chosen, **more}
-
-
 def summary(rows):
-    r = np.array(rows)
-    return r[:, 0].mean(), np.mean(r[:, 1] == 0), np.abs(r[:, 1]).mean(), len(r)
+    """exact, OBO, normalised MAE, alpha of [(true, found, alpha)]."""
+    k = np.array([r[0] for r in rows], float)
+    c = np.array([r[1] for r in rows], float)
+    return (len(rows), np.mean(c == k), np.mean(np.abs(c - k) <= 1),
+            np.mean(np.abs(c - k) / k), np.mean([r[2] for r in rows]))
 
 
-def run_hdm05(args, base):
-    clips, names = load_clips()
-    seqs = make_sequences(clips, names, args.per_pair, args.seed, classes=set(HDM05_REPETITIVE))
-    t0 = time.perf_counter()
-    for s in seqs:
-        s["X"] = features(s, base)
-    print(f"HDM05: {len(seqs) // 2} sequences x 2 conditions ({args.per_pair} per actor and "
-          f"class, seed {args.seed}); UKF features {time.perf_counter() - t0:.0f} s (cached)")
-    on = args.choose_on
-    t0 = time.perf_counter()
-    pool = [s for s in seqs if s["actor"] == on]
-    seeds = [int(x) for x in args.choose_seeds.split(",")] if args.choose_seeds else []
-    for seed in seeds:  # more draws of the same actor's clips to choose on
-        if seed != args.seed:
-            more = [s for s in make_sequences(clips, names, args.per_pair, seed,
-                                              classes=set(HDM05_REPETITIVE)) if s["actor"] == on]
-            for s in more:
-                s["X"] = features(s, base)
-            pool += more
-    cfg, chosen = choose(pool, base)
-    print(f"chosen on {on} alone ({len(pool) // 2} sequences, seeds {seeds or [args.seed]}; "
-          f"{len(list(itertools.product(*GRID.values())))} + {len(ALIGN_GRID)} grid points, "
-          f"{time.perf_counter() - t0:.0f} s): {chosen}")
-    if cfg != base:
-        keys = list(GRID) + sorted({k for g in ALIGN_GRID for k in g})
-        print(f"  NOTE: differs from the RepetitionConfig defaults (they hold "
-              f"{ {k: getattr(base, k) for k in keys} })")
-    res = score(seqs, cfg)
-    table = defaultdict(list)
-    for s, r in zip(seqs, res):
-        table[(s["cond"], s["cls"], s["actor"])].append((s, r))
-    print("\nper class and actor: count found/true of each sequence, alpha (eq. 15) mean")
-    print(f"{'condition':9s} {'class':28s} {'actor':5s} {'held-out':8s} {'counts':24s} "
-          f"{'alpha':>6s}")
-    for (cond, cls, actor), v in sorted(table.items()):
-        counts = " ".join(f"{r[2]}/{len(s['reps'])}" for s, r in v)
-        alpha = np.mean([r[0] for _, r in v])
-        print(f"{cond:9s} {cls[:28]:28s} {actor:5s} {'no' if actor == on else 'yes':8s} "
-              f"{counts:24s} {alpha:6.3f}")
-    print("\nsummary (alpha mean, share of exact counts, mean |count error|, n)")
-    print(f"{'condition':9s} {'actors':22s} {'alpha':>6s} {'exact':>6s} {'MAE':>5s} {'n':>3s}")
-    for cond in ("clean", "kinect"):
-        for label, keep in ((f"held-out (not {on})", lambda a: a != on), (f"{on} (chosen on)",
-                                                                           lambda a: a == on)):
-            rows = [r for s, r in zip(seqs, res) if s["cond"] == cond and keep(s["actor"])]
-            a, e, m, n = summary(rows)
-            print(f"{cond:9s} {label:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
-        for actor in HDM05_ACTORS:
-            rows = [r for s, r in zip(seqs, res) if s["cond"] == cond and s["actor"] == actor]
-            a, e, m, n = summary(rows)
-            print(f"{cond:9s} {'  ' + actor:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
-    others = [("the previous boundaries (refined to velocity minima, 0.2 period)",
-               replace(cfg, refine_to="speed", refine_fraction=0.2))]
-    if cfg.align != "none":
-        others.append(("the same without the DTW re-cut (align='none')",
-                       replace(cfg, align="none")))
-    if cfg != base:  # another draw of sequences (--seed) may choose otherwise
-        others.append(("the RepetitionConfig defaults (chosen on bd, seed 0), held", base))
-    for title, other in others:
-        other_rows = score(seqs, other)
-        print(f"\n{title}:")
-        for cond in ("clean", "kinect"):
-            for label, keep in ((f"held-out (not {on})", lambda a: a != on),
-                                (on, lambda a: a == on)):
-                rows = [r for s, r in zip(seqs, other_rows)
-                        if s["cond"] == cond and keep(s["actor"])]
-                a, e, m, n = summary(rows)
-                print(f"{cond:9s} {label:22s} {a:6.3f} {e:6.2f} {m:5.2f} {n:3d}")
-    if args.rotate:
-        print("\nleave-one-actor-out rotation: choose on one actor, score the other two")
-        print(f"{'chosen on':9s} {'choice':60s} {'clean a':>7s} {'ex':>5s} {'kinect a':>8s} "
-              f"{'ex':>5s}")
-        for actor in HDM05_ACTORS:
-            c, ch = choose([s for s in seqs if s["actor"] == actor], base)
-            r = score(seqs, c)
-            out = []
-            for cond in ("clean", "kinect"):
-                rows = [x for s, x in zip(seqs, r) if s["cond"] == cond and s["actor"] != actor]
-                a, e, _, _ = summary(rows)
-                out += [a, e]
-            desc = ", ".join(f"{k}={v}" for k, v in ch.items()
-                             if v != getattr(base, k)) or "the defaults"
-            print(f"{actor:9s} {desc[:60]:60s} {out[0]:7.3f} {out[1]:5.2f} {out[2]:8.3f} "
-                  f"{out[3]:5.2f}")
-    return cfg
+def evaluate(mat, cfg, actors):
+    sets = [(p, *score_set(count_sets(X, 120.0, cfg), reps), reps)
+            for p, X, reps, _ in mat.sets if p.actor in actors]
+    routines = [(p, score_routine(count_sets(X, 120.0, cfg), truth))
+                for p, X, truth, _ in mat.routines if p.actor in actors]
+    return sets, routines
 
 
-def run_clips(args, base):
-    """Every single HDM05 clip (one repetition or one action) of every actor: counted as
-    repetitive or not (the truth: not), clean and Kinect-like."""
-    from rep_data import single_clips
+def objective(sets, routines):
+    rows = [(len(r), c, a) for _, c, a, r in sets if len(r) <= 6]
+    _, exact, _, _, alpha = summary(rows)
+    parts = [x for _, res in routines for x in res if x[1]]
+    return exact + alpha + np.mean([x[3] for x in parts])
 
-    others = [("defaults", base)]
-    rows = defaultdict(lambda: defaultdict(list))
-    t0 = time.perf_counter()
-    for row, kind, cond, seq, fps in single_clips(args.seed, base):
-        for name, cfg in others:
-            seg = RepetitionSegmenter(cfg, fps).fit(features(seq, cfg))
-            rows[(cond, row["actor"], kind)][name].append(seg.repetitive_)
-    print(f"\nsingle clips (one repetition or one action; truth: not repetitive), share counted "
-          f"repetitive ({time.perf_counter() - t0:.0f} s)")
-    print(f"{'condition':9s} {'actor':5s} {'clip':10s} {'n':>3s} " +
-          " ".join(f"{name:>16s}" for name, _ in others))
-    for key in sorted(rows):
-        v = rows[key]
-        print(f"{key[0]:9s} {key[1]:5s} {key[2]:10s} {len(v['defaults']):3d} " +
-              " ".join(f"{np.mean(v[name]):16.2f}" for name, _ in others))
+
+def choose(mat):
+    """Coordinate ascent over GRID on CHOOSE_ON from START; prints every step."""
+    cfg = replace(RepetitionConfig(), **START)
+    best = objective(*evaluate(mat, cfg, (CHOOSE_ON,)))
+    print(f"  start {START}: {best:.4f}", flush=True)
+    for rnd in range(2):
+        for name, values in GRID.items():
+            for v in values:
+                if v == getattr(cfg, name):
+                    continue
+                trial = replace(cfg, **{name: v})
+                score = objective(*evaluate(mat, trial, (CHOOSE_ON,)))
+                print(f"  round {rnd} {name}={v}: {score:.4f}", flush=True)
+                if score > best + 1e-9:
+                    best, cfg = score, trial
+    chosen = {k: getattr(cfg, k) for k in GRID}
+    defaults = {k: getattr(RepetitionConfig(), k) for k in GRID}
+    print(f"chosen on {CHOOSE_ON}: {chosen} (objective {best:.4f}); "
+          f"{'the defaults' if chosen == defaults else 'NOT the defaults ' + str(defaults)}")
+
+
+def table(sets, routines):
+    lines = ["| rows | sets | exact | OBO | nMAE | alpha |", "|---|---|---|---|---|---|"]
+
+    def row(name, rs):
+        if rs:
+            n, e, o, m, a = summary([(len(r), c, al) for _, c, al, r in rs])
+            lines.append(f"| {name} | {n} | {e:.2f} | {o:.2f} | {m:.3f} | {a:.3f} |")
+
+    held = [s for s in sets if s[0].actor != CHOOSE_ON]
+    for k in (2, 3, 4, 6, 10):
+        row(f"held-out, {k} repetitions", [s for s in held if len(s[3]) == k])
+    for cls in sorted({s[0].parts[0][0] for s in held}):
+        row(f"held-out, {cls} (2-6)", [s for s in held if s[0].parts[0][0] == cls
+                                        and len(s[3]) <= 6])
+    for actor in sorted({s[0].actor for s in held}):
+        row(f"held-out actor {actor} (2-6)", [s for s in held if s[0].actor == actor
+                                              and len(s[3]) <= 6])
+    row("**held-out, sets of 2-6**", [s for s in held if len(s[3]) <= 6])
+    row(f"{CHOOSE_ON} (parameters chosen here), 2-6",
+        [s for s in sets if s[0].actor == CHOOSE_ON and len(s[3]) <= 6])
+    lines += ["", "| routines | repetitive sets counted right | no set in action clips |",
+              "|---|---|---|"]
+    by = defaultdict(list)
+    for p, res in routines:
+        by[p.actor] += res
+    for actor in sorted(by) + ["held-out"]:
+        res = by[actor] if actor != "held-out" else [x for a in by if a != CHOOSE_ON
+                                                     for x in by[a]]
+        rep = [x for x in res if x[1]]
+        act = [x for x in res if not x[1]]
+        name = f"{actor}{' (chosen here)' if actor == CHOOSE_ON else ''}"
+        lines.append(f"| {name} | {sum(x[3] for x in rep)} of {len(rep)} "
+                     f"({np.mean([x[3] for x in rep]):.0%}) | "
+                     f"{sum(x[3] for x in act)} of {len(act)} |")
+    return "\n".join(lines)
+
+
+def live(mat, cfg):
+    """Live (1/30/120 frames a call) against offline, and the delays, on every set and
+    routine."""
+    equal = total = 0
+    delays, within = [], []
+    for _, X, _, rec in mat.sets + mat.routines:
+        offline = count_sets(X, 120.0, cfg)
+        for chunk in (1, 30, 120):
+            c = RepetitionCounter(cfg, rec.fps, rec.skeleton)
+            events = []
+            for i in range(0, rec.n_frames, chunk):
+                events += c.learn_many(rec.positions[i:i + chunk])
+            events += c.finish()
+            live_sets = defaultdict(list)
+            for e in events:
+                live_sets[e.set_index].append((e.start, e.end))
+            total += 1
+            equal += [live_sets[i] for i in sorted(live_sets)] == offline
+            if chunk == 30:
+                for e in events:
+                    d = (e.emitted_at - e.end) / rec.fps
+                    delays.append(d)
+                    within.append(d <= (e.end - e.start) / rec.fps + 0.5)
+    n_sets = sum(len(count_sets(X, 120.0, cfg)) for _, X, _, _ in mat.sets + mat.routines)
+    d = np.array(delays)
+    return ["", "| live | value |", "|---|---|",
+            f"| runs (recordings x 1, 30, 120 frames a call) with the offline sets exactly | "
+            f"{equal} of {total} |",
+            f"| sets (offline) | {n_sets} |",
+            f"| rep events | {len(d)} |",
+            f"| delay from a repetition's end, median / 90% / max | {np.median(d):.2f} / "
+            f"{np.percentile(d, 90):.2f} / {d.max():.2f} s |",
+            f"| events within the repetition's duration + 0.5 s | {np.mean(within):.1%} |"]
+
+
+def cmu(cfg, plots=None):
+    from streamseg.io import read
+    from streamseg.offline.repetition import RepetitionSegmenter
+
+    blocks = defaultdict(list)
+    with open(DATA / "cmu_exercise" / "labels.csv", newline="") as fh:
+        for row in csv.DictReader(fh):
+            blocks[row["sequence"]].append((int(row["start_frame"]) - 1, int(row["end_frame"]),
+                                            row["action_label"]))
+    lines = ["", "| CMU block | seconds | sets inside (count, s per repetition) |",
+             "|---|---|---|"]
+    for seq in sorted(blocks):
+        rec = read(DATA / "cmu_exercise" / f"{seq}.amc.gz", skeleton=DATA / "cmu86" / "86.asf")
+        seg = RepetitionSegmenter(cfg).fit(rec)
+        if plots:
+            from streamseg.plotting.repetitions import plot_repetitions
+
+            Path(plots).mkdir(parents=True, exist_ok=True)
+            plot_repetitions(Path(plots) / f"rep_{seq}.png", seg, title_file=seq)
+        for s, e, name in blocks[seq]:
+            inside = [st for st in seg.sets_ if s <= (st["start"] + st["end"]) // 2 < e]
+            desc = ", ".join(f"{st['count']} ({st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f})"
+                             for st in inside) or "none"
+            lines.append(f"| {seq} {name} | {s / rec.fps:.1f}-{e / rec.fps:.1f} | {desc} |")
+    return lines
+
+
+def speed(cfg):
+    from streamseg.io import read
+    from streamseg.online.repetition import warmup
+
+    warmup()
+    rec = read(DATA / "cmu_exercise" / "14_14.amc.gz", skeleton=DATA / "cmu86" / "86.asf")
+    lines = ["", "| live counter, CPU per frame (CMU 14_14, median of 5) | us |", "|---|---|"]
+    for chunk in (1, 30, 120):
+        runs = []
+        for _ in range(5):
+            c = RepetitionCounter(cfg, rec.fps, rec.skeleton)
+            t = time.process_time()
+            for i in range(0, rec.n_frames, chunk):
+                c.learn_many(rec.positions[i:i + chunk])
+            c.finish()
+            runs.append((time.process_time() - t) / rec.n_frames * 1e6)
+        lines.append(f"| {chunk} frame{'s' if chunk > 1 else ''} a call | "
+                     f"{np.median(runs):.1f} |")
+    return lines
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--per-pair", type=int, default=3, help="sequences per actor and class")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--choose-on", default="bd", choices=HDM05_ACTORS)
-    ap.add_argument("--choose-seeds", default="0,1",
-                    help="choose on the chosen actor's sequences of these seeds (default 0,1: "
-                         "six sequences per class; '' = --seed's only)")
-    ap.add_argument("--rotate", action="store_true", help="choose on each actor in turn")
-    ap.add_argument("--routines", action="store_true", help="part 2: whole routines")
-    ap.add_argument("--live", action="store_true", help="part 3: the live counter")
-    ap.add_argument("--clips", action="store_true",
-                    help="single clips of every actor: false 'repetitive' answers")
-    ap.add_argument("--skip-hdm05", action="store_true", help="skip part 1")
-    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
-                    help="a RepetitionConfig field changed from the defaults everywhere (e.g. "
-                         "root_height_weight=2 for parts 2-3); repeatable")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--choose", action="store_true", help="re-run the choice on bd first")
+    ap.add_argument("--plots", metavar="DIR", help="write the CMU pictures there")
+    ap.add_argument("--speed", action="store_true", help="add the CPU per frame")
     args = ap.parse_args(argv)
-    base = replace(RepetitionConfig(), **parse_set(args.set, RepetitionConfig()))
-    if not args.skip_hdm05:
-        run_hdm05(args, base)
-    if args.clips:
-        run_clips(args, base)
-    if args.routines or args.live:
-        import rep_routines
-
-        rep_routines.run(args, base)
+    t0 = time.perf_counter()
+    mat = Material()
+    cfg = RepetitionConfig()
+    if args.choose:
+        choose(Material((CHOOSE_ON,)))
+    sets, routines = evaluate(mat, cfg, ("bd", "bk", "dg"))
+    print(table(sets, routines))
+    print("\n".join(live(mat, cfg)))
+    print("\n".join(cmu(cfg, args.plots)))
+    if args.speed:
+        print("\n".join(speed(cfg)))
+    print(f"\n({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -5,6 +5,8 @@ Nothing here is fast or clever on purpose; each function follows the paper's def
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 # --- skeleton features -------------------------------------------------------------
@@ -400,50 +402,6 @@ def naive_lloyd(X, centres, n_iter):
     return labels, centres
 
 
-# --- repetitions: slope-constrained DTW against a template, best tiling ----------------------
-
-
-def naive_template_dtw(dist, a, m, max_slope, max_compress=2):
-    """Weighted path mean of ``streamseg._kernels.rep_align.open_end_costs`` for one (a, m),
-    by enumerating every path: steps (1, 1) weigh the cell 2; (k, 1), k <= max_compress, and
-    (1, k), k <= max_slope, add every crossed cell once and the reached cell twice; inf when no
-    path exists."""
-    L = dist.shape[0]
-
-    def c(i, j):  # 1-based template frame i, sequence frame j of the stretch
-        return dist[i - 1, a + j - 1]
-
-    memo = {}
-
-    def D(i, j):
-        if (i, j) == (0, 0):
-            return 0.0
-        if i <= 0 or j <= 0:
-            return float("inf")
-        if (i, j) not in memo:
-            steps = [D(i - 1, j - 1) + 2 * c(i, j)]
-            for k in range(2, max_compress + 1):
-                if i - k >= 0:
-                    steps.append(D(i - k, j - 1) + sum(c(i - t, j) for t in range(1, k))
-                                 + 2 * c(i, j))
-            for k in range(2, max_slope + 1):
-                if j - k >= 0:
-                    steps.append(D(i - 1, j - k) + sum(c(i, j - t) for t in range(1, k))
-                                 + 2 * c(i, j))
-            memo[(i, j)] = min(steps)
-        return memo[(i, j)]
-
-    return D(L, m) / (L + m)
-
-
-def naive_best_tiling_cost(C, n, lo, hi):
-    """Least sum of ``m * C[a, m]`` over every tiling of [0, n) by pieces of lo..hi frames."""
-    best = float("inf")
-    for tiling in all_tilings(n, lo, hi):
-        best = min(best, sum((e - s) * C[s, e - s] for s, e in tiling))
-    return best
-
-
 def naive_settle(pending, finals, g, n_frames):
     """The two-stage detector's live events (``streamseg.daemon.pipeline.cut_kind`` kinds)
     rebuilt from its pending cuts and the one-stage detector's cuts at the confirming delay,
@@ -513,3 +471,159 @@ def naive_root_speeds(pos, root, limbs, up, fps, lag, v_max, jump):
         speed = (hor * fps / lag, abs(vert) * fps / lag)
         out[t] = [math.nan if math.isnan(v) else math.pi * min(v / v_max, 1.0) for v in speed]
     return out
+
+
+# --- repetitions: pose features, causal filter, loop tracking, DTW ---------------------------
+
+
+def naive_pose_features(P, idx, bones, up, scale):
+    """``streamseg._kernels.rep_track.pose_features`` frame by frame with numpy's vector
+    operations: the torso frame (x right hip -> left hip made orthogonal to y, y pelvis ->
+    sternum, z = x cross y), each bone's unit direction in it, the trunk in the heading frame,
+    the pelvis height / scale."""
+    def unit(v):
+        n = float(np.linalg.norm(v))
+        return v / n if n > 1e-12 else v * 0.0
+
+    out = []
+    for fr in np.asarray(P, dtype=np.float64):
+        pel = fr[idx[0]]
+        y = unit(fr[idx[1]] - pel)
+        lat = fr[idx[2]] - fr[idx[3]]
+        x = unit(lat - np.dot(lat, y) * y)
+        z = np.cross(x, y)
+        row = []
+        for a, b in bones:
+            v = unit(fr[idx[b]] - fr[idx[a]])
+            row += [np.dot(v, x), np.dot(v, y), np.dot(v, z)]
+        head = unit(z - np.dot(z, up) * up)
+        side = np.cross(up, head)
+        row += [np.dot(y, head), np.dot(y, side), np.dot(y, up), np.dot(pel, up) / scale]
+        out.append(row)
+    return np.array(out)
+
+
+def naive_sos_filter(X, sos, state):
+    """Second-order sections applied sample by sample by their difference equations
+    (transposed direct form II), state carried; returns (output, final state)."""
+    state = np.array(state, dtype=np.float64)
+    out = np.zeros_like(np.asarray(X, dtype=np.float64))
+    for f, row in enumerate(np.asarray(X, dtype=np.float64)):
+        for j, x in enumerate(row):
+            for s, (b0, b1, b2, _a0, a1, a2) in enumerate(sos):
+                y = b0 * x + state[s, 0, j]
+                state[s, 0, j] = b1 * x - a1 * y + state[s, 1, j]
+                state[s, 1, j] = b2 * x - a2 * y
+                x = y
+            out[f, j] = x
+    return out, state
+
+
+def naive_loop_step(Z, anchor, t, thr, rho, gamma, dabs, eta, pause):
+    """One frame of one anchor of ``rep_track._closes`` on full arrays: ``anchor`` a dict
+    (s, M, tM, m, tm) updated in place; returns (kind, cut), kind 0 for no closed loop."""
+    s = anchor["s"]
+
+    def d(u):
+        return float(np.linalg.norm(Z[u] - Z[s]))
+
+    du = d(t)
+    if du > anchor["M"]:
+        anchor.update(M=du, tM=t, m=float("inf"))
+    if t > anchor["tM"] and du < anchor["m"]:
+        anchor.update(m=du, tm=t)
+    M, m, tM, tm = anchor["M"], anchor["m"], anchor["tM"], anchor["tm"]
+    if not (M >= thr and m <= rho * M):
+        return 0, -1
+    level = m + eta * (M - m)
+    e = tm
+    while e - 1 > tM and d(e - 1) <= level:
+        e -= 1
+    if du > m + max(dabs, gamma * (M - m)):
+        x = tm
+        while x + 1 < t and d(x + 1) <= level:
+            x += 1
+        speeds = {u: float(np.linalg.norm(Z[u + 1] - Z[u - 1])) for u in range(e, x + 1)}
+        return 1, min(speeds, key=lambda u: (speeds[u], u))
+    if t - e >= pause and du <= level:
+        return 2, e + pause // 2
+    return 0, -1
+
+
+def naive_advance(Z, t0, t1, search, anchors, thr, timeout, rho, gamma, dabs, eta, pause,
+                  tmax, gap, kmax):
+    """``rep_track.advance`` on full arrays (no ring): ``anchors`` a list of dicts, changed
+    in place; returns (last frame, [(s, kind, cut, M), ...])."""
+    sp = [0.0] + [float(np.linalg.norm(Z[u] - Z[u - 1])) for u in range(1, len(Z))]
+    for t in range(t0, t1):
+        if search:
+            p = t - 1
+            if p >= 1 and sp[p] <= sp[p - 1] and sp[p] < sp[t]:
+                if not anchors or p - anchors[-1]["s"] >= gap:
+                    if len(anchors) == kmax:  # as many rows as the kernel: the oldest goes
+                        anchors.pop(0)
+                    anchors.append(dict(s=p, M=0.0, tM=p, m=float("inf"), tm=p))
+            closed, keep = [], []
+            for a in anchors:
+                kind, cut = naive_loop_step(Z, a, t, thr, rho, gamma, dabs, eta, pause)
+                if kind:
+                    closed.append((a["s"], kind, cut, a["M"]))
+                elif t - a["s"] <= tmax:
+                    keep.append(a)
+            anchors[:] = keep[-kmax:]
+            if closed:
+                return t, closed
+        else:
+            a = anchors[0]
+            kind, cut = naive_loop_step(Z, a, t, thr, rho, gamma, dabs, eta, pause)
+            if kind:
+                return t, [(a["s"], kind, cut, a["M"])]
+            if t - a["s"] > timeout and not (a["M"] >= thr and a["m"] <= rho * a["M"]):
+                return t, [(a["s"], 3, -1, a["M"])]
+    return t1 - 1, []
+
+
+def naive_dtw_mean(A, B):
+    """Mean frame distance along the cheapest monotone path (steps (1,1), (1,0), (0,1)) from
+    (0, 0) to (n-1, m-1), by recursion over all predecessors: (total, cells) per cell."""
+
+    def c(i, j):
+        return float(np.linalg.norm(A[i] - B[j]))
+
+    @functools.cache
+    def best(i, j):
+        if i == 0 and j == 0:
+            return c(0, 0), 1
+        cands = [best(a, b) for a, b in ((i - 1, j - 1), (i - 1, j), (i, j - 1))
+                 if a >= 0 and b >= 0]
+        tot, n = min(cands, key=lambda x: x[0])
+        return tot + c(i, j), n + 1
+
+    tot, n = best(len(A) - 1, len(B) - 1)
+    return tot / n
+
+
+def naive_edge_dtw(T, S):
+    """``rep_track.edge_dtw`` written out: row 0 of ``T`` may start on any frame of ``S``;
+    every later cell keeps, of its predecessors (i-1, j-1), (i-1, j), (i, j-1) (not left of
+    column 0, not along row 0), the one with the lowest mean cost per cell after adding the
+    cell (the first on ties, in that order); returns (mean cost at the last cell, start)."""
+    n, m = len(T), len(S)
+    cell = {}
+    for i in range(n):
+        for j in range(m):
+            c = float(np.linalg.norm(T[i] - S[j]))
+            if i == 0:
+                cell[i, j] = (c, 1, j)
+                continue
+            options = []
+            for a, b in ((i - 1, j - 1), (i - 1, j), (i, j - 1)):
+                if b < 0 or (a, b) not in cell or (a == i and a == 0):
+                    continue
+                tot, k, st = cell[a, b]
+                options.append(((tot + c) / (k + 1), tot + c, k + 1, st))
+            if options:
+                mean, tot, k, st = min(options, key=lambda o: o[0])
+                cell[i, j] = (tot, k, st)
+    tot, k, st = cell[n - 1, m - 1]
+    return tot / k, st

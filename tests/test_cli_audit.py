@@ -159,13 +159,15 @@ def test_aca_on_a_position_only_recording_runs_with_a_warning(capsys, tmp_path, 
 def test_rep_table_shows_each_set_count(capsys, tmp_path, rec):
     from streamseg.commands.output import format_segmentation
 
-    result = {"file": "t", "method": "rep", "n_frames": 20, "fps": 10.0, "cuts": [10],
-              "segments": [{"start": 0, "end": 10, "label": 0, "start_s": 0, "end_s": 1},
-                           {"start": 10, "end": 20, "label": 1, "start_s": 1, "end_s": 2}],
-              "sets": [{"count": 0}, {"count": 4}], "count": 4}
+    result = {"file": "t", "method": "rep", "n_frames": 200, "fps": 10.0, "cuts": [10],
+              "segments": [{"start": 0, "end": 10, "label": None, "start_s": 0, "end_s": 1},
+                           {"start": 10, "end": 200, "label": 1, "start_s": 1, "end_s": 20}],
+              "sets": [{"start": 10, "end": 200, "label": 1, "count": 4, "tempo_min_s": 4.5,
+                        "tempo_max_s": 5.25, "confidence": 0.8}], "count": 4}
     lines = format_segmentation(result).splitlines()
-    assert lines[1].split()[-2:] == ["label", "count"]
-    assert lines[2].split()[-2:] == ["0", "0"] and lines[3].split()[-2:] == ["1", "4"]
+    assert lines[1].split() == ["set", "start", "s", "end", "s", "label", "count", "s", "per",
+                                "repetition", "confidence"]
+    assert lines[2].split() == ["0", "1.00", "20.00", "1", "4", "4.50-5.25", "0.80"]
 
 
 def test_info_names_the_file_given(capsys, tmp_path, rec):

@@ -86,25 +86,32 @@ def format_segmentation(result: dict) -> str:
     segs = result["segments"]
     head = (f"{result['file']}: {result['method']}, {len(result['cuts'])} cuts, "
             f"{len(segs)} segments over {n} frames ({n / fps:.2f} s at {fps:g} fps)")
-    # rep: the segments are its action sets, each with its own count (docs/output.md)
-    sets = result.get("sets") if len(result.get("sets") or ()) == len(segs) else None
-    extra = "  count" if sets else ""
-    # segment --online: the latency of the cut that starts each segment but the first
-    lat = result.get("cut_latency_s")
-    lat = lat if lat is not None and len(lat) == len(segs) - 1 else None
-    first = result.get("cut_first_latency_s") if lat is not None else None
-    if lat is not None:
-        extra += "  decided after s" + ("  first shown after s" if first else "")
-    lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  "
-                   f"label{extra}"]
-    for i, s in enumerate(segs):
-        label = f"{_cell(s['label']):>5}  {sets[i]['count']:>5}" if sets else _cell(s["label"])
+    if result.get("method") == "rep":  # its sets: what a user of a counter reads first
+        lines = [head, f"  {'set':>3} {'start s':>9} {'end s':>9} {'label':>5} {'count':>5}  "
+                       f"{'s per repetition':>16}  confidence"]
+        for i, st in enumerate(result.get("sets") or []):
+            tempo = f"{st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f}"
+            lines.append(f"  {i:>3} {st['start'] / fps:>9.2f} {st['end'] / fps:>9.2f} "
+                         f"{_cell(st['label']):>5} {st['count']:>5}  {tempo:>16}  "
+                         f"{st['confidence']:.2f}")
+    else:
+        extra = ""
+        # segment --online: the latency of the cut that starts each segment but the first
+        lat = result.get("cut_latency_s")
+        lat = lat if lat is not None and len(lat) == len(segs) - 1 else None
+        first = result.get("cut_first_latency_s") if lat is not None else None
         if lat is not None:
-            label = f"{label:>5}  " + (f"{lat[i - 1]:>16.2f}" if i else f"{'':>16}")
-            if first:
-                label += f"  {first[i - 1]:>20.2f}" if i else ""
-        lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
-                     f"{s['end_s']:>9.2f}  {label}".rstrip())
+            extra += "  decided after s" + ("  first shown after s" if first else "")
+        lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  "
+                       f"label{extra}"]
+        for i, s in enumerate(segs):
+            label = _cell(s["label"])
+            if lat is not None:
+                label = f"{label:>5}  " + (f"{lat[i - 1]:>16.2f}" if i else f"{'':>16}")
+                if first:
+                    label += f"  {first[i - 1]:>20.2f}" if i else ""
+            lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
+                         f"{s['end_s']:>9.2f}  {label}".rstrip())
     skip = {"schema", "command", "file", "method", "n_frames", "fps", "duration_s", "cuts",
             "cuts_s", "segments", "warnings", "params", "repetitions", "sets", "filled_frames"}
     for key, value in result.items():

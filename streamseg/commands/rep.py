@@ -1,8 +1,9 @@
-"""``streamseg segment|eval FILE --method rep``: cut a repetitive exercise into repetitions.
+"""``streamseg segment|eval FILE --method rep``: sets of repetitions, counted.
 
-FILE is a recording with Acclaim joint names (CMU/HDM05 AMC + ``--skeleton``; the four-pass
-kinematic UKF turns it into joint angles) or a matrix ``.npy``/``.csv`` of kinematic parameter
-trajectories (rows = frames, radians; ``--fps`` required). Method: Wang et al. 2015.
+FILE is a recording with joint names a skeleton map knows (CMU/HDM05 AMC + ``--skeleton``,
+BVH, npz) or a matrix ``.npy``/``.csv`` of pose features (rows = frames; ``--fps``
+required). The counter is the live one (:mod:`streamseg.online.repetition`) run over the
+whole file; the sets are named by the action labels of ``segment --method aca``.
 """
 
 from __future__ import annotations
@@ -19,180 +20,104 @@ _D = RepetitionConfig()
 
 def add_arguments(group) -> None:
     """Repetition options (all prefixed ``--rep-``)."""
-    group.add_argument("--rep-power-ratio", type=float, default=_D.power_ratio, metavar="R",
-                       help=f"share of power at the primary frequency the selected parameters "
-                            f"hold (default {_D.power_ratio})")
-    group.add_argument("--rep-band-width", type=float, default=_D.bandpass_width_cycles,
-                       metavar="C", help="band-pass width around the primary frequency, cycles "
-                                         f"per sequence (default {_D.bandpass_width_cycles:g})")
-    group.add_argument("--rep-min-cycles", type=float, default=_D.min_cycles, metavar="C",
-                       help=f"fewest cycles in the sequence (default {_D.min_cycles:g})")
-    group.add_argument("--rep-max-hz", type=float, default=_D.max_frequency_hz, metavar="HZ",
-                       help=f"fastest repetition rate (default {_D.max_frequency_hz:g})")
-    group.add_argument("--rep-noise", type=float, default=_D.position_noise, metavar="S",
-                       help="UKF position noise in body-scale units, 1 = one long bone "
-                            f"(default {_D.position_noise:g})")
-    group.add_argument("--rep-passes", type=int, choices=(2, 4), default=_D.ukf_passes,
-                       help=f"UKF passes (default {_D.ukf_passes})")
-    group.add_argument("--rep-seed", type=int, default=_D.seed, metavar="N",
-                       help="k-means seed (default 0)")
-    group.add_argument("--rep-sets", action="store_true",
-                       help="eval: the take is a routine; cut it into sets as segment does and "
-                            "score each labelled set (without it, eval counts the whole take "
-                            "as one exercise, so its count can differ from segment's; label "
-                            "rows: one per repetition, "
-                            "consecutive rows of one label are a set; a lone row is an action "
-                            "or a single repetition, true count 0)")
+    group.add_argument("--rep-min-amplitude", type=float, default=_D.min_amplitude, metavar="A",
+                       help="smallest movement counted as a repetition, in pose-distance "
+                            f"units, about radians (default {_D.min_amplitude:g})")
+    group.add_argument("--rep-max-dissimilarity", type=float, default=_D.max_dissimilarity,
+                       metavar="R", help="consecutive repetitions are alike when their DTW "
+                                         "distance is at most this share of their amplitude "
+                                         f"(default {_D.max_dissimilarity:g})")
+    group.add_argument("--rep-pause", type=float, default=_D.pause_s, metavar="S",
+                       help=f"a rest this long ends a set, seconds (default {_D.pause_s:g})")
+    group.add_argument("--rep-no-labels", action="store_true",
+                       help="do not name the sets by their action label (skips the HACA run, "
+                            "about 1.5 s per 40 s of motion)")
 
 
 def _config(args) -> RepetitionConfig:
-    return RepetitionConfig(power_ratio=args.rep_power_ratio,
-                            bandpass_width_cycles=args.rep_band_width,
-                            min_cycles=args.rep_min_cycles, max_frequency_hz=args.rep_max_hz,
-                            position_noise=args.rep_noise, ukf_passes=args.rep_passes,
-                            seed=args.rep_seed)
+    return RepetitionConfig(min_amplitude=args.rep_min_amplitude,
+                            max_dissimilarity=args.rep_max_dissimilarity,
+                            pause_s=args.rep_pause)
 
 
-def _run(args, sets=False):
-    """(config, fitted segmenter, seconds); with ``sets`` a :class:`RoutineSegmenter` for a
-    recording (a parameter matrix has no joint positions to cut into actions: one set)."""
+def _run(args, labels: bool = True):
+    """(config, fitted RepetitionSegmenter, per-set labels or None, seconds)."""
     from streamseg.commands.inputs import is_matrix, read_recording
     from streamseg.io.matrix import read_matrix
     from streamseg.offline.repetition import RepetitionSegmenter
 
     cfg = _config(args)
     t0 = time.perf_counter()
+    set_labels = None
     if is_matrix(args):
         if args.fps is None:
-            raise ParameterError("--fps is required with a parameter matrix (.npy/.csv): "
-                                 "the frame rate of its rows")
+            raise ParameterError("--fps is required with a feature matrix (.npy/.csv): the "
+                                 "frame rate of its rows")
         seg = RepetitionSegmenter(cfg, float(args.fps)).fit(read_matrix(args.file))
     else:
         rec = read_recording(args)
-        if sets:
-            from streamseg.offline.sets import RoutineSegmenter
+        seg = RepetitionSegmenter(cfg).fit(rec)
+        if labels and seg.sets_ and not getattr(args, "rep_no_labels", False):
+            from streamseg.offline.missing_frames import bridge_missing_frames
+            from streamseg.offline.sets import action_labels, label_sets
 
-            seg = RoutineSegmenter(cfg).fit(rec)
-        else:
-            seg = RepetitionSegmenter(cfg).fit(rec)
-    n_bad = int(getattr(seg, "n_missing_frames_", 0))
-    n = int(getattr(seg, "whole_", seg).n_frames_) if n_bad else 0
+            set_labels = label_sets(action_labels(bridge_missing_frames(rec)[0]), seg.sets_)
+    n_bad, n = int(seg.n_missing_frames_), int(seg.n_frames_)
     if n_bad and (n_bad >= n or not getattr(args, "gaps", None)):  # gaps: said at reading
-        # (a matrix with a NaN is refused by read_matrix; a recording's frames are skipped)
-        what = "frames have NaN joint positions"
+        what = "frames have NaN values"
         warn(args, f"{n_bad} of {n} {what}: skipped (bridged by interpolation from the "
              "frames around them)" if n_bad < n else f"all {n} {what}: nothing to count")
-    return cfg, seg, time.perf_counter() - t0
+    return cfg, seg, set_labels, time.perf_counter() - t0
 
 
-def _sets(seg) -> list:
-    """The JSON "sets" of a fitted RoutineSegmenter or RepetitionSegmenter."""
-    from streamseg.offline.sets import RepetitionSet
+def _sets(seg, set_labels) -> list:
+    """The JSON "sets": per set its label, count, tempo, confidence and repetitions."""
+    out = []
+    for i, st in enumerate(seg.sets_):
+        d = dict(st)
+        d["label"] = None if set_labels is None else set_labels[i]
+        d["repetitions"] = [{"start": a, "end": b} for a, b in st["repetitions"]]
+        out.append(d)
+    return out
 
-    if hasattr(seg, "sets_"):
-        sets = seg.sets_
-    else:
-        sets = [RepetitionSet(0, int(seg.n_frames_), 0, int(seg.count_), bool(seg.repetitive_),
-                              seg.reason_, list(seg.repetitions_))]
-    return [{"start": st.start, "end": st.end, "label": st.label, "count": st.count,
-             "repetitive": st.repetitive, "reason": st.reason or None,
-             "repetitions": [{"start": int(a), "end": int(b)} for a, b in st.repetitions]}
-            for st in sets]
+
+def _tiling(sets, n):
+    """Segments tiling the take: every set (its label) and the stretches between (None)."""
+    segs, at = [], 0
+    for st in sets:
+        if st["start"] > at:
+            segs.append((at, st["start"], None))
+        segs.append((st["start"], st["end"], st["label"]))
+        at = st["end"]
+    if at < n or not segs:
+        segs.append((at, n, None))
+    return segs
 
 
 def segment(args) -> dict:
-    """Repetitions of ``args.file`` as the JSON-able result the issues specify.
-
-    A recording is first cut into action sets (:class:`streamseg.offline.sets.
-    RoutineSegmenter`) and counted inside each; ``count`` and ``repetitions`` are those of
-    every set together; ``repetitive`` says whether any set is repetitive.
-    """
-    cfg, seg, seconds = _run(args, sets=True)
-    whole = getattr(seg, "whole_", seg)
-    sets = _sets(seg)
-    repetitive = any(st["repetitive"] for st in sets)
+    """The sets of repetitions of ``args.file`` (docs/output.md)."""
+    cfg, seg, set_labels, seconds = _run(args)
+    sets = _sets(seg, set_labels)
     if args.plot:
         from streamseg.plotting.repetitions import plot_repetitions
 
-        plot_repetitions(args.plot, whole, sets=sets)
-    reason = None
-    if not repetitive:
-        reason = (sets[0]["reason"] if len(sets) == 1 else
-                  "no set is repetitive" if sets else whole.reason_)
-        warn(args, f"{Path(args.file).name} does not look repetitive ({reason}): count 0")
-    a = whole.analysis_
-    params = {
-        "selected": [] if a is None else [whole.param_names_[i] for i in a.selected],
-        "k_star": 0 if a is None else int(a.k_star),
-        "n_candidates": 0 if a is None else int(a.candidates.size),
-        "concentration": 0.0 if a is None else round(float(a.concentration), 4),
-        "power_ratio": cfg.power_ratio,
-        "bandpass_width_cycles": cfg.bandpass_width_cycles,
-        "ukf_passes": cfg.ukf_passes,
-        "seconds": round(seconds, 3),
-    }
-    fps = float(whole.fps_)
-    return segmentation(
-        args, method="rep", n_frames=int(whole.n_frames_), fps=fps,
-        # the action sets are the segments: a routine's exercises, each counted
-        segments=[(st["start"], st["end"], st["label"]) for st in sets],
-        count=int(seg.count_),
-        repetitive=repetitive,
-        reason=reason,
-        repetitions=[{"start": int(s), "end": int(e)} for s, e in seg.repetitions_],
-        sets=sets,
-        n_nan_frames=int(getattr(seg, "n_missing_frames_", 0)),
-        n_actions=int(getattr(seg, "n_clusters_", 1)),
-        primary_frequency_hz=float(whole.primary_frequency_hz_),
-        params=params,
-    )
-
-
-def evaluate(args) -> dict:
-    """Accuracy alpha (eq. 15) and count error against ``args.labels``.
-
-    The whole take is counted as one exercise (one set): unlike ``segment --method rep``, which
-    cuts a take into action sets first, so on a routine the two counts differ (CMU 86_01: 0
-    here, the whole take failing the repetitive test, against its sets' 10 in ``segment``).
-    ``--rep-sets`` (:func:`_evaluate_sets`) scores a routine per set, as ``segment`` counts it.
-
-    The label rows of the sequence must be one row per repetition (start, end of each
-    repetition). Labels of whole exercise blocks (one row per exercise, like the CMU exercise
-    routines' labels.csv) do not mark repetitions: alpha is then meaningless; use
-    ``segment`` on each block instead.
-    """
-    from streamseg.evaluation.labels import read_labels
-    from streamseg.evaluation.metrics import count_error, repetition_accuracy
-
-    if getattr(args, "rep_sets", False):
-        return _evaluate_sets(args)
-    cfg, seg, seconds = _run(args)
-    sequence = args.sequence or Path(args.file).name.split(".")[0]
-    truth = [(s.start, s.end) for s in read_labels(args.labels, sequence)]
-    if args.plot:
-        from streamseg.plotting.repetitions import plot_repetitions
-
-        plot_repetitions(args.plot, seg, truth=truth)
+        plot_repetitions(args.plot, seg, sets=sets, title_file=Path(args.file).name)
+    reason = seg.reason_ or None
     if not seg.repetitive_:
-        # segment --method rep cuts a take into sets first: its count can differ (86_01: 0 here,
-        # 10 there); say so where the user sees the 0
-        warn(args, f"{Path(args.file).name} as one exercise does not look repetitive "
-             f"({seg.reason_}): count 0; `segment --method rep` cuts a take into action sets "
-             "first and counts inside each, as `eval --method rep --rep-sets` scores it")
-    return evaluation(
+        warn(args, f"{Path(args.file).name} holds no set of repetitions ({reason}): count 0")
+    return segmentation(
         args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
-        alpha=repetition_accuracy(seg.repetitions_, truth),
+        segments=_tiling(sets, int(seg.n_frames_)),
         count=int(seg.count_),
-        true_count=len(truth),
-        count_error=count_error(seg.count_, len(truth)),
         repetitive=bool(seg.repetitive_),
-        reason=seg.reason_ or None,
-        n_nan_frames=int(getattr(seg, "n_missing_frames_", 0)),
-        primary_frequency_hz=float(seg.primary_frequency_hz_),
-        seconds=round(seconds, 3),
-        note="the whole take is one exercise, not cut into action sets as `segment --method "
-             "rep` does (for a routine use --rep-sets); labels are read as one row per "
-             "repetition (eq. 15 compares the i-th found and true repetition lengths)",
+        reason=reason,
+        n_sets=len(sets),
+        sets=sets,
+        repetitions=[{"start": a, "end": b} for a, b in seg.repetitions_],
+        n_nan_frames=int(seg.n_missing_frames_),
+        params={"min_amplitude": cfg.min_amplitude,
+                "max_dissimilarity": cfg.max_dissimilarity, "pause_s": cfg.pause_s,
+                "seconds": round(seconds, 3)},
     )
 
 
@@ -200,8 +125,7 @@ def true_sets(rows) -> list:
     """Label rows (one per repetition, in time order) as sets: ``(start, end, label, reps)``.
 
     Consecutive rows of one label are one set; a set of one row is an action take or a
-    single repetition, whose true count is 0 (one movement is not counted; see
-    :func:`streamseg.offline.rep_analysis.not_repetitive_reason`).
+    single repetition, whose true count is 0 (a set is counted from two repetitions on).
     """
     out = []
     for r in rows:
@@ -212,57 +136,75 @@ def true_sets(rows) -> list:
     return [(reps[0][0], reps[-1][1], label, reps) for _, _, label, reps in out]
 
 
-def score_sets(found, sets) -> list:
+def score_sets(found_sets, sets) -> list:
     """Per true set: the found repetitions whose middle frame lies in it, scored.
 
     Parameters
     ----------
-    found : sequence of (int, int)
-        Every found repetition of the take (0-based, end exclusive).
+    found_sets : list of list of (int, int)
+        The repetitions of every found set.
     sets : list
         :func:`true_sets`.
 
     Returns
     -------
     list of dict
-        ``start``, ``end``, ``label``, ``true_count``, ``count``, ``count_error`` and
-        ``alpha`` (eq. 15 against the set's true repetitions; None for a true count of 0).
+        ``start``, ``end``, ``label``, ``true_count``, ``count``, ``count_error``, ``right``
+        (the count is right and every repetition found there is of one found set) and
+        ``alpha`` (:func:`~streamseg.evaluation.metrics.matched_repetition_accuracy`; None
+        for a true count of 0).
     """
-    from streamseg.evaluation.metrics import count_error, repetition_accuracy
+    from streamseg.evaluation.metrics import count_error, matched_repetition_accuracy
 
+    mids = [((a + b) // 2, i, (a, b)) for i, reps in enumerate(found_sets) for a, b in reps]
     out = []
     for start, end, label, reps in sets:
-        mine = [(a, b) for a, b in found if start <= (a + b) // 2 < end]
+        mine = [(i, r) for m, i, r in mids if start <= m < end]
         n_true = len(reps) if len(reps) >= 2 else 0
+        n = len(mine)
         out.append({"start": int(start), "end": int(end), "label": label,
-                    "true_count": n_true, "count": len(mine),
-                    "count_error": count_error(len(mine), n_true),
-                    "alpha": repetition_accuracy(mine, reps) if n_true else None})
+                    "true_count": n_true, "count": n, "count_error": count_error(n, n_true),
+                    "right": n == n_true and len({i for i, _ in mine}) <= 1,
+                    "alpha": (matched_repetition_accuracy([r for _, r in mine], reps)
+                              if n_true else None)})
     return out
 
 
-def _evaluate_sets(args) -> dict:
-    """``eval --method rep --rep-sets``: a routine scored per labelled set."""
+def evaluate(args) -> dict:
+    """Counts and alpha against ``args.labels`` (one row per repetition; consecutive rows of
+    one label are a set; a lone row is an action or a single repetition, true count 0)."""
     import numpy as np
 
     from streamseg.evaluation.labels import read_labels
 
-    cfg, seg, seconds = _run(args, sets=True)
-    whole = getattr(seg, "whole_", seg)
+    cfg, seg, _, seconds = _run(args, labels=False)
     sequence = args.sequence or Path(args.file).name.split(".")[0]
-    scored = score_sets(seg.repetitions_, true_sets(read_labels(args.labels, sequence)))
+    rows = read_labels(args.labels, sequence)
+    scored = score_sets([st["repetitions"] for st in seg.sets_], true_sets(rows))
+    if args.plot:
+        from streamseg.plotting.repetitions import plot_repetitions
+
+        plot_repetitions(args.plot, seg, sets=_sets(seg, None),
+                         truth=[(r.start, r.end) for r in rows],
+                         title_file=Path(args.file).name)
     rep = [s for s in scored if s["true_count"]]
     act = [s for s in scored if not s["true_count"]]
+    true_count = int(sum(s["true_count"] for s in rep))
     return evaluation(
-        args, method="rep", n_frames=int(whole.n_frames_), fps=float(whole.fps_),
+        args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
         alpha=float(np.mean([s["alpha"] for s in rep])) if rep else None,
         count=int(seg.count_),
-        true_count=int(sum(s["true_count"] for s in rep)),
-        count_error=int(seg.count_) - int(sum(s["true_count"] for s in rep)),
-        exact_sets=f"{sum(s['count_error'] == 0 for s in rep)} of {len(rep)}",
+        true_count=true_count,
+        count_error=int(seg.count_) - true_count,
+        exact_sets=f"{sum(s['right'] for s in rep)} of {len(rep)}",
         actions_counted_zero=f"{sum(s['count'] == 0 for s in act)} of {len(act)}",
         sets=scored,
+        repetitive=bool(seg.repetitive_),
+        reason=seg.reason_ or None,
+        n_nan_frames=int(seg.n_missing_frames_),
         seconds=round(seconds, 3),
-        note="per labelled set: the found repetitions whose middle frame lies in it; alpha "
-             "is the mean over the sets of two or more repetitions",
+        note="per labelled set: the found repetitions whose middle frame lies in it, right "
+             "when their number is the true count and they are of one found set; alpha "
+             "(eq. 15, repetitions matched by overlap) is the mean over the sets of two or "
+             "more repetitions",
     )

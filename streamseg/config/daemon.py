@@ -50,8 +50,8 @@ class DaemonConfig:
         Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
     repetitions : bool
         Count repetitions live (``rep`` events from
-        :class:`streamseg.online.RepetitionCounter`). Off by default: it takes 0.5-1 ms of
-        CPU per frame (6-12% of a core per 120 Hz stream).
+        :class:`streamseg.online.RepetitionCounter`; 5-25 us of CPU per frame, see
+        docs/results.md). Off by default: ``rep`` events only where a client wants them.
     relabel_processes : int
         0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
         N > 0: the worker thread hands each job to a pool of N processes.

@@ -9,8 +9,8 @@ worker thread relabels with windowed ACA (:func:`streamseg.offline.relabel_windo
 The segmenter sees every stream frame (non-finite ones it skips itself), so its cuts are in
 stream frames; the ring keeps only finite feature rows with their stream frame numbers.
 
-Repetition counting (:class:`streamseg.online.RepetitionCounter`, off by default
-because it costs ~0.5-1 ms per frame) runs in :meth:`StreamPipeline.push` on the positions.
+Repetition counting (:class:`streamseg.online.RepetitionCounter`, off by default) runs in
+:meth:`StreamPipeline.push` on the positions.
 """
 
 from __future__ import annotations
@@ -147,6 +147,10 @@ class Algorithms:
         warmup_lof()
         if relabel:
             warmup_aca()
+        if self.repetitions:
+            from streamseg.online.repetition import warmup as warmup_reps
+
+            warmup_reps()
         plan = np.arange(18).reshape(9, 2) % 9
         angles_at(np.zeros((2, 9, 3)), plan)
         angles_at(np.zeros((2, 9, 3)), plan, np.array([0.0, 1.0, 0.0]))
@@ -223,7 +227,7 @@ class StreamPipeline:
 
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "root", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "notices", "_spine", "_spine_n", "cut_frames", "rep_sets", "_cap", "filler",
+                 "notices", "_spine", "_spine_n", "cut_frames", "_cap", "filler",
                  "gaps", "final_bad", "final_reps")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
@@ -236,7 +240,6 @@ class StreamPipeline:
         self.root = algorithms.root_speed(fps, skeleton)
         self.reps = algorithms.rep_counter(fps, skeleton)
         self.rep_offset = None  # stream frame of the counter's frame 0
-        self.rep_sets = None  # streamseg.online.rep_sets.SetTracker, with the first rep
         self.notices = []  # (reason, message) for the daemon to report, see push()
         # the live cuts a relabel snaps its boundaries to (the history holds fewer)
         self.cut_frames = collections.deque(maxlen=RECENT_CUTS)
@@ -303,9 +306,9 @@ class StreamPipeline:
         cuts : list of (frame, score, emitted_at, kind)
             New cut events, in stream frames (``kind``: :data:`CUT_KINDS`).
         reps : list of (start, end, count, emitted_at, label, set_index)
-            Completed repetitions (empty without a repetition counter): ``count`` in the
-            current set, the action ``label`` (None: not yet relabelled) and the set's index
-            (:mod:`streamseg.online.rep_sets`).
+            Completed repetitions (empty without a repetition counter): ``count`` in its
+            set, the action ``label`` (None: not yet relabelled;
+            :mod:`streamseg.online.rep_sets`) and the set's index (the counter's).
         n_bad : int
             Frames received whose features are not finite after the gap filling (skipped by
             the segmenter and the ring).
@@ -410,19 +413,16 @@ class StreamPipeline:
         return flushed + self._rep_tuples(self.reps.finish())
 
     def _rep_tuples(self, reps) -> list:
-        o = self.rep_offset
-        if reps and self.rep_sets is None:
-            from streamseg.online.rep_sets import SetTracker
+        from streamseg.online.rep_sets import label_at
 
-            self.rep_sets = SetTracker()
+        o = self.rep_offset
         w = self.previous
         segs = _segment_triplets(w) if w is not None else []
         out = []
         for r in reps:
             a, b = r.start + o, r.end + o
-            label = self.rep_sets.label_at(a, b, segs, getattr(w, "end", None), self.cut_frames)
-            count, index = self.rep_sets.assign(int(r.count), label)
-            out.append((a, b, count, r.emitted_at + o, label, index))
+            label = label_at(a, b, segs, getattr(w, "end", None), self.cut_frames)
+            out.append((a, b, int(r.count), r.emitted_at + o, label, int(r.set_index)))
         return out
 
     def finish(self) -> list:

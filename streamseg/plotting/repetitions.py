@@ -1,90 +1,114 @@
-"""Picture of a repetition segmentation (matplotlib imported only when called)."""
+"""Picture of the sets and repetitions found (matplotlib imported only when called)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 
-def title(segmenter, sets=None) -> str:
-    """The picture's title: the count, or why there is none (never a count of a take that
-    is not repetitive)."""
-    if sets is not None and len(sets) > 1:
-        rep = [st for st in sets if st["repetitive"]]
-        if not rep:
-            return f"{len(sets)} action sets, none repetitive: 0 repetitions"
-        counts = ", ".join(str(st["count"]) for st in rep)
-        return (f"{sum(st['count'] for st in rep)} repetitions in {len(rep)} repetitive "
-                f"set(s) of {len(sets)} ({counts})")
-    if not segmenter.repetitive_:
-        return f"not repetitive: 0 repetitions ({segmenter.reason_})"
-    return (f"{segmenter.count_} repetitions, primary frequency "
-            f"{segmenter.primary_frequency_hz_:.2f} Hz")
+def title(segmenter, sets, name: str = "") -> str:
+    """The count, or why there is none (never a count of a take without a set)."""
+    head = f"{name}: " if name else ""
+    if not sets:
+        return f"{head}no set of repetitions ({segmenter.reason_})"
+    counts = ", ".join(str(st["count"]) for st in sets)
+    return (f"{head}{sum(st['count'] for st in sets)} repetitions in {len(sets)} "
+            f"set{'' if len(sets) == 1 else 's'} ({counts})")
 
 
-def plot_repetitions(path, segmenter, truth=None, sets=None) -> None:
-    """Write a PNG: band-passed selected parameters and their squared-velocity curve.
+def _motion(features, fps):
+    """The pose's two main directions of change over the take, each at unit spread."""
+    from scipy.signal import butter, sosfiltfilt
+
+    X = np.asarray(features, dtype=np.float64)
+    if X.shape[0] > 12 and fps > 6:
+        X = sosfiltfilt(butter(2, min(3.0, 0.4 * fps), fs=fps, output="sos"), X, axis=0)
+    X = X - X.mean(axis=0)
+    if not np.any(X):
+        return np.zeros((X.shape[0], 1))
+    _, _, vt = np.linalg.svd(X, full_matrices=False)
+    Y = X @ vt[: min(2, vt.shape[0])].T
+    sd = Y.std(axis=0)
+    return Y / np.where(sd > 0, sd, 1.0)
+
+
+def plot_repetitions(path, segmenter, sets=None, truth=None, title_file: str = "") -> None:
+    """Write a PNG: the motion with each set and repetition drawn, and the tempo.
+
+    Top: the pose's two main directions of change (principal components of the counter's
+    features, each scaled to unit spread), each set shaded in its colour and each
+    repetition a band of its own, numbered. Bottom: seconds per repetition, one bar per
+    repetition, so a set that slows down shows it. A legend names every set (label, count,
+    tempo, confidence).
 
     Parameters
     ----------
     path : str or Path
-        Output PNG.
     segmenter : RepetitionSegmenter
-        A fitted segmenter.
-    truth : list of (start, end), optional
-        True repetitions, drawn as grey lines at their boundaries.
+        Fitted.
     sets : list of dict, optional
-        Action sets (``segment --method rep`` JSON "sets"): shaded, their repetitions drawn.
+        ``segment --method rep`` JSON "sets" (default: the segmenter's, unlabelled).
+    truth : list of (start, end), optional
+        True repetitions: their boundaries drawn as grey dashed lines.
+    title_file : str
+        Name shown in the title.
     """
     try:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
+        from matplotlib.patches import Patch
     except ImportError as err:  # plotting is an optional extra
         from streamseg.exceptions import ParameterError
 
         raise ParameterError("--plot needs matplotlib: pip install 'streamseg[plot]'") from err
-    a = segmenter.analysis_
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
-    reps = segmenter.repetitions_
-    if sets is not None:
-        reps = [(r["start"], r["end"]) for st in sets for r in st["repetitions"]]
-        for st in sets:
-            for ax in (ax1, ax2):
-                ax.axvspan(st["start"] / segmenter.fps_, st["end"] / segmenter.fps_,
-                           color=f"C{st['label'] % 10}", alpha=0.12, lw=0)
-            ax1.text(st["start"] / segmenter.fps_, 1.0, f"{st['count']}" if st["repetitive"]
-                     else "-", transform=ax1.get_xaxis_transform(), fontsize=8, va="bottom")
-    if a is None:  # still or too short: nothing was analysed
-        ax1.text(0.5, 0.5, segmenter.reason_, transform=ax1.transAxes, ha="center")
-        fig.suptitle(title(segmenter, sets))
-        fig.savefig(path, dpi=90)
-        plt.close(fig)
-        return
-    t = np.arange(a.speed2.shape[0]) / segmenter.fps_
-    for j, col in enumerate(a.selected):
-        ax1.plot(t, a.filtered[:, j], lw=0.8, label=segmenter.param_names_[col])
-    ax1.set_ylabel("band-passed parameters")
-    ax1.legend(fontsize=6, ncol=4, loc="upper right")
-    ax2.plot(t, a.speed2, color="k", lw=0.8, label="sum of squared velocities (eq. 10)")
-    routine = sets is not None and len(sets) > 1
-    if routine:  # the curves are the whole take's; each set was analysed on its own
-        ax1.set_ylabel("band-passed parameters\n(whole take)")
-    if a.candidates.size and not routine:
-        ax2.scatter(t[a.candidates], a.speed2[a.candidates], c=a.labels, cmap="tab10", s=25,
-                    zorder=3, label=f"candidates (K*={a.k_star} groups)")
-    for i, (s, e) in enumerate(reps):
+    fps = float(segmenter.fps_)
+    if sets is None:
+        sets = [dict(st, label=None, repetitions=[{"start": a, "end": b} for a, b in
+                                                  st["repetitions"]]) for st in segmenter.sets_]
+    n = int(segmenter.n_frames_)
+    t = np.arange(n) / fps
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(12, 6.5), sharex=True,
+                                   gridspec_kw={"height_ratios": [2.2, 1]})
+    if n:
+        Y = _motion(segmenter.features_, fps)
+        for j in range(Y.shape[1]):
+            ax1.plot(t, Y[:, j], lw=1.0, color=("0.15", "0.55")[j],
+                     label=f"pose, main direction {j + 1}")
+    handles = []
+    for i, st in enumerate(sets):
+        colour = f"C{i % 10}"
+        reps = [(r["start"], r["end"]) for r in st["repetitions"]]
+        for k, (a, b) in enumerate(reps):
+            ax1.axvspan(a / fps, b / fps, color=colour, alpha=0.28 if k % 2 == 0 else 0.14,
+                        lw=0)
+            ax1.axvline(a / fps, color=colour, lw=1.2)
+            ax1.text((a + b) / 2 / fps, 0.98, str(k + 1), transform=ax1.get_xaxis_transform(),
+                     ha="center", va="top", fontsize=7, color=colour)
+            ax2.bar((a + b) / 2 / fps, (b - a) / fps, width=0.9 * (b - a) / fps,
+                    color=colour, alpha=0.75)
+        if reps:
+            ax1.axvline(reps[-1][1] / fps, color=colour, lw=1.2)
+        label = "" if st.get("label") is None else f" (action {st['label']})"
+        handles.append(Patch(color=colour, alpha=0.5,
+                             label=f"set {i + 1}{label}: {st['count']} repetitions, "
+                                   f"{st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f} s each, "
+                                   f"confidence {st['confidence']:.2f}"))
+    for k, (a, _) in enumerate(truth or []):
         for ax in (ax1, ax2):
-            ax.axvline(s / segmenter.fps_, color="tab:red", lw=1.0,
-                       label="repetition boundaries" if (i == 0 and ax is ax2) else None)
-        if i == len(reps) - 1 or reps[i + 1][0] != e:
-            for ax in (ax1, ax2):
-                ax.axvline(e / segmenter.fps_, color="tab:red", lw=1.0)
-    for s, _ in truth or []:
-        ax2.axvline(s / segmenter.fps_, color="0.6", ls="--", lw=0.8)
+            ax.axvline(a / fps, color="0.5", ls="--", lw=0.8,
+                       label="true boundaries" if (k == 0 and ax is ax1) else None)
+    line_handles, _ = ax1.get_legend_handles_labels()
+    ax1.legend(handles=line_handles + handles, fontsize=7, loc="upper left",
+               bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    ax1.set_ylabel("pose change (unit spread)")
+    ax2.set_ylabel("seconds per repetition")
     ax2.set_xlabel("seconds")
-    ax2.legend(fontsize=7, loc="upper right")
-    fig.suptitle(title(segmenter, sets))
+    if not sets:
+        ax2.text(0.5, 0.5, segmenter.reason_, transform=ax2.transAxes, ha="center",
+                 va="center", fontsize=8)
+    ax1.set_xlim(0, max(n / fps, 1e-3))
+    fig.suptitle(title(segmenter, sets, title_file), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    fig.savefig(path, dpi=90, bbox_inches="tight")  # the legend sits right of the axes
     plt.close(fig)
