@@ -29,4 +29,4 @@ def test_python_api_example_runs():
     assert lines[0] == "[ 589 1141 2001 2502 3276 4066]"
     assert lines[1].startswith("CutEvent(frame=589, score=") and "emitted_at=809" in lines[1]
     assert lines[2].startswith("4 [Segment(start=0, end=536, label=3), ")
-    assert lines[3].startswith("4 [Segment(start=0, end=152, label=0), ")  # four squats
+    assert lines[3].startswith("4 [Segment(start=0, end=145, label=0), ")  # four squats
