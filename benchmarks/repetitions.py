@@ -36,7 +36,12 @@ import numpy as np
 from streamseg.config import RepetitionConfig
 from streamseg.evaluation.metrics import matched_repetition_accuracy
 from streamseg.evaluation.rep_sets import hdm05_rep_sets, hdm05_routines, load_plan
-from streamseg.online.repetition import RepetitionCounter, stream_features
+from streamseg.online.repetition import (
+    RepetitionCounter,
+    sets_of,
+    stream_events,
+    stream_features,
+)
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 CHOOSE_ON = "bd"
@@ -188,16 +193,10 @@ def live(mat, cfg):
     for _, X, _, rec in mat.sets + mat.routines:
         offline = count_sets(X, 120.0, cfg)
         for chunk in (1, 30, 120):
-            c = RepetitionCounter(cfg, rec.fps, rec.skeleton)
-            events = []
-            for i in range(0, rec.n_frames, chunk):
-                events += c.learn_many(rec.positions[i:i + chunk])
-            events += c.finish()
-            live_sets = defaultdict(list)
-            for e in events:
-                live_sets[e.set_index].append((e.start, e.end))
+            events = stream_events(RepetitionCounter(cfg, rec.fps, rec.skeleton),
+                                   rec.positions, chunk)
             total += 1
-            equal += [live_sets[i] for i in sorted(live_sets)] == offline
+            equal += sets_of(events) == offline
             if chunk == 30:
                 for e in events:
                     d = (e.emitted_at - e.end) / rec.fps

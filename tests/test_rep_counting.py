@@ -18,7 +18,7 @@ from streamseg.config import RepetitionConfig
 from streamseg.evaluation.metrics import matched_repetition_accuracy
 from streamseg.evaluation.rep_sets import hdm05_rep_sets, hdm05_routines, load_plan
 from streamseg.offline.repetition import RepetitionSegmenter
-from streamseg.online.repetition import RepetitionCounter
+from streamseg.online.repetition import RepetitionCounter, sets_of, stream_events
 
 HELD_OUT = ("bk", "dg")
 
@@ -82,16 +82,11 @@ def test_every_class_keeps_its_floor(held_out_sets):
 def test_live_events_equal_the_offline_sets_whatever_the_chunking(held_out_sets):
     for _, rec, _, seg in held_out_sets[::4]:
         for chunk in (1, 7, 120):
-            c = RepetitionCounter(RepetitionConfig(), rec.fps, rec.skeleton)
-            events = []
-            for i in range(0, rec.n_frames, chunk):
-                events += c.learn_many(rec.positions[i:i + chunk])
-            events += c.finish()
-            live = defaultdict(list)
-            for e in events:
-                live[e.set_index].append((e.start, e.end))
-                assert e.count == len(live[e.set_index])
-            assert [live[i] for i in sorted(live)] == [s["repetitions"] for s in seg.sets_]
+            events = stream_events(RepetitionCounter(RepetitionConfig(), rec.fps,
+                                                     rec.skeleton), rec.positions, chunk)
+            live = sets_of(events)
+            assert live == [s["repetitions"] for s in seg.sets_]
+            assert [e.count for e in events] == [k + 1 for s in live for k in range(len(s))]
 
 
 def test_a_repetition_is_reported_within_its_duration_and_half_a_second(held_out_sets):

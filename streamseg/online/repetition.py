@@ -35,7 +35,8 @@ from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 
-__all__ = ["RepEvent", "RepSet", "RepetitionCounter", "pose_features", "stream_features"]
+__all__ = ["RepEvent", "RepSet", "RepetitionCounter", "pose_features", "sets_of",
+           "stream_events", "stream_features"]
 
 
 @dataclass(frozen=True)
@@ -604,6 +605,23 @@ class RepetitionCounter:
                                     - self._rows(s + e - 1, s + x - 1), axis=1)
                 cut = s + e + int(np.argmin(sp))
         return (s, cut, M)
+
+
+def stream_events(counter: RepetitionCounter, X, chunk: int) -> list[RepEvent]:
+    """Every event of ``counter`` fed ``X`` ``chunk`` frames a call, then finished (what a
+    stream in packets of ``chunk`` frames gets; the sets do not depend on ``chunk``)."""
+    events = []
+    for i in range(0, len(X), chunk):
+        events += counter.learn_many(X[i:i + chunk])
+    return events + counter.finish()
+
+
+def sets_of(events) -> list:
+    """The repetitions ``(start, end)`` of each set, by ``set_index``, from events."""
+    out: dict = {}
+    for e in events:
+        out.setdefault(e.set_index, []).append((e.start, e.end))
+    return [out[i] for i in sorted(out)]
 
 
 def warmup() -> None:
