@@ -15,9 +15,9 @@ segments of each id and, after this matching, lets a cluster the overlap does no
 take a remembered id the revision does not hold, on DTAK evidence relative to the data; the
 window's clustering is the one without memory. Figures: :mod:`streamseg.offline.recall`.
 
-Two memories were measured and dropped. Exemplars clustered *with* the window (round 2 of
-issue 12; ``benchmarks/label_memory.py`` at commit 14dc192) changed the window's own
-clustering and let a new action take an old id (toe touches took the squats' id): held-out
+Two memories were measured and dropped. Exemplars clustered *with* the window
+(``git show 14dc192:benchmarks/label_memory.py``) changed the window's own clustering
+and let a new action take an old id (toe touches took the squats' id): held-out
 whole-stream accuracy +0.07, -0.04, -0.09 in simulated revisions. Before it, prototypes of
 each id (mean features and spread, or DTAK prototypes against an absolute threshold) merged
 arm circles into jumping jacks (frame accuracy 0.886 without, 0.788 with) and recognised

@@ -30,11 +30,12 @@ has the figures) a candidate not recalled may also join an id the revision holds
 same relative test against that id's exemplars (:func:`merge_into_present`), when one of its
 runs touches one of that id's runs in the revision (``merge_adjacent``): two clusters of one
 revision then share an id, which cuts the commonest source of extra ids (a revision
-splitting one action in two, ``benchmarks/id_fragments.py``). It adds no state. The figures
-below (``benchmarks/label_memory.py``) were measured before it was on.
+splitting one action in two; ``docs/decisions.md``, Labels). It adds no state. The figures
+below (the label-memory exploration, ``git show 9ba5ec1:benchmarks/label_memory.py``) were
+measured before it was on.
 
-The hand-off path was measured and dropped (issue 12, 2026-12-02,
-``benchmarks/id_fragments.py``, commit 36d0821): making every cluster whose id the overlap
+The hand-off path was measured and dropped (``git show cb134b5:benchmarks/id_fragments.py``,
+first at commit 36d0821): making every cluster whose id the overlap
 carried a candidate too, with its carried id's exemplars competing (a remembered absent id
 had to beat it by ``recall_margin``), so that a returning action handed a neighbour's id
 could take its own.
@@ -49,7 +50,7 @@ losses were not diagnosed.
 Kept as plain values (the checkpoint codec stores them): the memory's ``born`` (id -> the
 revision that first gave it) and ``pending`` (candidate id -> proposed old id).
 
-Measured (``benchmarks/label_memory.py``: revisions of the daemon's job function every 5 s
+Measured (``label_memory.py`` of commit 9ba5ec1: revisions of the daemon's job function every 5 s
 over the last 60 s, on five streams whose actions return after more than 60 s, abrupt joins).
 The settings were chosen on ret_14_86_14 and ret_hdm_bd only (``--grid``: ratio 0.3-1,
 margin 0-0.2, confirm 1-2, within 1-3; every ratio 0.3-0.7 with margin 0-0.2 and within 2-3
