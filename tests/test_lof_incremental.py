@@ -23,7 +23,7 @@ class Buffer:
 
     def __init__(self, cap, k, d, excl=0):
         self.k, self.excl, self.cap = k, excl, cap
-        self.vecs = np.zeros((cap, d), dtype=np.uint16)
+        self.vecs = np.zeros((cap, d), dtype=np.int16)
         self.norms = np.zeros(cap)
         self.seqs = np.full(cap, -1, dtype=np.int64)
         self.nn_idx = np.zeros((cap, k), dtype=np.int64)
@@ -43,7 +43,7 @@ class Buffer:
     def insert(self, vec, t):
         slot = self.next % self.cap
         self.centres[slot] = t
-        n = inc_insert(*self._args(), slot, np.asarray(vec, dtype=np.uint16), self.next,
+        n = inc_insert(*self._args(), slot, np.asarray(vec, dtype=np.int16), self.next,
                        self.k, self.excl)
         self.next += 1
         self.size += 1
@@ -119,7 +119,7 @@ class ExtBuffer(Buffer):
     def insert(self, vec, t):
         slot = self.next % self.cap
         self.centres[slot] = t
-        n = ext_insert(*self._args(), slot, np.asarray(vec, dtype=np.uint16), self.next,
+        n = ext_insert(*self._args(), slot, np.asarray(vec, dtype=np.int16), self.next,
                        self.k, self.excl)
         self.next += 1
         self.size += 1

@@ -305,7 +305,7 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     min_valid, k, excl = geo[GEO_MIN_VALID], geo[GEO_K], geo[GEO_EXCLUSION]
     n_slots = seqs.shape[0]
     n_ang = angles.shape[1]
-    vec = np.empty(vecs.shape[1], dtype=np.uint16)
+    vec = np.empty(vecs.shape[1], dtype=vecs.dtype)
     cache = np.full(2, -1.0)
     scale = bins / np.pi
     n_ev = 0

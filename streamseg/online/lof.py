@@ -106,10 +106,13 @@ class StreamingLOFSegmenter:
         self._rb = np.zeros((g["history"], self._cols), dtype=np.int8)
         self._rv = np.zeros(g["history"], dtype=np.uint8)
         self._cur = np.zeros(d, dtype=np.int64)
-        if w > np.iinfo(np.uint16).max:
-            raise ParameterError(f"window of {w} frames is too long: at most 65535 frames "
-                                 "(lower window_s)")
-        self._vecs = np.zeros((n, d), dtype=np.uint16)  # integer counts <= window frames
+        # counts <= window frames as int16, their dot products summed in int32: exact while
+        # columns * window**2 < 2**31 (7,517 frames for the default 38 columns, 62 s at 120 Hz)
+        longest = int(np.sqrt((2**31 - 1) / self._cols))
+        if w > longest:
+            raise ParameterError(f"window of {w} frames is too long: at most {longest} frames "
+                                 f"with {self._cols} histogram columns (lower window_s)")
+        self._vecs = np.zeros((n, d), dtype=np.int16)
         self._seqs = np.full(n, -1, dtype=np.int64)
         self._centres = np.zeros(n, dtype=np.int64)
         # the pending early cuts (window, frame): they lie within delay - early + min_gap
