@@ -56,9 +56,9 @@ STEP_BUDGET = 0.002  # seconds of loop time per step of a checkpoint round
 DUTY = 0.02  # at most this share of the loop's time goes to copying states
 # Checkpoints take at most this share of one core on average (the loop's copies and the
 # writer's CPU): after a round, the next one waits until the round's own cost / CPU_BUDGET
-# has passed since it began. Measured (benchmarks/daemon_throughput.py --event-log, 30 s
-# runs): at a 2 s interval 250 full-rate streams spent 3.6 % of a core on checkpoints and
-# relabelled up to 12 % less often
+# has passed since it began. Measured (git show 0d6c5cf:benchmarks/daemon_throughput.py
+# --event-log, 30 s runs): at a 2 s interval 250 full-rate streams spent 3.6 % of a core on
+# checkpoints and relabelled up to 12 % less often
 CPU_BUDGET = 0.015
 
 

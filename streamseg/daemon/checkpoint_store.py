@@ -26,9 +26,10 @@ PACE = 1.0
 # Packing a stream holds the GIL (0.2-0.3 ms, benchmarks/daemon_faults.py) and a round packs
 # the streams back to back; the loop, wanting the GIL back after each socket call, then waits
 # up to the interpreter's switch interval (5 ms). A pause after each array hands it over (0:
-# no pause). benchmarks/checkpoint_pause.py, 250 streams on a 2-core VM at its capacity knee,
-# medians of 4 interleaved runs (2026-12-02): packet p50 1.94 ms without durability, 4.96 ms
-# with the pause, 8.86 ms without it; durability CPU 2.6 % against 4.4 % (runs scatter widely).
+# no pause). 0d6c5cf:benchmarks/checkpoint_pause.py, 250 streams on a 2-core VM at its
+# capacity knee, medians of 4 interleaved runs (2026-12-02): packet p50 1.94 ms without
+# durability, 4.96 ms with the pause, 8.86 ms without it; durability CPU 2.6 % against 4.4 %
+# (runs scatter widely).
 BREATHE = 0.0001  # seconds
 
 
@@ -100,7 +101,7 @@ class CheckpointStore:
         # a checkpoint is rewritten every few seconds and only matters after a crash of the
         # process, which synchronous OFF survives (the OS holds the writes); skipping the
         # fsyncs of the WAL checkpoints took the store's p99 cost at 250 streams from +45 %
-        # to +9 % (benchmarks/daemon_throughput.py). A power loss may tear the file: it is
+        # to +9 % (0d6c5cf:benchmarks/daemon_throughput.py). A power loss may tear the file: it is
         # then moved aside at the next start. The event log keeps synchronous NORMAL.
         self._db.execute("PRAGMA synchronous=OFF")
         self._db.executescript(SCHEMA)
