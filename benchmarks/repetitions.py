@@ -17,8 +17,8 @@ must give the offline sets exactly; delay = emission frame - end of the repetiti
 share of events within the repetition's own duration + 0.5 s. CMU 14_14 / 14_20: every
 labelled block's sets (counts unknown to us: check them on the pictures, ``--plots DIR``).
 
-Run: ``.venv/bin/python benchmarks/repetitions.py [--choose] [--plots DIR] [--speed]``
-(about a minute; ``--choose`` a few more).
+Run: ``.venv/bin/python benchmarks/repetitions.py [--choose] [--rotate] [--plots DIR]
+[--speed]`` (about half a minute; ``--choose`` five minutes more, ``--rotate`` fifteen).
 """
 
 from __future__ import annotations
@@ -48,10 +48,10 @@ CHOOSE_ON = "bd"
 #: Where the choice starts: the values the prototypes were chosen with on bd (the
 #: exploration at commit acc2a5e, benchmarks/rep_explore/grid.py).
 START = {"return_ratio": 0.55, "max_dissimilarity": 0.7, "lowpass_hz": 3.0}
-#: The grid the counter's parameters were chosen from on CHOOSE_ON (``--choose``: from
-#: START, each value of each parameter in turn, a change kept when it raises the objective,
-#: two rounds; objective: exact + alpha on its sets of 2-6 + the share of its routine sets
-#: counted right).
+#: The grid the counter's parameters were chosen from on CHOOSE_ON (``--choose``: coordinate
+#: ascent, each value of each parameter in turn, a change kept when it raises the objective,
+#: two rounds, from START and from the defaults, the better kept; objective: exact + alpha on
+#: its sets of 2-6 + the share of its routine sets counted right).
 GRID = {"return_ratio": (0.45, 0.55, 0.65, 0.75), "max_dissimilarity": (0.5, 0.6, 0.7),
         "min_amplitude": (0.6, 0.8, 1.0), "spread_ratio": (0.75, 0.85, 0.9),
         "lowpass_hz": (2.0, 3.0, 4.0, 5.0), "amplitude_ratio": (0.4, 0.5, 0.6),
@@ -127,25 +127,54 @@ def objective(sets, routines):
     return exact + alpha + np.mean([x[3] for x in parts])
 
 
-def choose(mat):
-    """Coordinate ascent over GRID on CHOOSE_ON from START; prints every step."""
-    cfg = replace(RepetitionConfig(), **START)
-    best = objective(*evaluate(mat, cfg, (CHOOSE_ON,)))
-    print(f"  start {START}: {best:.4f}", flush=True)
+def choose(mat, actor=CHOOSE_ON, verbose=True):
+    """The better (on ``actor``'s objective) of two coordinate ascents over GRID, one from
+    START, one from the defaults; returns the chosen config."""
+    runs = [_ascend(mat, actor, replace(RepetitionConfig(), **s), verbose)
+            for s in (START, {})]
+    best, cfg = max(runs, key=lambda r: r[0])
+    chosen = {k: getattr(cfg, k) for k in GRID}
+    defaults = {k: getattr(RepetitionConfig(), k) for k in GRID}
+    print(f"chosen on {actor}: {chosen} (objective {best:.4f}; the two ascents "
+          f"{runs[0][0]:.4f}, {runs[1][0]:.4f}); "
+          f"{'the defaults' if chosen == defaults else 'NOT the defaults ' + str(defaults)}")
+    return cfg
+
+
+def _ascend(mat, actor, cfg, verbose):
+    """Each value of each GRID parameter in turn, a change kept when it raises the
+    objective, two rounds: (objective, config)."""
+    best = objective(*evaluate(mat, cfg, (actor,)))
+    if verbose:
+        print(f"  start {({k: getattr(cfg, k) for k in GRID})}: {best:.4f}", flush=True)
     for rnd in range(2):
         for name, values in GRID.items():
             for v in values:
                 if v == getattr(cfg, name):
                     continue
                 trial = replace(cfg, **{name: v})
-                score = objective(*evaluate(mat, trial, (CHOOSE_ON,)))
-                print(f"  round {rnd} {name}={v}: {score:.4f}", flush=True)
+                score = objective(*evaluate(mat, trial, (actor,)))
+                if verbose:
+                    print(f"  round {rnd} {name}={v}: {score:.4f}", flush=True)
                 if score > best + 1e-9:
                     best, cfg = score, trial
-    chosen = {k: getattr(cfg, k) for k in GRID}
-    defaults = {k: getattr(RepetitionConfig(), k) for k in GRID}
-    print(f"chosen on {CHOOSE_ON}: {chosen} (objective {best:.4f}); "
-          f"{'the defaults' if chosen == defaults else 'NOT the defaults ' + str(defaults)}")
+    return best, cfg
+
+
+def rotate(mat):
+    """The same choice on each actor in turn, scored on the other two (sets of 2-6)."""
+    lines = ["", "| parameters chosen on | held out | sets | exact | OBO | nMAE | alpha | "
+                 "routine sets counted right |", "|---|---|---|---|---|---|---|---|"]
+    actors = ("bd", "bk", "dg")
+    for actor in actors:
+        cfg = choose(mat, actor, verbose=False)
+        others = tuple(a for a in actors if a != actor)
+        sets, routines = evaluate(mat, cfg, others)
+        n, e, o, m, a = summary([(len(r), c, al) for _, c, al, r in sets if len(r) <= 6])
+        rep = [x for _, res in routines for x in res if x[1]]
+        lines.append(f"| {actor} | {', '.join(others)} | {n} | {e:.2f} | {o:.2f} | {m:.3f} | "
+                     f"{a:.3f} | {sum(x[3] for x in rep)} of {len(rep)} |")
+    return lines
 
 
 def table(sets, routines):
@@ -189,7 +218,7 @@ def live(mat, cfg):
     """Live (1/30/120 frames a call) against offline, and the delays, on every set and
     routine."""
     equal = total = 0
-    delays, within = [], []
+    delays, within, later = [], [], []
     for _, X, _, rec in mat.sets + mat.routines:
         offline = count_sets(X, 120.0, cfg)
         for chunk in (1, 30, 120):
@@ -202,6 +231,8 @@ def live(mat, cfg):
                     d = (e.emitted_at - e.end) / rec.fps
                     delays.append(d)
                     within.append(d <= (e.end - e.start) / rec.fps + 0.5)
+                    if e.count >= 3:  # the set was under way when it ended
+                        later.append(within[-1])
     n_sets = sum(len(count_sets(X, 120.0, cfg)) for _, X, _, _ in mat.sets + mat.routines)
     d = np.array(delays)
     return ["", "| live | value |", "|---|---|",
@@ -211,7 +242,9 @@ def live(mat, cfg):
             f"| rep events | {len(d)} |",
             f"| delay from a repetition's end, median / 90% / max | {np.median(d):.2f} / "
             f"{np.percentile(d, 90):.2f} / {d.max():.2f} s |",
-            f"| events within the repetition's duration + 0.5 s | {np.mean(within):.1%} |"]
+            f"| events within the repetition's duration + 0.5 s | {np.mean(within):.1%} |",
+            f"| the same, the third and later of a set | {np.mean(later):.1%} "
+            f"({len(later)} events) |"]
 
 
 def cmu(cfg, plots=None):
@@ -265,6 +298,8 @@ def speed(cfg):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--choose", action="store_true", help="re-run the choice on bd first")
+    ap.add_argument("--rotate", action="store_true",
+                    help="also choose on bk and on dg, each scored on the other two actors")
     ap.add_argument("--plots", metavar="DIR", help="write the CMU pictures there")
     ap.add_argument("--speed", action="store_true", help="add the CPU per frame")
     args = ap.parse_args(argv)
@@ -277,6 +312,8 @@ def main(argv=None):
     print(table(sets, routines))
     print("\n".join(live(mat, cfg)))
     print("\n".join(cmu(cfg, args.plots)))
+    if args.rotate:
+        print("\n".join(rotate(mat)))
     if args.speed:
         print("\n".join(speed(cfg)))
     print(f"\n({time.perf_counter() - t0:.0f} s)", file=sys.stderr)

@@ -157,3 +157,17 @@ def test_cli_feature_matrix_needs_its_frame_rate(tmp_path, capsys):
     assert main(["segment", str(tmp_path / "x.npy"), "--method", "rep", "--fps", "30",
                  "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["count"] == 4
+
+
+def test_cli_says_once_which_frames_were_missing(data_dir, tmp_path, capsys):
+    from streamseg.io import write_npz
+
+    rec = _join(_bd(data_dir, "squat1Reps", range(4)))
+    pos = rec.positions.copy()
+    pos[200:260] = np.nan
+    write_npz(tmp_path / "gappy.npz", Recording(120.0, rec.skeleton, pos))
+    assert main(["segment", str(tmp_path / "gappy.npz"), "--method", "rep", "--json"]) == 0
+    captured = capsys.readouterr()
+    out, err = json.loads(captured.out), captured.err.strip().splitlines()
+    assert out["count"] == 4 and out["n_nan_frames"] == 60
+    assert len(err) == 1 and "warning" in err[0] and "60" in err[0]
