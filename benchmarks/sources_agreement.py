@@ -10,9 +10,14 @@ Table 2: the Keraal takes of one participant (exercises CTK, ELK, RTK, ~6.5 s ea
 joined back to back, per sensor (Kinect v2, BlazePose, AlphaPose COCO-17 and OpenPose COCO-18
 keypoints): the cuts, the two joins, and how far the nearest cut is from each join. The joins
 are abrupt, not natural transitions (a concatenation, as data/README.md describes).
+
+Table 3: every whole take of another system in data/sources (C3D and TRC), as read by
+``streamseg.io.read``: system, marker set or names, length, and the cuts (defaults), in seconds.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 import numpy as np
 from _common import DATA
@@ -60,10 +65,27 @@ def keypoints() -> None:
               f"{', '.join(map(str, found)):<28} {', '.join(f'{d:.2f} s' for d in near)}")
 
 
+def systems() -> None:
+    takes = [("c3d/vicon_pig_stairs.c3d", "Vicon Nexus"),
+             ("c3d/optitrack_tennis_serve.c3d", "OptiTrack Motive"),
+             ("c3d/qualisys_isb.c3d", "Qualisys"), ("c3d/qualisys_sports.c3d", "Qualisys"),
+             ("trc/opencap_walk.trc", "OpenCap (OpenPose 3-D)")]
+    print(f"{'take':<32}{'system':<24}{'named by':<16}{'fps':>5}{'s':>7}  cuts (s)")
+    for path, system in takes:
+        rec = read(SRC / path)
+        found = cuts(rec.positions, rec.skeleton, rec.fps)
+        named = rec.metadata.get("marker_set", "joint names")
+        print(f"{Path(path).name:<32}{system:<24}{named:<16}"
+              f"{rec.fps:>5.0f}{rec.n_frames / rec.fps:>7.1f}  "
+              f"{', '.join(f'{c / rec.fps:.2f}' for c in found) or '-'}")
+
+
 def main() -> None:
     formats()
     print()
     keypoints()
+    print()
+    systems()
 
 
 if __name__ == "__main__":

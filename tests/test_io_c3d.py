@@ -1,5 +1,5 @@
 """C3D in (markers mapped to joints) and out (segments written as C3D events), on real files
-of Vicon and Qualisys systems (data/sources, README there)."""
+of Vicon, Qualisys and OptiTrack systems (data/sources, README there)."""
 
 from __future__ import annotations
 
@@ -45,23 +45,64 @@ def test_vicon_take_cuts_like_its_amc_and_bvh(c3d_dir, data_dir):
     assert np.abs(np.subtract(a, c)).max() <= 0.25 and np.abs(np.subtract(a, b)).max() <= 0.25
 
 
-def test_plug_in_gait_names_of_the_pelvis(c3d_dir):
-    """The map takes LASI/RASI/LPSI/RPSI (Plug-in Gait) as it takes the CMU LFWT/RFWT/LBWT/RBWT:
-    the same file with the pelvis markers renamed gives the same joints."""
-    from streamseg.skeleton.marker_sets import best_set, joint_positions
+@pytest.mark.parametrize("name,system,units,n,fps", [
+    ("vicon_pig_stairs.c3d", "Vicon", "mm", 323, 120.0),
+    ("optitrack_tennis_serve.c3d", "OptiTrack", "m", 1092, 50.0)])
+def test_plug_in_gait_full_body_of_two_systems(c3d_dir, name, system, units, n, fps):
+    """Real Plug-in Gait full-body takes (LASI RASI LPSI RPSI, LKNE, LANK, LSHO, LELB,
+    LWRA/LWRB ...): Vicon Nexus with its model outputs among the labels, and OptiTrack Motive
+    with a subject namespace (``Derrick:LASI``)."""
+    from streamseg.skeleton.marker_sets import best_set
 
-    rec = read(c3d_dir / "cmu_01_01.c3d", gap_fill=0)
-    labels = rec.metadata["markers"]
-    renamed = [{"LFWT": "LASI", "RFWT": "RASI", "LBWT": "LPSI", "RBWT": "RPSI"}.get(x, x)
-               for x in labels]
-    import ezc3d
-
-    c = ezc3d.c3d(str(c3d_dir / "cmu_01_01.c3d"))
-    xyz = np.transpose(c["data"]["points"][:3], (2, 1, 0))
-    _, chosen, missing = best_set(renamed)
+    rec = read(c3d_dir / name)
+    assert rec.metadata["marker_set"] == "plug-in-gait"
+    assert (rec.metadata["manufacturer"], rec.skeleton.units, rec.n_frames, rec.fps) == (
+        system, units, n, fps)
+    assert rec.skeleton.up == "z" and np.isfinite(rec.positions).all()
+    _, chosen, missing = best_set(rec.metadata["markers"])
     assert not missing and chosen["pelvis"] == ("LASI", "RASI", "LPSI", "RPSI")
-    got = joint_positions(xyz, renamed, chosen)
-    np.testing.assert_allclose(got, rec.positions, equal_nan=True)
+    assert chosen["l_wrist"] == ("LWRA", "LWRB")
+    lh, rh = rec.skeleton.index("l_hip"), rec.skeleton.index("r_hip")
+    width = np.median(np.linalg.norm(rec.positions[:, lh] - rec.positions[:, rh], axis=1))
+    assert 0.1 < width * (1e-3 if units == "mm" else 1) < 0.3  # metres between hip centres
+
+
+def test_a_second_system_cuts_five_tennis_serves(c3d_dir, tmp_path, capsys):
+    """OptiTrack, 21.8 s: standing, five serves, standing. The cut detector (defaults) marks
+    the start and the end of the serving (a cut within 1 s of the hands' first and last
+    movement), none in the stillness around it; the cuts go back into the file as events
+    (Motive writes an EVENT group holding USED = 0 alone)."""
+    path = c3d_dir / "optitrack_tennis_serve.c3d"
+    rec = read(path)
+    names = rec.skeleton.names
+    hands = rec.positions[:, [names.index("l_wrist"), names.index("r_wrist")]]
+    hands = hands - rec.positions[:, [names.index("pelvis")]]
+    speed = np.linalg.norm(np.diff(hands, axis=0), axis=2).max(axis=1) * rec.fps
+    moving = np.flatnonzero(speed > 0.5)  # m/s
+    onset, offset = moving[0] / rec.fps, moving[-1] / rec.fps
+    out = tmp_path / "serve_cuts.c3d"
+    assert main(["segment", str(path), "--json", "--write-events", str(out)]) == 0
+    res = json.loads(capsys.readouterr().out)
+    cuts = np.asarray(res["cuts"]) / rec.fps
+    assert len(cuts) >= 2
+    assert np.abs(cuts - onset).min() <= 1.0 and np.abs(cuts - offset).min() <= 1.0
+    assert onset - 1.0 <= cuts.min() and cuts.max() <= offset + 1.0
+    events = read_events(out)
+    assert [round(e["time"] * rec.fps) for e in events] == res["cuts"]
+    assert res["events_written"] == len(events)
+
+
+def test_labelled_segments_of_a_vicon_take_become_action_events(c3d_dir, tmp_path, capsys):
+    out = tmp_path / "stairs_aca.c3d"
+    src = c3d_dir / "vicon_pig_stairs.c3d"
+    assert main(["segment", str(src), "--method", "aca", "--json",
+                 "--write-events", str(out)]) == 0
+    res = json.loads(capsys.readouterr().out)
+    events = read_events(out)
+    assert [e["label"] for e in events] == [f"Action {s['label']}" for s in res["segments"]]
+    first = 694  # the capture's frame number of the file's first frame (Nexus)
+    assert [round(e["time"] * 120) - first for e in events] == [s["start"]
+                                                                 for s in res["segments"]]
 
 
 @pytest.mark.parametrize("name,mset", [("qualisys_isb.c3d", "qualisys-isb"),
@@ -133,8 +174,41 @@ def test_truncated_c3d_keeps_the_frames_it_has(c3d_dir, tmp_path):
     assert "the file was cut off" in rec.metadata["warnings"][0]
 
 
+def test_cut_off_is_judged_by_the_bytes_against_every_count_the_file_gives(c3d_dir, tmp_path):
+    """The Optotrak file says 1149 frames in its header and in POINT:FRAMES, and its data
+    section holds 29 (ezc3d rewrites its own copy of both to 29): truly cut off. A header
+    that alone overstates, with POINT:FRAMES and the bytes agreeing, is not."""
+    import struct
+
+    from streamseg.io.c3d import _frames_in_file
+
+    opto = c3d_dir / "optotrak.c3d"
+    assert _frames_in_file(opto) == (1149, 29)
+    with pytest.raises(RecordingError, match="54 markers"):  # kept, then refused for its set
+        read(opto, lenient=True)
+    with pytest.raises(TruncatedRecordingError, match="29 readable frames of the 1149"):
+        read(opto)
+    data = bytearray((c3d_dir / "qualisys_isb.c3d").read_bytes())
+    assert _frames_in_file(c3d_dir / "qualisys_isb.c3d") == (340, 340)
+    first, last = struct.unpack("<HH", data[6:10])
+    data[8:10] = struct.pack("<H", last + 500)  # the header alone says 500 frames more
+    over = tmp_path / "over.c3d"
+    over.write_bytes(bytes(data))
+    assert _frames_in_file(over) == (340, 340)
+    rec = read(over)
+    assert rec.n_frames == 340 and not rec.metadata["warnings"]
+    data[8:10] = struct.pack("<H", last)
+    cut = tmp_path / "cut.c3d"
+    cut.write_bytes(bytes(data[:len(data) - 200_000]))
+    announced, held = _frames_in_file(cut)
+    assert announced == 340 and 0 < held < 340
+    rec = read(cut, lenient=True)
+    assert rec.n_frames <= held and "the file was cut off" in rec.metadata["warnings"][0]
+
+
 @pytest.mark.daemon
-@pytest.mark.parametrize("name", ["cmu_01_01.c3d", "qualisys_isb.c3d"])
+@pytest.mark.parametrize("name", ["cmu_01_01.c3d", "qualisys_isb.c3d",
+                                  "vicon_pig_stairs.c3d", "optitrack_tennis_serve.c3d"])
 def test_c3d_replayed_into_the_daemon_gives_the_cuts_of_segment_online(
         name, c3d_dir, start_daemon, capsys, tmp_path):
     """A Vicon and a Qualisys C3D through `replay` (with dropouts cut into a copy: short

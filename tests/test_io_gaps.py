@@ -201,3 +201,47 @@ def test_truncated_npy_and_csv_keep_whole_frames(tmp_path, data_dir, rec):
     csv.write_text("\n".join(lines)[:-30])
     r = read(csv, fps=120, lenient=True)
     assert r.n_frames == 299 and "dropped 1 frame, kept 299" in r.metadata["warnings"][0]
+
+
+@pytest.mark.daemon
+def test_the_daemon_gap_fill_is_a_setting(data_dir, start_daemon, tmp_path, capsys):
+    """`serve --gap-fill` (DaemonConfig.gap_fill, TOML `gap_fill`): a 0.4 s hole in the left
+    knee is a skipped gap at the default 0.25 s and filled at 0.5 s, live as in
+    `segment --online --gap-fill` on the file."""
+    from dataclasses import replace
+
+    from streamseg.client import listen, subscribe
+    from streamseg.commands.replay import replay
+    from streamseg.commands.serve import build
+    from streamseg.config import DaemonConfig
+    from streamseg.daemon import Daemon
+    from streamseg.io import write_npz
+    from streamseg.io.gaps import FILL_S
+
+    assert DaemonConfig().gap_fill == FILL_S  # one default for files and live streams
+    from streamseg.cli import build_parser
+
+    args = build_parser().parse_args(["serve", "--gap-fill", "0.5", "--state-dir", "none"])
+    config, algorithms = build(args)
+    assert config.gap_fill == 0.5
+    assert Daemon(config, algorithms).algorithms.gap_fill_s == 0.5
+
+    rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    rec = replace(rec, positions=rec.positions[:1800].copy(), rotations=None, metadata={})
+    knee = rec.skeleton.index("lfemur")
+    rec.positions[900:948, knee] = np.nan  # 0.4 s at 120 Hz
+    holes = tmp_path / "holes.npz"
+    write_npz(holes, rec)
+    for fill, filled in ((None, False), (0.5, True)):
+        flag = [] if fill is None else ["--gap-fill", str(fill)]
+        assert main(["segment", str(holes), "--online", "--json", *flag]) == 0
+        want = json.loads(capsys.readouterr().out)
+        assert [(g["start"], g["end"]) for g in want["gaps"]] == ([] if filled else
+                                                                   [(900, 948)])
+        _, ep = start_daemon(**({} if fill is None else {"gap_fill": fill}))
+        sub = subscribe(ep["publish"], ep["control"], stream="g")
+        replay(read(holes, gap_fill=0), ep["ingest"], stream="g", speed=0, batch=7)
+        events = list(listen(sub, stream="g", until_end=True, timeout=60))
+        assert [e.frame for e in events if e.type == "cut"] == want["cuts"]
+        gaps = [(e.expected, e.got, e.filled) for e in events if e.type == "gap"]
+        assert gaps == ([] if filled else [(900, 948, False)])

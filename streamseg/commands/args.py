@@ -45,7 +45,7 @@ def add_input_arguments(p: argparse.ArgumentParser, optional: bool = False,
     p.add_argument(
         "file",
         nargs="?" if optional else None,
-        help="recording (.amc[.gz], .bvh, .c3d, .npz; joint positions .csv/.npy/.npz) or "
+        help="recording (.amc[.gz], .bvh, .c3d, .trc, .npz; joint positions .csv/.npy/.npz) or "
              "feature matrix (.npy, .csv)",
     )
     p.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")

@@ -25,8 +25,8 @@ def add_arguments(parser) -> None:
     from streamseg.commands.args import endpoint, frame_rate
     from streamseg.commands.inputs import add_source_arguments
 
-    parser.add_argument("file", help="recording (.amc[.gz], .bvh, .c3d, .npz; joint positions "
-                                     ".csv/.npy/.npz)")
+    parser.add_argument("file", help="recording (.amc[.gz], .bvh, .c3d, .trc, .npz; joint "
+                                     "positions .csv/.npy/.npz)")
     parser.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
     parser.add_argument("--fps", type=frame_rate, default=None,
                         help="frame rate of positions without a time column; replaces the "

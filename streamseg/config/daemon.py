@@ -110,6 +110,10 @@ class DaemonConfig:
         ``insecure``).
     insecure : bool
         Allow binding a non-loopback address without CURVE.
+    gap_fill : float
+        Longest gap (seconds) in a joint that is filled by interpolation; a longer one is
+        skipped by the detectors and published as a ``gap`` event with ``filled: false``
+        (0: fill none). As ``streamseg segment --gap-fill``; why 0.25: docs/decisions.md.
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
@@ -149,6 +153,7 @@ class DaemonConfig:
     max_streams_per_client: int = 1000
     curve_dir: str = ""
     insecure: bool = False
+    gap_fill: float = 0.25
 
     def __post_init__(self):
         for name in ("ingest", "publish"):
@@ -226,6 +231,9 @@ class DaemonConfig:
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                    "a number > 0")
+        _check("gap_fill", self.gap_fill, isinstance(self.gap_fill, (int, float))
+               and not isinstance(self.gap_fill, bool) and 0 <= self.gap_fill <= 60,
+               "seconds >= 0 (0: fill no gap)")
         _check("max_fps", self.max_fps, self.max_fps >= self.min_fps, "a number >= min_fps")
         _check("checkpoint_interval", self.checkpoint_interval,
                isinstance(self.checkpoint_interval, (int, float)) and self.checkpoint_interval >= 0,

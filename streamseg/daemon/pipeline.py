@@ -55,8 +55,8 @@ class Algorithms:
         The exemplar memory that keeps ids beyond the relabel history
         (:mod:`streamseg.offline.label_memory`); None: off (ids carried by overlap only).
     gap_fill_s : float or None
-        Longest gap filled by interpolation, seconds (None: :data:`streamseg.io.gaps.FILL_S`,
-        as ``streamseg segment``).
+        Longest gap filled by interpolation, seconds (None: the daemon's
+        ``DaemonConfig.gap_fill``; outside a daemon :data:`streamseg.io.gaps.FILL_S`).
     """
 
     def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
@@ -67,9 +67,7 @@ class Algorithms:
         self.repetitions = repetitions
         self.rep_config = rep_config
         self.memory_config = memory_config
-        from streamseg.io.gaps import FILL_S
-
-        self.gap_fill_s = FILL_S if gap_fill_s is None else float(gap_fill_s)
+        self.gap_fill_s = None if gap_fill_s is None else float(gap_fill_s)
 
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
@@ -257,10 +255,11 @@ class StreamPipeline:
         self.previous = None  # the last relabel result (algorithm's own object)
         self.offset = 0  # stream frame of the segmenter's frame 0
         self.next_frame = 0  # stream frame expected next
-        from streamseg.io.gaps import GapFiller, fill_frames
+        from streamseg.io.gaps import FILL_S, GapFiller, fill_frames
 
+        fill_s = FILL_S if algorithms.gap_fill_s is None else algorithms.gap_fill_s
         # the joints of the bone features decide what a gap is; every joint is filled
-        self.filler = GapFiller(skeleton.n_joints, fill_frames(fps, algorithms.gap_fill_s),
+        self.filler = GapFiller(skeleton.n_joints, fill_frames(fps, fill_s),
                                 watch=np.unique(self.plan[0]))
         self.gaps = []  # (start, end) of gaps closed and not yet reported
         self.final_bad = 0  # frames skipped among those released at finish()

@@ -68,6 +68,8 @@ class Daemon(Intake):
             # the switch turns the memory on with its defaults; Algorithms(memory_config=...)
             # sets other ones (and turns it on by itself)
             self.algorithms.memory_config = LabelMemoryConfig()
+        if self.algorithms.gap_fill_s is None:  # Algorithms(gap_fill_s=...) wins over config
+            self.algorithms.gap_fill_s = float(self.config.gap_fill)
         self.ctx = zmq.Context()
         self.streams: dict[str, StreamState] = {}
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel

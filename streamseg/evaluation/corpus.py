@@ -27,7 +27,7 @@ from streamseg.evaluation.metrics import covering, cut_scores, latency_stats, ma
 from streamseg.exceptions import RecordingError
 
 LABEL_HEADER = ["sequence", "start_frame", "end_frame", "action_label"]
-RECORDING_SUFFIXES = (".amc.gz", ".amc", ".bvh", ".c3d", ".npz")
+RECORDING_SUFFIXES = (".amc.gz", ".amc", ".bvh", ".c3d", ".trc", ".npz")
 
 
 @dataclass

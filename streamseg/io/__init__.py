@@ -2,7 +2,7 @@
 
 >>> from streamseg.io import READERS
 >>> sorted(READERS)
-['.amc', '.bvh', '.c3d', '.csv', '.npy', '.npz']
+['.amc', '.bvh', '.c3d', '.csv', '.npy', '.npz', '.trc']
 
 Every reader returns a :class:`~streamseg.recording.Recording`; :func:`read` then fills the
 short gaps of its joint positions (:mod:`streamseg.io.gaps`), the same way the daemon fills
@@ -22,6 +22,7 @@ from streamseg.io.bvh import read_bvh
 from streamseg.io.gaps import FILL_S, fill_gaps
 from streamseg.io.npz import read_npz, write_npz
 from streamseg.io.positions import read_positions
+from streamseg.io.trc import read_trc
 from streamseg.recording import Recording
 
 
@@ -45,12 +46,12 @@ def _read_npz(path, skeleton=None, **kw):
 
 
 READERS = {".amc": read_amc, ".bvh": read_bvh, ".c3d": _read_c3d, ".csv": read_positions,
-           ".npy": read_positions, ".npz": _read_npz}
+           ".npy": read_positions, ".npz": _read_npz, ".trc": read_trc}
 #: readers that take ``joints=`` (the joint set of unnamed columns) or ``markers=``
 _JOINTS = (".csv", ".npy", ".npz")
 
 __all__ = ["READERS", "read", "read_amc", "read_bvh", "read_npz", "read_positions",
-           "write_npz"]
+           "read_trc", "write_npz"]
 
 
 def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None,
@@ -60,7 +61,7 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
     Parameters
     ----------
     path : str or Path
-        ``.amc`` (optionally ``.gz``), ``.bvh``, ``.c3d``, ``.npz``, or joint positions
+        ``.amc`` (optionally ``.gz``), ``.bvh``, ``.c3d``, ``.trc``, ``.npz``, or joint positions
         ``.csv``/``.npy`` (:mod:`streamseg.io.positions`).
     skeleton : str or Path, optional
         ASF skeleton, required for AMC.
@@ -79,7 +80,7 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
     if not Path(path).is_file():  # before anything else: a typo is not a format problem
         raise RecordingError(Path(path), None,
                              "no such file" if not Path(path).exists() else "not a file",
-                             "the path of a recording (.amc[.gz], .bvh, .c3d, .npz, .csv, "
+                             "the path of a recording (.amc[.gz], .bvh, .c3d, .trc, .npz, .csv, "
                              ".npy)")
     suffix = base_suffix(path)
     reader = READERS.get(suffix)

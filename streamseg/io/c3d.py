@@ -96,16 +96,18 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
     c, problem = _open(path)
     info = c3d_info(c)
     points = np.asarray(c["data"]["points"], dtype=np.float64)  # (4, n_markers, n_frames)
-    n_said = max(info["last_frame"] - info["first_frame"] + 1, _announced_frames(path, c))
+    n_said, held = _frames_in_file(path)
+    n_said = max(n_said, points.shape[2])
+    held = points.shape[2] if held < 0 else held
     warnings = []
-    if problem is not None or points.shape[2] < n_said:
+    if problem is not None or held < n_said:
         kept = points.shape[2]
         if not lenient or kept == 0:
             raise TruncatedRecordingError(path, None, f"{kept} readable frames of the {n_said} "
-                                          f"the header announces ({problem or 'cut off'})",
+                                          f"the file announces ({problem or 'cut off'})",
                                           "a complete C3D file")
         warnings.append(f"{path.name}: the file was cut off: {kept} frames of the {n_said} "
-                        f"the header announces kept ({n_said - kept} dropped)")
+                        f"the file announces kept ({n_said - kept} dropped)")
     labels = info["labels"][:points.shape[1]]
     if not labels:
         raise RecordingError(path, None, "no marker trajectories (POINT:LABELS is empty)",
@@ -136,31 +138,82 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
                       "markers": labels, "warnings": warnings})
 
 
-def _announced_frames(path: Path, c) -> int:
-    """Frames the exporter announced: the file's own header words (ezc3d shortens its copy of
-    the header to what a cut-off file holds) or ``TRIAL:ACTUAL_START/END_FIELD`` (Vicon,
-    also past 65535 frames). 0 when neither says."""
+def _frames_in_file(path: Path) -> tuple[int, int]:
+    """``(announced, held)``: the frames the file says it has and the frames its bytes hold.
+
+    C3D says its length three ways: the header's first and last frame (16-bit words),
+    ``POINT:FRAMES`` and, past 65535 frames, ``TRIAL:ACTUAL_START/END_FIELD`` (Vicon).
+    Exporters disagree (an Optotrak file's header says 1149 frames, its ``POINT:FRAMES``
+    and its bytes 29), so the file is cut off only when its data section holds fewer frames
+    than every count it gives; past 65535 frames the TRIAL count alone is said. Read from the
+    file's own bytes: ezc3d rewrites its copy of the header and ``POINT:FRAMES`` to what a
+    cut-off file holds. ``(0, -1)`` when the header cannot be read.
+    """
     import struct
 
-    n = 0
     try:
         with open(path, "rb") as fh:
-            head = fh.read(512)
-            fh.seek(max(head[0] - 1, 0) * 512)
-            param = fh.read(4)
-        order = ">" if len(param) == 4 and param[3] == 86 else "<"  # 86: MIPS, big-endian
-        first, last = struct.unpack(order + "HH", head[6:10])
-        n = last - first + 1
-    except (OSError, struct.error, IndexError):
-        pass
-    start = _param(c, "TRIAL", "ACTUAL_START_FIELD", None)
-    end = _param(c, "TRIAL", "ACTUAL_END_FIELD", None)
-    if start is not None and end is not None and len(start) == 2 and len(end) == 2:
+            data = fh.read()
+        head = data[:512]
+        order = ">" if data[(head[0] - 1) * 512 + 3] == 86 else "<"  # 86: MIPS, big-endian
+        n_points, n_analog, first, last = struct.unpack(order + "4H", head[2:10])
+        start = struct.unpack(order + "H", head[16:18])[0]
+        params = _raw_params(data, head[0], order)
+    except (struct.error, IndexError, ValueError):
+        return 0, -1
+    counts = [last - first + 1]
+    if params.get(("POINT", "FRAMES")):
+        counts.append(int(params["POINT", "FRAMES"][0]) & 0xFFFF)
+    s, e = params.get(("TRIAL", "ACTUAL_START_FIELD")), params.get(("TRIAL", "ACTUAL_END_FIELD"))
+    if s is not None and e is not None and len(s) == 2 and len(e) == 2:
         # two 16-bit words each: low word first (C3D user guide)
-        s0 = int(start[0]) & 0xFFFF | (int(start[1]) & 0xFFFF) << 16
-        e0 = int(end[0]) & 0xFFFF | (int(end[1]) & 0xFFFF) << 16
-        n = max(n, e0 - s0 + 1)
-    return n
+        span = ((int(e[0]) & 0xFFFF | (int(e[1]) & 0xFFFF) << 16)
+                - (int(s[0]) & 0xFFFF | (int(s[1]) & 0xFFFF) << 16) + 1)
+        counts = [span] if span > 65535 else counts + [span]
+    scale = params.get(("POINT", "SCALE"), [-1.0])[0]
+    start = int(params.get(("POINT", "DATA_START"), [start])[0]) or start
+    frame_bytes = (4 * n_points + n_analog) * (4 if scale < 0 else 2)
+    held = max(len(data) - (start - 1) * 512, 0) // frame_bytes if frame_bytes and start else -1
+    counts = [n for n in counts if n > 0]
+    return (min(counts) if counts else 0), held
+
+
+def _raw_params(data: bytes, block: int, order: str) -> dict:
+    """The numeric parameters of a C3D parameter section: ``(GROUP, NAME) -> list``.
+
+    Records (C3D user guide): name length (int8; 0 ends), id (int8: a group if negative, else
+    the parameter's group), name, offset to the next record (int16); a parameter then has its
+    type (-1 char, 1 byte, 2 int16, 4 float), its dimensions and its data.
+    """
+    import struct
+
+    dec = data[(block - 1) * 512 + 3] == 85  # DEC floats: IEEE with the words swapped, x4
+    pos, groups, found = (block - 1) * 512 + 4, {}, []
+    while pos + 4 < len(data):
+        length, ident = struct.unpack("bb", data[pos:pos + 2])
+        if length == 0:
+            break
+        name = data[pos + 2:pos + 2 + abs(length)].decode("latin-1").strip().upper()
+        here = pos + 2 + abs(length)
+        step = struct.unpack(order + "h", data[here:here + 2])[0]
+        if ident < 0:
+            groups[-ident] = name
+        else:
+            kind, ndim = struct.unpack("bb", data[here + 2:here + 4])
+            dims = data[here + 4:here + 4 + ndim]
+            count = int(np.prod(list(dims))) if ndim else 1
+            raw = data[here + 4 + ndim:here + 4 + ndim + count * abs(kind)]
+            if kind == 2:
+                found.append((ident, name, list(struct.unpack(f"{order}{count}h", raw))))
+            elif kind == 4:
+                if dec:
+                    raw = b"".join(raw[i + 2:i + 4] + raw[i:i + 2] for i in range(0, len(raw), 4))
+                values = struct.unpack(f"{order}{count}f", raw)
+                found.append((ident, name, [v / 4 if dec else v for v in values]))
+        if step == 0:
+            break
+        pos = here + step
+    return {(groups.get(g, ""), name): values for g, name, values in found}
 
 
 def _up_axis(joints: np.ndarray, c) -> str:
@@ -207,19 +260,26 @@ def write_events(source, out, segments, fps: float, *, method: str = "streamseg"
         raise RecordingError(source, None, f"a damaged C3D file ({problem})",
                              "a complete C3D file to copy the events into")
     first = c3d_info(c)["first_frame"]
-    _complete_event_group(c)
+    table = _event_table(c)
     n = 0
     for i, seg in enumerate(segments):
         start, end, label = ((seg["start"], seg["end"], seg.get("label")) if isinstance(seg, dict)
                              else seg)
         if label is None and i == 0:
             continue  # a cut detector's first segment starts at the take's start
-        name = f"Action {label}" if label is not None else "Cut"
-        seconds = (first + int(start)) / float(fps)
-        c.add_event(time=[0, seconds], context=context, label=name,
-                    description=f"streamseg {method}: segment {i}, frames {int(start)}-"
-                                f"{int(end)}")
+        row = {"TIMES": (0.0, (first + int(start)) / float(fps)), "CONTEXTS": context,
+               "LABELS": f"Action {label}" if label is not None else "Cut",
+               "DESCRIPTIONS": f"streamseg {method}: segment {i}, frames {int(start)}-"
+                               f"{int(end)}", "SUBJECTS": "", "ICON_IDS": 0, "GENERIC_FLAGS": 0}
+        for name, value in row.items():
+            table[name].append(value)
         n += 1
+    if table["TIMES"]:
+        c.add_parameter("EVENT", "USED", len(table["TIMES"]))
+        c.add_parameter("EVENT", "TIMES", np.asarray(table["TIMES"], dtype=np.float64).T)
+        for name, values in table.items():
+            if name != "TIMES":
+                c.add_parameter("EVENT", name, values)
     try:
         c.write(str(out))
     except (OSError, RuntimeError) as err:
@@ -228,34 +288,32 @@ def write_events(source, out, segments, fps: float, *, method: str = "streamseg"
     return n
 
 
-def _complete_event_group(c) -> None:
-    """Give an ``EVENT`` group the parameters some exporters leave out (Qualisys writes
-    LABELS and TIMES only), so that events can be added to it."""
-    ev = c["parameters"].get("EVENT")
-    if not ev or "USED" not in ev:
-        return
-    used = int(np.asarray(ev["USED"]["value"]).ravel()[0])
-    for name, fill in (("CONTEXTS", "General"), ("LABELS", ""), ("DESCRIPTIONS", ""),
-                       ("SUBJECTS", ""), ("ICON_IDS", 0), ("GENERIC_FLAGS", 0)):
-        if name not in ev:
-            c.add_parameter("EVENT", name, [fill] * used)
-    if "TIMES" not in ev:
-        c.add_parameter("EVENT", "TIMES", np.zeros((2, used)))
+#: the EVENT parameters of one event each, and the value an exporter that left one out means
+_EVENT_FIELDS = {"CONTEXTS": "General", "LABELS": "", "DESCRIPTIONS": "", "SUBJECTS": "",
+                 "ICON_IDS": 0, "GENERIC_FLAGS": 0}
+
+
+def _event_table(c) -> dict:
+    """The file's events as lists, one entry per event: ``TIMES`` ``(minutes, seconds)`` and
+    the :data:`_EVENT_FIELDS`, a field the exporter left out filled with its default
+    (Qualisys writes LABELS and TIMES only; OptiTrack an EVENT group with USED = 0 alone)."""
+    ev = c["parameters"].get("EVENT") or {}
+    used = int(np.asarray(ev.get("USED", {}).get("value", [0])).ravel()[0]) if ev else 0
+    times = np.asarray(ev.get("TIMES", {}).get("value", np.zeros((2, used))),
+                       dtype=np.float64).reshape(2, -1)[:, :used]
+    used = min(used, times.shape[1])
+    table = {"TIMES": [(float(times[0, i]), float(times[1, i])) for i in range(used)]}
+    for name, fill in _EVENT_FIELDS.items():
+        values = list(ev.get(name, {}).get("value", []))[:used]
+        values = [str(v).strip() if isinstance(fill, str) else int(v) for v in values]
+        table[name] = values + [fill] * (used - len(values))
+    return table
 
 
 def read_events(path) -> list[dict]:
     """The events of a C3D file: ``label``, ``context``, ``time`` (s), ``description``."""
     c, _ = _open(Path(path))
-    ev = c["parameters"].get("EVENT", {})
-    if not ev or not int(np.asarray(ev.get("USED", {}).get("value", [0])).ravel()[0]):
-        return []
-    times = np.asarray(ev["TIMES"]["value"], dtype=np.float64)
-
-    def strings(name):
-        values = ev.get(name, {}).get("value", [])
-        return [str(x).strip() for x in values] + [""] * (times.shape[1] - len(values))
-
-    labels, contexts, descr = strings("LABELS"), strings("CONTEXTS"), strings("DESCRIPTIONS")
-    return [{"label": labels[i], "context": contexts[i] or "General",
-             "time": float(times[0, i] * 60 + times[1, i]), "description": descr[i]}
-            for i in range(times.shape[1])]
+    t = _event_table(c)
+    return [{"label": t["LABELS"][i], "context": t["CONTEXTS"][i] or "General",
+             "time": minutes * 60 + seconds, "description": t["DESCRIPTIONS"][i]}
+            for i, (minutes, seconds) in enumerate(t["TIMES"])]

@@ -271,12 +271,24 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
     if rate is None:
         raise RecordingError(path, None, "no frame rate", "--fps (frames per second), or a "
                              "time column (time, timestamp: seconds; time_ms) in the CSV")
-    names, pos = complete(names, pos)
-    n = len(names)
-    skel = Skeleton(tuple(names), np.full(n, -1, dtype=np.int64), np.zeros((n, 3)), units, up)
     meta = {"format": "positions", "warnings": warnings}
     if joints:
         meta["joints"] = joints
+    return positions_recording(path, names, pos, float(rate), units, up, meta)
+
+
+def positions_recording(path, names, pos, rate: float, units: str, up: str | None,
+                        meta: dict) -> Recording:
+    """A recording of named joint positions, the trunk points a pose model lacks added
+    (:func:`streamseg.skeleton.joint_sets.complete`); ``up=None``: the axis the body stands
+    along, else ``y``."""
+    names, pos = complete(names, pos)
+    if up is None:
+        from streamseg.skeleton.bones import upright_axis
+
+        up = upright_axis(pos, names) or "y"
+    n = len(names)
+    skel = Skeleton(tuple(names), np.full(n, -1, dtype=np.int64), np.zeros((n, 3)), units, up)
     return Recording(float(rate), skel, np.ascontiguousarray(pos), None, str(path), meta)
 
 
