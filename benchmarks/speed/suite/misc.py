@@ -1,7 +1,9 @@
 """Start-up, reading and the live repetition counter.
 
 ``streamseg --help`` in a fresh interpreter (median of 5); 86_01 read from its AMC text
-(parse + forward kinematics) and from streamseg's ``.npz`` (median of 5); the live
+(parse + forward kinematics) and from streamseg's ``.npz`` (median of 5); the formats of
+data/sources read by ``streamseg.io.read`` (parse, joint map, gap filling; median of 5):
+CMU 01_01 as C3D markers, AMC and BVH, a Qualisys C3D, an OpenCap TRC, a Kinect CSV; the live
 repetition counter (:class:`streamseg.online.RepetitionCounter`, its public API: one
 ``learn_many`` per 4-frame packet of 86_01's joint positions), microseconds per frame.
 """
@@ -24,6 +26,15 @@ def track_help_seconds():
 track_help_seconds.unit = "s"
 
 
+#: (key, file under data/sources, read options): the reading speed of each format
+SOURCES = [("c3d_vicon_01_01", "c3d/cmu_01_01.c3d", {}),
+           ("amc_01_01", "cmu01/01_01.amc.gz", {"skeleton": "cmu01/01.asf"}),
+           ("bvh_01_01", "bvh/cc_01_01.bvh.gz", {}),
+           ("c3d_qualisys", "c3d/qualisys_isb.c3d", {}),
+           ("trc_opencap", "trc/opencap_walk.trc", {}),
+           ("csv_kinect", "keraal/kinect_ctk.csv", {"joints": "kinect", "fps": 30})]
+
+
 class Read:
     number = repeat = rounds = 1
     timeout = 300
@@ -38,8 +49,13 @@ class Read:
         with tempfile.TemporaryDirectory() as tmp:
             npz = Path(tmp) / "86_01.npz"
             write_npz(npz, rec)
-            return {"amc": median_time(lambda: read(amc, skeleton=asf), 5),
-                    "npz": median_time(lambda: read(npz), 5)}
+            out = {"amc": median_time(lambda: read(amc, skeleton=asf), 5),
+                   "npz": median_time(lambda: read(npz), 5)}
+        src = DATA / "sources"
+        for key, path, kw in SOURCES:
+            out[key] = median_time(lambda p=src / path, kw=kw: read(p, **{
+                k: src / v if k == "skeleton" else v for k, v in kw.items()}), 5)
+        return out
 
     def track_amc_seconds(self, cache):
         return cache["amc"]
@@ -50,6 +66,13 @@ class Read:
         return cache["npz"] * 1e3
 
     track_npz_ms.unit = "ms"
+
+    def track_source_ms(self, cache, source):
+        return cache[source] * 1e3
+
+    track_source_ms.unit = "ms"
+    track_source_ms.params = [[key for key, _, _ in SOURCES]]
+    track_source_ms.param_names = ["source"]
 
 
 def track_rep_counter_us_per_frame():

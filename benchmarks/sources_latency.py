@@ -1,12 +1,11 @@
-"""Sources: reading speed of each format, and event latency over LSL beside ZeroMQ replay.
+"""Sources: event latency over LSL beside ZeroMQ replay.
 
-Usage: python benchmarks/sources_speed.py [--runs 5] [--latency-runs 3] [--speed 2]
+Usage: python benchmarks/sources_latency.py [--latency-runs 3] [--speed 2]
 
-Table 1: median wall time of ``streamseg.io.read`` (parse, map, fill gaps) over ``--runs``
-reads, frames per second, and the ratio to the AMC of the same take in the same run (CMU
-01_01 is in data/sources as C3D markers, AMC and BVH).
+(The reading speed of each format is in the speed suite: ``benchmarks/speed.py --bench
+Read``.)
 
-Table 2: CMU 86_01 played in real time x ``--speed`` into a daemon (a `streamseg serve`
+CMU 86_01 played in real time x ``--speed`` into a daemon (a `streamseg serve`
 subprocess on loopback) two ways: frames pushed to its ZeroMQ ingest (as `streamseg replay`
 does, one frame per packet), and samples pushed to an LSL outlet read by a `streamseg lsl`
 subprocess (liblsl kept on this machine by an lsl_api.cfg written here). Latency of a cut:
@@ -30,44 +29,6 @@ from pathlib import Path
 import numpy as np
 import zmq
 from _common import DATA
-
-
-def median_time(fn, runs: int) -> float:
-    from streamseg.evaluation.corpus import timed
-
-    return timed(fn, runs)[1]
-
-
-def parsing(runs: int) -> None:
-    from streamseg.io import read, write_npz
-
-    src = DATA / "sources"
-    tmp = Path(tempfile.mkdtemp())
-    rec86 = read(DATA / "cmu86/86_01.amc.gz", skeleton=DATA / "cmu86/86.asf")
-    write_npz(tmp / "86_01.npz", rec86)
-    cases = [
-        ("CMU 01_01 AMC (.amc.gz)", "01_01", src / "cmu01/01_01.amc.gz", src / "cmu01/01.asf"),
-        ("CMU 01_01 C3D (Vicon, 42 markers)", "01_01", src / "c3d/cmu_01_01.c3d", None),
-        ("CMU 01_01 BVH (CC rig, 60 Hz)", "01_01", src / "bvh/cc_01_01.bvh.gz", None),
-        ("CMU 86_01 AMC (.amc.gz)", "86_01", DATA / "cmu86/86_01.amc.gz",
-         DATA / "cmu86/86.asf"),
-        ("CMU 86_01 .npz", "86_01", tmp / "86_01.npz", None),
-        ("Qualisys C3D (55 markers)", None, src / "c3d/qualisys_isb.c3d", None),
-        ("Kinect v2 positions .csv", None, src / "keraal/kinect_ctk.csv", None),
-    ]
-    print(f"{'input':<36}{'frames':>8}{'median s':>10}{'frames/s':>11}{'vs AMC':>8}")
-    amc = {}
-    for name, take, path, asf in cases:
-        kw = {"skeleton": asf} if asf else {}
-        if path.suffix == ".csv":
-            kw.update(joints="kinect", fps=30)
-        n = read(path, **kw).n_frames
-        t = median_time(lambda p=path, k=kw: read(p, **k), runs)
-        fps = n / t
-        if "AMC" in name:
-            amc[take] = fps
-        ratio = f"{fps / amc[take]:.2f}" if take in amc and "AMC" not in name else "-"
-        print(f"{name:<36}{n:>8}{t:>10.4f}{fps:>11.0f}{ratio:>8}")
 
 
 def _free_port() -> int:
@@ -209,12 +170,9 @@ def latency(runs: int, speed: float) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--latency-runs", type=int, default=3)
     ap.add_argument("--speed", type=float, default=2.0)
     args = ap.parse_args()
-    parsing(args.runs)
-    print()
     latency(args.latency_runs, args.speed)
 
 
