@@ -1,5 +1,6 @@
 """Joint positions as input: CSV with joint names, .npy/.npz arrays, --joints for Kinect,
-BlazePose, COCO-17 and BODY_25; real recordings of data/sources/keraal (README there)."""
+BlazePose, COCO-17 and BODY_25; real recordings of data/sources/keraal and blazepose (README
+there)."""
 
 from __future__ import annotations
 
@@ -107,6 +108,25 @@ def test_openpose_keypoints_it_did_not_find_are_gaps(data_dir):
     rec = read(data_dir / "sources" / "keraal" / "openpose_coco18_rtk.csv", fps=30)
     assert rec.metadata["filled_frames"] > 0  # joints missing in a few frames: filled
     assert (41, 74) in [tuple(g) for g in rec.metadata["gaps"]]  # a knee lost for 1.1 s
+
+
+def test_blazepose_world_landmarks_are_what_the_joint_set_says(data_dir, capsys):
+    """Real pose_world_landmarks (MediaPipe Pose on Pose2Sim's demo video, data/sources
+    README): metres about the hips' centre with y down, as --joints blazepose declares
+    (up -y), so a take reads without --up and its limbs have their size in metres."""
+    from streamseg.skeleton.bones import upright_axis
+
+    path = data_dir / "sources" / "blazepose" / "pose2sim_balance_world.npy"
+    rec = read(path, joints="blazepose", fps=60)
+    assert rec.skeleton.units == "m" and rec.skeleton.up == "-y"
+    assert upright_axis(rec.positions, rec.skeleton) == "-y"  # the body stands along -y
+    pelvis = rec.positions[:, rec.skeleton.index("pelvis")]  # the hips' midpoint
+    assert np.abs(pelvis).max() < 0.01
+    hip, knee = rec.skeleton.index("left_hip"), rec.skeleton.index("left_knee")
+    thigh = np.median(np.linalg.norm(rec.positions[:, hip] - rec.positions[:, knee], axis=1))
+    assert 0.3 < thigh < 0.6
+    assert main(["segment", str(path), "--joints", "blazepose", "--fps", "60", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["n_frames"] == 100
 
 
 def test_every_joint_set_reaches_the_canonical_points():
