@@ -118,6 +118,26 @@ def test_qualisys_sets(c3d_dir, name, mset):
     assert 100 < np.median(width) < 300  # mm: the distance between hip centres
 
 
+def test_a_c3d_of_joints_reads_by_their_names(data_dir, tmp_path):
+    """A C3D of a skeleton's joints (what inertial suits and solvers export), here CMU 86_01's
+    ASF joints written by ezc3d: named as the ASF names them, the same cuts as the AMC."""
+    import ezc3d
+
+    amc = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [amc.fps]
+    c["parameters"]["POINT"]["LABELS"]["value"] = list(amc.skeleton.names)
+    pts = np.ones((4, amc.skeleton.n_joints, amc.n_frames))
+    pts[:3] = np.transpose(amc.positions, (2, 1, 0))
+    c["data"]["points"] = pts
+    path = tmp_path / "86_01_joints.c3d"
+    c.write(str(path))
+    rec = read(path)
+    assert "marker_set" not in rec.metadata and rec.skeleton.up == amc.skeleton.up == "y"
+    np.testing.assert_allclose(rec.positions, amc.positions, atol=1e-4)
+    assert cuts_s(rec) == cuts_s(amc)
+
+
 def test_a_set_no_map_names_is_refused_with_the_missing_markers(c3d_dir, capsys):
     assert main(["segment", str(c3d_dir / "optotrak.c3d")]) == 2
     err = capsys.readouterr().err.strip()

@@ -89,4 +89,4 @@ def test_points_nothing_names_are_refused_with_what_is_missing(tmp_path, capsys)
         read(path)
     assert main(["segment", str(path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "l_knee (any of" in err
+    assert len(err.splitlines()) == 1 and "l_knee (LKNE)" in err and "joint names" in err

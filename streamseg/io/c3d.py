@@ -2,8 +2,10 @@
 segmentation events out. Needs ``ezc3d`` (``pip install 'streamseg[c3d]'``).
 
 Reading: the markers are mapped to the points the features need by the marker set that
-covers them best (:mod:`streamseg.skeleton.marker_sets`); a file no set covers is refused
-with the markers each point lacks. Missing samples (a negative residual, or a marker at
+covers them best (:mod:`streamseg.skeleton.marker_sets`); a C3D of a skeleton's joints (what
+inertial suits and solvers export) is read by its joint names instead
+(:func:`streamseg.io.positions.points_recording`); a file neither names is refused with the
+markers each point lacks. Missing samples (a negative residual, or a marker at
 exactly the origin) are NaN, and :func:`streamseg.io.read` fills short gaps as for any
 recording. The up axis is the one the body stands along in the file (C3D has no standard
 for it; ``POINT:Y_SCREEN`` when the body does not say).
@@ -20,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.exceptions import ParameterError, RecordingError, TruncatedRecordingError
-from streamseg.recording import Recording, Skeleton
+from streamseg.recording import Recording
 
 
 def _ezc3d():
@@ -81,16 +83,18 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
     Returns
     -------
     Recording
-        Joints :data:`streamseg.skeleton.marker_sets.JOINTS`; ``metadata`` has
-        ``marker_set``, ``manufacturer``, ``first_frame`` (the capture's frame number of
-        frame 0), ``markers`` (the labels) and ``warnings``.
+        Joints :data:`streamseg.skeleton.marker_sets.JOINTS` and ``metadata["marker_set"]``
+        for markers, the file's own joints for a skeleton's; ``metadata`` has
+        ``manufacturer``, ``first_frame`` (the capture's frame number of frame 0), ``markers``
+        (the labels) and ``warnings``.
 
     Raises
     ------
     RecordingError
-        Unreadable file; no marker set covers the labels (naming the missing markers).
+        Unreadable file; neither a marker set nor a skeleton names the labels (naming the
+        missing markers).
     """
-    from streamseg.skeleton.marker_sets import JOINTS, PARENTS, best_set, joint_positions
+    from streamseg.io.positions import points_recording
 
     path = Path(path)
     c, problem = _open(path)
@@ -112,30 +116,19 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
     if not labels:
         raise RecordingError(path, None, "no marker trajectories (POINT:LABELS is empty)",
                              "a C3D file with labelled markers")
-    mset, chosen, missing = best_set(labels)
-    if missing:
-        lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
-        raise RecordingError(path, None, f"{len(labels)} markers ({', '.join(labels[:12])}"
-                             f"{' ...' if len(labels) > 12 else ''})",
-                             f"a marker set streamseg maps; closest: {mset.name} "
-                             f"({mset.description}), which lacks, per joint: {lack}")
     xyz = np.transpose(points[:3], (2, 1, 0)).copy()  # (n_frames, n_markers, 3)
     meta = c["data"].get("meta_points", {})
     resid = meta.get("residuals")
     if resid is not None and np.shape(resid)[-1] == xyz.shape[0]:
         xyz[np.transpose(np.asarray(resid)[0]) < 0] = np.nan
     xyz[(xyz == 0).all(axis=2)] = np.nan  # exporters write a lost marker as (0, 0, 0)
-    joints = joint_positions(xyz, labels, chosen)
-    up = _up_axis(joints, c)
-    n = len(JOINTS)
-    skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((n, 3)), info["units"], up)
     rate = float(fps or info["rate"])
     if not rate > 0:
         raise RecordingError(path, None, f"point rate {info['rate']}", "a rate > 0, or --fps")
-    return Recording(rate, skel, joints, None, str(path),
-                     {"format": "c3d", "marker_set": mset.name,
-                      "manufacturer": info["manufacturer"], "first_frame": info["first_frame"],
-                      "markers": labels, "warnings": warnings})
+    meta = {"format": "c3d", "manufacturer": info["manufacturer"],
+            "first_frame": info["first_frame"], "markers": labels, "warnings": warnings}
+    return points_recording(path, xyz, labels, rate, info["units"], meta, up=_screen_up(c),
+                            noun="markers")
 
 
 def _frames_in_file(path: Path) -> tuple[int, int]:
@@ -216,15 +209,10 @@ def _raw_params(data: bytes, block: int, order: str) -> dict:
     return {(groups.get(g, ""), name): values for g, name, values in found}
 
 
-def _up_axis(joints: np.ndarray, c) -> str:
-    """The axis the body stands along, else ``POINT:Y_SCREEN``, else z."""
+def _screen_up(c) -> str:
+    """``POINT:Y_SCREEN`` as an up axis, else z (for a body that does not stand along one)."""
     from streamseg.recording import UP_AXES
-    from streamseg.skeleton.bones import upright_axis
-    from streamseg.skeleton.marker_sets import JOINTS
 
-    axis = upright_axis(joints, JOINTS)
-    if axis is not None:
-        return axis
     screen = _param(c, "POINT", "Y_SCREEN", [""])
     screen = str(screen[0]).strip().lower().lstrip("+") if len(screen) else ""
     return screen if screen in UP_AXES else "z"

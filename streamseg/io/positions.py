@@ -301,3 +301,52 @@ def _rate(times) -> float | None:
     if not steps.size:
         return None
     return float(round(1.0 / float(np.median(steps)), 6))
+
+
+def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta: dict, *,
+                     up: str = "y", noun: str = "points") -> Recording:
+    """Named 3-D points (C3D, TRC) as a recording.
+
+    Markers of a set streamseg maps become its joints (joint centres where the set defines
+    them, :mod:`streamseg.skeleton.marker_sets`); otherwise the names must be joints of a
+    skeleton streamseg knows (:data:`streamseg.skeleton.names.POINTS`: a skeleton exported by
+    an inertial suit, keypoints triangulated from video ...), a pose model's trunk added.
+
+    Parameters
+    ----------
+    xyz : ndarray, shape (n_frames, n_points, 3)
+        NaN where a point is missing.
+    up : str
+        The up axis when the body does not show one (it stands along an axis otherwise).
+    noun : str
+        What the file calls its points, for the error.
+
+    Raises
+    ------
+    RecordingError
+        Neither a marker set nor a skeleton names the points: the markers each joint lacks.
+    """
+    from streamseg.exceptions import SkeletonError
+    from streamseg.skeleton.bones import upright_axis
+    from streamseg.skeleton.marker_sets import JOINTS, PARENTS, best_set, joint_positions
+    from streamseg.skeleton.names import POINTS, resolve
+
+    mset, chosen, missing = best_set(names)
+    if not missing:
+        joints = joint_positions(xyz, names, chosen)
+        skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
+                        upright_axis(joints, JOINTS) or up)
+        return Recording(rate, skel, joints, None, str(path), {**meta, "marker_set": mset.name})
+    named, pos = complete(names, xyz)
+    try:
+        resolve(named, tuple(POINTS), POINTS)
+    except SkeletonError:
+        lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
+        raise RecordingError(path, None, f"{len(names)} {noun} ({', '.join(names[:12])}"
+                             f"{' ...' if len(names) > 12 else ''})",
+                             f"a marker set streamseg maps; closest: {mset.name} "
+                             f"({mset.description}), which lacks, per joint: {lack}; or the "
+                             "joint names of a skeleton streamseg knows (docs/guide/formats.md)"
+                             ) from None
+    return positions_recording(path, named, pos, rate, units, upright_axis(pos, named) or up,
+                               meta)

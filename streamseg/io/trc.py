@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from streamseg.exceptions import RecordingError, SkeletonError, TruncatedRecordingError
+from streamseg.exceptions import RecordingError, TruncatedRecordingError
+from streamseg.io.positions import points_recording
 from streamseg.recording import Recording
 
 
@@ -91,33 +92,7 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
         raise RecordingError(path, 3, "no DataRate", "a TRC DataRate > 0, or --fps")
     units = (keys.get("Units") or "unknown").strip()
     meta = {"format": "trc", "markers": names, "warnings": warnings}
-    return _points_recording(path, xyz, names, float(rate), units, meta)
-
-
-def _points_recording(path, xyz, names, rate, units, meta) -> Recording:
-    """Markers of a set streamseg maps, else joints named as a skeleton it knows."""
-    from streamseg.io.positions import positions_recording
-    from streamseg.recording import Skeleton
-    from streamseg.skeleton.bones import upright_axis
-    from streamseg.skeleton.marker_sets import JOINTS, PARENTS, best_set, joint_positions
-    from streamseg.skeleton.names import POINTS, resolve
-
-    mset, chosen, missing = best_set(names)
-    if not missing:
-        joints = joint_positions(xyz, names, chosen)
-        skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
-                        upright_axis(joints, JOINTS) or "y")
-        return Recording(rate, skel, joints, None, str(path), {**meta, "marker_set": mset.name})
-    rec = positions_recording(path, names, xyz, rate, units, None, meta)
-    try:
-        resolve(rec.skeleton.names, tuple(POINTS), POINTS)
-    except SkeletonError as err:
-        lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
-        raise RecordingError(path, 4, f"{len(names)} points ({', '.join(names[:12])}"
-                             f"{' ...' if len(names) > 12 else ''})",
-                             f"the markers of a set streamseg maps (closest: {mset.name}, "
-                             f"which lacks {lack}) or joint names: {err}") from None
-    return rec
+    return points_recording(path, xyz, names, float(rate), units, meta)  # OpenSim: y up
 
 
 def _number(text) -> float | None:
