@@ -11,7 +11,7 @@ joined back to back, per sensor (Kinect v2, BlazePose, AlphaPose COCO-17 and Ope
 keypoints): the cuts, the two joins, and how far the nearest cut is from each join. The joins
 are abrupt, not natural transitions (a concatenation, as data/README.md describes).
 
-Table 3: every whole take of another system in data/sources (C3D and TRC), as read by
+Table 3: every whole take of another system in data/sources (C3D, TRC, 3-D keypoints), as read by
 ``streamseg.io.read``: system, marker set or names, length, and the cuts (defaults), in seconds.
 """
 
@@ -66,16 +66,20 @@ def keypoints() -> None:
 
 
 def systems() -> None:
-    takes = [("c3d/vicon_pig_stairs.c3d", "Vicon Nexus"),
-             ("c3d/optitrack_tennis_serve.c3d", "OptiTrack Motive"),
-             ("c3d/qualisys_isb.c3d", "Qualisys"), ("c3d/qualisys_sports.c3d", "Qualisys"),
-             ("trc/opencap_walk.trc", "OpenCap (OpenPose 3-D)")]
-    print(f"{'take':<32}{'system':<24}{'named by':<16}{'fps':>5}{'s':>7}  cuts (s)")
-    for path, system in takes:
-        rec = read(SRC / path)
+    takes = [("c3d/vicon_pig_stairs.c3d", "Vicon Nexus", {}),
+             ("c3d/optitrack_tennis_serve.c3d", "OptiTrack Motive", {}),
+             ("c3d/qualisys_isb.c3d", "Qualisys", {}), ("c3d/qualisys_sports.c3d", "Qualisys", {}),
+             ("trc/opencap_walk.trc", "OpenCap (OpenPose 3-D)", {}),
+             ("aist/gBR_sBM_cAll_d04_mBR0_ch03_coco17.npy", "AIST++ (COCO-17 3-D)",
+              {"joints": "coco17", "fps": 60}),
+             ("blazepose/pose2sim_balance_world.npy", "MediaPipe world",
+              {"joints": "blazepose", "fps": 60})]
+    print(f"{'take':<42}{'system':<24}{'named by':<16}{'fps':>5}{'s':>7}  cuts (s)")
+    for path, system, kw in takes:
+        rec = read(SRC / path, **kw)
         found = cuts(rec.positions, rec.skeleton, rec.fps)
-        named = rec.metadata.get("marker_set", "joint names")
-        print(f"{Path(path).name:<32}{system:<24}{named:<16}"
+        named = rec.metadata.get("marker_set", kw.get("joints", "joint names"))
+        print(f"{Path(path).name:<42}{system:<24}{named:<16}"
               f"{rec.fps:>5.0f}{rec.n_frames / rec.fps:>7.1f}  "
               f"{', '.join(f'{c / rec.fps:.2f}' for c in found) or '-'}")
 

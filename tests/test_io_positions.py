@@ -1,6 +1,6 @@
 """Joint positions as input: CSV with joint names, .npy/.npz arrays, --joints for Kinect,
-BlazePose, COCO-17 and BODY_25; real recordings of data/sources/keraal and blazepose (README
-there)."""
+BlazePose, COCO-17 and BODY_25; real recordings of data/sources/keraal, blazepose and aist
+(README there)."""
 
 from __future__ import annotations
 
@@ -127,6 +127,25 @@ def test_blazepose_world_landmarks_are_what_the_joint_set_says(data_dir, capsys)
     assert 0.3 < thigh < 0.6
     assert main(["segment", str(path), "--joints", "blazepose", "--fps", "60", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["n_frames"] == 100
+
+
+def test_coco17_keypoints_in_3d_of_a_dance(data_dir, capsys):
+    """AIST++ COCO-17 keypoints triangulated from nine cameras (centimetres, world frame with
+    y up, 60 Hz): 11.7 s of one basic break-dance move repeated, then standing. COCO
+    keypoints come in any frame, so the up axis is the body's (y here, where image keypoints
+    give -y); the one repeated move is not cut (checked by eye on a plot of wrists and
+    ankles), a cut is allowed only where the dancer stops."""
+    path = data_dir / "sources" / "aist" / "gBR_sBM_cAll_d04_mBR0_ch03_coco17.npy"
+    rec = read(path, joints="coco17", fps=60)
+    assert rec.skeleton.up == "y" and rec.n_frames == 720
+    names = rec.skeleton.names
+    hands = rec.positions[:, [names.index("left_wrist"), names.index("right_wrist")]]
+    hands = hands - rec.positions[:, [names.index("pelvis")]]
+    speed = np.linalg.norm(np.diff(hands, axis=0), axis=2).max(axis=1) * rec.fps / 100  # m/s
+    stop = np.flatnonzero(speed > 0.5)[-1]
+    assert main(["segment", str(path), "--joints", "coco17", "--fps", "60", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert all(abs(c - stop) <= rec.fps for c in res["cuts"]), (res["cuts"], stop)
 
 
 def test_every_joint_set_reaches_the_canonical_points():

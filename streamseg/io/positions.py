@@ -263,10 +263,10 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
         else:
             pos = _unnamed(path, arr, joints)
             names = None
-    units, up = "unknown", "y"
+    units, up, detect = "unknown", "y", True  # named joints: any producer, any frame
     if names is None:
         js = joint_set(joints)
-        names, units, up = js.names, js.units, js.up
+        names, units, up, detect = js.names, js.units, js.up, not js.fixed_up
     rate = fps or file_fps or _rate(times)
     if rate is None:
         raise RecordingError(path, None, "no frame rate", "--fps (frames per second), or a "
@@ -274,19 +274,20 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
     meta = {"format": "positions", "warnings": warnings}
     if joints:
         meta["joints"] = joints
-    return positions_recording(path, names, pos, float(rate), units, up, meta)
+    return positions_recording(path, names, pos, float(rate), units, up, meta, detect=detect)
 
 
-def positions_recording(path, names, pos, rate: float, units: str, up: str | None,
-                        meta: dict) -> Recording:
+def positions_recording(path, names, pos, rate: float, units: str, up: str, meta: dict, *,
+                        detect: bool = False) -> Recording:
     """A recording of named joint positions, the trunk points a pose model lacks added
-    (:func:`streamseg.skeleton.joint_sets.complete`); ``up=None``: the axis the body stands
-    along, else ``y``."""
+    (:func:`streamseg.skeleton.joint_sets.complete`); ``detect``: the up axis is the one the
+    body stands along (:func:`streamseg.skeleton.bones.upright_axis`), ``up`` when no axis is
+    clear."""
     names, pos = complete(names, pos)
-    if up is None:
+    if detect:
         from streamseg.skeleton.bones import upright_axis
 
-        up = upright_axis(pos, names) or "y"
+        up = upright_axis(pos, names) or up
     n = len(names)
     skel = Skeleton(tuple(names), np.full(n, -1, dtype=np.int64), np.zeros((n, 3)), units, up)
     return Recording(float(rate), skel, np.ascontiguousarray(pos), None, str(path), meta)
@@ -337,9 +338,8 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
         skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
                         upright_axis(joints, JOINTS) or up)
         return Recording(rate, skel, joints, None, str(path), {**meta, "marker_set": mset.name})
-    named, pos = complete(names, xyz)
     try:
-        resolve(named, tuple(POINTS), POINTS)
+        resolve(complete(names, xyz[:1])[0], tuple(POINTS), POINTS)
     except SkeletonError:
         lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
         raise RecordingError(path, None, f"{len(names)} {noun} ({', '.join(names[:12])}"
@@ -348,5 +348,4 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
                              f"({mset.description}), which lacks, per joint: {lack}; or the "
                              "joint names of a skeleton streamseg knows (docs/guide/formats.md)"
                              ) from None
-    return positions_recording(path, named, pos, rate, units, upright_axis(pos, named) or up,
-                               meta)
+    return positions_recording(path, names, xyz, rate, units, up, meta, detect=True)

@@ -31,12 +31,18 @@ class JointSet:
     units : str
     source : str
         Where the order is defined.
+    fixed_up : bool
+        The producer writes one frame (Kinect camera space, BlazePose world landmarks): ``up``
+        holds. Otherwise (COCO and BODY_25 keypoints come in image, camera or world frames,
+        as the lifting or triangulating tool chose) the up axis is the one the body stands
+        along, ``up`` when no axis is clear.
     """
 
     names: tuple
     up: str
     units: str
     source: str
+    fixed_up: bool = True
 
 
 KINECT_V2 = JointSet(
@@ -60,13 +66,14 @@ COCO17 = JointSet(
     ("nose", "left_eye", "right_eye", "left_ear", "right_ear", "left_shoulder",
      "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hip",
      "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle"),
-    "-y", "unknown", "COCO keypoints (person_keypoints), 17 in their order")
+    "-y", "unknown", "COCO keypoints (person_keypoints), 17 in their order", fixed_up=False)
 
 BODY25 = JointSet(
     ("Nose", "Neck", "RShoulder", "RElbow", "RWrist", "LShoulder", "LElbow", "LWrist",
      "MidHip", "RHip", "RKnee", "RAnkle", "LHip", "LKnee", "LAnkle", "REye", "LEye", "REar",
      "LEar", "LBigToe", "LSmallToe", "LHeel", "RBigToe", "RSmallToe", "RHeel"),
-    "-y", "unknown", "OpenPose BODY_25 keypoints (output/keypoints JSON order)")
+    "-y", "unknown", "OpenPose BODY_25 keypoints (output/keypoints JSON order)",
+    fixed_up=False)
 
 #: ``--joints`` values.
 JOINT_SETS = {"kinect": KINECT_V2, "blazepose": BLAZEPOSE, "coco17": COCO17, "body25": BODY25}
