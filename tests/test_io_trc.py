@@ -90,3 +90,15 @@ def test_points_nothing_names_are_refused_with_what_is_missing(tmp_path, capsys)
     assert main(["segment", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "l_knee (LKNE)" in err and "joint names" in err
+
+
+def test_a_row_without_its_trailing_points_has_them_as_gaps(walk, tmp_path):
+    lines = walk.read_text().split("\n")
+    lines[10] = "\t".join(lines[10].split("\t")[:-6])  # row 5 lacks its last two points
+    path = tmp_path / "short.trc"
+    path.write_text("\n".join(lines))
+    rec = read(path, gap_fill=0)
+    names = rec.metadata["markers"]
+    assert rec.n_frames == 222 and not rec.metadata["warnings"]
+    last = rec.skeleton.index(names[-1])
+    assert np.isnan(rec.positions[4, last]).all() and np.isfinite(rec.positions[5, last]).all()

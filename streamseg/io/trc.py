@@ -4,7 +4,8 @@ them): named 3-D points, tab-separated.
 Header (OpenSim's ``.trc``): a ``PathFileType`` line; a line of keys (``DataRate``,
 ``NumFrames``, ``Units`` ...) and one of their values; ``Frame#``, ``Time`` and the point
 names (each followed by two empty cells); ``X1 Y1 Z1 X2 ...``. Then one row per frame. An
-empty cell or ``NaN`` is a gap.
+empty cell, ``NaN``, or a row that stops before its last points (some exporters leave trailing
+gaps out) is a gap.
 
 The points are named in one of two ways, tried in this order:
 
@@ -52,7 +53,8 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
         missing).
     """
     path = Path(path)
-    lines = path.read_text(encoding="utf-8", errors="replace").replace("\r\n", "\n").split("\n")
+    text = path.read_text(encoding="utf-8", errors="replace").replace("\r\n", "\n")
+    lines = text.split("\n")
     if len(lines) < 5 or not lines[0].startswith("PathFileType"):
         raise RecordingError(path, 1, f"{lines[0][:40]!r}", "a TRC file (PathFileType ...)")
     keys = dict(zip(lines[1].split("\t"), lines[2].split("\t"), strict=False))
@@ -69,8 +71,11 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
             row = [float(c) if c.strip() else np.nan for c in cells]
         except ValueError:
             row = []
+        last = k == len(body) - 1
+        if 2 <= len(row) < width and not (last and not text.endswith("\n")):
+            row += [np.nan] * (width - len(row))  # trailing points left out: gaps
         if len(row) != width:
-            if k == len(body) - 1:
+            if last:
                 warnings.append(f"{path.name}: the last row (line {lineno}) is incomplete")
                 break
             raise RecordingError(path, lineno, f"{line[:50]!r}", f"{width} tab-separated "
