@@ -12,108 +12,67 @@ from streamseg.recording import UP_AXES
 class DaemonConfig:
     """Options of ``streamseg serve`` (TOML table ``[daemon]``; flags of the same names).
 
+    Why each default is what it is: ``docs/decisions.md``; how the parts fit:
+    ``docs/architecture.md``.
+
     Attributes
     ----------
     ingest, publish, control : str
-        ZeroMQ endpoints the daemon binds: PULL for frame packets, PUB for events, REP for
-        control requests (``control=""`` disables it). Loopback by default.
+        Endpoints bound: PULL frame packets, PUB events, REP control (``""``: no control).
     max_streams : int
         Streams held at once; a further announcement gets an ``error`` event.
     idle_timeout : float
         Seconds without a packet after which a stream is closed (reason ``idle``).
     relabel_interval, relabel_history : float
-        Relabel each stream every R seconds of its own time over its last H seconds
-        (``relabel_interval=0``: off); H also bounds each stream's buffer (60 s at 120 Hz:
-        547 kB). Why these values: ``docs/decisions.md`` (Labels).
+        Relabel every R seconds of stream time over the last H seconds (R = 0: never).
     label_memory : bool
-        Keep a bounded memory of each stream's actions (at most 130 kB per stream,
-        :class:`streamseg.config.memory.LabelMemoryConfig`) so an action that returns after
-        ``relabel_history`` gets its old id; off, ids are carried only by the overlap of
-        successive windows.
+        Keep each stream's actions (<= 130 kB) so one that returns after H gets its old id.
     heartbeat : float
         Seconds between ``stats`` events (0: none).
     max_packet_frames : int
         Largest frame count accepted in one packet (bounds memory per message).
     drain, drain_frames : int
-        Most packets, and frames, taken from the socket before the per-stream computation
-        runs once on all of them (the vectorised path; larger is faster, smaller has lower
-        latency).
+        Most packets, and frames, taken from the socket before one vectorised pipeline step.
     ingest_hwm, hwm : int
-        ZeroMQ high-water marks (messages) of the ingest and the publish socket. The ingest
-        queue is what bounds the daemon's memory under overload (senders then wait): at most
-        ``ingest_hwm`` packets are buffered, e.g. 2000 x 60 frames x 31 joints = 90 MB.
+        ZeroMQ high-water marks (messages) of ingest (bounds memory; senders wait) and publish.
     default_skeleton, default_fps, default_up : str, float, str
-        An ASF file whose skeleton (and this rate and up axis, one of ``x y z -x -y -z``)
-        serves streams that send frames without an announcement; ``""`` requires
-        announcements.
+        ASF file, rate and up axis for streams sent without announcement (``""``: refuse them).
     shutdown_relabel : float
         Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
     repetitions : bool
-        Count repetitions live (``rep`` events from
-        :class:`streamseg.online.RepetitionCounter`; 5-25 us of CPU per frame, see
-        docs/results.md). Off by default: ``rep`` events only where a client wants them.
+        Count repetitions live (``rep`` events; 5-25 us of CPU per frame).
     relabel_processes : int
-        0: relabel in a thread of the daemon (ACA's Python parts share the GIL with ingest);
-        N > 0: the worker thread hands each job to a pool of N processes.
+        Processes of the ``process`` backend's pool; > 0 alone also selects that backend.
     relabel_backend : str
-        Where relabel jobs run: ``thread`` (a thread of the daemon), ``process`` (that thread
-        hands each job to a pool of ``relabel_processes`` processes, at least 1) or ``dask``
-        (each job goes to the Dask cluster of ``relabel_scheduler``, several at once; results
-        are published as they return, in revision order per stream; a failed or lost job
-        runs locally, with an ``error`` event ``relabel_backend``). ``dask`` needs
-        ``pip install streamseg[dask]``.
+        Where relabel jobs run: ``thread``, ``process`` or ``dask`` (``streamseg[dask]``).
     relabel_scheduler : str
-        With ``relabel_backend = "dask"``: the scheduler's address, e.g.
-        ``tcp://10.0.0.5:8786``; ``""`` starts a local cluster (one worker process per core,
-        on 127.0.0.1).
+        Dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (``""``: a local cluster).
     relabel_share : float
-        With relabelling in a thread and jobs waiting, the worker pauses after each job so
-        relabelling takes at most this share of the time (it shares the GIL with ingest):
-        the pause is the job's CPU time x (1 / share - 1), so time it waited for the GIL is
-        not counted as its own; 1 = no pause.
+        Most share of time an in-thread relabel takes while jobs wait (1: no pause).
     receive_thread : bool
-        Receive and decode packets in a thread of their own, overlapping the detector's
-        GIL-free kernels. Faster for one high-rate stream of small packets, slower with many
-        streams (each GIL hand-back after a kernel call waits for the receiver), hence off.
+        Receive and decode packets in a thread of their own (faster for one busy stream).
     state_dir : str
-        Directory of the event log (``events.sqlite``) and the stream checkpoints
-        (``checkpoints.sqlite``). ``""``: none (the library default); ``streamseg serve`` uses
-        ``$XDG_STATE_HOME/streamseg`` (``~/.local/state/streamseg``) unless told
-        ``--state-dir none``.
+        Directory of ``events.sqlite`` and ``checkpoints.sqlite`` (``""``, serve ``none``: off).
     log_max_mb, log_max_days : float
-        Event log retention: the oldest events are deleted beyond this size (MB of live
-        pages) or age (days).
+        Event log retention: oldest events deleted beyond this size (MB) or age (days).
     checkpoint_interval : float
-        Seconds between checkpoints of every open stream's state (0: none); after a crash a
-        restart with the same ``state_dir`` resumes each stream from its last checkpoint.
+        Seconds between checkpoints of every open stream (0: none); a restart resumes them.
     max_message_bytes : int
-        ZMQ_MAXMSGSIZE of the ingest socket: a larger message is dropped by ZeroMQ (and the
-        sender's connection closed) before it takes memory.
+        Largest ingest message (ZMQ_MAXMSGSIZE); ZeroMQ drops a larger one unread.
     max_seq_jump : float
-        Seconds (x fps frames) a packet's ``seq`` may jump ahead of the expected frame; a
-        larger jump is an ``error`` (reason ``seq``) and the packet is dropped, so one bad
-        number cannot make every later good packet a duplicate.
+        Seconds of frames a ``seq`` may jump ahead; beyond, the packet is dropped (``seq``).
     min_fps, max_fps : float
         Announced frame rates outside this range are refused (``field`` error).
     gap_events_per_s, stray_errors_per_s : float
-        Rate limits: ``gap`` events per stream, and first-of-a-kind ``error`` events about
-        stream ids that are not open (``unknown_stream`` floods), per second. Beyond them the
-        occurrences are counted and summarised in the ``error`` republished each heartbeat.
+        Rate limits of ``gap`` events and of ``unknown_stream`` errors; beyond, counted.
     max_streams_per_client : int
-        Streams one client may hold open at once (a ``quota`` error beyond it), so one
-        sender cannot take every slot. A client is its CURVE public key; without CURVE it is
-        the peer's IP address (so all local senders share one quota). 0: no quota.
+        Streams one client (CURVE key, else IP address) may hold open (0: no quota).
     curve_dir : str
-        Directory made by ``streamseg keys``: with it every socket uses CURVE, the daemon
-        takes ``server.key_secret`` and accepts only the client public keys in
-        ``authorized/``. ``""``: no encryption (then only loopback binds, unless
-        ``insecure``).
+        Keys made by ``streamseg keys``: every socket uses CURVE (``""``: loopback only).
     insecure : bool
         Allow binding a non-loopback address without CURVE.
     gap_fill : float
-        Longest gap (seconds) in a joint that is filled by interpolation; a longer one is
-        skipped by the detectors and published as a ``gap`` event with ``filled: false``
-        (0: fill none). As ``streamseg segment --gap-fill``; why 0.25: docs/decisions.md.
+        Longest gap (seconds) in a joint filled by interpolation; longer ones are skipped.
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
