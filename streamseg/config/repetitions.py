@@ -30,21 +30,17 @@ class RepetitionConfig:
     rise_min : float
         ...and by at least this much.
     rest_level : float
-        The stretch around the return within this share of the loop's depth is its rest; the
-        cut goes to its slowest frame.
+        The cut goes to the slowest frame within this share of the loop's depth of its return.
     amplitude_ratio : float
         Within a set, a loop closes only once it is this share of the set's typical one.
     max_dissimilarity : float
-        Consecutive repetitions are alike when their mean DTW distance is at most this share
-        of their amplitude (the "repetitive" test).
+        Consecutive repetitions are alike when mean DTW distance / amplitude is at most this.
     resample : int
         Repetitions are compared at this many frames (linear resampling, then DTW).
     spread_ratio : float
-        The first two repetitions of a set span at least this share of the pose range they
-        cover (not two sub-motions of one longer movement).
+        The first two repetitions of a set span at least this share of their pose range...
     start_tempo_ratio : float
-        ...and last within this factor of each other (later ones are not limited: the tempo
-        is followed repetition by repetition).
+        ...and last within this factor of each other (later ones follow any tempo).
     pause_s : float
         A rest this long after a repetition ends its set.
     max_cycle_s : float
@@ -54,8 +50,7 @@ class RepetitionConfig:
     end_return_ratio : float
         At the end of the stream a last loop counts when it came back within this share.
     extend_edges : bool
-        A piece before a set's first repetition (after the previous set) or at the stream's end
-        counts when its DTW alignment with the neighbouring repetition passes the test.
+        A piece before a set's first repetition or at the stream's end counts if DTW-alike.
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
