@@ -16,19 +16,15 @@ class ACAConfig:
     Attributes
     ----------
     n_clusters : int or None
-        Number of actions k; None (the default): found for each window, the K in
-        ``[2, k_max]`` whose segments have the best silhouette
-        (:mod:`streamseg.offline.model_selection`).
+        Number of actions; None: per window, the best silhouette in ``[2, k_max]``.
     k_max : int
         Largest number of actions tried when ``n_clusters`` is None.
     min_len_s, max_len_s : float
-        Segment lengths in seconds (a segment is one or a few cycles of an action; a run of
-        one action is several consecutive segments with one label).
+        Segment lengths (one or a few cycles; an action's run is several segments).
     kernel : {"gaussian", "equality"}
         Frame kernel; "equality" is the paper's sigma -> 0 limit for discrete data.
     sigma : float or None
-        Gaussian bandwidth in feature units; None = rule from the data
-        (``streamseg.offline.dtak.default_sigma``).
+        Gaussian bandwidth in feature units; None: ``streamseg.offline.dtak.default_sigma``.
     n_init : int
         Random restarts; the lowest objective wins.
     max_iter : int
@@ -46,8 +42,7 @@ class ACAConfig:
     fine_min_len_s, fine_max_len_s : float
         HACA fine level: primitive lengths in seconds.
     coarse_kernel : {"labels", "dtak"}
-        HACA coarse level: kernel between primitives, their DTAK or the equality of their
-        cluster labels (see ``streamseg.offline.haca``).
+        HACA coarse level: primitives compared by DTAK or by equal cluster labels.
     random_state : int or None
         Seed (fixed by default so a window gives the same answer twice).
     """

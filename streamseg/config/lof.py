@@ -52,8 +52,7 @@ class LOFConfig:
     exclusion : float
         Windows whose centres are closer than this many window lengths are not LOF neighbours.
     refine_s : float
-        The cut moves to the largest before/after histogram contrast within this many seconds
-        of the peak window's centre (0: the centre, as in the paper).
+        Seconds around the peak window's centre searched for the largest contrast (0: centre).
     inclinations : bool
         Features: the 8 bone angles (False) or those and the 9 bones' inclinations (True).
     min_contrast : float
@@ -65,13 +64,11 @@ class LOFConfig:
     speed_lag_s : float
         Lag of the speed columns, seconds.
     novelty : float
-        Second confirmation: cosine distance the whole current segment and the ``contrast_s``
-        after the cut must reach (0: off).
+        Cosine distance the current segment and the ``contrast_s`` after must reach (0: off).
     peak_rule : {"adaptive", "paper"}
         "adaptive": the threshold above; "paper": every peak vertex of the simplified curve.
     early_delay_s : float or None
-        Two stages: also decide each window this long after it and emit pending cuts, settled
-        at ``delay_s`` (None or 0: one stage).
+        Also decide each window this early, emitted pending, settled at ``delay_s`` (None: off).
     root_speed_max : float
         Root speed, body scales/s, mapped to the last bin of the 2 root-speed columns (0: none).
     root_jump : float

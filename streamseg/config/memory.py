@@ -14,8 +14,7 @@ class LabelMemoryConfig:
     Attributes
     ----------
     max_ids : int
-        Stream ids remembered at most; beyond it, ids the current revision does not hold
-        are forgotten, the shortest-lived first (:mod:`streamseg.offline.label_memory`).
+        Ids remembered at most; beyond, absent ids are forgotten, shortest-lived first.
     per_id : int
         Exemplar segments kept per id.
     exemplar_s : float
@@ -23,9 +22,7 @@ class LabelMemoryConfig:
     rate_hz : float
         Exemplars keep every ``round(fps / rate_hz)``-th frame (at least every frame).
     recall_ratio : float
-        A candidate cluster takes a remembered id only when its DTAK to the id's exemplars is
-        at least ``recall_ratio`` times the larger of its own pieces' DTAK to each other and
-        the exemplars' to each other (:mod:`streamseg.offline.recall`).
+        A cluster takes a remembered id when its DTAK to it is >= this x their own DTAKs.
     recall_margin : float
         ... and exceeds its ratio to any other remembered id by this much.
     recall_confirm : int
@@ -33,26 +30,20 @@ class LabelMemoryConfig:
     recall_pieces : int
         Pieces of a candidate cluster compared at most.
     recall_within : int
-        A new id can still be recalled (replaced by an old one) in the revision that gave it
-        and the next ``recall_within - 1`` ones.
+        Revisions (from the one that gave it) in which a new id can become an old one.
     merge_present : bool
-        A candidate cluster may also take an id the revision already holds, when it passes
-        the recall's relative test against that id's exemplars with ``merge_ratio`` and
-        ``merge_margin`` (two clusters of one revision then share an id: one action the fit
-        split in two; :func:`streamseg.offline.recall.merge_into_present`). Works from the
-        first revisions on (no origin rule: it recalls nothing).
+        A cluster may join an id the revision holds (one action split in two) if DTAK-alike.
     merge_ratio, merge_margin : float
         The thresholds of ``merge_present``.
     merge_adjacent : bool
-        ``merge_present`` only joins a cluster to an id one of whose runs it touches in the
-        revision (the two clusters of a split action tile it;
-        :func:`streamseg.offline.recall.touches`).
+        ``merge_present`` only joins a cluster to an id one of whose runs it touches.
 
     Memory per stream is at most ``max_ids * per_id * ceil(exemplar_s * rate_hz)`` feature
     rows of float32: with the defaults and 17 features, 16 x 2 x 60 x 17 x 4 B = 130 kB
     (:meth:`max_bytes`), plus a few integers per id (run length, last frame, birth revision,
-    a pending proposal) for at most ``max_ids`` ids and those of the last revision.
-    Why each default: ``docs/decisions.md`` (Labels).
+    a pending proposal) for at most ``max_ids`` ids and those of the last revision. The recall
+    and merge tests in full: :mod:`streamseg.offline.recall`. Why each default:
+    ``docs/decisions.md`` (Labels).
     """
 
     max_ids: int = 16
