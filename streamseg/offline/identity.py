@@ -13,16 +13,11 @@ carry its id. The label memory (``DaemonConfig.label_memory``, on by default;
 :mod:`streamseg.offline.label_memory`, :mod:`streamseg.offline.recall`) keeps a few exemplar
 segments of each id and, after this matching, lets a cluster the overlap does not explain
 take a remembered id the revision does not hold, on DTAK evidence relative to the data; the
-window's clustering is the one without memory. Figures: :mod:`streamseg.offline.recall`.
+window's clustering is the one without memory.
 
-Two memories were measured and dropped. Exemplars clustered *with* the window
-(``git show 14dc192:benchmarks/label_memory.py``) changed the window's own clustering
-and let a new action take an old id (toe touches took the squats' id): held-out
-whole-stream accuracy +0.07, -0.04, -0.09 in simulated revisions. Before it, prototypes of
-each id (mean features and spread, or DTAK prototypes against an absolute threshold) merged
-arm circles into jumping jacks (frame accuracy 0.886 without, 0.788 with) and recognised
-neither a returning jumping jack nor a returning jog: the window's Gaussian kernel is too
-local for an absolute threshold, hence the relative one of the recall.
+The exemplars stay out of the window's clustering, and the test is relative, because clustering
+them with the window let a new action take an old id and an absolute DTAK threshold does not fit
+the window's local kernel (``docs/decisions.md``, Labels).
 
 :func:`snap_to_cuts` makes the relabel and the live cuts one answer: a boundary between two
 actions moves to a live cut within ``radius`` frames, so a revision does not place the same

@@ -8,16 +8,15 @@ from the up axis, ``LOFConfig.inclinations``, and by every feature's angular spe
 with ``k`` neighbours -> peaks of the LOF curve by Douglas-Peucker simplification and a robust
 threshold -> cut at the centre of each peak window.
 
-Decision: the paper simplifies the whole curve with Douglas-Peucker and takes its peaks, with
-no stated threshold. Here a file is segmented with the decision the live detector makes
-(:class:`streamseg.online.StreamingLOFSegmenter`, see :class:`streamseg.config.LOFConfig`):
-each window is judged when ``delay_s`` of data after it exist, against the LOF curve of the
-bounded buffer at that moment, its cut moved to the largest before/after histogram contrast
-and confirmed by that contrast. One decision rule, so offline cuts equal the live ones; it is
-also the better rule (with the whole-curve peaks of :func:`select_peaks` the mean F1 over the
-labelled recordings was lower, ``benchmarks/lof_accuracy.py``). The whole-recording curve
-(``lof_``) is still computed, for pictures and as the reference the incremental LOF is tested
-against.
+Decision: the paper simplifies the whole curve with Douglas-Peucker and takes its peaks, with no
+stated threshold. Here a file is segmented with the decision the live detector makes
+(:class:`streamseg.online.StreamingLOFSegmenter`, see :class:`streamseg.config.LOFConfig`): each
+window is judged when ``delay_s`` of data after it exist, against the LOF curve of the bounded
+buffer at that moment, its cut moved to the largest before/after histogram contrast and
+confirmed by that contrast. One decision rule, so offline cuts equal the live ones (why not the
+paper's whole-curve peaks of :func:`select_peaks`: ``docs/decisions.md``, Cuts). The
+whole-recording curve (``lof_``) is still computed, for pictures and as the reference the
+incremental LOF is tested against.
 
 NaN policy (marker dropout): a frame with any NaN angle is skipped (counted in
 ``n_nan_frames_``) and contributes to no histogram; a window with fewer than

@@ -1,39 +1,14 @@
 """How many actions: (H)ACA for each candidate K, scored by the silhouette of its segments.
 
 Nobody can tell a live stream how many actions it will hold, so :func:`fit_aca` finds K when
-``ACAConfig.n_clusters`` is None: it fits the configured model for every K in
-``[2, config.k_max]`` and keeps the one whose
-labelling has the highest mean silhouette (Rousseeuw 1987) under the DTAK distance the method
-itself uses, ``d(a, b) = 2 - 2 DTAK(a, b)``, measured on equal pieces of half the longest
-segment (:func:`piece_silhouette`). The silhouette needs no threshold or penalty weight, so
-nothing in it was tuned on a recording. Measured alternatives (HACA, the 14 labelled
-recordings, K in 2..9): the silhouette of the model's own segments chose worse (mean frame
-accuracy 0.716 against 0.750 for the pieces, 0.765 with the true K); a penalised objective
-and the smallest K within a margin of the best silhouette needed a weight and did no better.
-``benchmarks/k_selection.py`` compares fourteen more on one HACA fit per recording, each
-parameter chosen on a declared train pair (02_walk_punch_sword_wash, hdm_bd_0) and scored once
-on the 12 other recordings and the paper's synthetic setting: longer pieces (2 s, or chosen
-among 0.5-6 s), HACA's fine segments as pieces, merging clusters whose between-cluster DTAK is
-near their within-cluster one, a minimum duration per action, the eigengap of the piece kernel,
-a BIC-like penalised objective, stability over coarse seeds, agreement across K, a margin below
-the best silhouette, a wider silhouette kernel and the Calinski-Harabasz index of the pieces.
-None generalised. Every one that fixed the train join's over-selection (K 6 for 4) under-
-selected held-out exercise takes and HDM05 joins (held-out mean accuracy 0.60-0.75 against
-0.763 for this criterion). Pieces of 2 s were better on the held-out mean (0.771) and the
-synthetic set (K = 4 on 54 of 70 sequences against 40) but worse on the train pair (0.598
-against 0.666), the HDM05 joins held out (0.733 against 0.737) and on 3 of them by up to 0.25;
-a minimum of 1 s per action tied this criterion on the train pair, so the data did not choose
-it (held out: 0.772, K found = true on as many). Temporal mixing (:func:`merge_interleaved`:
-clusters whose runs alternate within a few seconds are one action's sub-movements) is not used:
-HACA's over-splits are consecutive sub-stretches of one action, as contiguous as distinct
-actions (``k_selection.py --mixing-diagnosis``), so it merged nothing on the train pair and its
-declared choice equals this criterion everywhere. Four more at another level (a penalised
-kernel energy counting segments, the gap statistic, merging while the union's DTAK spread is
-not larger than the parts', stability under resampled window lengths or frames), chosen on
-02_walk_punch_sword_wash + hdm_dg_1, did not generalise either: the two that fixed the train
-join under-selected held-out takes and the synthetic set. The over-splits are postural phases
-of one labelled action (the CMU 02 punch trial upright then crouched, the wash trial bent over
-then upright, HDM05 lying down: standing and lying), as far apart under DTAK as two actions.
+``ACAConfig.n_clusters`` is None: it fits the configured model for every K in ``[2,
+config.k_max]`` and keeps the one whose labelling has the highest mean silhouette (Rousseeuw
+1987) under the DTAK distance the method itself uses, ``d(a, b) = 2 - 2 DTAK(a, b)``, measured
+on equal pieces of half the longest segment (:func:`piece_silhouette`). The silhouette needs no
+threshold or penalty weight, so nothing in it is tuned on a recording. HACA's over-splits are
+postural phases of one labelled action (standing then lying), as far apart under DTAK as two
+actions, so no criterion tried recovers the labelled count; the alternatives measured and why
+this one stays: ``docs/decisions.md`` (Labels, "The number of actions").
 
 Windows where there is nothing to cluster give one segment of one label instead of an
 exception: too few frames for two segments of ``min_len``, no finite frame, or a body that

@@ -25,52 +25,16 @@ window). Candidates and ids are then paired one to one (Hungarian on the ratio);
 without a pair keeps (or gets) a new id. With ``recall_confirm = 2`` a pair is only taken when
 the previous revision proposed the same pair (the candidate's id carried by the overlap).
 
-With ``merge_present`` (on by default, :class:`~streamseg.config.memory.LabelMemoryConfig`
-has the figures) a candidate not recalled may also join an id the revision holds, on the
-same relative test against that id's exemplars (:func:`merge_into_present`), when one of its
-runs touches one of that id's runs in the revision (``merge_adjacent``): two clusters of one
-revision then share an id, which cuts the commonest source of extra ids (a revision
-splitting one action in two; ``docs/decisions.md``, Labels). It adds no state. The figures
-below (the label-memory exploration, ``git show 9ba5ec1:benchmarks/label_memory.py``) were
-measured before it was on.
-
-The hand-off path was measured and dropped (``git show cb134b5:benchmarks/id_fragments.py``,
-first at commit 36d0821): making every cluster whose id the overlap
-carried a candidate too, with its carried id's exemplars competing (a remembered absent id
-had to beat it by ``recall_margin``), so that a returning action handed a neighbour's id
-could take its own.
-On the 17 held-out streams (simulated revisions) mean accuracy fell 0.749 -> 0.743 and ids per
-action rose 1.263 -> 1.293 (ret_hdm_bd -0.041, ret_hdm_dg -0.055); the return it was for
-(the last walk of ret_86_14_14_86) was not recognised either way: its cluster in the window
-also holds frames of two neighbouring actions, so no remembered id passes the test. On
-ret_14_86_14 (a tuning stream) the check moved a cluster between two remembered ids of one
-action (split siblings) and once gave a mixed cluster a third action's id; the held-out
-losses were not diagnosed.
+With ``merge_present`` (on by default, :class:`~streamseg.config.memory.LabelMemoryConfig`) a
+candidate not recalled may also join an id the revision holds, on the same relative test against
+that id's exemplars (:func:`merge_into_present`), when one of its runs touches one of that id's
+runs in the revision (``merge_adjacent``): two clusters of one revision then share an id, which
+cuts the commonest source of extra ids (a revision splitting one action in two). It adds no
+state. Why these tests and thresholds, with the figures: ``docs/decisions.md`` (Labels, the
+label memory).
 
 Kept as plain values (the checkpoint codec stores them): the memory's ``born`` (id -> the
 revision that first gave it) and ``pending`` (candidate id -> proposed old id).
-
-Measured (``label_memory.py`` of commit 9ba5ec1: revisions of the daemon's job function every 5 s
-over the last 60 s, on five streams whose actions return after more than 60 s, abrupt joins).
-The settings were chosen on ret_14_86_14 and ret_hdm_bd only (``--grid``: ratio 0.3-1,
-margin 0-0.2, confirm 1-2, within 1-3; every ratio 0.3-0.7 with margin 0-0.2 and within 2-3
-gave the same best mean, 0.704 against 0.626 without memory; a ratio of 1, the cluster's
-own similarity, recalled nothing). Whole-stream frame accuracy without / with the memory
-(returning frames that keep their first id):
-
-* tuning: ret_14_86_14 0.633 / 0.717 (0 / 0.792), ret_hdm_bd 0.620 / 0.691 (0 / 0.612);
-* held out: ret_86_14_14_86 0.718 / 0.745 (0 / 0.374), ret_hdm_bk 0.554 / 0.622
-  (0 / 0.685), ret_hdm_dg 0.728 / 0.810 (0.243 / 0.953).
-
-The real daemon at real time (``--daemon 1``: live cuts move boundaries, revisions timed by
-arrival; shared machine, 1-min load 2-3 on 2 cores, 6.6 at the start): ret_14_86_14 0.629 / 0.712
-(0 / 0.974), ret_hdm_bd 0.615 / 0.686 (0 / 0.609); held out ret_86_14_14_86 0.722 / 0.751
-(0 / 0.423), ret_hdm_bk 0.495 / 0.563 (0 / 0.678), ret_hdm_dg 0.684 / 0.770 (0.276 / 0.987).
-In both modes no id was given to a different action after a gap longer than the history;
-in simulated revisions the ids whose runs mean two actions (the overlap hands ids on too)
-were as many as without the memory, one fewer on ret_14_86_14. A revision's
-recall and memory update cost 0.1-3 ms at the median and at most 121 ms (``--overhead``),
-beside 0.2-0.7 s for the window's fit.
 """
 
 from __future__ import annotations

@@ -72,7 +72,7 @@ class StreamingLOFSegmenter:
     fps : float
     n_features : int or None
         Columns per frame; None: ``config.n_features`` (the bone features). Any other matrix
-        of angles in [0, pi] works the same way (``benchmarks/lof_variants.py`` feeds subsets).
+        of angles in [0, pi] works the same way (e.g. a subset of the bone features).
     """
 
     def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,

@@ -1,10 +1,10 @@
 """The root (pelvis) speed as two LOF columns (``LOFConfig.root_speed_max``), causally.
 
-Bone angles and inclinations do not see where the body goes: a step from standing into
-jogging on the spot, sneaking or a hop changes them little, the pelvis speed a lot (issue 11,
-``benchmarks/lof_pelvis.py`` diagnosis). Speeds are in body scales per second (the mean length
-of the 8 limb bones in the same frame, about 0.35 m on an adult), so no length unit is needed
-and people of every size are measured alike.
+Bone angles and inclinations do not see where the body goes: a step from standing into jogging
+on the spot, sneaking or a hop changes them little, the pelvis speed a lot (why these columns
+and their scale: ``docs/decisions.md``, Cuts, "The root speeds"). Speeds are in body scales per
+second (the mean length of the 8 limb bones in the same frame, about 0.35 m on an adult), so no
+length unit is needed and people of every size are measured alike.
 """
 
 from __future__ import annotations
