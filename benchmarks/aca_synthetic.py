@@ -24,18 +24,16 @@ import argparse
 import contextlib
 import io
 import json
-import sys
 import tempfile
 import time
 from pathlib import Path
 
+import _common  # noqa: F401  (the package beside us when run from a clone)
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _aca_synth import synthetic_sequence  # noqa: E402
-
-from streamseg.cli import main as cli_main  # noqa: E402
-from streamseg.evaluation.metrics import matched_frame_accuracy  # noqa: E402
+from streamseg.cli import main as cli_main
+from streamseg.evaluation.metrics import matched_frame_accuracy
+from streamseg.evaluation.synthetic import synthetic_sequence
 
 
 def run_cli(path, min_len, max_len, seed, k=4):
