@@ -118,8 +118,9 @@ def score_object(obj: dict, labels_csv: str, sequence: str) -> dict:
     """The ``eval --all`` row of a ``segment --json`` object against human labels.
 
     Cuts and labels (lof, aca) get :func:`streamseg.evaluation.score`'s P/R/F1, covering and
-    Hungarian frame accuracy; repetitions get accuracy alpha and the count error
-    (:mod:`streamseg.evaluation.metrics`), reading each label row as one repetition.
+    Hungarian frame accuracy; repetitions the scores of ``eval --method rep``
+    (:func:`streamseg.commands.rep.set_scores`: per labelled set, repetitions matched by
+    overlap).
     """
     from types import SimpleNamespace
 
@@ -131,12 +132,10 @@ def score_object(obj: dict, labels_csv: str, sequence: str) -> dict:
     truth = read_labels(labels_csv, sequence)
     n, fps = int(obj["n_frames"]), float(obj["fps"])
     if "repetitions" in obj:
-        from streamseg.evaluation.metrics import count_error, repetition_accuracy
+        from streamseg.commands.rep import set_scores
 
-        reps = [(r["start"], r["end"]) for r in obj["repetitions"]]
-        rows = [(s.start, s.end) for s in truth]
-        return {"alpha": repetition_accuracy(reps, rows), "count": int(obj["count"]),
-                "true_count": len(rows), "count_error": count_error(obj["count"], len(rows))}
+        found = [[(r["start"], r["end"]) for r in st["repetitions"]] for st in obj["sets"]]
+        return set_scores(found, truth, obj["count"])
     segments = obj.get("segments") or []
     labels = None
     if segments and all(s.get("label") is not None for s in segments):

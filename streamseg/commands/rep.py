@@ -170,35 +170,56 @@ def score_sets(found_sets, sets) -> list:
     return out
 
 
+def set_scores(found_sets, rows, count: int) -> dict:
+    """The scores of ``eval --method rep`` (and ``batch --labels``) of a take's found sets.
+
+    Parameters
+    ----------
+    found_sets : list of list of (int, int)
+        The repetitions of every found set, frames.
+    rows : list
+        The take's label rows (:func:`streamseg.evaluation.labels.read_labels`), one per
+        repetition; consecutive rows of one label are a set (:func:`true_sets`).
+    count : int
+        Repetitions found in the take.
+
+    Returns
+    -------
+    dict
+        ``alpha`` (the mean over the sets of two or more repetitions, None without one),
+        ``count``, ``true_count``, ``count_error``, ``exact_sets``, ``actions_counted_zero``
+        and ``sets`` (:func:`score_sets`).
+    """
+    scored = score_sets(found_sets, true_sets(rows))
+    rep = [s for s in scored if s["true_count"]]
+    act = [s for s in scored if not s["true_count"]]
+    true_count = int(sum(s["true_count"] for s in rep))
+    return {"alpha": float(sum(s["alpha"] for s in rep) / len(rep)) if rep else None,
+            "count": int(count), "true_count": true_count,
+            "count_error": int(count) - true_count,
+            "exact_sets": f"{sum(s['right'] for s in rep)} of {len(rep)}",
+            "actions_counted_zero": f"{sum(s['count'] == 0 for s in act)} of {len(act)}",
+            "sets": scored}
+
+
 def evaluate(args) -> dict:
     """Counts and alpha against ``args.labels`` (one row per repetition; consecutive rows of
     one label are a set; a lone row is an action or a single repetition, true count 0)."""
-    import numpy as np
-
     from streamseg.evaluation.labels import read_labels
 
     cfg, seg, _, seconds = _run(args, labels=False)
     sequence = args.sequence or Path(args.file).name.split(".")[0]
     rows = read_labels(args.labels, sequence)
-    scored = score_sets([st["repetitions"] for st in seg.sets_], true_sets(rows))
+    scores = set_scores([st["repetitions"] for st in seg.sets_], rows, int(seg.count_))
     if args.plot:
         from streamseg.plotting.repetitions import plot_repetitions
 
         plot_repetitions(args.plot, seg, sets=_sets(seg, None),
                          truth=[(r.start, r.end) for r in rows],
                          title_file=Path(args.file).name)
-    rep = [s for s in scored if s["true_count"]]
-    act = [s for s in scored if not s["true_count"]]
-    true_count = int(sum(s["true_count"] for s in rep))
     return evaluation(
         args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
-        alpha=float(np.mean([s["alpha"] for s in rep])) if rep else None,
-        count=int(seg.count_),
-        true_count=true_count,
-        count_error=int(seg.count_) - true_count,
-        exact_sets=f"{sum(s['right'] for s in rep)} of {len(rep)}",
-        actions_counted_zero=f"{sum(s['count'] == 0 for s in act)} of {len(act)}",
-        sets=scored,
+        **scores,
         repetitive=bool(seg.repetitive_),
         reason=seg.reason_ or None,
         n_nan_frames=int(seg.n_missing_frames_),
