@@ -1,14 +1,14 @@
 """Quality floors of the live cut detector on the labelled recordings in data/.
 
-The defaults were chosen on 86_01 and hdm_bd_0 only (``benchmarks/lof_variants.py`` part 5),
-the angular-speed columns on 02_walk_punch_sword_wash and hdm_bk_0 (``benchmarks/lof_curves.py``),
-the novelty check on 14_14 and hdm_dg_0 (``benchmarks/lof_variants.py --part 7``), the 0.8 s
-localisation radius on 02_wash_sword_walk_punch and hdm_bd_1 (``benchmarks/lof_placement.py``);
-every floor sits just below the figure ``benchmarks/lof_accuracy.py`` measured, so a change
-that loses a true cut or adds false ones shows here. F1 accepts a cut inside the human
-boundary window widened by 0.5 s (+-0.5 s for labels without a window), as the benchmark.
-The HDM05 sequences are joined clips: their cuts are the joins, abrupt by construction.
-"""
+The defaults were chosen on 86_01 and hdm_bd_0 only (``git show
+ba10579:benchmarks/lof_variants.py`` part 5), the angular-speed columns on
+02_walk_punch_sword_wash and hdm_bk_0 (``ba10579:benchmarks/lof_curves.py``), the novelty check
+on 14_14 and hdm_dg_0 (``ba10579:benchmarks/lof_variants.py --part 7``), the 0.8 s localisation
+radius on 02_wash_sword_walk_punch and hdm_bd_1 (``2c0c656:benchmarks/lof_placement.py``); every
+floor sits just below the figure ``49fb205:benchmarks/lof_accuracy.py`` measured, so a change
+that loses a true cut or adds false ones shows here. F1 accepts a cut inside the human boundary
+window widened by 0.5 s (+-0.5 s for labels without a window), as the benchmark. The HDM05
+sequences are joined clips: their cuts are the joins, abrupt by construction."""
 
 from __future__ import annotations
 

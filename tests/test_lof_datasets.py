@@ -98,7 +98,7 @@ def test_hdm05_action_plans_use_each_clip_once_and_cut_between_classes(data_dir)
 
 
 def test_hdm05_action_plans_exclude_gives_sequences_of_unused_clips(data_dir):
-    # benchmarks/lof_confirm.py's fresh held-out joins: none of their clips is in the nine
+    # 49fb205:benchmarks/lof_confirm.py's fresh held-out joins: none of their clips is in the nine
     from streamseg.evaluation.datasets import hdm05_action_plans
 
     old = hdm05_action_plans(data_dir)

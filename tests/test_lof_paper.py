@@ -2,7 +2,7 @@
 
 Its decision is the paper's: every peak vertex of the Douglas-Peucker simplification of the
 LOF curve, no threshold, the cut at the peak window's centre. Its one free value, the
-tolerance, was chosen on 86_01 alone (``benchmarks/lof_accuracy.py``); 14_14 is held out.
+tolerance, was chosen on 86_01 alone (``49fb205:benchmarks/lof_accuracy.py``); 14_14 is held out.
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def test_paper_rule_live_equals_offline_and_its_naive_replay(r86):
 
 
 def test_paper_preset_finds_cuts_on_86_01_and_a_held_out_routine(r86, data_dir):
-    """Measured (benchmarks/lof_accuracy.py): 86_01 F1 0.62 (7 cuts, 4 correct; the
+    """Measured (49fb205:benchmarks/lof_accuracy.py): 86_01 F1 0.62 (7 cuts, 4 correct; the
     tolerance was chosen there), 14_14 0.33 held out (7 cuts, 2 correct). Before round 5
     the preset found no cut on 86_01."""
     rec, a = r86

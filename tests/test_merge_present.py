@@ -137,8 +137,8 @@ _FITS: dict = {}
 @pytest.mark.slow
 def test_the_guard_keeps_14_20s_arm_circles_off_the_twists_id(data_dir):
     """CMU 14_20 (six exercises, 39 s): the unguarded merge gives the arm circles (30.7-38.7 s)
-    the twist's id (3.6-7.2 s; 0.876 frame accuracy in benchmarks/id_fragments.py), the guard
-    does not (0.961, one id per action): the two never touch in a revision."""
+    the twist's id (3.6-7.2 s; 0.876 frame accuracy in cb134b5:benchmarks/id_fragments.py), the
+    guard does not (0.961, one id per action): the two never touch in a revision."""
     from streamseg.evaluation.labels import frame_labels, read_labels
     from streamseg.evaluation.metrics import matched_frame_accuracy
     from streamseg.io import read

@@ -1,7 +1,7 @@
 """Frames with missing joints (NaN positions: marker dropout) bridged for the repetition model.
 
 The cut detector skips a frame with any NaN angle (:mod:`streamseg.offline.lof`); the
-repetition segmenter needs evenly spaced frames (a spectrum, a band-pass, a UKF), so a frame
+repetition counter needs evenly spaced frames (a causal low-pass, decimation), so a frame
 with any NaN joint position is skipped by bridging it: its positions are interpolated
 linearly, per coordinate, between the nearest good frames before and after it (held at the
 take's ends), and its rotations are those of the nearest good frame. No observation of the
