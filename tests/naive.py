@@ -473,6 +473,28 @@ def naive_root_speeds(pos, root, limbs, up, fps, lag, v_max, jump):
     return out
 
 
+def naive_lof_columns(pos, points, up, fps, lag, speed_max, root=None):
+    """The live detector's columns of joint positions by the definitions, for
+    ``streamseg._kernels.stream_features.lof_columns``: the 8 bone angles, the 9 inclinations
+    from ``up`` (None: none), the 2 root speeds when ``root = (joint, limbs, v_max, jump)``,
+    then the angular speeds of every column (``speed_max > 0``) in the detector's order."""
+    from streamseg.skeleton.bones import ANGLES
+
+    feats = naive_bone_angles(pos, points, ANGLES)
+    if up is not None:
+        feats = np.column_stack([feats, naive_inclinations(pos, points, up)])
+    n_root = 0
+    if root is not None:
+        joint, limbs, v_max, jump = root
+        up_ = np.zeros(3) if up is None else np.asarray(up, dtype=float)
+        feats = np.column_stack([feats, naive_root_speeds(pos, joint, limbs, up_, fps, lag,
+                                                          v_max, jump)])
+        n_root = 2
+    if speed_max <= 0:
+        return feats
+    return naive_speed_columns(feats, lag, speed_max, fps, n_root)
+
+
 # --- repetitions: pose features, causal filter, loop tracking, DTW ---------------------------
 
 

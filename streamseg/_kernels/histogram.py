@@ -116,6 +116,21 @@ def _cos_distance(left, right):
     return 1.0 - dot / den
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _move_frame(counts, other, ring, valid, size, g, bins, sign, sq, dot):
+    """:func:`_add_frame` that also updates ``sq`` (the sum of squares of ``counts``) and
+    ``dot`` (its dot product with ``other``) exactly, as integers; returns both."""
+    pos = g % size
+    if valid[pos]:
+        for a in range(ring.shape[1]):
+            i = a * bins + ring[pos, a]
+            c = counts[i]
+            sq += 2 * sign * c + 1
+            dot += sign * other[i]
+            counts[i] = c + sign
+    return sq, dot
+
+
 @njit(cache=True, nogil=True)
 def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest, first, left,
                right):
@@ -126,6 +141,11 @@ def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest,
     ``centre - radius .. centre + radius`` restricted to those whose two sub-windows lie in
     ``[oldest, n_avail)`` and to ``g >= first`` (keeps the minimum gap to the previous cut).
     The earliest maximum wins; ``centre`` is returned when no candidate qualifies.
+
+    The dot product and the two sums of squares are carried from one candidate to the next
+    as integers (a frame moving in or out changes one count per column): O(columns) per
+    candidate instead of O(columns * bins), and the same values as :func:`_cos_distance`
+    summing the counts in floats, which is exact while ``columns * window**2 < 2**53``.
 
     Parameters
     ----------
@@ -157,20 +177,26 @@ def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest,
         _add_frame(left, ring, valid, size, g, bins, 1)
     for g in range(lo, lo + window):
         _add_frame(right, ring, valid, size, g, bins, 1)
+    dot = 0
+    nl = 0
+    nr = 0
+    for d in range(left.shape[0]):
+        dot += left[d] * right[d]
+        nl += left[d] * left[d]
+        nr += right[d] * right[d]
     best = -1.0
     at = centre
     for g in range(lo, hi + 1):
-        dist = _cos_distance(left, right)
-        if dist == UNDEFINED:
-            dist = 1.0
+        den = np.sqrt(float(nl) * float(nr))
+        dist = 1.0 - float(dot) / den if den != 0.0 else 1.0  # UNDEFINED counts as 1
         if dist > best:
             best = dist
             at = g
         if g < hi:
-            _add_frame(left, ring, valid, size, g, bins, 1)
-            _add_frame(left, ring, valid, size, g - window, bins, -1)
-            _add_frame(right, ring, valid, size, g, bins, -1)
-            _add_frame(right, ring, valid, size, g + window, bins, 1)
+            nl, dot = _move_frame(left, right, ring, valid, size, g, bins, 1, nl, dot)
+            nl, dot = _move_frame(left, right, ring, valid, size, g - window, bins, -1, nl, dot)
+            nr, dot = _move_frame(right, left, ring, valid, size, g, bins, -1, nr, dot)
+            nr, dot = _move_frame(right, left, ring, valid, size, g + window, bins, 1, nr, dot)
     return at
 
 

@@ -182,22 +182,26 @@ def _kdist(nn_d, nn_cnt, o, k):
 def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k):
     """Recompute lrd for B and LOF for C, given ``mark[p] == 1`` for the changed set A.
 
-    Marks: 1 = A (k-neighbour list / k-distance changed), 2 = B, 3 = C.
+    Marks: 1 = A (k-neighbour list / k-distance changed), 2 = B, 3 = C. Two passes: B's
+    members and their lrd (which reads the lists only), then C's members and their LOF
+    (which reads the lrd of the first pass); a point marked in a pass is read by the later
+    points of that pass as its own kind only (2 is not A, 3 is not B), so the sets are
+    those of separate passes.
     """
     n_slots = seqs.shape[0]
     # B: A plus every point with a neighbour in A (its reach-distances changed).
     for p in range(n_slots):
-        if seqs[p] < 0 or mark[p] != 0:
+        if seqs[p] < 0:
             continue
-        hit = False
-        for t in range(min(nn_cnt[p], k)):  # branch-free: the marks are unpredictable
-            hit |= mark[nn_idx[p, t]] == 1
-        if hit:
-            mark[p] = 2
-    for p in range(n_slots):
-        if seqs[p] < 0 or mark[p] == 0:
-            continue
+        m = mark[p]
         cnt = min(nn_cnt[p], k)
+        if m == 0:
+            hit = False
+            for t in range(cnt):  # branch-free: the marks are unpredictable
+                hit |= mark[nn_idx[p, t]] == 1
+            if not hit:
+                continue
+            mark[p] = 2
         if cnt == 0:
             lrd[p] = 1.0 / LRD_EPS
             continue
@@ -211,23 +215,20 @@ def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k):
             s += r
         lrd[p] = 1.0 / (s / cnt + LRD_EPS)
     # C: B plus every point with a neighbour in B (its lrd ratios changed).
-    for p in range(n_slots):
-        if seqs[p] < 0 or mark[p] != 0:
-            continue
-        hit = False
-        for t in range(min(nn_cnt[p], k)):
-            m = mark[nn_idx[p, t]]
-            hit |= (m == 1) | (m == 2)
-        if hit:
-            mark[p] = 3
     n_updated = 0
     for p in range(n_slots):
-        if seqs[p] < 0 or mark[p] == 0:
-            mark[p] = 0
+        if seqs[p] < 0:
             continue
-        mark[p] = 0
-        n_updated += 1
         cnt = min(nn_cnt[p], k)
+        if mark[p] == 0:
+            hit = False
+            for t in range(cnt):
+                m = mark[nn_idx[p, t]]
+                hit |= (m == 1) | (m == 2)
+            if not hit:
+                continue
+            mark[p] = 3
+        n_updated += 1
         if cnt == 0:
             lof[p] = 1.0
             continue
@@ -235,6 +236,8 @@ def _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k):
         for t in range(cnt):
             s += lrd[nn_idx[p, t]] / lrd[p]
         lof[p] = s / cnt
+    for p in range(n_slots):
+        mark[p] = 0
     return n_updated
 
 
@@ -245,11 +248,13 @@ def _scan(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, centres, p, ex
     kk = nn_idx.shape[1]
     cnt = 0
     n_elig = 0
+    dist = np.empty(n_slots)
+    _distances_to(vecs, norms, p, dist)  # vectorized, the values of _cosdist_counts
     for j in range(n_slots):
         if j == p or seqs[j] < 0 or abs(centres[p] - centres[j]) < excl:
             continue
         n_elig += 1
-        dj = _cosdist_counts(vecs, p, j, norms[p], norms[j])
+        dj = dist[j]
         if cnt < kk or dj < nn_d[p, kk - 1] or (
                 dj == nn_d[p, kk - 1] and seqs[j] < nn_key[p, kk - 1]):
             cnt = _insert_sorted(nn_idx[p], nn_d[p], nn_key[p], cnt, kk, j, dj, seqs[j])

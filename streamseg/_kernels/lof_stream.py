@@ -111,8 +111,8 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
     """Decide window ``w`` with the curve known up to ``hi``, ``delay`` windows on each side;
     return ``(cut frame, LOF)``, the frame -1 when it is no cut. ``ls``, ``ld``, ``lf``: the
     ``st`` slots of the stage's last cut window, last decided window and last cut frame;
-    ``cache`` (float64, 2): the ``ST_NEXT_SEQ`` for which ``curve`` and the threshold
-    ``cache[1]`` were computed (-1: none yet).
+    ``cache`` (float64, 3): the ``ST_NEXT_SEQ`` for which ``curve`` was computed, the
+    threshold ``cache[1]`` and the ``ST_NEXT_SEQ`` it was computed for (-1: none yet).
 
     The cut frame is the peak window's centre moved to the largest before/after histogram
     contrast within ``geo[GEO_REFINE]`` frames (:func:`refine_cut`, frames seen so far only),
@@ -143,22 +143,26 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
         return -1, 0.0
     size = st[ST_BUFFERED]
     if cache[0] != st[ST_NEXT_SEQ]:
-        # the curve and its threshold once per buffer state: both stages decide on them
+        # the curve once per buffer state: both stages decide on it
         _curve(seqs, lof, st, curve)
-        cache[1] = robust_threshold(curve, size, n_mads, work) if n_mads >= 0.0 else 0.0
         cache[0] = st[ST_NEXT_SEQ]
     yw = curve[w - oldest]
-    if n_mads >= 0.0:
-        thr = cache[1]
-        if thr < min_score:
-            thr = min_score
-        if yw < thr:
-            return -1, 0.0
+    # the checks are pure, so their order changes no decision: the cheap ones first, the
+    # threshold (two selections over the buffer, most of a decision's cost) only for a
+    # window that passes them (about one in ten)
+    if n_mads >= 0.0 and yw < min_score:
+        return -1, 0.0
     lo = max(oldest, w - delay)
     if not dominates(curve, lo - oldest, hi - oldest, w - oldest, int(min_gap)):
         return -1, 0.0
     if n_mads >= 0.0:
         peak = is_peak(curve, lo - oldest, hi - oldest, w - oldest, tol, keep, stack)
+        if peak:
+            if cache[2] != st[ST_NEXT_SEQ]:  # once per buffer state too
+                cache[1] = robust_threshold(curve, size, n_mads, work)
+                cache[2] = st[ST_NEXT_SEQ]
+            if yw < cache[1]:
+                return -1, 0.0
     else:
         # the paper's rule (P_MADS < 0): every peak vertex, no threshold; the tolerance is a
         # fraction of the range of the whole buffered curve, as the paper simplifies its whole
@@ -306,7 +310,7 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     n_slots = seqs.shape[0]
     n_ang = angles.shape[1]
     vec = np.empty(vecs.shape[1], dtype=vecs.dtype)
-    cache = np.full(2, -1.0)
+    cache = np.full(3, -1.0)
     scale = bins / np.pi
     n_ev = 0
     size = rb.shape[0]
@@ -370,7 +374,7 @@ def stream_finish(st, p, geo, frames, lofs, scratch, events, pend):
     last = st[ST_NEXT_SEQ] - 1
     at = st[ST_FRAMES] - 1
     n_ev = 0
-    cache = np.full(2, -1.0)
+    cache = np.full(3, -1.0)
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
         c, y = _decide(w, last, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
                        ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)

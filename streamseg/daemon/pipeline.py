@@ -71,13 +71,16 @@ class Algorithms:
 
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
-        SkeletonError when the skeleton lacks a joint the 8 angles need), and the skeleton's
-        up vector when the cut detector uses inclinations (else None)."""
+        SkeletonError when the skeleton lacks a joint the 8 angles need), the skeleton's
+        up vector when the cut detector uses inclinations (else None), and both as the
+        arguments of the angle kernel (:meth:`StreamingLOFSegmenter.learn_positions`)."""
         from streamseg.config import LOFConfig
         from streamseg.skeleton.bones import bone_point_indices, up_vector
 
         inclinations = (self.lof_config or LOFConfig()).inclinations
-        return bone_point_indices(skeleton), up_vector(skeleton.up) if inclinations else None
+        points = bone_point_indices(skeleton)
+        up = up_vector(skeleton.up) if inclinations else None
+        return points, up, _bone_args(points, up)
 
     def angles(self, positions: np.ndarray, plan) -> np.ndarray:
         """Features ``(n, d)`` of positions ``(n, J, 3)`` (the 8 bone angles, then the 9
@@ -86,7 +89,7 @@ class Algorithms:
         lookup costs more than the maths for a packet of a few frames)."""
         from streamseg.skeleton.bones import angles_at
 
-        return angles_at(positions, *plan)
+        return angles_at(positions, plan[0], plan[1])
 
     def segmenter(self, fps: float):
         """A fresh streaming cut detector for one stream."""
@@ -169,6 +172,19 @@ class Algorithms:
             # the relabels read the bone features, not the root speeds
             self.relabel(walk[-int(4 * fps):, :seg.n_features - seg.config.root_columns], 0, fps)
         return time.perf_counter() - t
+
+
+def _bone_args(points: np.ndarray, up) -> tuple:
+    """The angle kernel's arguments (:func:`streamseg._kernels.bones.angles_kernel`) for bone
+    end points ``points`` (9, 2) and the up vector (None: no inclinations), as
+    :func:`streamseg.skeleton.bones.angles_at` passes them."""
+    from streamseg.skeleton.bones import ANGLES, INCLINATIONS
+
+    pairs = np.array(ANGLES + (INCLINATIONS if up is not None else ()), dtype=np.int64)
+    return (np.ascontiguousarray(points[:, 0], dtype=np.int64),
+            np.ascontiguousarray(points[:, 1], dtype=np.int64),
+            np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]),
+            np.zeros(3) if up is None else np.asarray(up, dtype=np.float64))
 
 
 def _segment_triplets(window) -> list:
@@ -344,20 +360,22 @@ class StreamPipeline:
         n = positions.shape[0]
         if n == 0:
             return [], [], 0
-        angles = self.algorithms.angles(positions, self.plan)
+        # features, root speeds, speeds and the detector in one kernel call
+        angles, ok, events = self.segmenter.learn_positions(positions, self.plan[2], self.root)
         if self._spine_n >= 0:
             self._check_up(positions)
         self._width = angles.shape[1]
-        lof_in = angles if self.root is None else np.column_stack([angles, self.root(positions)])
-        out = self._cuts(self.segmenter.learn_many(lof_in))
-        ok = np.isfinite(angles).all(axis=1)
-        n_bad = n - int(np.count_nonzero(ok))
+        out = self._cuts(events) if events else []
+        n_good = int(np.count_nonzero(ok))
+        n_bad = n - n_good
         if n_bad and lost is not None:  # frames that never came are counted as lost
             n_bad -= int(np.count_nonzero(~ok & lost))
-        frames = first_frame + np.arange(n, dtype=np.int64)
-        if not ok.all():
-            angles, frames = angles[ok], frames[ok]
-        self._remember(angles, frames)
+        if n_good == 0:
+            self._remember(angles[:0], first_frame)
+        elif n_good < n:
+            self._remember(angles[ok], first_frame + np.flatnonzero(ok))
+        else:
+            self._remember(angles, first_frame)
         reps = self._repetitions(positions, first_frame, ok) if self.reps is not None else []
         return out, reps, n_bad
 
@@ -443,7 +461,9 @@ class StreamPipeline:
                 "cut could be found"))
         return cuts + self._cuts(self.segmenter.finish())
 
-    def _remember(self, angles: np.ndarray, frames: np.ndarray) -> None:
+    def _remember(self, angles: np.ndarray, frames) -> None:
+        """Append feature rows to the ring; ``frames``: their stream frames (int64 array),
+        or an int, the first of consecutive frames."""
         cap = self.capacity
         if self._feat is None:
             # float32 halves the per-stream memory; ACA gets float64 copies
@@ -458,12 +478,19 @@ class StreamPipeline:
                 self._frames[:self.learned]
             self._feat, self._frames = feat, fr
         first = self.learned
+        if isinstance(frames, (int, np.integer)):
+            frames = frames + np.arange(m, dtype=np.int64)
         if m > cap:  # only the newest ``cap`` rows fit
             angles, frames = angles[-cap:], frames[-cap:]
             first += m - cap
-        idx = (first + np.arange(angles.shape[0])) % cap
-        self._feat[idx] = angles
-        self._frames[idx] = frames
+        # at most two contiguous runs of the ring: slices, not an index array
+        a = first % cap
+        k = min(angles.shape[0], cap - a)
+        self._feat[a:a + k] = angles[:k]
+        self._frames[a:a + k] = frames[:k]
+        if k < angles.shape[0]:
+            self._feat[:angles.shape[0] - k] = angles[k:]
+            self._frames[:angles.shape[0] - k] = frames[k:]
         self.learned += m
 
     def snapshot(self, seconds: float | None = None):

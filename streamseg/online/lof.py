@@ -6,6 +6,7 @@ import numpy as np
 
 from streamseg._kernels import lof as _kl
 from streamseg._kernels import lof_stream as _ks
+from streamseg._kernels import stream_features as _sf
 from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
@@ -184,6 +185,53 @@ class StreamingLOFSegmenter:
                                                self._explicit_width))
         return self._run(np.ascontiguousarray(a))
 
+    def learn_positions(self, positions: np.ndarray, bones: tuple, root=None):
+        """Joint positions (n, J, 3) in: their bone features learned in one kernel call
+        (:func:`streamseg._kernels.stream_features.push_block`), the same cuts as
+        ``learn_many`` of the features (with the root speeds of ``root`` appended).
+
+        Parameters
+        ----------
+        positions : ndarray, shape (n, J, 3)
+        bones : tuple
+            ``(parent, child, first, second, up)``: the bones' end points and the angle pairs
+            of :func:`streamseg._kernels.bones.angles_kernel`
+            (:meth:`streamseg.daemon.pipeline.Algorithms.prepare` resolves them per stream);
+            ``m = len(first)`` features, ``m + 2`` columns with ``root`` must be
+            ``n_features``.
+        root : RootSpeed or None
+            The stream's root-speed columns (:class:`streamseg.online.root_speed.RootSpeed`),
+            advanced here.
+
+        Returns
+        -------
+        angles : ndarray, shape (n, m)
+            The features (without the root speeds).
+        ok : ndarray of bool, shape (n,)
+            Frames whose features are all finite.
+        events : list
+            As :meth:`learn_many`.
+        """
+        pos = np.ascontiguousarray(positions, dtype=np.float64)
+        width = bones[2].shape[0] + (0 if root is None else 2)
+        if pos.ndim != 3 or pos.shape[2] != 3 or width != self.n_features:
+            raise ParameterError(f"positions of shape {pos.shape} with {width} feature "
+                                 f"columns: expected (n, J, 3) and {self.n_features} columns")
+        ev = self._event_arrays(pos.shape[0] // self.geometry["step"] + 2)
+        angles, ok, n = _sf.push_block(pos, bones, _root_args(root),
+                                       self._speed_args(), self._st, self._geo, self._p,
+                                       *self._groups(), ev, self._pend)
+        return angles, ok, self._events(n, ev)
+
+    def _speed_args(self) -> tuple:
+        s = self._speeds
+        if s is None:
+            return _NO_SPEEDS
+        order = getattr(s, "_order", None)  # None in checkpoints made before the order
+        if order is None:
+            order = np.arange(2 * s.d)
+        return (s._st, s._ring, s._ref, s._first, s.scale, order.astype(np.int64))
+
     def finish(self) -> list:
         """End of stream: decide the windows still waiting for ``delay`` future windows (and
         settle every pending cut)."""
@@ -278,6 +326,21 @@ class StreamingLOFSegmenter:
     def latency_frames(self) -> int:
         """Worst-case latency (frames) from a cut frame to its emission, without NaN drops."""
         return self.decision_lag_frames() + self.geometry["refine"]
+
+
+_NO_SPEEDS = (np.zeros(3, dtype=np.int64), np.zeros((0, 1)), np.zeros(1), np.zeros(1), 1.0,
+              np.zeros(0, dtype=np.int64))
+_NO_ROOT = (0, np.zeros((0, 2), dtype=np.int64), np.zeros(3), np.zeros(2, dtype=np.int64),
+            np.zeros((1, 3)), np.zeros(3), 0.0, 0.0, 1.0)
+
+
+def _root_args(root) -> tuple:
+    """The arguments of the root-speed kernel for :meth:`StreamingLOFSegmenter.
+    learn_positions` (``root``: a :class:`streamseg.online.root_speed.RootSpeed` or None)."""
+    if root is None:
+        return _NO_ROOT
+    return (root.root, root.limbs, root.up, root._st, root._ring, root._prev, root.jump,
+            root.fps / root.lag, root.v_max)
 
 
 def warmup() -> None:
