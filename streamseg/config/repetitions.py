@@ -35,6 +35,9 @@ class RepetitionConfig:
         Within a set, a loop closes only once it is this share of the set's typical one.
     max_dissimilarity : float
         Consecutive repetitions are alike when mean DTW distance / amplitude is at most this.
+    still_ratio : float
+        Frames slower than this share of a loop's peak speed (a rest) count in neither its
+        duration nor its shape.
     resample : int
         Repetitions are compared at this many frames (linear resampling, then DTW).
     spread_ratio : float
@@ -70,6 +73,7 @@ class RepetitionConfig:
     rest_level: float = 0.1
     amplitude_ratio: float = 0.5
     max_dissimilarity: float = 0.6
+    still_ratio: float = 0.25
     resample: int = 32
     spread_ratio: float = 0.85
     start_tempo_ratio: float = 2.0
@@ -91,7 +95,7 @@ class RepetitionConfig:
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                    "a number > 0")
         for name in ("return_ratio", "rise_ratio", "rest_level", "amplitude_ratio",
-                     "spread_ratio", "end_return_ratio"):
+                     "spread_ratio", "end_return_ratio", "still_ratio"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
                    and 0 <= v <= 1, "a number in [0, 1]")

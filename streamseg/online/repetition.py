@@ -6,7 +6,9 @@ pose_features`), low-passed causally and decimated to about ``rate_hz``. A *loop
 an anchor frame: the pose moves away from the anchor's (at least ``min_amplitude``) and comes
 back (within ``return_ratio`` of the farthest distance); the loop is cut at the slowest frame
 of its rest when the pose moves away again, or ``pause_s / 2`` into a rest of ``pause_s``.
-Each loop's duration is its own: the period is followed cycle by cycle.
+Each loop's duration is its own: the period is followed cycle by cycle. A loop is compared
+(duration, DTW shape) by its moving frames: a rest between repetitions (frames slower than
+``still_ratio`` of the loop's peak speed) makes no loop longer or unlike the others.
 
 Two modes. *Looking for a set*: an anchor at every speed minimum (the pose's turning and
 resting points), so loops of any phase close; a set starts when two consecutive loops are
@@ -403,7 +405,7 @@ class RepetitionCounter:
             b = self._cands.get(loops[0][0])
             if b is None or b[2] < cfg.amplitude_ratio * np.median([x[2] for x in loops]):
                 break
-            if b[1] - b[0] < 0.5 * (loops[0][1] - loops[0][0]):
+            if self._length(b) < 0.5 * self._length(loops[0]):
                 break  # as an edge piece: at least half the next one
             rb = self._dissimilarity(b, loops[0])
             if rb > cfg.max_dissimilarity:
@@ -464,8 +466,42 @@ class RepetitionCounter:
         idx = np.arange(a, b + 1) % self._C
         return self._Z[idx]
 
-    def _resampled(self, a, b):
-        A = self._rows(a, b)
+    def _moving(self, p, vmax=None):
+        """Frames ``p[0] .. p[1]`` where the pose moves, as stream-ring indices: those
+        around a speed (3-frame mean) above ``still_ratio`` x ``vmax`` (default: the
+        fastest in the span), and both ends. A rest inside a loop is thus no part of its
+        duration nor of its shape."""
+        a, b = p[0], p[1]
+        idx = np.arange(a, b + 1)
+        if b - a < 4:
+            return idx
+        v = self._speeds(a, b)
+        moving = np.flatnonzero(v > self.config.still_ratio * (v.max() if vmax is None
+                                                               else vmax))
+        if moving.size < 2:
+            return idx
+        keep = np.zeros(idx.size, bool)
+        keep[moving] = True
+        keep[np.maximum(moving - 1, 0)] = True  # speed u is the step from u - 1 to u
+        keep[0] = keep[-1] = True
+        return idx[keep]
+
+    def _speeds(self, a, b):
+        v = self._SP[np.arange(a, b + 1) % self._C]
+        return np.convolve(v, np.ones(3) / 3, mode="same")
+
+    def _vmax(self, p) -> float:
+        return float(self._speeds(p[0], p[1]).max())
+
+    def _length(self, p) -> int:
+        """Loop ``p``'s moving duration (decimated frames)."""
+        return self._moving(p).size - 1
+
+    def _mrows(self, p):
+        return self._Z[self._moving(p) % self._C]
+
+    def _resampled(self, p):
+        A = self._mrows(p)
         L = min(self.config.resample, A.shape[0])
         x = np.linspace(0.0, A.shape[0] - 1.0, L)
         i = np.floor(x).astype(np.int64)
@@ -474,15 +510,16 @@ class RepetitionCounter:
         return A[i] * (1.0 - w) + A[j] * w
 
     def _dissimilarity(self, p, q) -> float:
-        """DTW distance of loops ``p`` and ``q`` ((start, end, amplitude)) / amplitude."""
-        cost = K.dtw_mean(self._resampled(p[0], p[1]), self._resampled(q[0], q[1]))
+        """DTW distance of loops ``p`` and ``q`` ((start, end, amplitude)) / amplitude, their
+        moving frames compared (a rest inside either is left out)."""
+        cost = K.dtw_mean(self._resampled(p), self._resampled(q))
         return float(cost / max(0.5 * (p[2] + q[2]), 1e-12))
 
     def _spread(self, p, q) -> bool:
         """The larger loop spans ``spread_ratio`` of the range of both; the smaller is at
-        least ``amplitude_ratio`` of it and lasts at least 1 / ``start_tempo_ratio`` of it."""
+        least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
         cfg = self.config
-        da, db = p[1] - p[0], q[1] - q[0]
+        da, db = self._length(p), self._length(q)
         if max(da, db) > cfg.start_tempo_ratio * min(da, db):
             return False
         W = self._rows(p[0], q[1])
@@ -496,32 +533,33 @@ class RepetitionCounter:
 
     def _edge_before(self, first):
         """(piece, dissimilarity) before loop ``first`` that aligns with it, or None."""
-        a, b, M = first
-        L = b - a
-        lo = max(self._origin, a - 2 * L, self._oldest())
-        if a - lo < 0.5 * L:
+        a, b = first[0], first[1]
+        L = self._length(first)
+        lo = max(self._origin, a - 2 * (b - a), self._oldest())
+        idx = self._moving((lo, a), self._vmax(first))
+        if idx.size - 1 < 0.5 * L:
             return None
-        S = self._rows(lo, a)
-        cost, j = K.edge_dtw(self._rows(a, b), S)
+        S = self._Z[idx % self._C]
+        cost, j = K.edge_dtw(self._mrows(first), S)
         amp = float(np.linalg.norm(S[j:] - S[-1], axis=1).max())
-        start = lo + int(j)
-        return self._edge_ok((start, a, amp), first, cost, L)
+        return self._edge_ok((int(idx[j]), a, amp), first, cost, L, idx.size - 1 - int(j))
 
     def _edge_after(self, last, a, t):
         """(piece, dissimilarity) after loop ``last`` from frame ``a`` to at most ``t`` that
         aligns with it, or None."""
-        L = last[1] - last[0]
-        if t - a < 0.5 * L:
+        L = self._length(last)
+        idx = self._moving((a, min(t, a + 2 * (last[1] - last[0]))), self._vmax(last))
+        if idx.size - 1 < 0.5 * L:
             return None
-        S = self._rows(a, min(t, a + 2 * L))
-        cost, j = K.edge_dtw(self._rows(last[0], last[1])[::-1].copy(), S[::-1].copy())
+        S = self._Z[idx % self._C]
+        cost, j = K.edge_dtw(self._mrows(last)[::-1].copy(), S[::-1].copy())
         end = S.shape[0] - 1 - int(j)
         amp = float(np.linalg.norm(S[: end + 1] - S[0], axis=1).max())
-        return self._edge_ok((a, a + end, amp), last, cost, L)
+        return self._edge_ok((a, int(idx[end]), amp), last, cost, L, end)
 
-    def _edge_ok(self, piece, ref, cost, L):
+    def _edge_ok(self, piece, ref, cost, L, n):
         cfg = self.config
-        if piece[1] - piece[0] < 0.5 * L or piece[2] < cfg.amplitude_ratio * ref[2]:
+        if n < 0.5 * L or piece[2] < cfg.amplitude_ratio * ref[2]:
             return None
         r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
         return (piece, r) if r <= cfg.max_dissimilarity else None
