@@ -54,6 +54,23 @@ def test_rests_of_different_lengths_between_repetitions_stay_one_set():
     assert [s["count"] for s in seg.sets_] == [5]
 
 
+@pytest.mark.parametrize("cls,n", [("hopBothLegs1hops", 2), ("hopBothLegs1hops", 3),
+                                   ("hopBothLegs1hops", 4), ("rotateArmsBothBackward1Reps", 2)])
+def test_a_still_rest_between_real_repetitions_is_no_part_of_their_duration(data_dir, cls, n):
+    """bd's takes with the last pose held 1, 1.5, 2 s between them: one set of all. (A loop
+    is compared by its moving frames; with ``still_ratio=0`` these sets are missed or cut
+    short: 0, 2, 3 hops and 0 arm circles.)"""
+    reps = _bd(data_dir, cls, range(n))
+    parts = []
+    for i, r in enumerate(reps):
+        parts.append(r)
+        if i < n - 1:
+            held = np.repeat(r.positions[-1:], int((1.0 + 0.5 * i) * 120), axis=0)
+            parts.append(Recording(120.0, r.skeleton, held))
+    seg = RepetitionSegmenter().fit(_join(parts))
+    assert [s["count"] for s in seg.sets_] == [n]
+
+
 def test_two_exercises_back_to_back_are_two_sets(data_dir):
     rec = _join(_bd(data_dir, "squat1Reps", range(4))
                 + _bd(data_dir, "rotateArmsBothBackward1Reps", range(4)))
