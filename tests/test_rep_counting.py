@@ -54,7 +54,7 @@ def test_held_out_sets_of_two_to_six_meet_the_floors(held_out_sets):
     alpha = np.mean([matched_repetition_accuracy(f, reps)
                      for f, (_, _, reps, _) in zip(found, held_out_sets)])
     assert len(k) == 127
-    # measured: exact 0.81, OBO 0.91, alpha 0.886 at 5a5bb09; 0.80, 0.91, 0.884 at 25cf754
+    # measured: exact 0.81, OBO 0.91, alpha 0.886 at 5a5bb09; 0.80, 0.91, 0.884 at eb129f3
     assert np.mean(c == k) >= 0.79
     assert np.mean(np.abs(c - k) <= 1) >= 0.89
     assert alpha >= 0.87
@@ -71,7 +71,7 @@ def test_every_class_keeps_its_floor(held_out_sets):
     by = defaultdict(list)
     for plan, _, reps, seg in held_out_sets:
         by[plan.parts[0][0]].append(len(_best_set(seg, reps)) == len(reps))
-    # measured: 1.00, 1.00, 0.96, 0.58, 0.59 (kicks 0.54 since 25cf754: 13 of 24)
+    # measured: 1.00, 1.00, 0.96, 0.58, 0.59 (kicks 0.54 since eb129f3: 13 of 24)
     floors = {"squat1Reps": 1.0, "rotateArmsBothBackward1Reps": 1.0,
               "elbowToKnee1RepsLelbowStart": 0.9, "kickLFront1Reps": 0.54,
               "hopBothLegs1hops": 0.55}
@@ -115,7 +115,7 @@ def test_routines_of_held_out_actors_are_cut_into_their_sets(data_dir, clips):
                 total += 1
                 right += len(mine) == len(reps) and len(set(mine)) == 1
     # measured at the commit of this test: 24 of 30 (the six-per-actor benchmark: 46 of 60;
-    # 45 of 60 since 25cf754)
+    # 45 of 60 since eb129f3)
     assert total == 30 and right >= 23
 
 
