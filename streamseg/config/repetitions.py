@@ -36,8 +36,7 @@ class RepetitionConfig:
     max_dissimilarity : float
         Consecutive repetitions are alike when mean DTW distance / amplitude is at most this.
     still_ratio : float
-        Frames slower than this share of a loop's peak speed (a rest) count in neither its
-        duration nor its shape.
+        Frames under this share of a loop's peak speed (rests) count in neither its length nor shape.
     resample : int
         Repetitions are compared at this many frames (linear resampling, then DTW).
     spread_ratio : float
