@@ -36,7 +36,7 @@ class RepetitionConfig:
     max_dissimilarity : float
         Consecutive repetitions are alike when mean DTW distance / amplitude is at most this.
     still_ratio : float
-        Frames under this share of a loop's peak speed (rests) count in neither its length nor shape.
+        Frames under this share of a loop's peak speed (rests) count in neither its length nor form.
     resample : int
         Repetitions are compared at this many frames (linear resampling, then DTW).
     spread_ratio : float
