@@ -209,16 +209,19 @@ def subscribe(endpoint: str, control: str, stream=None, kind=None, ctx=None,
 
 
 def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None,
-                on_range=None) -> list:
+                on_range=None, skipped=None) -> list:
     """The logged events of ``stream`` with sequence numbers in ``(seq, upto)`` (all after
     ``seq`` when ``upto`` is None) from the control op ``since``, page by page; raises
     LookupError when the daemon keeps no log. ``on_range(first, last)`` is called with the
-    first reply's lowest number held and the stream's newest one."""
+    first reply's lowest number held and the stream's newest one; ``skipped``, a list, gets
+    the ranges ``[lo, hi]`` of numbers above ``seq`` the daemon skipped at a restart."""
     out = []
     while True:
         reply = request(endpoint, "since", ctx, curve=curve, stream=stream, seq=seq)
         if not reply.get("ok"):
             raise LookupError(reply.get("error"))
+        if skipped is not None:
+            skipped += [r for r in reply.get("skipped", []) if r not in skipped]
         if on_range is not None:
             on_range(reply.get("first") or 0, reply.get("last") or 0)
             on_range = None
@@ -230,6 +233,11 @@ def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve
             seq = ev.seq
         if not reply.get("more"):
             return out
+
+
+def count_in(ranges, lo: int, hi: int) -> int:
+    """How many of the numbers ``lo..hi`` (inclusive) lie in the ranges ``[[a, b], ...]``."""
+    return sum(max(0, min(b, hi) - max(a, lo) + 1) for a, b in ranges)
 
 
 def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
@@ -244,7 +252,10 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     from the event log, yielded first; live events they already hold (by sequence number) are
     skipped. ``on_hole(key, first, end)`` is called when a stream's sequence
     numbers skip ``[first, end)`` (only meaningful when every event type of the stream is
-    subscribed); it returns the missing events it could fetch, which are yielded then.
+    subscribed), or when a ``stats`` heartbeat says a stream's last number is beyond the last
+    one received (a loss at the tail); it returns the missing events it could fetch, which
+    are yielded then. With ``stream`` given, ``stats`` events (subscribed for that) are used
+    for the tail and not yielded.
     ``monitor``: a monitor socket of ``sock``; ``on_monitor(event)`` is called with each of its
     events (it may raise: a refused handshake is silent on the socket itself).
 
@@ -303,7 +314,8 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
             if sock not in ready:
                 continue
             frames = sock.recv_multipart()
-            if timeout is not None:
+            # (the heartbeats a one-stream listener reads for the tail are no event of it)
+            if timeout is not None and (stream is None or not frames[0].startswith(b"stats/")):
                 idle_end = time.monotonic() + timeout
         try:
             ev = protocol.decode(frames)
@@ -319,7 +331,24 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
                 since = None  # a re-announced stream starts its revisions and frames over
         n = getattr(ev, "seq", None)
         missed = ()
-        if n is not None:
+        if ev.type == "stats" and on_hole is not None:
+            # the heartbeat's last numbers: a loss after a stream's last event received shows
+            missed = []
+            for key, newest in ev.last_seq.items():
+                prev = last.get(key)
+                if prev is not None and newest > prev and (stream is None or key == stream):
+                    missed += on_hole(key, prev + 1, newest + 1) or ()
+                    last[key] = newest
+            if stream is not None:  # not the stream's own: yield only what it fetched
+                for e in missed:
+                    seen += 1
+                    yield e
+                    if until_end and e.type == "closed" and e.stream == stream:
+                        return
+                    if count is not None and seen >= count:
+                        return
+                continue
+        elif n is not None:
             key = ev.stream or protocol.DAEMON_WIDE
             if n <= fetched.get(key, 0):
                 continue  # already yielded from the log

@@ -17,6 +17,8 @@ from streamseg.cli import main
 from streamseg.client import fetch_since, handshake, listen, request, subscribe
 from streamseg.commands.replay import announce_of, replay
 from streamseg.daemon.eventlog import EventLog
+from streamseg.online.lof import StreamingLOFSegmenter
+from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -29,11 +31,15 @@ def start_daemon(start_daemon, tmp_path):
 
 
 def wait_closed(ep, stream, timeout=30):
+    """The stream's closed state, once its `closed` event is in the log (published: events
+    go out once committed, and `state` says closed as the event is queued)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         state = request(ep["control"], "state", stream=stream)
         if state.get("closed"):
-            return state
+            logged = fetch_since(ep["control"], stream, 0)
+            if logged and logged[-1].type == "closed":
+                return state
         time.sleep(0.02)
     raise AssertionError(f"stream {stream} not closed in {timeout} s")
 
@@ -245,3 +251,198 @@ def test_retention_by_size_and_age(tmp_path):
         time.sleep(0.01)
     assert old.deleted == 1 and old.since("s", 0)[0] == []
     old.close()
+
+
+def offline_cuts(rec, positions):
+    seg = StreamingLOFSegmenter(fps=rec.fps)
+    ang = lof_input(positions, rec.skeleton, rec.fps)
+    return [c.frame for c in seg.learn_many(ang) + seg.finish()]
+
+
+def takes(events):
+    """Events of one stream id split at each `closed`, in the order received."""
+    out, cur = [], []
+    for e in events:
+        cur.append(e)
+        if e.type == "closed":
+            out.append(cur)
+            cur = []
+    return out + ([cur] if cur else [])
+
+
+def test_a_reannounced_stream_closes_before_the_new_take_publishes(start_daemon, rec):
+    """A sender restarts its take (re-announce) while the old take's final relabel runs:
+    the old take's `closed` comes before any event of the new take, live and in the log."""
+    d, ep = start_daemon(relabel_interval=1.0, relabel_history=30.0)
+    s = subscribe(ep["publish"], ep["control"], stream="r")
+    first, second = rec.positions[:3000], rec.positions[1500:4500]
+    sock = zmq.Context.instance().socket(zmq.PUSH)
+    sock.setsockopt(zmq.LINGER, 5000)
+    sock.connect(ep["ingest"])
+    for pos in (first, second):  # the second announce right behind the first take's frames
+        sock.send_multipart(P.encode(announce_of(rec, "r")))
+        for a in range(0, pos.shape[0], 50):
+            sock.send_multipart(P.encode(P.Frames("r", a, 0.0, pos[a:a + 50])))
+    sock.send_multipart(P.encode(P.End("r")))
+    live = []
+    for ev in listen(s, stream="r", timeout=60):
+        live.append(ev)
+        if ev.type == "closed" and ev.reason == "end":
+            break
+    one, two = takes(live)
+    assert one[-1].reason == "reannounced" and two[-1].reason == "end"
+    # each take's cuts are its own frames' (in the order a consumer applies them)
+    assert [e.frame for e in one if e.type == "cut"] == offline_cuts(rec, first)
+    assert [e.frame for e in two if e.type == "cut"] == offline_cuts(rec, second)
+    assert [e for e in one if e.type == "segments"][-1].final
+    finals = [e for e in two if e.type == "segments" and e.final]
+    assert finals and finals[-1].end == second.shape[0]
+    assert [e.seq for e in live] == sorted({e.seq for e in live})
+    assert fetch_since(ep["control"], "r", 0) == live
+    sock.close()
+
+
+def make_log(path, streams=("a", "b", "c"), n=400):
+    """A real events.sqlite of ``n`` events per stream, written by :class:`EventLog`."""
+    log = EventLog(path, flush_interval=0.001)
+    for s in streams:
+        for i in range(1, n + 1):
+            log.append(s, i, "cut", P.encode(P.Cut(s, i, 0.0, 1.0, i, True), seq=i)[1])
+    deadline = time.monotonic() + 30
+    while log.written < n * len(streams):  # committed
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    return log
+
+
+def damage(db, page=1):
+    """Overwrite the file's pages from ``page`` (0: the header) to its end with garbage."""
+    size = db.stat().st_size
+    with open(db, "r+b") as fh:
+        fh.seek(page * 4096)
+        fh.write(b"\xa5" * (size - page * 4096))
+
+
+def checkpoint_wal(db):
+    """Move the WAL's pages into the file (another connection, as any SQLite user may)."""
+    con = sqlite3.connect(db)
+    con.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchall()
+    con.close()
+
+
+def test_a_damaged_log_is_moved_aside_at_start(start_daemon, tmp_path, caplog):
+    """Damaged while stopped, twice: not a database at all, and damaged pages under a WAL
+    that still holds commits. Each time the daemon starts, moves the file aside (warning
+    naming both files), publishes an `error` event saying so, and serves a new log."""
+    state = tmp_path / "state"
+    state.mkdir()
+    (state / "events.sqlite").write_bytes(b"this is no database " * 300)
+    d, ep = start_daemon()
+    aside = list(state.glob("events.corrupt-*.sqlite"))
+    assert len(aside) == 1 and aside[0].read_bytes().startswith(b"this is no database")
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any(str(state / "events.sqlite") in m and str(aside[0]) in m for m in warned)
+    (err,) = [e for e in fetch_since(ep["control"], P.DAEMON_WIDE, 0) if e.type == "error"]
+    assert err.reason == "event_log" and str(aside[0]) in err.message
+    assert request(ep["control"], "since", stream="a")["ok"]
+    d.stop()
+    while d.state_lock is not None:  # released as the daemon's shutdown ends
+        time.sleep(0.01)
+    # a log with a WAL that holds commits (its writer still open) and damaged pages
+    aside[0].unlink()
+    log = make_log(tmp_path / "w")
+    log._w.execute("PRAGMA wal_autocheckpoint=0")
+    for i in range(401, 1401):
+        log.append("c", i, "cut", P.encode(P.Cut("c", i, 0.0, 1.0, i, True), seq=i)[1])
+    assert log.sync(30)
+    for suffix in ("", "-wal"):
+        (state / f"events.sqlite{suffix}").unlink(missing_ok=True)
+        (state / f"events.sqlite{suffix}").write_bytes(
+            (tmp_path / "w" / f"events.sqlite{suffix}").read_bytes())
+    log.close()
+    assert (state / "events.sqlite-wal").stat().st_size > 0
+    damage(state / "events.sqlite")
+    d, ep = start_daemon()
+    assert len(list(state.glob("events.corrupt-*.sqlite"))) == 1
+    for s in ("a", "b", "c"):  # a new log: every stream answers (nothing), none is refused
+        reply = request(ep["control"], "since", stream=s)
+        assert reply["ok"] and reply["events"] == [], reply
+
+
+def test_read_errors_name_the_file_and_retention_says_it_once(start_daemon, tmp_path,
+                                                               caplog):
+    """Pages damaged under a running daemon: `since` replies name the file (never "bad
+    request"), an `error` event says it, the daemon goes on; retention's failures are
+    logged once, not every pass."""
+    make_log(tmp_path / "state").close()
+    d, ep = start_daemon(heartbeat=0.05)
+    errors = subscribe(ep["publish"], ep["control"], kind="error")
+    checkpoint_wal(d.eventlog.path)
+    damage(d.eventlog.path)
+    replies = [request(ep["control"], "since", stream=s) for s in ("a", "b", "c")]
+    bad = [r for r in replies if not r["ok"]]
+    assert bad, replies
+    for r in bad:
+        assert str(tmp_path / "state" / "events.sqlite") in r["error"]
+        assert "bad request" not in r["error"]
+    ev = next(e for e in listen(errors, timeout=30) if e.reason == "event_log")
+    assert "could not be read" in ev.message and str(d.eventlog.path) in ev.message
+    assert request(ep["control"], "ping")["ok"]
+    # retention on the damaged file, pass after pass: one ERROR line
+    log = EventLog(tmp_path / "r", retention_interval=0.01)
+    log.append("s", 1, "cut", b"x" * 100)
+    assert log.sync(30)
+    checkpoint_wal(log.path)
+    damage(log.path)
+    deadline = time.monotonic() + 30
+    while log.read_failed < 5:
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    said = [r for r in caplog.records if "retention failed" in r.getMessage()
+            and str(log.path) in r.getMessage()]
+    assert len(said) == 1 and said[0].levelname == "ERROR"
+    log.close()
+
+
+def test_a_lost_tail_shows_in_the_heartbeat(start_daemon, rec):
+    """A slow subscriber loses the end of a stream, its `closed` included (another stream's
+    burst fills its queue): no later number of the stream ever arrives, but the heartbeats
+    carry its last one, so `listen` fetches the rest from the log and ends with every event."""
+    d, ep = start_daemon(hwm=1, heartbeat=0.1, gap_events_per_s=1e6)
+    ctx = zmq.Context.instance()
+    slow = ctx.socket(zmq.SUB)
+    slow.setsockopt(zmq.RCVHWM, 1)
+    for prefix in P.subscriptions(stream="t") + P.subscriptions(stream="z") + \
+            [P.topic("stats", None)]:
+        slow.setsockopt(zmq.SUBSCRIBE, prefix)
+    slow.connect(ep["publish"])
+    pending = handshake(slow, ep["control"])
+    sock = ctx.socket(zmq.PUSH)
+    sock.connect(ep["ingest"])
+    sock.send_multipart(P.encode(announce_of(rec, "t")))
+    sock.send_multipart(P.encode(P.Frames("t", 0, 0.0, rec.positions[:1])))
+    sock.send_multipart(P.encode(P.Frames("t", 2, 0.0, rec.positions[2:3])))
+    holes = []
+
+    def fill(key, first, end):
+        holes.append((key, first, end))
+        return fetch_since(ep["control"], key, first - 1, upto=end)
+
+    events = listen(slow, stream="t", until_end=True, timeout=20, pending=pending,
+                    on_hole=fill)
+    head = next(e for e in events if getattr(e, "stream", None) == "t")
+    assert head.type == "gap" and head.seq == 1  # received; from here on the SUB waits
+    sock.send_multipart(P.encode(announce_of(rec, "z")))
+    for a in range(0, 6000, 2):  # 3,000 gap events of another stream fill the queues
+        sock.send_multipart(P.encode(P.Frames("z", a, 0.0, rec.positions[:1])))
+    for a in range(4, 40, 2):  # the tail of stream t: gaps, then `closed`
+        sock.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a:a + 1])))
+    sock.send_multipart(P.encode(P.End("t")))
+    sock.close(linger=5000)
+    wait_closed(ep, "t")
+    logged = fetch_since(ep["control"], "t", 0)
+    got = [e for e in (head, *events) if getattr(e, "stream", None) == "t"]
+    assert got == logged  # every event, once, in order, the lost tail included
+    tail = [h for h in holes if h[0] == "t"][-1]
+    assert tail[2] == logged[-1].seq + 1  # the tail, `closed` included: from the heartbeat
+    slow.close()

@@ -15,7 +15,15 @@ import time
 import zmq
 
 from streamseg import protocol, strict_json
-from streamseg.client import Refusal, fetch_since, handshake, listen, request, subscriber
+from streamseg.client import (
+    Refusal,
+    count_in,
+    fetch_since,
+    handshake,
+    listen,
+    request,
+    subscriber,
+)
 
 
 def add_arguments(parser) -> None:
@@ -179,6 +187,9 @@ def run(args) -> int:
     # nothing else would without --control) and whether a daemon is there at all
     sock, monitor = subscriber(args.source, args.stream, args.kind, ctx, curve=curve,
                                monitor=Refusal.EVENTS | zmq.EVENT_DISCONNECTED)
+    if args.stream and args.control and args.kind is None:
+        # the heartbeats carry each stream's last event number: a loss at the tail shows
+        sock.setsockopt(zmq.SUBSCRIBE, protocol.topic("stats", None))
     wait_s = args.timeout or None  # 0: wait for the daemon forever
     out = sys.stdout
     since, backlog, pending = None, [], []
@@ -190,19 +201,17 @@ def run(args) -> int:
                   + ("" if args.control else "; give --control to fetch them"),
                   file=sys.stderr)
             return ()
+        skipped = []
         try:
-            evs = fetch_since(args.control, key, first - 1, ctx, upto=end, curve=curve)
+            evs = fetch_since(args.control, key, first - 1, ctx, upto=end, curve=curve,
+                              skipped=skipped)
         except (LookupError, TimeoutError) as err:
             print(f"streamseg listen: hole: {where} were missed ({end - first}); cannot "
                   f"fetch them: {err}", file=sys.stderr)
             return ()
-        unused = end - first - len(evs)
-        # a daemon restarted after a crash skips numbers it may have published unlogged:
-        # most holes across a restart are numbers no event ever had
         print(f"streamseg listen: hole: {where}: {len(evs)} fetched from the event log"
-              + (f"; {unused} numbers were never logged (after a crash a restarted daemon "
-                 f"skips {protocol.SEQ_SKIP}: the events of the moments before it may be lost)"
-                 if unused else ""), file=sys.stderr)
+              + _not_fetched(end - first - len(evs), count_in(skipped, first, end - 1)),
+              file=sys.stderr)
         return [e for e in evs if args.kind is None or e.type == args.kind]
 
     try:
@@ -274,6 +283,8 @@ def _history(args, state: dict, ctx, curve=None):
         return None
     start = args.since if args.since is not None else state["seq_base"]
 
+    said, skipped = [], []
+
     def say_range(first, last):  # what the log cannot give, said rather than left silent
         if args.since is not None and args.since > last:
             newest = f"is {last}" if last else "does not exist (no event logged)"
@@ -281,18 +292,39 @@ def _history(args, state: dict, ctx, curve=None):
                   f"{args.stream} {newest}: nothing to fetch, following live events",
                   file=sys.stderr)
         elif first > start + 1:
-            print(f"streamseg listen: events {start + 1}..{first - 1} of stream "
-                  f"{args.stream} are no longer in the event log (retention: --log-max-mb, "
-                  f"--log-max-days); fetching from {first}", file=sys.stderr)
+            said.append((start + 1, first - 1))
 
     try:
         evs = fetch_since(args.control, args.stream, start, ctx, curve=curve,
-                          on_range=say_range)
+                          on_range=say_range, skipped=skipped)
     except (LookupError, TimeoutError) as err:
         if args.since is not None:
             print(f"streamseg listen: --since: {err}", file=sys.stderr)
         return None
+    for lo, hi in said:
+        n_skipped = count_in(skipped, lo, hi)
+        if n_skipped == hi - lo + 1:
+            print(f"streamseg listen: numbers {lo}..{hi} of stream {args.stream} were "
+                  "skipped at a restart after a crash (no event had them); fetching from "
+                  f"{hi + 1}", file=sys.stderr)
+        else:
+            print(f"streamseg listen: events {lo}..{hi} of stream {args.stream} are no "
+                  "longer in the event log (retention: --log-max-mb, --log-max-days"
+                  + (f"; {n_skipped} of the numbers were skipped at a restart" if n_skipped
+                     else "") + f"); fetching from {hi + 1}", file=sys.stderr)
     return [e for e in evs if args.kind is None or e.type == args.kind]
+
+
+def _not_fetched(missing: int, skipped: int) -> str:
+    """What a hole report says of the numbers the log did not give."""
+    if not missing:
+        return ""
+    text = (f"; {skipped} numbers were skipped at a restart after a crash (no event had "
+            "them)") if skipped else ""
+    if missing > skipped:
+        text += (f"; {missing - skipped} events are not in the log (retention, or a disk "
+                 "that refused them: the daemon's `error` events say)")
+    return text
 
 
 def _state_line(state: dict) -> str:

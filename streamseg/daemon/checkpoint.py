@@ -106,6 +106,11 @@ def step(daemon, now: float) -> int:
 
 
 def _copy(daemon, st, items: list) -> None:
+    q = daemon.order.get(st.stream) if daemon.order else None
+    if q and q[0][0] != st.gen:
+        # a take waiting for an older one's `closed`: not resumed after a crash either, so
+        # nothing of it can come out before that `closed`
+        return
     daemon._flush(st)
     daemon._dirty.pop(st, None)
     try:
@@ -145,7 +150,11 @@ def restore(daemon, now: float) -> int:
         daemon._ckpt_seen[stream] = st.frames_in
         # events published in the last moments before the crash may not have reached the log:
         # their numbers are skipped, never reused for other events
-        daemon.numbering.last[stream] = daemon.numbering.current(stream) + SEQ_SKIP
+        # (published only once logged, they are there unless the disk refused them)
+        last = daemon.numbering.current(stream)
+        daemon.numbering.last[stream] = last + SEQ_SKIP
+        if daemon.eventlog is not None:  # `since` says they were skipped, not lost
+            daemon.eventlog.skip(stream, last + 1, last + SEQ_SKIP)
         if st.client is not None:
             daemon.clients[st.client] += 1
         n += 1

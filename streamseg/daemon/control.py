@@ -9,6 +9,7 @@ import zmq
 
 from streamseg import protocol
 from streamseg.daemon.checkpoint import checkpoint
+from streamseg.daemon.eventlog import LogReadError
 
 
 def serve_control(daemon) -> None:
@@ -115,8 +116,13 @@ def since(daemon, req) -> dict:
         return {"ok": False, "error": "this daemon keeps no event log (start it with "
                                       "--state-dir DIR)"}
     limit = min(limit, SINCE_LIMIT) if type(limit) is int and limit > 0 else SINCE_LIMIT
-    bodies, first = daemon.eventlog.since(stream, seq, limit)
+    try:
+        bodies, first = daemon.eventlog.since(stream, seq, limit)
+        last = daemon.eventlog.logged_seq(stream)
+        skipped = daemon.eventlog.skipped(stream, seq)
+    except LogReadError as err:  # a damaged file: said (reply and `error` event), not "bad"
+        daemon._report_storage()
+        return {"ok": False, "error": str(err)}
     events = [msgpack.unpackb(b, raw=False) for b in bodies]
-    return {"ok": True, "stream": stream, "events": events, "first": first,
-            "last": daemon.numbering.last.get(stream) or daemon.eventlog.last_seq(stream),
-            "more": len(events) == limit}
+    return {"ok": True, "stream": stream, "events": events, "first": first, "last": last,
+            "skipped": skipped, "more": len(events) == limit}

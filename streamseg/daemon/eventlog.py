@@ -1,10 +1,20 @@
-"""The event log: every numbered event, appended to SQLite (WAL) by a writer thread.
+"""The event log: every numbered event, committed to SQLite (WAL) before it is published.
 
-The daemon's loop only appends ``(stream, seq, type, time, body)`` tuples to a list (no I/O on
-the ingest path); :class:`EventLog`'s thread takes the list every ``flush_interval`` seconds
-and writes it with one ``executemany`` in one transaction. Retention (age, then size) runs in
-the same thread. :meth:`EventLog.since` answers the control op ``since`` from the database
-plus the tuples not yet committed, so nothing published is ever missing from a reply.
+The daemon's loop only appends ``(stream, seq, type, time, body)`` rows and the events'
+wire frames to lists (no I/O on the ingest path); :class:`EventLog`'s thread takes them,
+writes the rows with one ``executemany`` in one transaction, and only then hands the frames
+back (:meth:`EventLog.committed`, the loop is woken by ``notify``) for the loop to publish.
+So every event a subscriber has seen is in the log: a crash loses only events nobody saw.
+A batch is whatever the loop appended while the previous one was written, and commits come
+at most every ``batch_interval`` (5 ms): a lone event waits for one commit (well under a
+millisecond), a burst shares one. Retention (age, then size) runs in the same thread in
+bounded steps. The log keeps a reserve of free pages in its own file (and its WAL at its
+size), so when the disk fills up it still has room while the checkpoints pause.
+
+A damaged file is found at start (opening fails or ``PRAGMA quick_check`` does not answer
+``ok``) and moved aside as ``events.corrupt-<time>.sqlite``; :attr:`EventLog.quarantined`
+says so, for the daemon to publish. Read errors later are counted (:attr:`EventLog.read_failed`)
+and raised as :class:`LogReadError`, which names the file.
 """
 
 from __future__ import annotations
@@ -32,7 +42,25 @@ CREATE TABLE IF NOT EXISTS events (
     body BLOB NOT NULL
 );
 CREATE INDEX IF NOT EXISTS events_stream_seq ON events (stream, seq);
+CREATE TABLE IF NOT EXISTS skips (
+    stream TEXT NOT NULL,
+    lo INTEGER NOT NULL,
+    hi INTEGER NOT NULL,
+    t REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS skips_stream ON skips (stream, hi);
 """
+
+#: free pages the log keeps in its own file (4 kB each: 4 MB, some 20,000 events), so it can
+#: still write when the disk is full (the checkpoints pause first)
+RESERVE_PAGES = 1024
+#: rows deleted by one retention step at most (the next step follows at once): a long delete
+#: would hold back the commits, and so the publication, of the events behind it
+RETAIN_STEP = 20_000
+
+
+class LogReadError(RuntimeError):
+    """The event log could not be read (a damaged file); the message names the file."""
 
 
 def default_state_dir() -> Path:
@@ -42,18 +70,21 @@ def default_state_dir() -> Path:
     return Path(base) / "streamseg"
 
 
-def open_log(config) -> EventLog | None:
+def open_log(config, notify=None) -> EventLog | None:
     """The daemon's event log under ``config.state_dir`` (None without a state directory)."""
     if not config.state_dir or config.state_dir == "none":
         return None
     return EventLog(config.state_dir, max_bytes=int(config.log_max_mb * 1e6),
-                    max_age=config.log_max_days * 86400.0)
+                    max_age=config.log_max_days * 86400.0, notify=notify)
 
 
-def connect(path: Path) -> sqlite3.Connection:
-    """A connection in WAL mode (readers never block the writer), autocommit off."""
+def connect(path: Path, auto_vacuum: bool = False) -> sqlite3.Connection:
+    """A connection in WAL mode (readers never block the writer), autocommit off;
+    ``auto_vacuum``: incremental (takes effect on a new file only)."""
     con = sqlite3.connect(str(path), timeout=30, check_same_thread=False,
                           isolation_level=None)
+    if auto_vacuum:  # before WAL mode writes the file's first page
+        con.execute("PRAGMA auto_vacuum=INCREMENTAL")
     con.execute("PRAGMA journal_mode=WAL")
     # NORMAL in WAL: a commit survives a crash of the process (kill -9); only a power loss
     # can take the last commits, and never corrupts the file
@@ -61,8 +92,23 @@ def connect(path: Path) -> sqlite3.Connection:
     return con
 
 
+def move_aside(path: Path, name: str) -> Path:
+    """Rename the SQLite file ``path`` (and its ``-wal``, ``-shm``) to ``<name>.corrupt-<time>
+    .sqlite`` beside it; returns the new path."""
+    stamp, k = int(time.time()), 0
+    while (aside := path.with_name(f"{name}.corrupt-{stamp}{f'-{k}' if k else ''}.sqlite")) \
+            .exists():
+        k += 1  # never over an earlier one
+    for suffix in ("", "-wal", "-shm"):
+        src = Path(str(path) + suffix)
+        if src.exists():
+            src.rename(str(aside) + suffix)
+    return aside
+
+
 class EventLog:
-    """Appends events to ``<state_dir>/events.sqlite`` and answers ``since`` queries.
+    """Commits events to ``<state_dir>/events.sqlite``, then hands them back for publication,
+    and answers ``since`` queries.
 
     Parameters
     ----------
@@ -72,79 +118,181 @@ class EventLog:
         Retention by size: when the live pages exceed this, the oldest events are deleted.
     max_age : float
         Retention by age (seconds): older events are deleted.
-    flush_interval : float
-        Seconds between the writer's batches.
+    batch_interval : float
+        Seconds between the starts of two commits at least (a burst of events shares one).
+    retention_interval : float
+        Seconds between retention passes.
+    notify : callable, optional
+        Called by the writer thread after each batch (committed or not): the frames wait in
+        :meth:`committed`.
     """
 
     def __init__(self, state_dir, max_bytes: int = 256 << 20, max_age: float = 7 * 86400.0,
-                 flush_interval: float = 0.05, retention_interval: float = 10.0):
+                 batch_interval: float = 0.005, retention_interval: float = 10.0,
+                 notify=None, flush_interval: float | None = None):
         self.dir = Path(state_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.path = self.dir / "events.sqlite"
-        self.max_bytes, self.max_age, self.flush_interval = max_bytes, max_age, flush_interval
+        self.max_bytes, self.max_age = max_bytes, max_age
+        self.batch_interval = batch_interval if flush_interval is None else flush_interval
         self.retention_interval = retention_interval
-        self._w = connect(self.path)
-        self._w.execute("PRAGMA auto_vacuum=INCREMENTAL")  # takes effect on a new file only
-        self._w.executescript(SCHEMA)
-        self._r = connect(self.path)  # the loop's reader (control requests)
-        self._pending: list = []  # appended by the loop thread only
-        self._inflight: list = []  # the batch the writer is committing
-        self._swap = threading.Lock()
+        self.notify = notify
+        self.quarantined = None  # (the damaged file moved aside, what was wrong)
+        try:
+            self._open()
+        except sqlite3.DatabaseError as err:
+            self._close_connections()
+            aside = move_aside(self.path, "events")
+            self.quarantined = (aside, str(err))
+            log.warning("event log %s is damaged (%s): moved to %s; a new log starts (the "
+                        "old events stay readable only there)", self.path, err, aside)
+            self._open()
+        self._pending: list = []  # rows appended by the loop thread
+        self._out: list = []  # the frames to publish once the rows before them are committed
+        self._skips: list = []  # (stream, lo, hi, t) of numbers skipped at a restart
+        self._inflight: list = []  # the rows the writer is committing
+        self._done: collections.deque = collections.deque()  # frames committed, to publish
+        self._swap = threading.Condition()
         self._wake = threading.Event()
         self._stopping = threading.Event()
+        self._writing = False
         self.written = 0
         self.failed = 0  # events not written (disk full, unwritable): the daemon reports them
+        self.read_failed = 0  # reads that failed (a damaged file): the daemon reports them
         self.deleted = 0
         self.batches = 0
         self.write_seconds = 0.0
         self.cpu_seconds = 0.0  # the writer thread's CPU time (batches and retention)
         self.live_bytes = 0  # measured by the last retention pass
         self.retentions = 0
+        self._retain_error = None  # the last retention failure (logged once per kind)
         self._next_retention = 0.0
         self._thread = threading.Thread(target=self._run, name="streamseg-eventlog", daemon=True)
         self._thread.start()
 
+    def _open(self) -> None:
+        self._w = self._r = None
+        self._w = connect(self.path, auto_vacuum=True)
+        self._w.executescript(SCHEMA)
+        check = self._w.execute("PRAGMA quick_check").fetchall()
+        if check != [("ok",)]:
+            raise sqlite3.DatabaseError(f"quick_check: {'; '.join(r[0] for r in check[:3])}")
+        self._reserve()
+        self._r = connect(self.path)  # the loop's reader (control requests)
+
+    def _close_connections(self) -> None:
+        for con in (self._w, self._r):
+            if con is not None:
+                try:
+                    con.close()
+                except sqlite3.Error:
+                    pass
+
+    def _reserve(self) -> None:
+        """Grow the file's free pages to :data:`RESERVE_PAGES` (a blob written and deleted:
+        its pages stay in the file, and the WAL keeps the size it reached)."""
+        free = self._w.execute("PRAGMA freelist_count").fetchone()[0]
+        if free >= RESERVE_PAGES:
+            return
+        size = self._w.execute("PRAGMA page_size").fetchone()[0]
+        try:
+            self._w.execute("BEGIN")
+            self._w.execute("CREATE TABLE IF NOT EXISTS reserve (b BLOB)")
+            self._w.execute("INSERT INTO reserve VALUES (zeroblob(?))",
+                            ((RESERVE_PAGES - free) * size,))
+            self._w.execute("DROP TABLE reserve")
+            self._w.execute("COMMIT")
+        except sqlite3.OperationalError as err:  # no room for it: the log goes on without
+            self._w.execute("ROLLBACK")
+            log.warning("event log %s: no room for its reserve (%s)", self.path, err)
+
     # --- the loop's side ---------------------------------------------------------------------
 
-    def append(self, stream: str, seq: int, kind: str, body: bytes) -> None:
-        """Queue one event (no I/O). The lock keeps an append from landing in a batch the
-        writer has already taken; the first event of a batch wakes the writer."""
+    def append(self, stream: str, seq: int, kind: str, body: bytes, parts=None) -> None:
+        """Queue one event (no I/O); ``parts``, its wire frames, come back from
+        :meth:`committed` once it is committed. The first event of a batch wakes the writer."""
         with self._swap:
             self._pending.append((stream, seq, kind, time.time(), body))
+            if parts is not None:
+                self._out.append(parts)
             first = len(self._pending) == 1
         if first:
             self._wake.set()
 
+    def publish_after(self, parts) -> None:
+        """Queue frames of an unlogged event (``stats``) behind the logged ones before it."""
+        with self._swap:
+            if not self._pending and not self._writing:
+                self._done.append([parts])
+                return
+            self._out.append(parts)
+
+    def skip(self, stream: str, lo: int, hi: int) -> None:
+        """Record that numbers ``lo..hi`` of ``stream`` are never used (a restart after a
+        crash): ``since`` tells them from events lost to retention."""
+        with self._swap:
+            self._skips.append((stream, lo, hi, time.time()))
+        self._wake.set()
+
+    def committed(self) -> list:
+        """The frames of every event committed since the last call (and of the unlogged ones
+        queued between them), in order."""
+        out = []
+        while self._done:
+            out += self._done.popleft()
+        return out
+
+    def sync(self, timeout: float = 10.0) -> bool:
+        """Block until every event appended so far is committed (or failed); False on
+        timeout."""
+        deadline = time.monotonic() + timeout
+        self._wake.set()
+        with self._swap:
+            while self._pending or self._writing or self._out:
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._thread.is_alive():
+                    return False
+                self._swap.wait(left)
+        return True
+
     def last_seq(self, stream: str) -> int:
-        """The highest sequence number logged for ``stream`` (0: none)."""
+        """The highest sequence number given to ``stream`` (0: none), committed or not."""
         best = 0
         with self._swap:
             mem = self._inflight + self._pending
         for it in mem:
             if it[0] == stream and it[1] > best:
                 best = it[1]
-        row = self._r.execute("SELECT max(seq) FROM events WHERE stream = ?", (stream,)).fetchone()
-        return max(best, row[0] or 0)
+        return max(best, self.logged_seq(stream))
+
+    def logged_seq(self, stream: str) -> int:
+        """The highest sequence number of ``stream`` in the file (0: none); raises
+        :class:`LogReadError`."""
+        return self._read("SELECT max(seq) FROM events WHERE stream = ?", (stream,))[0][0] or 0
 
     def since(self, stream: str, seq: int, limit: int = 1000) -> tuple[list, int]:
-        """``(bodies, first)``: up to ``limit`` event bodies of ``stream`` with sequence number
-        > ``seq`` in order, and the lowest sequence number still held (0: none held).
+        """``(bodies, first)``: up to ``limit`` committed event bodies of ``stream`` with
+        sequence number > ``seq`` in order, and the lowest sequence number still held (0: none
+        held). Raises :class:`LogReadError`."""
+        rows = self._read("SELECT body FROM events WHERE stream = ? AND seq > ? ORDER BY seq "
+                          "LIMIT ?", (stream, seq, limit))
+        first = self._read("SELECT min(seq) FROM events WHERE stream = ?", (stream,))[0][0]
+        return [r[0] for r in rows], first or 0
 
-        The uncommitted tuples are copied *before* the database is read: a tuple leaves memory
-        only after its commit, so each event is in one of the two (duplicates are dropped).
-        """
-        with self._swap:
-            mem = [it for it in self._inflight + self._pending if it[0] == stream and it[1] > seq]
-        rows = self._r.execute("SELECT seq, body FROM events WHERE stream = ? AND seq > ? "
-                               "ORDER BY seq LIMIT ?", (stream, seq, limit)).fetchall()
-        got = {s: b for s, b in rows}
-        for it in mem:
-            got.setdefault(it[1], it[4])
-        first = self._r.execute("SELECT min(seq) FROM events WHERE stream = ?",
-                                (stream,)).fetchone()[0]
-        if first is None:
-            first = min(got, default=0)
-        return [got[s] for s in sorted(got)[:limit]], first
+    def skipped(self, stream: str, seq: int) -> list:
+        """``[[lo, hi], ...]``: the ranges of numbers of ``stream`` above ``seq`` skipped at a
+        restart (never used by any event)."""
+        return [list(r) for r in self._read("SELECT lo, hi FROM skips WHERE stream = ? AND "
+                                            "hi > ? ORDER BY lo", (stream, seq))]
+
+    def _read(self, sql: str, args: tuple) -> list:
+        try:
+            return self._r.execute(sql, args).fetchall()
+        except sqlite3.Error as err:
+            self.read_failed += 1
+            raise LogReadError(f"the event log {self.path} could not be read ({err}): it may "
+                               "be damaged; stop the daemon and move it aside (a new one "
+                               "starts then)") from err
 
     def backlog(self) -> int:
         return len(self._pending) + len(self._inflight)
@@ -162,38 +310,55 @@ class EventLog:
 
     def _run(self) -> None:
         self._retain()
+        last = 0.0
         while True:
             # until an event is queued; while idle only once per retention interval
             self._wake.wait(self.retention_interval)
             self._wake.clear()
             stopping = self._stopping.is_set()
-            if not stopping:
-                time.sleep(self.flush_interval)  # gather a batch
+            wait = last + self.batch_interval - time.monotonic()
+            if wait > 0 and not stopping:
+                time.sleep(wait)  # commits at most every batch_interval: bursts share one
             with self._swap:
                 self._inflight, self._pending = self._pending, []
+                out, self._out = self._out, []
+                skips, self._skips = self._skips, []
+                self._writing = True
             c0 = time.thread_time()
-            if self._inflight:
-                self._write(self._inflight)
+            last = time.monotonic()
+            if self._inflight or skips:
+                self._write(self._inflight, skips)
             with self._swap:
                 self._inflight = []
+                self._writing = False
+                if out:
+                    self._done.append(out)
+                self._swap.notify_all()
+            if out and self.notify is not None:
+                self.notify()
             now = time.monotonic()
             if now >= self._next_retention:
                 self._next_retention = now + self.retention_interval
-                self._retain()
+                if self._retain():
+                    self._next_retention = now  # more to delete: the next step soon
+                    self._wake.set()
             self.cpu_seconds += time.thread_time() - c0
-            if stopping and not self._pending:
+            if stopping and not self._pending and not self._out:
                 return
 
-    def _write(self, batch: list) -> None:
+    def _write(self, batch: list, skips: list = ()) -> None:
         t0 = time.perf_counter()
         try:
             self._w.execute("BEGIN")
             self._w.executemany("INSERT INTO events (stream, seq, type, t, body) "
                                 "VALUES (?, ?, ?, ?, ?)", batch)
+            self._w.executemany("INSERT INTO skips VALUES (?, ?, ?, ?)", skips)
             self._w.execute("COMMIT")
             self.written += len(batch)
         except sqlite3.Error as err:  # a full disk must not stop the daemon: say so, go on
-            log.error("event log %s: %d events not written: %s", self.path, len(batch), err)
+            if not self.failed:
+                log.error("event log %s: %d events not written: %s (counted from now on)",
+                          self.path, len(batch), err)
             self.failed += len(batch)
             try:
                 self._w.execute("ROLLBACK")
@@ -202,26 +367,55 @@ class EventLog:
         self.batches += 1
         self.write_seconds += time.perf_counter() - t0
 
-    def _retain(self) -> None:
-        """Delete events older than ``max_age``, then the oldest while over ``max_bytes``."""
+    def _retain(self) -> bool:
+        """One step of retention: delete events older than ``max_age``, then the oldest while
+        over ``max_bytes``, at most :data:`RETAIN_STEP` rows; True when more is due."""
         try:
-            cur = self._w.execute("DELETE FROM events WHERE t < ?", (time.time() - self.max_age,))
-            self.deleted += cur.rowcount
-            for _ in range(100):
-                if self.size() <= self.max_bytes:
-                    break
+            more, before = False, self.deleted
+            # the first young row by id (ids grow with time): no scan of the old rows' bodies
+            young = self._w.execute("SELECT id FROM events WHERE t >= ? ORDER BY id LIMIT 1",
+                                    (time.time() - self.max_age,)).fetchone()
+            low = self._w.execute("SELECT min(id) FROM events").fetchone()[0]
+            if low is not None:
+                end = young[0] if young else low + RETAIN_STEP + 1
+                cut = min(end - 1, low + RETAIN_STEP - 1)
+                if cut >= low:
+                    self._delete(cut)
+                    more = cut < end - 1
+            budget = RETAIN_STEP - (self.deleted - before)
+            while not more and self.size() > self.max_bytes:
                 n = self._w.execute("SELECT count(*) FROM events").fetchone()[0]
-                if n == 0:
+                if not n:
                     break
+                if budget <= 0:
+                    more = True
+                    break
+                step = min(max(n // 10, 1), budget)
                 cut = self._w.execute("SELECT id FROM events ORDER BY id LIMIT 1 OFFSET ?",
-                                      (max(n // 10, 1) - 1,)).fetchone()[0]
-                cur = self._w.execute("DELETE FROM events WHERE id <= ?", (cut,))
-                self.deleted += cur.rowcount
-            self._w.execute("PRAGMA incremental_vacuum")
+                                      (step - 1,)).fetchone()[0]
+                self._delete(cut)
+                budget -= step
+            if not more:
+                self._w.execute("DELETE FROM skips WHERE t < ?", (time.time() - self.max_age,))
+                free = self._w.execute("PRAGMA freelist_count").fetchone()[0]
+                if free > RESERVE_PAGES:  # the rest of the freed pages go back to the disk
+                    # (executescript: a cursor would step it once, one page)
+                    self._w.executescript(f"PRAGMA incremental_vacuum({free - RESERVE_PAGES});")
             self.live_bytes = self.size()
             self.retentions += 1
+            self._retain_error = None
+            return more
         except sqlite3.Error as err:
-            log.error("event log %s: retention failed: %s", self.path, err)
+            self.read_failed += 1
+            if str(err) != self._retain_error:  # once per kind of failure, not every pass
+                log.error("event log %s: retention failed: %s (said once; the daemon's "
+                          "`error` events count the failures)", self.path, err)
+                self._retain_error = str(err)
+            return False
+
+    def _delete(self, cut: int) -> None:
+        cur = self._w.execute("DELETE FROM events WHERE id <= ?", (cut,))
+        self.deleted += cur.rowcount
 
     def size(self) -> int:
         """Bytes in use by live pages (the file may be larger until vacuumed)."""
@@ -250,7 +444,10 @@ class Numbering:
         """The last number given to ``key`` (0: none yet)."""
         n = self.last.get(key)
         if n is None:
-            n = self.log.last_seq(key) if self.log is not None else 0
+            try:
+                n = self.log.last_seq(key) if self.log is not None else 0
+            except LogReadError:  # counted by the log and reported: go on from memory
+                n = 0
             if len(self.last) >= self.MAX_IDS:
                 self.last.popitem(last=False)
             self.last[key] = n
@@ -264,7 +461,8 @@ class Numbering:
         return n
 
     def encode(self, ev):
-        """``(numbered event, [topic, body])``; ``stats`` go out unnumbered and unlogged."""
+        """``(numbered event, [topic, body])``; ``stats`` go out unnumbered and unlogged. With
+        a log the frames are queued with the row, for :meth:`EventLog.committed`."""
         if ev.type == "stats":
             return ev, protocol.encode(ev)
         key = ev.stream if ev.stream is not None else protocol.DAEMON_WIDE
@@ -272,5 +470,5 @@ class Numbering:
         ev = dataclasses.replace(ev, seq=n)
         parts = protocol.encode(ev)
         if self.log is not None:
-            self.log.append(key, n, ev.type, parts[1])
+            self.log.append(key, n, ev.type, parts[1], parts)
         return ev, parts

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import collections
 import logging
+import os
 import threading
 import time
 
@@ -34,6 +35,9 @@ from streamseg.daemon.worker import RelabelJob
 
 log = logging.getLogger("streamseg.daemon")
 CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
+# seconds the heartbeats still carry a closed stream's last event number (a subscriber that
+# lost the stream's tail, `closed` included, learns it from any of them); CLOSED_KEPT at most
+CLOSED_LAST_SEQ_S = 30.0
 
 
 def _bindable(endpoint: str) -> str:
@@ -92,7 +96,17 @@ class Daemon(Intake):
         state_dir = self.config.state_dir if self.config.state_dir != "none" else ""
         # before the log and the checkpoints are opened: a second daemon touches neither
         self.state_lock = lock_state_dir(state_dir) if state_dir else None
-        self.eventlog = open_log(self.config)
+        # the log's writer thread says "committed" through a pipe the loop polls
+        self._log_rx, self._log_tx = os.pipe()
+        os.set_blocking(self._log_rx, False)
+        os.set_blocking(self._log_tx, False)
+        self.eventlog = open_log(self.config, notify=self._log_committed)
+        # per stream id, while an older take of it awaits its final relabel: the takes whose
+        # events are not all out, oldest first, as [gen, state, held events]; only the oldest
+        # publishes, the others' events wait (docs/protocol.md, order of a stream's events)
+        self.order: dict = {}
+        # closed stream -> until when the heartbeats carry its last number, oldest first
+        self._closed_since_beat: collections.OrderedDict = collections.OrderedDict()
         self._store_failed: dict = {}  # reason -> failed writes already reported
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
@@ -149,6 +163,8 @@ class Daemon(Intake):
             self.poller.register(self._wake, zmq.POLLIN)
         else:
             self.poller.register(self.ingest, zmq.POLLIN)
+        if self.eventlog is not None:
+            self.poller.register(self._log_rx, zmq.POLLIN)
         self.endpoints = {
             "ingest": self.ingest.getsockopt_string(zmq.LAST_ENDPOINT),
             "publish": self.pub.getsockopt_string(zmq.LAST_ENDPOINT),
@@ -184,6 +200,10 @@ class Daemon(Intake):
             if self.receiver is not None:
                 self.receiver.start()
             self._started = time.monotonic()
+            if self.eventlog is not None and self.eventlog.quarantined:
+                aside, why = self.eventlog.quarantined
+                self._error(None, "event_log", f"the event log {self.eventlog.path} was "
+                            f"damaged ({why}): moved to {aside}; a new log started")
             checkpoint.restore(self, self._started)
             self._ckpt_start = self._started
             self._next_ckpt = self._started + self.config.checkpoint_interval
@@ -204,6 +224,10 @@ class Daemon(Intake):
                 if self.control is not None and self.control in events:
                     self._serve_control()
                 self._collect()
+                if self.eventlog is not None:
+                    if self._log_rx in events:
+                        self._drain_pipe()
+                    self._publish_logged()
                 self._feed()
                 if now >= self._next_sweep:
                     self._sweep(now)
@@ -237,13 +261,87 @@ class Daemon(Intake):
     # --- events ------------------------------------------------------------------------------
 
     def _publish(self, st: StreamState | None, ev):
-        """Number, log and publish one event; returns it with its ``seq``."""
+        """Number, log and publish one event; returns it with its ``seq`` (None while it waits
+        for an older take of its stream id to close). With a log it is published once
+        committed (:meth:`_publish_logged`)."""
+        q = self.order.get(ev.stream) if self.order and ev.type != "stats" else None
+        if q is not None:
+            gen = st.gen if st is not None else q[-1][0]
+            if gen != q[0][0]:
+                for take in q:
+                    if take[0] == gen:
+                        take[2].append((st, ev))
+                        return ev
+        return self._send(st, ev)
+
+    def _send(self, st: StreamState | None, ev):
         ev, parts = self.numbering.encode(ev)
-        self.pub.send_multipart(parts)
+        if self.eventlog is None:
+            self.pub.send_multipart(parts)
+        elif ev.type == "stats":  # behind the events numbered before it
+            self.eventlog.publish_after(parts)
+            self._publish_logged()
         self.totals["events"] += 1
         if st is not None:
             st.events_out += 1
         return ev
+
+    def _log_committed(self) -> None:
+        """The log's writer thread: a batch is committed (wakes the loop)."""
+        try:
+            os.write(self._log_tx, b"\0")
+        except (BlockingIOError, OSError):
+            pass  # the pipe is full (the loop wakes anyway) or closed (shutdown)
+
+    def _drain_pipe(self) -> None:
+        try:
+            while os.read(self._log_rx, 4096):
+                pass
+        except (BlockingIOError, OSError):
+            pass
+
+    def _publish_logged(self) -> None:
+        """Publish the events the log has committed, in their order."""
+        for parts in self.eventlog.committed():
+            self.pub.send_multipart(parts)
+
+    def _wait_for_older_takes(self, st: StreamState) -> None:
+        """A take opens while older takes of its stream id await their final relabel: its
+        events wait until their ``closed`` events are out."""
+        older = sorted(g for (s, g) in self.closing if s == st.stream)
+        q = self.order.get(st.stream)
+        if q is None and older:
+            q = self.order[st.stream] = [[g, self.closing[(st.stream, g)][0], []]
+                                         for g in older]
+        if q is not None:
+            q.append([st.gen, st, []])
+
+    def _take_done(self, st: StreamState) -> None:
+        """``closed`` of ``st`` is out: the next take of its id publishes what it held."""
+        q = self.order.get(st.stream)
+        if not q or q[0][0] != st.gen:
+            return
+        q.pop(0)
+        while q:
+            gen, nxt, held = q[0]
+            if nxt is not None:  # its history starts after the older take's closed
+                nxt.seq_base = self.numbering.current(st.stream)
+            done = False
+            for hst, hev in held:
+                numbered = self._send(hst, hev)
+                if hst is not None:  # the late joiners' copies get their numbers too
+                    if hst.segments is hev:
+                        hst.segments = numbered
+                    for i, c in enumerate(hst.cuts):
+                        if c is hev:
+                            hst.cuts[i] = numbered
+                done = done or hev.type == "closed"
+            held.clear()
+            if not done:
+                break
+            q.pop(0)
+        if len(q) <= 1 and not any(s == st.stream for (s, _) in self.closing):
+            del self.order[st.stream]
 
     def _publish_results(self, st: StreamState, cuts, reps) -> None:
         """Publish a pipeline step's ``(frame, score, emitted, kind)`` cuts and ``(start, end,
@@ -270,6 +368,12 @@ class Daemon(Intake):
             self._error(st.stream, kind, message)
         st.pipeline.notices.clear()
 
+    def _open(self, stream, fps, skeleton, now):
+        st = super()._open(stream, fps, skeleton, now)
+        if st is not None and self.closing:
+            self._wait_for_older_takes(st)
+        return st
+
     def _close(self, st: StreamState, reason: str) -> None:
         """Final cuts now; the final relabel in the worker; then ``closed``."""
         self._flush(st)
@@ -289,6 +393,9 @@ class Daemon(Intake):
         self._report_notices(st)
         self._publish_results(st, final, final_reps)
         del self.streams[st.stream]
+        if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
+            self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
+            self._ckpt_seen.pop(st.stream, None)
         if st.client is not None:
             self.clients[st.client] -= 1
             if not self.clients[st.client]:
@@ -299,12 +406,13 @@ class Daemon(Intake):
             self._closed(st, reason)
 
     def _closed(self, st: StreamState, reason: str) -> None:
-        if self.checkpoints is not None:  # the stream is over: nothing to resume
-            self.checkpoints.forget(st.stream)
-            self._ckpt_seen.pop(st.stream, None)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
+        if self.order:
+            self._take_done(st)
+        self._closed_since_beat[st.stream] = time.monotonic() + CLOSED_LAST_SEQ_S
+        self._closed_since_beat.move_to_end(st.stream)
         state = st.state()
         state["closed"] = reason
         self.closed_states[st.stream] = state
@@ -362,13 +470,28 @@ class Daemon(Intake):
                 self._error(None, reason, f"{what} in {store.path} (disk full or not "
                                           "writable? the daemon's log says): free space there, "
                                           "or restart with another --state-dir", n)
+        log_ = self.eventlog
+        n = log_.read_failed - self._store_failed.get("read", 0) if log_ is not None else 0
+        if n > 0:
+            self._store_failed["read"] = log_.read_failed
+            self._error(None, "event_log", f"the event log {log_.path} could not be read (a "
+                        "damaged file? the daemon's log says): `since` cannot answer from it; "
+                        "stop the daemon and move the file aside (a new log starts)", n)
 
     def _beat(self, now: float) -> None:
         self._next_beat = now + self.config.heartbeat
         for ev in self.errors.due():
             self._publish(self.streams.get(ev.stream) if ev.stream else None, ev)
+        # the last numbers published, so a subscriber sees what it lost after a stream's last
+        # event it received (events of a take that waits for an older one are not numbered)
+        gone = self._closed_since_beat
+        while gone and (next(iter(gone.values())) < now or len(gone) > CLOSED_KEPT):
+            gone.popitem(last=False)
+        keys = [*gone, *self.streams, protocol.DAEMON_WIDE]
+        last = {k: n for k in keys if (n := self.numbering.last.get(k))}
         self._publish(None, protocol.Stats(round(now - self._started, 3), self._totals(),
-                                           {s: st.stats() for s, st in self.streams.items()}))
+                                           {s: st.stats() for s, st in self.streams.items()},
+                                           last))
 
     def _totals(self) -> dict:
         out = dict(self.totals, packets=self.n_packets, frames=self.n_frames)

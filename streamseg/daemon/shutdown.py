@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import time
 
 from streamseg.daemon.pipeline import relabel
@@ -18,6 +19,12 @@ def shutdown(daemon) -> None:
         if daemon.endpoints:
             final_events(daemon)
     finally:
+        if daemon.eventlog is not None and getattr(daemon, "pub", None) is not None:
+            # the final events go out once committed, before the socket closes
+            if not daemon.eventlog.sync(daemon.config.shutdown_relabel + 5.0):
+                log.error("event log %s: the last events were not committed in time: not "
+                          "published", daemon.eventlog.path)
+            daemon._publish_logged()
         daemon.worker.stop(timeout=daemon.config.shutdown_relabel)
         if daemon.receiver is not None:
             daemon.receiver.stop()
@@ -32,6 +39,9 @@ def shutdown(daemon) -> None:
         daemon.ctx.term()
         if daemon.eventlog is not None:
             daemon.eventlog.close()  # after the final events: they are logged too
+            daemon.eventlog.notify = None
+        for fd in (daemon._log_rx, daemon._log_tx):
+            os.close(fd)
         if daemon.checkpoints is not None:
             daemon.checkpoints.close()
         unlock(daemon.state_lock)  # last: another daemon may take the directory now

@@ -281,10 +281,12 @@ def _flag(obj, key: str, kind: str):
 
 
 def _stats(obj):
-    totals, streams = obj["totals"], obj["streams"]
+    totals, streams, last = obj["totals"], obj["streams"], obj.get("last_seq", {})
     _need(isinstance(totals, dict) and isinstance(streams, dict), "stats", "totals", totals,
           "maps totals and streams")
-    return Stats(_num(obj, "uptime", "stats", None), totals, streams)
+    _need(isinstance(last, dict) and all(type(n) is int for n in last.values()), "stats",
+          "last_seq", last, "a map of stream ids to event numbers")
+    return Stats(_num(obj, "uptime", "stats", None), totals, streams, last)
 
 
 _BUILDERS = {

@@ -238,11 +238,15 @@ class Error:
 
 @dataclass(frozen=True)
 class Stats:
-    """Event: heartbeat. ``totals`` daemon-wide counters; ``streams`` per-stream counters."""
+    """Event: heartbeat. ``totals`` daemon-wide counters; ``streams`` per-stream counters;
+    ``last_seq`` the last event number published of every open stream, of ``*`` and of each
+    stream closed since the previous heartbeat (a subscriber that holds less lost the rest:
+    it fetches it with the control op ``since``)."""
 
     uptime: float
     totals: dict = field(default_factory=dict)
     streams: dict = field(default_factory=dict)
+    last_seq: dict = field(default_factory=dict)
 
     type = "stats"
 
