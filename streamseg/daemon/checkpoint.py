@@ -77,6 +77,14 @@ def step(daemon, now: float) -> int:
     if not daemon._ckpt_round:
         if now < daemon._next_ckpt or store.busy():
             return 0
+        elog = daemon.eventlog
+        if elog is not None and elog.failed != daemon._log_failed_seen:
+            # the event log could not write since the last round (a full disk?): it goes
+            # first, this round is skipped
+            daemon._log_failed_seen = elog.failed
+            store.paused += 1
+            daemon._next_ckpt = now + daemon.config.checkpoint_interval
+            return 0
         spent = daemon.checkpoint_seconds + store.cpu_seconds
         cost = spent - daemon._ckpt_spent  # the last round's, now that it is written
         daemon.checkpoint_gap = max(daemon.config.checkpoint_interval, cost / CPU_BUDGET)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import collections
 import logging
 import os
+import shutil
 import sqlite3
 import threading
 import time
@@ -38,6 +39,11 @@ def _breathe() -> None:
 
 
 NICE = 10  # the writer thread runs this many nice levels below the daemon (at most 19)
+# The event log has priority over the checkpoints on the state directory's disk: a round is
+# not written (paused) unless the disk keeps this much free after it (twice its bytes: the
+# WAL, then the file), so the log never meets a disk the checkpoints filled; and the WAL is
+# truncated after each round, so the checkpoints hold no more than their file
+LOW_WATER = 16 << 20  # bytes
 FORMAT = 5  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
@@ -89,6 +95,8 @@ class CheckpointStore:
         self.rounds = 0
         self.written = 0
         self.failed = 0  # writes that failed (disk full, unwritable): the daemon reports them
+        self.paused = 0  # rounds not written: too little space left for the event log
+        self.free_bytes = None  # the disk's free bytes at the last round
         self.bytes = 0
         self.write_seconds = 0.0
         self.cpu_seconds = 0.0
@@ -104,6 +112,7 @@ class CheckpointStore:
         # to +9 % (0d6c5cf:benchmarks/daemon_throughput.py). A power loss may tear the file: it is
         # then moved aside at the next start. The event log keeps synchronous NORMAL.
         self._db.execute("PRAGMA synchronous=OFF")
+        self._db.execute("PRAGMA journal_size_limit=0")  # a WAL truncated whenever reset
         self._db.executescript(SCHEMA)
         self._db.execute("DELETE FROM chunks WHERE stream NOT IN (SELECT stream FROM checkpoints)")
         # the digests stored per stream (writer thread): a round inserts only the others
@@ -205,6 +214,16 @@ class CheckpointStore:
                 # packing holds the GIL and a core: as long a pause as the packing took, so a
                 # round of many streams never takes the loop's core in one burst
                 time.sleep(min(time.perf_counter() - t1, 0.005) * PACE)
+            size = sum(len(p[4]) for p in packed) + sum(len(c[2]) for c in new_chunks)
+            self.free_bytes = shutil.disk_usage(self.path.parent).free
+            if packed and self.free_bytes < 2 * size + LOW_WATER:
+                if not self.paused:
+                    log.warning("checkpoints %s paused: %.1f MB free on its disk, the event "
+                                "log has priority (%.0f MB kept free for it); they resume "
+                                "when there is room", self.path, self.free_bytes / 1e6,
+                                LOW_WATER / 1e6)
+                self.paused += 1
+                packed, new_chunks, dead, kept = [], [], [], {}  # the deletes still go in
             self._db.execute("BEGIN")
             self._db.executemany("INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)",
                                  packed)
@@ -218,6 +237,8 @@ class CheckpointStore:
             for s in gone:
                 self._stored.pop(s, None)
             self.written += len(packed)
+            # the WAL's pages into the file and the WAL emptied (synchronous OFF: no fsync)
+            self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchall()
         except (sqlite3.Error, TypeError, ValueError, OverflowError) as err:
             log.error("checkpoints %s: %d not written: %s", self.path, len(rows), err)
             self.failed += 1

@@ -121,6 +121,7 @@ class Daemon(Intake):
         self._ckpt_round: list = []  # streams still to copy in this checkpoint round
         self._ckpt_resume = 0.0  # monotonic time of the round's next step
         self._ckpt_spent = 0.0  # checkpoint_seconds + writer CPU when the last round began
+        self._log_failed_seen = 0  # the event log's failed writes when the last round began
         self.checkpoint_gap = self.config.checkpoint_interval  # s between round starts, now
         self.worker = relabel_worker(self.algorithms, self.config)
         self.default_skeleton = None
@@ -470,6 +471,14 @@ class Daemon(Intake):
                 self._error(None, reason, f"{what} in {store.path} (disk full or not "
                                           "writable? the daemon's log says): free space there, "
                                           "or restart with another --state-dir", n)
+        store = self.checkpoints
+        n = store.paused - self._store_failed.get("paused", 0) if store is not None else 0
+        if n > 0:
+            self._store_failed["paused"] = store.paused
+            free = "" if store.free_bytes is None else f" ({store.free_bytes / 1e6:.1f} MB free)"
+            self._error(None, "checkpoint", f"checkpoint rounds paused: the disk of "
+                        f"{store.path.parent} is (nearly) full{free} and the event log goes "
+                        "first; they resume when there is room", n)
         log_ = self.eventlog
         n = log_.read_failed - self._store_failed.get("read", 0) if log_ is not None else 0
         if n > 0:

@@ -1,0 +1,104 @@
+"""A full disk under the state directory: a real, small tmpfs (mounted in a user and mount
+namespace of the daemon's own, so nothing is left mounted), filled by a file."""
+
+from __future__ import annotations
+
+import errno
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+import pytest
+
+from streamseg import protocol as P
+from streamseg.client import fetch_since, request, subscriber
+from tests.test_daemon_restart import Sender, config, wait_ping
+
+pytestmark = pytest.mark.daemon
+SIZE_MB = 40
+
+
+def can_mount(tmp_path) -> bool:
+    target = tmp_path / "probe"
+    target.mkdir()
+    if not shutil.which("unshare"):
+        return False
+    probe = subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs "
+                            f"'{target}'"], capture_output=True)
+    return probe.returncode == 0
+
+
+def serve_on_tmpfs(toml, state):
+    """The daemon in its own mount namespace, ``state`` a tmpfs of SIZE_MB there; the test
+    reaches the files through /proc/PID/root."""
+    state.mkdir(exist_ok=True)
+    proc = subprocess.Popen(
+        ["unshare", "-rm", "sh", "-c", 'mount -t tmpfs -o size="$1"m tmpfs "$2" && exec "$3" '
+         '-m streamseg.cli serve --config "$4" --log-level WARNING',
+         "sh", str(SIZE_MB), str(state), sys.executable, str(toml)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("streamseg serve: ingest="), proc.stderr.read()
+    return proc
+
+
+def fill(path) -> int:
+    """Write ``path`` until the disk is full; returns the bytes written."""
+    n, block = 0, b"\0" * (1 << 16)
+    with open(path, "wb", buffering=0) as fh:
+        while True:
+            try:
+                n += fh.write(block)
+            except OSError as err:
+                assert err.errno == errno.ENOSPC
+                return n
+
+
+def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
+    """The disk fills up while a stream runs: every event seen live is still logged (the
+    log's reserve), checkpoint rounds pause and say so; once space is freed they resume and
+    their WAL stays truncated."""
+    if not can_mount(tmp_path):
+        pytest.skip("no tmpfs in a user namespace here (unshare -rm and mount refused)")
+    ep, state, toml = config(tmp_path, relabel_interval=1.0, relabel_history=8.0,
+                             heartbeat=0.2, checkpoint_interval=0.1)
+    proc = serve_on_tmpfs(toml, state)
+    sub = subscriber(ep["publish"])
+    sender = Sender(ep, rec)
+    try:
+        wait_ping(ep, proc)
+        root = f"/proc/{proc.pid}/root{state}"
+        sender.start()
+        while not request(ep["control"], "stats")["totals"].get("checkpoints_written"):
+            time.sleep(0.01)
+        filler = f"{root}/fill"
+        fill(filler)
+        assert shutil.disk_usage(root).free < 1 << 20
+        seen, paused = [], False
+        while len([e for e in seen if e.stream == "k"]) < 40 or not paused:
+            assert sub.poll(60_000), "no event from the daemon"
+            ev = P.decode(sub.recv_multipart())
+            if getattr(ev, "seq", None) is not None:
+                seen.append(ev)
+                paused = paused or (ev.type == "error" and ev.reason == "checkpoint")
+        logged = {}
+        for key in {e.stream or P.DAEMON_WIDE for e in seen}:
+            logged.update({(key, e.seq): e for e in fetch_since(ep["control"], key, 0)})
+        missing = [e for e in seen if logged.get((e.stream or P.DAEMON_WIDE, e.seq)) != e]
+        assert missing == []
+        totals = request(ep["control"], "stats")["totals"]
+        assert "event_log" not in totals["errors_by_reason"]
+        # space again: the rounds resume, the checkpoints' WAL is emptied after each
+        os.remove(filler)
+        written = totals["checkpoints_written"]
+        while request(ep["control"], "stats")["totals"]["checkpoints_written"] < written + 5:
+            time.sleep(0.01)
+        wal = f"{root}/checkpoints.sqlite-wal"
+        assert os.path.getsize(wal) < 1 << 20
+    finally:
+        sender.stopping.set()
+        sub.close(linger=0)
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
