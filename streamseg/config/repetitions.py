@@ -82,7 +82,7 @@ class RepetitionConfig:
     end_return_ratio: float = 0.6
     extend_edges: bool = True
     anchor_gap_s: float = 0.2
-    max_anchors: int = 16
+    max_anchors: int = 41
     lag_compensation: bool = True
     buffer_s: float = 20.0
 
