@@ -115,7 +115,7 @@ def test_routines_of_held_out_actors_are_cut_into_their_sets(data_dir, clips):
                 total += 1
                 right += len(mine) == len(reps) and len(set(mine)) == 1
     # measured at the commit of this test: 24 of 30 (the six-per-actor benchmark: 46 of 60;
-    # 45 of 60 at eb129f3, 46 of 60 at 842278a)
+    # 45 of 60 at eb129f3, 46 of 60 at 1d8373a)
     assert total == 30 and right >= 23
 
 
