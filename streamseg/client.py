@@ -24,10 +24,17 @@ __all__ = ["Refusal", "Subscription", "fetch_since", "handshake", "listen", "req
 def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
             **fields) -> dict:
     """One control request (``ping``, ``streams``, ``state``, ``since``, ``stats``,
-    ``shutdown``); ``curve``: :class:`~streamseg.daemon.security.ClientKeys`."""
+    ``shutdown``); ``curve``: :class:`~streamseg.daemon.security.ClientKeys`. Without
+    ``curve``, a state-changing op carries the control token of this user
+    (:mod:`streamseg.protocol.auth`) unless ``auth`` is given."""
+    if op in protocol.CHANGING_OPS and curve is None and "auth" not in fields:
+        from streamseg.protocol.auth import read_token
+
+        fields["auth"] = read_token()
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
+    ipv6(sock, endpoint)
     sock.setsockopt(zmq.SNDTIMEO, int(timeout * 1000))
     if curve is not None:
         curve.apply(sock)
@@ -55,6 +62,12 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
         sock.close()
     raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
                        "the daemon running there? (with CURVE on it needs --curve-dir)")
+
+
+def ipv6(sock, endpoint: str) -> None:
+    """ZeroMQ's IPv6 on for a ``tcp://[addr]:port`` endpoint (before connect)."""
+    if endpoint.startswith("tcp://["):
+        sock.setsockopt(zmq.IPV6, 1)
 
 
 class Refusal:
@@ -107,6 +120,7 @@ def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None, moni
         curve.apply(sock)
     sock.setsockopt(zmq.LINGER, 0)
     sock.setsockopt(zmq.RCVHWM, 0)  # a listener should not lose events to its own slowness
+    ipv6(sock, endpoint)
     for prefix in protocol.subscriptions(stream, kind):
         sock.setsockopt(zmq.SUBSCRIBE, prefix)
     watch = None if monitor is None else sock.get_monitor_socket(monitor)

@@ -62,10 +62,11 @@ class Served:
     """A `streamseg serve` subprocess on ipc endpoints in ``tmp``; ``daemon`` are ``[daemon]``
     settings of its TOML file (``state_dir`` defaults to ``tmp/state``)."""
 
-    def __init__(self, tmp: Path, ring_start=None, **daemon):
+    def __init__(self, tmp: Path, ring_start=None, endpoint=None, **daemon):
         self.tmp = tmp
         self.ring_start = ring_start
-        self.ep = {k: f"ipc://{tmp}/{k}" for k in ("ingest", "publish", "control")}
+        # endpoint: e.g. "tcp://127.0.0.1:0" for all three (ports resolved at start)
+        self.ep = {k: endpoint or f"ipc://{tmp}/{k}" for k in ("ingest", "publish", "control")}
         self.keys = None
         lines = [f'{k} = "{v}"' for k, v in self.ep.items()]
         daemon.setdefault("state_dir", str(tmp / "state"))
@@ -92,7 +93,8 @@ class Served:
                                       "--config", str(self.tmp / "d.toml"), "--log-level",
                                       log_level],
                                      stdout=subprocess.PIPE, stderr=stderr, text=True)
-        self.proc.stdout.readline()
+        line = self.proc.stdout.readline()  # "streamseg serve: ingest=EP publish=EP ..."
+        self.ep.update(kv.split("=", 1) for kv in line.split()[2:] if "=" in kv)
         return self.wait_ping()
 
     def wait_ping(self, timeout=120) -> float:

@@ -17,7 +17,9 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
+from streamseg.client import ipv6
 from streamseg.exceptions import ParameterError
+from streamseg.protocol.auth import read_token
 from streamseg.recording import UP_AXES
 
 
@@ -146,12 +148,17 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
             sock.setsockopt(zmq.IMMEDIATE, 1)
         if curve is not None:
             curve.apply(sock)
+        ipv6(sock, endpoint)
         sock.connect(endpoint)
     positions = np.ascontiguousarray(recording.positions, dtype=dtype)
     n, fps = positions.shape[0], float(recording.fps)
+    # without CURVE, the control token lets this user's replay take over its stream id from
+    # an earlier sender (one killed mid-take), which a stranger's cannot (docs/protocol.md)
+    auth = read_token() if curve is None else None
     try:
-        _send(sock, protocol.encode(announce_of(recording, stream, labels, labels_sequence)),
-              wait, endpoint, on_wait)
+        _send(sock, protocol.encode(dataclasses.replace(
+            announce_of(recording, stream, labels, labels_sequence), auth=auth)),
+            wait, endpoint, on_wait)
         t0 = time.perf_counter()
         for a in range(0, n, batch):
             if speed > 0:
@@ -161,13 +168,13 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
             _send(sock, protocol.encode(
                 protocol.Frames(stream, a, time.time(), positions[a:a + batch])), wait, endpoint)
         if end:
-            _send(sock, protocol.encode(protocol.End(stream)), wait, endpoint)
+            _send(sock, protocol.encode(protocol.End(stream, auth)), wait, endpoint)
     except KeyboardInterrupt:
         # Ctrl-C means now: at most 1 s to hand over what is queued, never the 30 s linger
         sock.setsockopt(zmq.LINGER, 1000)
         sent_end = bool(end and sock.poll(1000, zmq.POLLOUT))
         if sent_end:
-            sock.send_multipart(protocol.encode(protocol.End(stream)), zmq.NOBLOCK)
+            sock.send_multipart(protocol.encode(protocol.End(stream, auth)), zmq.NOBLOCK)
         raise Interrupted(sent_end) from None
     except NoDaemon:
         sock.setsockopt(zmq.LINGER, 0)

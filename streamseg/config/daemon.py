@@ -35,6 +35,8 @@ class DaemonConfig:
         Most packets, and frames, taken from the socket before one vectorised pipeline step.
     ingest_hwm, hwm : int
         ZeroMQ high-water marks (messages) of ingest (bounds memory; senders wait) and publish.
+    ingest_bytes : int
+        Bytes of packets queued before the pipeline, ZeroMQ's included; >= 4 max_message_bytes.
     default_skeleton, default_fps, default_up : str, float, str
         ASF file, rate and up axis for streams sent without announcement (``""``: refuse them).
     shutdown_relabel : float
@@ -66,7 +68,7 @@ class DaemonConfig:
     gap_events_per_s, stray_errors_per_s : float
         Rate limits of ``gap`` events and of ``unknown_stream`` errors; beyond, counted.
     max_streams_per_client : int
-        Streams one client (CURVE key, else IP address) may hold open (0: no quota).
+        Streams one client (CURVE key, else connection) may hold open (0: no quota).
     curve_dir : str
         Keys made by ``streamseg keys``: every socket uses CURVE (``""``: loopback only).
     insecure : bool
@@ -104,6 +106,7 @@ class DaemonConfig:
     log_max_days: float = 7.0
     checkpoint_interval: float = 2.0
     max_message_bytes: int = 64 << 20
+    ingest_bytes: int = 256 << 20
     max_seq_jump: float = 600.0
     min_fps: float = 0.5
     max_fps: float = 10000.0
@@ -201,3 +204,7 @@ class DaemonConfig:
             v = getattr(self, name)
             _check(name, v, type(v) is int and v >= (name == "max_message_bytes"),
                    "an integer >= 1" if name == "max_message_bytes" else "an integer >= 0")
+        _check("ingest_bytes", self.ingest_bytes, type(self.ingest_bytes) is int
+               and self.ingest_bytes >= 4 * self.max_message_bytes,
+               f"an integer >= 4 x max_message_bytes ({4 * self.max_message_bytes}): lower "
+               "max_message_bytes for a smaller budget")

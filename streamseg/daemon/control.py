@@ -10,6 +10,7 @@ import zmq
 from streamseg import protocol
 from streamseg.daemon.checkpoint import checkpoint
 from streamseg.daemon.eventlog import LogReadError
+from streamseg.protocol.auth import matches
 
 
 def serve_control(daemon) -> None:
@@ -20,8 +21,8 @@ def serve_control(daemon) -> None:
         except zmq.Again:
             return
         try:
-            reply = answer(daemon, msgpack.unpackb(parts[-1].bytes, raw=False),
-                           may_change(daemon, parts[-1]))
+            req = msgpack.unpackb(parts[-1].bytes, raw=False)
+            reply = answer(daemon, req, may_change(daemon, req))
         except Exception as err:  # a bad request gets an error reply, never a crash
             reply = {"ok": False, "error": f"bad request ({type(err).__name__}: {err}); "
                                           "send a msgpack map with op (docs/protocol.md)"}
@@ -29,23 +30,17 @@ def serve_control(daemon) -> None:
         daemon.control.send(msgpack.packb(reply, use_bin_type=True))
 
 
-CHANGING_OPS = frozenset({"shutdown", "checkpoint"})  # ops that change the daemon's state
+CHANGING_OPS = protocol.CHANGING_OPS  # ops that change the daemon's state
 
 
-def may_change(daemon, frame) -> bool:
-    """Whether the sender of ``frame`` may use state-changing ops: with CURVE every connected
-    client holds an authorised key; without it only a loopback (or ipc) peer may."""
+def may_change(daemon, req) -> bool:
+    """Whether a request may use state-changing ops: with CURVE every connected client holds
+    an authorised key; without it, the request must carry the control token (``auth``), which
+    only the daemon's user can read (:mod:`streamseg.protocol.auth`). Loopback is not enough:
+    every local user reaches it."""
     if daemon.security is not None:
         return True
-    if daemon.config.control.startswith(("ipc://", "inproc://")):
-        return True  # a local socket file: its permissions decide who connects
-    try:
-        peer = frame.get("Peer-Address")
-    except (zmq.ZMQError, KeyError):
-        return False
-    from streamseg.daemon.security import is_loopback
-
-    return is_loopback(f"tcp://{peer}:0")
+    return isinstance(req, dict) and matches(req.get("auth"), daemon.token)
 
 
 def answer(daemon, req, may_change: bool = True) -> dict:
@@ -55,8 +50,10 @@ def answer(daemon, req, may_change: bool = True) -> dict:
         return {"ok": False, "error": f"protocol version {req.get('v')!r} is not supported: "
                                       f"send v={protocol.PROTOCOL_VERSION} (docs/protocol.md)"}
     if op in CHANGING_OPS and not may_change:
-        return {"ok": False, "error": f"{op} is refused: it needs an authorised CURVE key, or "
-                                      "a loopback connection when CURVE is off"}
+        return {"ok": False, "error": f"{op} is refused: without CURVE it needs the control "
+                                      "token (auth), which streamseg's clients read from "
+                                      f"{daemon.token_file or 'the token file'} when they run "
+                                      "as the daemon's user (or STREAMSEG_TOKEN)"}
     if op == "ping":
         return {"ok": True}
     if op == "hello":

@@ -15,6 +15,7 @@ import time
 import zmq
 
 from streamseg import protocol
+from streamseg.daemon.security import peer_of
 
 
 def recv_message(sock, flags: int = 0) -> list:
@@ -31,9 +32,9 @@ def recv_message(sock, flags: int = 0) -> list:
 
 
 def decode_ingest(parts, arrival: float) -> tuple:
-    """``("f", stream, seq, timestamp, positions, arrival)`` for a frames packet,
-    ``("o", body, topic frame)`` for another valid message, ``("e", stream, reason, message)``
-    for garbage.
+    """``("f", stream, seq, timestamp, positions, arrival, topic frame)`` for a frames packet,
+    ``("o", body, topic frame, bytes)`` for another valid message, ``("e", stream, reason,
+    message)`` for garbage.
     """
     if len(parts) != 2:
         return ("e", None, "decode", f"expected 2 message parts [topic, body], got {len(parts)}")
@@ -41,8 +42,8 @@ def decode_ingest(parts, arrival: float) -> tuple:
         obj = protocol.unpack_body(parts[1])
         stream = obj.get("stream")
         if obj["type"] == "frames" and type(stream) is str:
-            return ("f", stream, *protocol.frames_fields(obj, stream), arrival)
-        return ("o", obj, parts[0])
+            return ("f", stream, *protocol.frames_fields(obj, stream), arrival, parts[0])
+        return ("o", obj, parts[0], len(parts[1]))
     except protocol.WireError as err:
         return ("e", err.stream, err.kind, str(err))
     except Exception as err:  # a packet validation missed must not stop the receiver
@@ -60,15 +61,18 @@ class Receiver(threading.Thread):
         PAIR socket connected to the loop's wake-up socket; one byte per batch received.
     limit, frame_limit : int
         Decoded messages, and frames, queued at most (the latter bounds the latency).
+    budget : streamseg.daemon.limits.IngestBudget
+        Bytes queued at most (``drain_bytes``), and the socket's ``RCVHWM`` it sets.
     """
 
-    def __init__(self, sock, wake, limit: int, frame_limit: int):
+    def __init__(self, sock, wake, limit: int, frame_limit: int, budget):
         super().__init__(name="streamseg-ingest", daemon=True)
         self.sock, self.wake, self.limit, self.frame_limit = sock, wake, limit, frame_limit
+        self.budget = budget
         self.items: collections.deque = collections.deque()
-        # frames queued = pushed - taken; each counter is written by one thread only
-        self.pushed = 0
-        self.taken = 0
+        # frames (bytes) queued = pushed - taken; each counter is written by one thread only
+        self.pushed = self.taken = 0
+        self.pushed_bytes = self.taken_bytes = 0
         self._stopping = threading.Event()
 
     def stop(self) -> None:
@@ -79,24 +83,45 @@ class Receiver(threading.Thread):
     def run(self) -> None:
         poller = zmq.Poller()
         poller.register(self.sock, zmq.POLLIN)
-        sock, clock, items = self.sock, time.perf_counter, self.items
+        sock, clock, items, budget = self.sock, time.perf_counter, self.items, self.budget
+        byte_limit = budget.drain_bytes
         while not self._stopping.is_set():
-            if len(items) >= self.limit or self.pushed - self.taken >= self.frame_limit:
+            if (len(items) >= self.limit or self.pushed - self.taken >= self.frame_limit
+                    or self.pushed_bytes - self.taken_bytes >= byte_limit):
                 time.sleep(0.0005)  # the loop is behind: stop reading, let senders wait
                 continue
             if not poller.poll(50):
+                if budget.senders:  # large messages stopped: raise the bound again
+                    self._tune(0, None)
                 continue
+            biggest, big = 0, None
             for _ in range(256):
                 try:
                     parts = recv_message(sock, zmq.NOBLOCK)
                 except zmq.Again:
                     break
+                size = len(parts[-1])
+                if size > biggest:
+                    biggest, big = size, parts[0]
                 it = decode_ingest(parts, clock())
                 if it[0] == "f":
                     self.pushed += it[4].shape[0]
+                    self.pushed_bytes += it[4].nbytes
+                elif it[0] == "o":
+                    self.pushed_bytes += it[3]
                 items.append(it)
+                if self.pushed_bytes - self.taken_bytes >= byte_limit:
+                    break
             try:
                 self.wake.send(b"", zmq.NOBLOCK)
             except zmq.Again:  # the loop has wake-ups pending already
                 pass
+            if biggest >= budget.threshold or budget.senders:
+                self._tune(biggest, big)
         self.wake.close()
+
+    def _tune(self, biggest: int, frame) -> None:
+        hwm = self.budget.observe(biggest, peer_of(frame) if frame is not None else None,
+                                  time.monotonic())
+        if hwm is not None:
+            self.sock.setsockopt(zmq.RCVHWM, hwm)

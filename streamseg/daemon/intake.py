@@ -21,6 +21,7 @@ from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.security import peer_of
 from streamseg.daemon.streams import StreamState
+from streamseg.protocol.auth import matches
 
 log = logging.getLogger("streamseg.daemon")
 
@@ -30,19 +31,30 @@ class Intake:
     daemon's sockets, stream table, counters and publication methods)."""
 
     def _drain(self, now: float) -> None:
-        sock, clock = self.ingest, time.perf_counter
+        sock, clock, budget = self.ingest, time.perf_counter, self.budget
         stop_at = self.n_frames + self.config.drain_frames
+        held = biggest = 0
+        big = None
         for _ in range(self.config.drain):
             try:
                 parts = recv_message(sock, zmq.NOBLOCK)
             except zmq.Again:
                 break
+            size = len(parts[-1])
+            held += size
+            if size > biggest:
+                biggest, big = size, parts[0]
             self._on_message(parts, now, clock())
-            if self.n_frames >= stop_at:  # bounds the latency of big packets
+            # frames bound the latency of big packets, bytes the memory they hold
+            if self.n_frames >= stop_at or held >= budget.drain_bytes:
                 break
         for st in self._dirty:
             self._flush(st)
         self._dirty.clear()
+        if biggest >= budget.threshold or budget.senders:
+            hwm = budget.observe(biggest, peer_of(big) if big is not None else None, now)
+            if hwm is not None:
+                sock.setsockopt(zmq.RCVHWM, hwm)
 
     def _take(self, now: float) -> None:
         """Like :meth:`_drain`, from the receiver thread's queue of decoded messages."""
@@ -56,13 +68,17 @@ class Intake:
             try:
                 if it[0] == "f":
                     self.receiver.taken += it[4].shape[0]
+                    self.receiver.taken_bytes += it[4].nbytes
                     st = self.streams.get(it[1])
-                    if st is None:
-                        st = self._unannounced(it[1], now)
+                    if st is None or st.client is None:
+                        self._sender = it[6]
                         if st is None:
-                            continue
+                            st = self._unannounced(it[1], now)
+                            if st is None:
+                                continue
                     self._on_frames(st, it[2], it[3], it[4], now, it[5])
                 elif it[0] == "o":
+                    self.receiver.taken_bytes += it[3]
                     self._sender = it[2]
                     self._on_body(it[1], now, 0.0)
                 else:
@@ -111,7 +127,7 @@ class Intake:
             st = self.streams.get(msg.stream)
             if st is None:
                 self._error(msg.stream, "unknown_stream", "end of a stream that is not open")
-            else:
+            elif self._owns(st, msg.auth, "end"):
                 self._close(st, "end")
         else:
             self._error(stream if isinstance(stream, str) else None, "type",
@@ -135,11 +151,45 @@ class Intake:
             return
         old = self.streams.get(msg.stream)
         if old is not None:
+            if not self._owns(old, msg.auth, "re-announce"):
+                return
             self._close(old, "reannounced")
         skeleton = skeleton_from(msg.joints, msg.parents, msg.units, msg.up)
         st = self._open(msg.stream, msg.fps, skeleton, now)
         if st is not None and msg.labels:  # passed on to subscribers through `state`
             st.labels = {"path": msg.labels, "sequence": msg.labels_sequence or msg.stream}
+
+    def _restored_owners(self) -> None:
+        """Streams restored from checkpoints keep their CURVE key as owner; without CURVE the
+        connection that announced one is gone with the old process: the first connection that
+        sends it frames again becomes its owner (:meth:`_adopt`)."""
+        if self.security is not None:
+            return
+        for st in self.streams.values():
+            if st.client is not None:
+                self.clients[st.client] -= 1
+                if not self.clients[st.client]:
+                    del self.clients[st.client]
+                st.client = None
+
+    def _adopt(self, st: StreamState) -> None:
+        st.client = peer_of(self._sender) if self._sender is not None else None
+        if st.client is not None:
+            self.clients[st.client] += 1
+
+    def _owns(self, st: StreamState, auth, what: str) -> bool:
+        """Whether the sender of the message being handled may end or re-announce ``st``: the
+        client that announced it (its CURVE key, else its connection), or without CURVE one
+        that shows the control token (the daemon's user). Else an ``owner`` error."""
+        if st.client is None or peer_of(self._sender) == st.client:
+            return True
+        if self.security is None and matches(auth, self.token):
+            return True
+        how = ("its CURVE key" if self.security is not None else
+               "its connection, or the control token of the daemon's user")
+        self._error(st.stream, "owner", f"{what} refused: stream {st.stream} belongs to the "
+                    f"client that announced it ({how}); send under another stream id")
+        return False
 
     def _open(self, stream, fps, skeleton, now):
         if len(self.streams) >= self.config.max_streams:
@@ -147,8 +197,8 @@ class Intake:
                         f"configured maximum (max_streams); close one or raise the limit")
             return None
         quota = self.config.max_streams_per_client
-        client = peer_of(self._sender) if quota and self._sender is not None else None
-        if client is not None and self.clients[client] >= quota:
+        client = peer_of(self._sender) if self._sender is not None else None
+        if quota and client is not None and self.clients[client] >= quota:
             self._error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
                         f"streams, its quota (max_streams_per_client); end one first")
             return None
@@ -174,6 +224,8 @@ class Intake:
                    now: float, arrival: float) -> None:
         n, n_joints = pos.shape[0], pos.shape[1]
         st.last_seen = now
+        if st.client is None:  # restored from a checkpoint: its sender takes it back
+            self._adopt(st)
         if n_joints != st.pipeline.skeleton.n_joints or n > self.config.max_packet_frames:
             st.dropped += n
             self._error(st.stream, "array", f"packet of shape {list(pos.shape)}: expected "

@@ -59,3 +59,55 @@ class RateLimit:
             return True
         self.refused += 1
         return False
+
+
+class IngestBudget:
+    """The ingest byte budget (``ingest_bytes``) turned into ZeroMQ's message bound.
+
+    ZeroMQ bounds a socket's queue in messages (``RCVHWM``, per connection), not bytes: 2,000
+    small packets are a few MB, 2,000 packets of 10 MB are 20 GB. The thread that reads the
+    ingest socket reports the largest message of each drain with its sender; while a sender's
+    messages are large (within :attr:`WINDOW` s), ``RCVHWM`` is lowered so that ZeroMQ holds
+    at most half the budget of such messages over all those senders; a quarter bounds what
+    one drain (or the receiver's queue) holds. Senders then wait (backpressure), as they do
+    when the queue of small packets is full.
+
+    Parameters
+    ----------
+    budget : int
+        Bytes (``ingest_bytes``).
+    hwm : int
+        The configured message bound (``ingest_hwm``), used while no message is large.
+    """
+
+    WINDOW = 2.0  # s a sender's large message keeps the bound lowered
+    # libzmq 4.3 stalls a connection whose RCVHWM is lowered to 3 or less while it is open
+    # with a ZAP handler (measured: the sender's next messages never arrive): never below 4
+    MIN_HWM = 4
+
+    def __init__(self, budget: int, hwm: int):
+        self.share = budget // 2
+        self.drain_bytes = budget // 4
+        self.max_hwm = hwm
+        self.hwm = hwm
+        # messages at least this large lower the bound below the configured one
+        self.threshold = max(1, self.share // hwm)
+        self.senders: dict = {}  # sender -> (its largest recent large message, when)
+
+    def observe(self, size: int, sender, now: float) -> int | None:
+        """Take a drain's largest message (bytes) and its sender; returns the new ``RCVHWM``
+        to set when it changes, else None."""
+        s = self.senders
+        if size >= self.threshold:
+            old = s.get(sender)
+            if old is None or size >= old[0] or now - old[1] > self.WINDOW:
+                s[sender] = (size, now)
+        for k in [k for k, (_, t) in s.items() if now - t > self.WINDOW]:
+            del s[k]
+        total = sum(v[0] for v in s.values())
+        hwm = max(min(self.MIN_HWM, self.max_hwm), min(self.max_hwm, self.share // total)) \
+            if total else self.max_hwm
+        if hwm == self.hwm:
+            return None
+        self.hwm = hwm
+        return hwm

@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import ipaddress
 import logging
+import secrets
 import shutil
 import socket as _socket
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -117,6 +119,44 @@ class ServerSecurity:
         self.auth.stop()
 
 
+class ConnectionIds:
+    """Without CURVE: a ZAP handler (a thread of the daemon's context) that accepts every
+    connection of the ingest socket and names it ``conn-<run>-<n>``: ZeroMQ then attaches that
+    ``User-Id`` to every message the connection delivers, so a quota or a stream's owner is one
+    connection, which its peer cannot forge (a sender-supplied id could be any). ``<run>`` is
+    random per daemon start: a name from before a restart matches no connection after it.
+    Apply before binding; ``stop`` before the context ends."""
+
+    ENDPOINT = "inproc://zeromq.zap.01"  # ZeroMQ's fixed ZAP address (RFC 27)
+
+    def __init__(self, ctx: zmq.Context):
+        self.sock = ctx.socket(zmq.REP)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        self.sock.bind(self.ENDPOINT)
+        self.run_id = secrets.token_hex(3)
+        self.count = 0
+        self._stopping = threading.Event()
+        self.thread = threading.Thread(target=self._serve, name="streamseg-zap", daemon=True)
+        self.thread.start()
+
+    def apply(self, sock: zmq.Socket) -> None:
+        sock.zap_domain = DOMAIN.encode()
+
+    def _serve(self) -> None:
+        while not self._stopping.is_set():
+            if not self.sock.poll(100):
+                continue
+            version, request_id = self.sock.recv_multipart()[:2]
+            self.count += 1
+            self.sock.send_multipart([version, request_id, b"200", b"OK",
+                                      f"conn-{self.run_id}-{self.count}".encode(), b""])
+        self.sock.close(linger=0)
+
+    def stop(self) -> None:
+        self._stopping.set()
+        self.thread.join(5)
+
+
 def is_loopback(endpoint: str) -> bool:
     """True for ``ipc://``, ``inproc://`` and TCP endpoints on a loopback address."""
     if not endpoint.startswith("tcp://"):
@@ -152,7 +192,8 @@ def check_binds(config) -> None:
 
 
 def peer_of(frame) -> str | None:
-    """Who sent a received ``zmq.Frame``: the CURVE key (``User-Id``), else the peer address."""
+    """Who sent a received ``zmq.Frame``: its ``User-Id`` (the CURVE key, else the connection's
+    name from :class:`ConnectionIds`), else the peer address."""
     for prop in ("User-Id", "Peer-Address"):
         try:
             v = frame.get(prop)
@@ -161,3 +202,24 @@ def peer_of(frame) -> str | None:
         if v and v != "anonymous":
             return v
     return None
+
+
+def ipv6(sock: zmq.Socket, endpoint: str) -> None:
+    """Turn on ZeroMQ's IPv6 for a ``tcp://[addr]:port`` endpoint (off, binding ``[::1]``
+    fails with "No such device"); before bind or connect."""
+    if endpoint.startswith("tcp://[") or ";[" in endpoint:
+        sock.setsockopt(zmq.IPV6, 1)
+
+
+def control_token() -> tuple:
+    """``(token, file)`` of :func:`streamseg.protocol.auth.daemon_token`; ``(None, None)`` with
+    a warning when it cannot be written (then only signals stop the daemon)."""
+    from streamseg.protocol.auth import daemon_token, token_path
+
+    try:
+        return daemon_token()
+    except OSError as err:
+        log.warning("cannot write the control token to %s (%s): shutdown and checkpoint are "
+                    "refused to every client; set XDG_RUNTIME_DIR to a private directory",
+                    token_path(), err)
+        return None, None

@@ -27,7 +27,13 @@ from streamseg.daemon.ingest import Receiver
 from streamseg.daemon.intake import Intake
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import Algorithms
-from streamseg.daemon.security import ServerSecurity, check_binds
+from streamseg.daemon.security import (
+    ConnectionIds,
+    ServerSecurity,
+    check_binds,
+    control_token,
+    ipv6,
+)
 from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.state_lock import lock_state_dir
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
@@ -111,8 +117,11 @@ class Daemon(Intake):
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
         self.clients = collections.Counter()  # open streams per client (the quota)
+        self.budget = limits.IngestBudget(self.config.ingest_bytes, self.config.ingest_hwm)
         self._sender = None  # topic frame of the message being handled (its identity)
         self.security = None
+        self.conn_ids = None  # names of ingest connections without CURVE (security.py)
+        self.token = self.token_file = None  # the control token without CURVE (protocol/auth.py)
         self.checkpoints = checkpoint_store.open_store(self.config)
         self.checkpoint_seconds = 0.0  # loop time spent copying stream states
         self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
@@ -140,16 +149,24 @@ class Daemon(Intake):
         check_binds(c)
         if c.curve_dir:
             self.security = ServerSecurity(self.ctx, c.curve_dir)
+        else:  # no keys: each ingest connection gets a name of its own (quota, stream owner)
+            self.conn_ids = ConnectionIds(self.ctx)
+            if c.control:
+                self.token, self.token_file = control_token()
         secure = self.security.apply if self.security is not None else (lambda sock: None)
         self.ingest = self.ctx.socket(zmq.PULL)
         secure(self.ingest)
+        if self.conn_ids is not None:
+            self.conn_ids.apply(self.ingest)
         self.ingest.setsockopt(zmq.RCVHWM, c.ingest_hwm)
+        ipv6(self.ingest, c.ingest)
         self.ingest.setsockopt(zmq.LINGER, 0)
         self.ingest.setsockopt(zmq.MAXMSGSIZE, c.max_message_bytes)
         self.ingest.bind(_bindable(c.ingest))
         self.pub = self.ctx.socket(zmq.PUB)
         secure(self.pub)
         self.pub.setsockopt(zmq.SNDHWM, c.hwm)
+        ipv6(self.pub, c.publish)
         self.pub.setsockopt(zmq.LINGER, 2000)  # final events get out at shutdown
         self.pub.bind(_bindable(c.publish))
         self.control = None
@@ -160,7 +177,8 @@ class Daemon(Intake):
             self._wake.bind(f"inproc://streamseg-wake-{id(self)}")
             wake_tx = self.ctx.socket(zmq.PAIR)
             wake_tx.connect(f"inproc://streamseg-wake-{id(self)}")
-            self.receiver = Receiver(self.ingest, wake_tx, c.ingest_hwm, c.drain_frames)
+            self.receiver = Receiver(self.ingest, wake_tx, c.ingest_hwm, c.drain_frames,
+                                     self.budget)
             self.poller.register(self._wake, zmq.POLLIN)
         else:
             self.poller.register(self.ingest, zmq.POLLIN)
@@ -174,6 +192,7 @@ class Daemon(Intake):
             self.control = self.ctx.socket(zmq.REP)
             secure(self.control)
             self.control.setsockopt(zmq.LINGER, 0)
+            ipv6(self.control, c.control)
             self.control.bind(_bindable(c.control))
             self.poller.register(self.control, zmq.POLLIN)
             self.endpoints["control"] = self.control.getsockopt_string(zmq.LAST_ENDPOINT)
@@ -206,6 +225,7 @@ class Daemon(Intake):
                 self._error(None, "event_log", f"the event log {self.eventlog.path} was "
                             f"damaged ({why}): moved to {aside}; a new log started")
             checkpoint.restore(self, self._started)
+            self._restored_owners()
             self._ckpt_start = self._started
             self._next_ckpt = self._started + self.config.checkpoint_interval
             self.ready.set()
@@ -508,7 +528,8 @@ class Daemon(Intake):
         out.update(streams=len(self.streams), errors=self.errors.total,
                    latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
                    latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
-                   relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason())
+                   relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason(),
+                   ingest_hwm=self.budget.hwm)
         if self.checkpoints is not None:
             out["checkpoint_interval_s"] = round(self.checkpoint_gap, 3)
             out["checkpoints_written"] = self.checkpoints.written  # committed, not queued

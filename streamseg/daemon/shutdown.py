@@ -36,6 +36,8 @@ def shutdown(daemon) -> None:
                 sock.close()  # default linger: final events still reach listeners
         if daemon.security is not None:
             daemon.security.stop()
+        if daemon.conn_ids is not None:
+            daemon.conn_ids.stop()
         daemon.ctx.term()
         if daemon.eventlog is not None:
             daemon.eventlog.close()  # after the final events: they are logged too

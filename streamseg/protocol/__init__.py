@@ -31,6 +31,7 @@ from streamseg.protocol.codec import (
     unpack_body,
 )
 from streamseg.protocol.messages import (
+    CHANGING_OPS,
     DAEMON_WIDE,
     EVENT_TYPES,
     INGEST_TYPES,
@@ -56,7 +57,7 @@ from streamseg.protocol.messages import (
     valid_stream_id,
 )
 
-__all__ = ["DAEMON_WIDE", "EVENT_TYPES", "INGEST_TYPES", "MAX_INT", "MESSAGES",
+__all__ = ["CHANGING_OPS", "DAEMON_WIDE", "EVENT_TYPES", "INGEST_TYPES", "MAX_INT", "MESSAGES",
            "PROTOCOL_VERSION", "SEQ_SKIP", "Announce", "Closed", "Confirm", "Cut", "End", "Error",
            "Frames", "Gap", "Hello", "Rep", "Segments", "Stats", "WireError", "Withdraw",
            "decode", "decode_array", "encode", "encode_array", "frames_fields", "from_body",

@@ -63,8 +63,8 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
 
 
 # left out when None (older readers)
-_OPTIONAL = {"announce": ("labels", "labels_sequence"), "cut": ("pending",),
-             "gap": ("filled",)}
+_OPTIONAL = {"announce": ("labels", "labels_sequence", "auth"), "end": ("auth",),
+             "cut": ("pending",), "gap": ("filled",)}
 
 
 def encode(msg, seq: int | None = None) -> list[bytes]:
@@ -203,7 +203,9 @@ def _announce(obj):
     for key, value in (("labels", labels), ("labels_sequence", seq)):
         _need(value is None or (isinstance(value, str) and 0 < len(value) <= 4096), "announce",
               key, value, "a string of 1-4096 characters, or nil", s)
-    return Announce(s, fps, tuple(joints), tuple(parents), units, up, labels, seq)
+    auth = obj.get("auth")
+    return Announce(s, fps, tuple(joints), tuple(parents), units, up, labels, seq,
+                    auth if isinstance(auth, str) else None)
 
 
 def frames_fields(obj: dict, stream: str | None = None) -> tuple:
@@ -292,7 +294,8 @@ def _stats(obj):
 _BUILDERS = {
     "announce": _announce,
     "frames": _frames,
-    "end": lambda o: End(_stream(o, "end")),
+    "end": lambda o: End(_stream(o, "end"), o["auth"] if isinstance(o.get("auth"), str)
+                         else None),
     "cut": lambda o: Cut(_stream(o, "cut"), _int(o, "frame", "cut", None),
                          _num(o, "time", "cut", None, finite=False),
                          _num(o, "score", "cut", None, finite=False),

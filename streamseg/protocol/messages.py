@@ -12,6 +12,7 @@ from streamseg.exceptions import ProtocolError
 
 PROTOCOL_VERSION = 1
 INGEST_TYPES = ("announce", "frames", "end")
+CHANGING_OPS = ("shutdown", "checkpoint")  # control ops that need CURVE or the control token
 EVENT_TYPES = ("cut", "confirm", "withdraw", "segments", "rep", "gap", "error", "stats",
                "closed")
 DAEMON_WIDE = "*"
@@ -78,6 +79,7 @@ class Announce:
     up: str = "y"
     labels: str | None = None  # optional: path of a human label CSV for this recording
     labels_sequence: str | None = None  # its rows to use (default: the stream id)
+    auth: str | None = None  # the control token: may re-announce a stream of another client
 
     type = "announce"
 
@@ -114,6 +116,7 @@ class End:
     """Ingest: the stream is over; the daemon publishes final events and a ``closed`` event."""
 
     stream: str
+    auth: str | None = None  # the control token: may end a stream of another client
 
     type = "end"
 
