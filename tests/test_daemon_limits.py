@@ -181,7 +181,7 @@ def test_one_process_announce_flood_leaves_room_for_another(start_daemon, rec, w
 
     assert in_child(flood, other_user=False) == {}
     wait_until(lambda: request(ep["control"], "stats")["totals"]["errors_by_reason"]
-               .get("quota", 0) == 9990, "the flood taken")
+               .get("quota", 0) == 9990, "the flood taken", timeout=300)
     sub = subscribe(ep["publish"], ep["control"], stream="good")
     replay(rec, ep["ingest"], stream="good", speed=0, batch=50, wait=60)
     events = list(listen(sub.sock, pending=sub.pending, stream="good", until_end=True,
@@ -271,7 +271,9 @@ def _status(pid, key) -> int:
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/clear_refs"), reason="needs Linux /proc")
+@pytest.mark.parametrize("receive_thread", [False, True])
 def test_a_flood_of_large_valid_packets_keeps_memory_within_the_byte_budget(tmp_path, rec,
+                                                                           receive_thread,
                                                                            warm_kernels):
     """60 valid packets of 12,000 frames (8.9 MB each, 535 MB) sent as fast as the daemon
     takes them: its resident memory grows by at most the budget (64 MiB: ZeroMQ's queue and
@@ -280,7 +282,7 @@ def test_a_flood_of_large_valid_packets_keeps_memory_within_the_byte_budget(tmp_
     in packets (2,000) and held what the sender was ahead: 355 MB here on a quiet machine."""
     budget, largest = 64 << 20, 16 << 20
     proc, ep = _serve(tmp_path, "--ingest-bytes", str(budget), "--max-message-bytes",
-                      str(largest))
+                      str(largest), *(["--receive-thread"] if receive_thread else []))
     try:
         wait_until(lambda: _ping(ep), "the daemon answers", timeout=300)
         push = zmq.Context.instance().socket(zmq.PUSH)

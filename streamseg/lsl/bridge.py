@@ -20,9 +20,11 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
+from streamseg.client import ipv6
 from streamseg.exceptions import ParameterError
 from streamseg.lsl import pylsl
 from streamseg.lsl.meta import describe, stream_skeleton
+from streamseg.protocol.auth import read_token
 
 log = logging.getLogger("streamseg.lsl")
 
@@ -103,6 +105,7 @@ class Feeder(threading.Thread):
         sock.setsockopt(zmq.LINGER, 2000)
         if self.curve is not None:
             self.curve.apply(sock)
+        ipv6(sock, self.endpoint)
         sock.connect(self.endpoint)
         try:
             self._pump(lsl, inlet, sock)
@@ -137,7 +140,7 @@ class Feeder(threading.Thread):
         up = self.up or upright_axis(positions, self.names) or "y"
         parents = tuple(-1 for _ in self.names)
         msg = protocol.Announce(self.stream, self.fps, tuple(self.names), parents,
-                                self.units[:64], up)
+                                self.units[:64], up, auth=self._auth())
         self._send(sock, protocol.encode(msg))
         self.on_open(f"LSL stream {self.meta['name']!r} (source id "
                      f"{self.meta['source_id'] or 'none'}, {len(self.raw_names)} joints at "
@@ -185,7 +188,7 @@ class Feeder(threading.Thread):
             for a, b in zip(edges[:-1], edges[1:]):
                 lost = int(jumps[a]) if (a > 0 or last_ts is not None) else 0
                 if lost * step > RESTART_S:
-                    self._send(sock, protocol.encode(protocol.End(self.stream)))
+                    self._send(sock, protocol.encode(protocol.End(self.stream, self._auth())))
                     self.on_open(f"LSL stream {self.meta['name']!r} was silent for "
                                  f"{lost * step:.1f} s: stream {self.stream} starts anew")
                     self._announce(sock, pos[a:b])
@@ -200,9 +203,15 @@ class Feeder(threading.Thread):
         if announced:
             self._send_end(sock)
 
+    def _auth(self):
+        """The control token without CURVE: a bridge restarted after a crash takes its stream
+        id back from the dead one's connection (docs/protocol.md, Security)."""
+        return read_token() if self.curve is None else None
+
     def _send_end(self, sock) -> None:
         if sock.poll(1000, zmq.POLLOUT):
-            sock.send_multipart(protocol.encode(protocol.End(self.stream)), zmq.NOBLOCK)
+            sock.send_multipart(protocol.encode(protocol.End(self.stream, self._auth())),
+                                zmq.NOBLOCK)
 
 
 class Bridge:
