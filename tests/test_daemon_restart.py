@@ -244,17 +244,24 @@ def test_every_event_seen_live_is_in_the_log_after_kill9(tmp_path, rec):
             proc.wait(10)
 
 
-def test_listen_since_0_says_numbers_skipped_at_a_restart(tmp_path, rec, capsys):
-    """A stream resumed after kill -9 before any of its events: its numbers start after
-    SEQ_SKIP skipped ones, which `listen --since 0` calls skipped, not retention."""
+def quiet_daemon(tmp_path, rec, stream):
+    """``(endpoints, toml, process, PUSH socket)``: a daemon without relabels or heartbeats
+    whose periodic checkpoint does not come in a test's time, ``stream`` announced."""
     ep, state, toml = config(tmp_path, relabel_interval=0, heartbeat=0,
                              checkpoint_interval=60.0)
     proc = serve(toml)
+    wait_ping(ep, proc)
+    push = zmq.Context.instance().socket(zmq.PUSH)
+    push.connect(ep["ingest"])
+    push.send_multipart(P.encode(announce_of(rec, stream)))
+    return ep, toml, proc, push
+
+
+def test_listen_since_0_says_numbers_skipped_at_a_restart(tmp_path, rec, capsys):
+    """A stream resumed after kill -9 before any of its events: its numbers start after
+    SEQ_SKIP skipped ones, which `listen --since 0` calls skipped, not retention."""
+    ep, toml, proc, push = quiet_daemon(tmp_path, rec, "k")
     try:
-        wait_ping(ep, proc)
-        push = zmq.Context.instance().socket(zmq.PUSH)
-        push.connect(ep["ingest"])
-        push.send_multipart(P.encode(announce_of(rec, "k")))
         push.send_multipart(P.encode(P.Frames("k", 0, 0.0, rec.positions[:200])))
         wait_frame(ep, "k", 200)
         assert request(ep["control"], "checkpoint")["ok"]
@@ -282,6 +289,38 @@ def test_listen_since_0_says_numbers_skipped_at_a_restart(tmp_path, rec, capsys)
         assert "retention" not in err
         seqs = [json.loads(x).get("seq") for x in out.splitlines()]
         assert [n for n in seqs if n is not None] == [e.seq for e in logged]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+
+
+def test_a_take_the_crash_ended_is_closed_at_restart(tmp_path, rec):
+    """kill -9 before a stream's first checkpoint: it cannot resume, and the restarted
+    daemon publishes its `closed` (reason `restart`), so the id's next take follows one that
+    ended (per-stream order across crashes)."""
+    ep, toml, proc, push = quiet_daemon(tmp_path, rec, "x")
+    try:
+        for a in range(0, 2000, 100):
+            push.send_multipart(P.encode(P.Frames("x", a, 0.0, rec.positions[a:a + 100])))
+        wait_frame(ep, "x", 2000)
+        while not (before := fetch_since(ep["control"], "x", 0)):
+            time.sleep(0.01)  # a cut of the take is out
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(10)
+        proc = serve(toml)
+        wait_ping(ep, proc)
+        assert "x" not in {s["stream"] for s in request(ep["control"], "streams")["streams"]}
+        after = fetch_since(ep["control"], "x", before[-1].seq)
+        assert [(e.type, e.reason) for e in after] == [("closed", "restart")]
+        push.send_multipart(P.encode(announce_of(rec, "x")))  # the next take
+        push.send_multipart(P.encode(P.End("x")))
+        push.close(linger=5000)
+        deadline = time.monotonic() + 30
+        while getattr((log := fetch_since(ep["control"], "x", 0))[-1], "reason", "") != "end":
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        assert [e.reason for e in log if e.type == "closed"] == ["restart", "end"]
     finally:
         if proc.poll() is None:
             proc.kill()

@@ -7,13 +7,16 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import zmq
 
 from streamseg import protocol as P
 from streamseg.client import fetch_since, request
+from streamseg.commands.replay import announce_of
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data" / "cmu86"
@@ -62,9 +65,11 @@ class Served:
     """A `streamseg serve` subprocess on ipc endpoints in ``tmp``; ``daemon`` are ``[daemon]``
     settings of its TOML file (``state_dir`` defaults to ``tmp/state``)."""
 
-    def __init__(self, tmp: Path, ring_start=None, endpoint=None, **daemon):
+    def __init__(self, tmp: Path, ring_start=None, endpoint=None, tmpfs_mb=None, **daemon):
         self.tmp = tmp
         self.ring_start = ring_start
+        self.tmpfs_mb = tmpfs_mb  # the state directory on a tmpfs of this size (its own
+        # user and mount namespace: nothing stays mounted; files at /proc/PID/root)
         # endpoint: e.g. "tcp://127.0.0.1:0" for all three (ports resolved at start)
         self.ep = {k: endpoint or f"ipc://{tmp}/{k}" for k in ("ingest", "publish", "control")}
         self.keys = None
@@ -88,11 +93,15 @@ class Served:
         # the first packet, as before it grew on demand)
         pre = (f"import streamseg.daemon.pipeline as p; p.RING_START = {self.ring_start}; "
                if self.ring_start else "")
-        self.proc = subprocess.Popen([sys.executable, "-c", pre + "import sys; from streamseg."
-                                      "cli import main; sys.exit(main(sys.argv[1:]))", "serve",
-                                      "--config", str(self.tmp / "d.toml"), "--log-level",
-                                      log_level],
-                                     stdout=subprocess.PIPE, stderr=stderr, text=True)
+        cmd = [sys.executable, "-c", pre + "import sys; from streamseg.cli import main; "
+               "sys.exit(main(sys.argv[1:]))", "serve", "--config", str(self.tmp / "d.toml"),
+               "--log-level", log_level]
+        if self.tmpfs_mb:
+            state = self.tmp / "state"
+            state.mkdir(exist_ok=True)
+            cmd = ["unshare", "-rm", "sh", "-c", f'mount -t tmpfs -o size={self.tmpfs_mb}m '
+                   f'tmpfs "{state}" && exec "$@"', "sh", *cmd]
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=stderr, text=True)
         line = self.proc.stdout.readline()  # "streamseg serve: ingest=EP publish=EP ..."
         self.ep.update(kv.split("=", 1) for kv in line.split()[2:] if "=" in kv)
         return self.wait_ping()
@@ -156,6 +165,11 @@ class Served:
                 return events
             time.sleep(0.02)
 
+    def state(self) -> Path:
+        """The state directory as this process reaches it (through the daemon's namespace)."""
+        return Path(f"/proc/{self.proc.pid}/root{self.tmp / 'state'}") if self.tmpfs_mb \
+            else self.tmp / "state"
+
     def kill(self):
         self.proc.send_signal(signal.SIGKILL)
         self.proc.wait()
@@ -194,6 +208,63 @@ def holes(events) -> int:
     at a crash restart (not events: numbers never used) is not counted."""
     seqs = [e.seq for e in events]
     return sum(b - a - 1 for a, b in zip(seqs, seqs[1:]) if b > a + 1 and b - a - 1 != P.SEQ_SKIP)
+
+
+class Sender(threading.Thread):
+    """Sends ``rec`` as ``stream`` in a loop, 20 frames per packet, about ``fps`` frames per
+    second, until :meth:`stop`; packets sent while the daemon is down are lost, as a live
+    sender's are."""
+
+    def __init__(self, endpoint, rec, stream="k", fps=10_000):
+        super().__init__(daemon=True)
+        self.endpoint, self.rec, self.stream, self.fps = endpoint, rec, stream, fps
+        self.stopping = threading.Event()
+
+    def run(self):
+        push = zmq.Context.instance().socket(zmq.PUSH)
+        push.setsockopt(zmq.SNDHWM, 50)
+        push.setsockopt(zmq.SNDTIMEO, 100)
+        push.connect(self.endpoint)
+        push.send_multipart(P.encode(announce_of(self.rec, self.stream)))
+        a, n = 0, self.rec.n_frames
+        while not self.stopping.is_set():
+            idx = np.arange(a, a + STEP) % n
+            try:
+                push.send_multipart(P.encode(P.Frames(self.stream, a, 0.0,
+                                                      self.rec.positions[idx])))
+            except zmq.Again:
+                pass
+            a += STEP
+            self.stopping.wait(STEP / self.fps)
+        push.close(linger=0)
+
+    def stop(self):
+        self.stopping.set()
+        self.join(10)
+
+
+def numbered(events) -> list:
+    return [e for e in events if getattr(e, "seq", None) is not None]
+
+
+def missing_from_log(control, seen) -> list:
+    """The numbered events of ``seen`` the log does not hold as they were seen."""
+    logged = {}
+    for key in {e.stream or P.DAEMON_WIDE for e in seen}:
+        logged.update({(key, e.seq): e for e in fetch_since(control, key, 0)})
+    return [e for e in seen if logged.get((e.stream or P.DAEMON_WIDE, e.seq)) != e]
+
+
+def can_mount() -> bool:
+    """Whether a tmpfs can be mounted in a user and mount namespace here."""
+    import shutil
+    import tempfile
+
+    if not shutil.which("unshare"):
+        return False
+    with tempfile.TemporaryDirectory() as d:
+        return subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m "
+                               f"tmpfs '{d}'"], capture_output=True).returncode == 0
 
 
 def drain(sub, ms=300) -> list:

@@ -49,6 +49,7 @@ CREATE TABLE IF NOT EXISTS skips (
     t REAL NOT NULL
 );
 CREATE INDEX IF NOT EXISTS skips_stream ON skips (stream, hi);
+CREATE TABLE IF NOT EXISTS open_takes (stream TEXT PRIMARY KEY);
 """
 
 #: free pages the log keeps in its own file (4 kB each: 4 MB, some 20,000 events), so it can
@@ -156,6 +157,7 @@ class EventLog:
         self._wake = threading.Event()
         self._stopping = threading.Event()
         self._writing = False
+        self.waits: collections.deque = collections.deque(maxlen=4096)  # s, queued->out
         self.written = 0
         self.failed = 0  # events not written (disk full, unwritable): the daemon reports them
         self.read_failed = 0  # reads that failed (a damaged file): the daemon reports them
@@ -214,7 +216,7 @@ class EventLog:
         with self._swap:
             self._pending.append((stream, seq, kind, time.time(), body))
             if parts is not None:
-                self._out.append(parts)
+                self._out.append((time.monotonic(), parts))
             first = len(self._pending) == 1
         if first:
             self._wake.set()
@@ -223,9 +225,9 @@ class EventLog:
         """Queue frames of an unlogged event (``stats``) behind the logged ones before it."""
         with self._swap:
             if not self._pending and not self._writing:
-                self._done.append([parts])
+                self._done.append([(None, parts)])
                 return
-            self._out.append(parts)
+            self._out.append((None, parts))
 
     def skip(self, stream: str, lo: int, hi: int) -> None:
         """Record that numbers ``lo..hi`` of ``stream`` are never used (a restart after a
@@ -236,10 +238,15 @@ class EventLog:
 
     def committed(self) -> list:
         """The frames of every event committed since the last call (and of the unlogged ones
-        queued between them), in order."""
+        queued between them), in order; the wait of each logged one (queued to now) goes to
+        :attr:`waits`."""
         out = []
+        now = time.monotonic()
         while self._done:
-            out += self._done.popleft()
+            for t, parts in self._done.popleft():
+                if t is not None:
+                    self.waits.append(now - t)
+                out.append(parts)
         return out
 
     def sync(self, timeout: float = 10.0) -> bool:
@@ -293,6 +300,10 @@ class EventLog:
             raise LogReadError(f"the event log {self.path} could not be read ({err}): it may "
                                "be damaged; stop the daemon and move it aside (a new one "
                                "starts then)") from err
+
+    def open_takes(self) -> list:
+        """The stream ids whose last take published events but no ``closed`` (a crash)."""
+        return [r[0] for r in self._read("SELECT stream FROM open_takes", ())]
 
     def backlog(self) -> int:
         return len(self._pending) + len(self._inflight)
@@ -353,6 +364,16 @@ class EventLog:
             self._w.executemany("INSERT INTO events (stream, seq, type, t, body) "
                                 "VALUES (?, ?, ?, ?, ?)", batch)
             self._w.executemany("INSERT INTO skips VALUES (?, ?, ?, ?)", skips)
+            opened: dict = {}  # stream -> its take is open after this batch
+            for row in batch:
+                if row[2] == "closed":
+                    opened[row[0]] = False
+                elif row[2] != "error" and row[0] != protocol.DAEMON_WIDE:
+                    opened[row[0]] = True
+            self._w.executemany("INSERT OR IGNORE INTO open_takes VALUES (?)",
+                                [(k,) for k, v in opened.items() if v])
+            self._w.executemany("DELETE FROM open_takes WHERE stream = ?",
+                                [(k,) for k, v in opened.items() if not v])
             self._w.execute("COMMIT")
             self.written += len(batch)
         except sqlite3.Error as err:  # a full disk must not stop the daemon: say so, go on

@@ -14,6 +14,7 @@ import os
 import threading
 import time
 
+import numpy as np
 import zmq
 
 from streamseg import protocol
@@ -226,6 +227,7 @@ class Daemon(Intake):
                             f"damaged ({why}): moved to {aside}; a new log started")
             checkpoint.restore(self, self._started)
             self._restored_owners()
+            self._close_lost_takes()
             self._ckpt_start = self._started
             self._next_ckpt = self._started + self.config.checkpoint_interval
             self.ready.set()
@@ -261,6 +263,22 @@ class Daemon(Intake):
         return 0
 
     # --- ingest ------------------------------------------------------------------------------
+
+    def _close_lost_takes(self) -> None:
+        """``closed`` (reason ``restart``) for the takes a crash ended: events of them are in
+        the log, no ``closed``, and no checkpoint resumed them; so every take of an id ends
+        with ``closed`` before the next one begins."""
+        if self.eventlog is None:
+            return
+        try:
+            lost = [s for s in self.eventlog.open_takes() if s not in self.streams]
+        except Exception as err:  # an unreadable log is reported by its read counter
+            log.warning("event log: the open takes could not be read: %s", err)
+            return
+        for stream in lost:
+            self._publish(None, protocol.Closed(stream, "restart", 0))
+        if lost:
+            log.info("%d streams not resumed after the restart: closed (restart)", len(lost))
 
     def _feed(self) -> None:
         """Hand the oldest due streams' snapshots to the worker while it has free slots."""
@@ -530,6 +548,11 @@ class Daemon(Intake):
                    latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
                    relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason(),
                    ingest_hwm=self.budget.hwm)
+        if self.eventlog is not None and self.eventlog.waits:
+            # commit-then-publish: each event's wait for its commit, last 4096 events
+            w50, w99 = np.percentile(np.fromiter(self.eventlog.waits, float), (50, 99))
+            out.update(publish_wait_p50_ms=round(w50 * 1e3, 3),
+                       publish_wait_p99_ms=round(w99 * 1e3, 3))
         if self.checkpoints is not None:
             out["checkpoint_interval_s"] = round(self.checkpoint_gap, 3)
             out["checkpoints_written"] = self.checkpoints.written  # committed, not queued
