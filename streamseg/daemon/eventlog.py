@@ -7,9 +7,10 @@ back (:meth:`EventLog.committed`, the loop is woken by ``notify``) for the loop 
 So every event a subscriber has seen is in the log: a crash loses only events nobody saw.
 A batch is whatever the loop appended while the previous one was written, and commits come
 at most every ``batch_interval`` (5 ms): a lone event waits for one commit, a burst shares
-one (the wait is in ``stats``: ``publish_wait_p50_ms``, ``publish_wait_p99_ms``). Retention (age, then size) runs in the same thread in
-bounded steps. The log keeps a reserve of free pages in its own file (and its WAL at its
-size), so when the disk fills up it still has room while the checkpoints pause.
+one (the wait is in ``stats``: ``publish_wait_p50_ms``, ``publish_wait_p99_ms``). Retention
+(age, then size) runs in the same thread in bounded steps. The log keeps a reserve of free
+pages in its own file (and its WAL at its size), so when the disk fills up it still has room
+while the checkpoints pause.
 
 A damaged file is found at start (opening fails or ``PRAGMA quick_check`` does not answer
 ``ok``) and moved aside as ``events.corrupt-<time>.sqlite``; :attr:`EventLog.quarantined`
