@@ -20,6 +20,7 @@ from streamseg.commands.replay import replay
 from streamseg.config import DaemonConfig, LOFConfig
 from streamseg.daemon import Daemon
 from streamseg.io import read
+from streamseg.protocol.auth import read_token
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -120,7 +121,9 @@ def part(rec, stop):
 
 
 def send_rest(endpoint, rec, stream, start, batch=8):
-    """Frames ``start..`` of ``rec`` on an already announced stream, then its end."""
+    """Frames ``start..`` of ``rec`` on an already announced stream, then its end: from a new
+    connection, so the end carries the control token as a restarted sender's would (the
+    stream belongs to the connection that announced it)."""
     push = zmq.Context.instance().socket(zmq.PUSH)
     push.setsockopt(zmq.LINGER, 30000)
     push.connect(endpoint)
@@ -128,7 +131,7 @@ def send_rest(endpoint, rec, stream, start, batch=8):
         for a in range(start, rec.n_frames, batch):
             push.send_multipart(P.encode(P.Frames(stream, a, time.time(),
                                                   rec.positions[a:a + batch])))
-        push.send_multipart(P.encode(P.End(stream)))
+        push.send_multipart(P.encode(P.End(stream, read_token())))
     finally:
         push.close()
 
