@@ -126,11 +126,13 @@ class StreamingLOFSegmenter:
     # scratch: a checkpoint need not store them (streamseg.daemon.state_codec), and they are
     # half of what changes between two checkpoints of a full stream (scattered list updates)
     _derived_state = ("_norms", "_nn_idx", "_nn_d", "_nn_key", "_nn_cnt", "_trunc", "_lrd",
-                      "_lof", "_mark", "_work", "_curve", "_keep", "_stack", "_left", "_right")
+                      "_lof", "_mark", "_work", "_curve", "_keep", "_stack", "_left", "_right",
+                      "_ev")
 
     def _allocate_derived(self) -> None:
         g, k, n = self.geometry, self.config.k, self._seqs.shape[0]
         d = self._vecs.shape[1]
+        self._ev = None  # the event arrays, reused (_event_arrays)
         self._left = np.zeros(d, dtype=np.int64)
         self._right = np.zeros(d, dtype=np.int64)
         self._norms = np.zeros(n)
@@ -218,9 +220,13 @@ class StreamingLOFSegmenter:
             raise ParameterError(f"positions of shape {pos.shape} with {width} feature "
                                  f"columns: expected (n, J, 3) and {self.n_features} columns")
         ev = self._event_arrays(pos.shape[0] // self.geometry["step"] + 2)
-        angles, ok, n = _sf.push_block(pos, bones, _root_args(root),
-                                       self._speed_args(), self._st, self._geo, self._p,
-                                       *self._groups(), ev, self._pend)
+        angles, ok, n = _sf.push_block(pos, *bones, *_root_args(root), *self._speed_args(),
+                                       self._st, self._geo, self._p, self._rb, self._rv,
+                                       self._cur, self._left, self._right, self._vecs,
+                                       self._norms, self._seqs, self._nn_idx, self._nn_d,
+                                       self._nn_key, self._nn_cnt, self._trunc, self._lrd,
+                                       self._lof, self._mark, self._centres, self._work,
+                                       self._curve, self._keep, self._stack, *ev, self._pend)
         return angles, ok, self._events(n, ev)
 
     def _speed_args(self) -> tuple:
@@ -230,7 +236,7 @@ class StreamingLOFSegmenter:
         order = getattr(s, "_order", None)  # None in checkpoints made before the order
         if order is None:
             order = np.arange(2 * s.d)
-        return (s._st, s._ring, s._ref, s._first, s.scale, order.astype(np.int64))
+        return (s._st, s._ring, s._ref, s._first, s.scale, np.asarray(order, dtype=np.int64))
 
     def finish(self) -> list:
         """End of stream: decide the windows still waiting for ``delay`` future windows (and
@@ -250,8 +256,14 @@ class StreamingLOFSegmenter:
         """Room for the events of ``windows`` decided windows: one each, with two stages up to
         three (a withdraw, a cut, a pending cut) and each pending cut withdrawn."""
         m = windows if not self.geometry["early"] else 4 * windows + self._pend.shape[0]
-        return (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m, dtype=np.int64),
-                np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64))
+        ev = self._ev
+        if ev is not None and ev[0].shape[0] >= m:  # read into events before the next call
+            return ev
+        ev = (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m, dtype=np.int64),
+              np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64))
+        if m <= 64:  # kept for the next packets (a few frames each, live); not a huge one's
+            self._ev = ev
+        return ev
 
     def _groups(self) -> tuple:
         """The kernel's state arrays in its three groups: frame ring and counts, the LOF
