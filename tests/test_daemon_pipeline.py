@@ -97,3 +97,45 @@ def test_labels_stay_stable_across_missing_frames():
     assert {lab for _, _, lab in first.segments} == {5}
     second = relabel(algorithms, np.zeros((200, 8)), np.arange(200, 400), 120.0, first.window)
     assert second.segments == ((200, 400, 5),)
+
+
+def _compiled(modules) -> dict:
+    """``{kernel: number of compiled versions}`` of every numba kernel in ``modules``."""
+    return {f"{m.__name__}.{k}": len(v.signatures) for m in modules
+            for k, v in vars(m).items() if hasattr(v, "signatures")}
+
+
+def test_warmup_compiles_everything_a_stream_runs(rec):
+    """After the daemon's warm-up, a real take through a stream's pipeline compiles nothing
+    (a compile in the loop stalls every stream and control request for seconds): read-only
+    packets as decoded, writable ones as joined, a gap, and a pipeline restored from its
+    checkpoint, as after a restart."""
+    import importlib
+    import pkgutil
+
+    import streamseg._kernels as kernels
+    from streamseg.daemon.state_codec import dump, load, packable, stored
+
+    algorithms = Algorithms(repetitions=True)
+    algorithms.warmup(relabel=False)
+    modules = [importlib.import_module(f"streamseg._kernels.{m.name}")
+               for m in pkgutil.iter_modules(kernels.__path__)]
+    before = _compiled(modules)
+    pos = rec.positions[:2400].copy()
+    pos[700:720, 4] = np.nan
+    frozen = pos.copy()
+    frozen.flags.writeable = False
+    p = StreamPipeline(rec.skeleton, rec.fps, algorithms, history=10.0)
+    cuts = []
+    for a in range(0, 1200, 100):
+        cuts += p.push((frozen if a % 200 else pos)[a:a + 100], a)[0]
+    chunks = {}
+    packed = packable(dump(p), chunks)
+    p = load(packed, {d: stored(c) for d, c in chunks.items()})
+    p.algorithms, p.plan = algorithms, algorithms.prepare(p.skeleton)
+    for a in range(1200, 2400, 100):
+        cuts += p.push((frozen if a % 200 else pos)[a:a + 100], a)[0]
+    cuts += p.finish()
+    p.finish_reps()
+    assert cuts, "the take has cuts: the cut path ran"
+    assert _compiled(modules) == before

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from streamseg._kernels import frames_in
 from streamseg._kernels import lof as _kl
 from streamseg._kernels import lof_stream as _ks
 from streamseg._kernels import stream_features as _sf
@@ -214,7 +215,7 @@ class StreamingLOFSegmenter:
         events : list
             As :meth:`learn_many`.
         """
-        pos = np.ascontiguousarray(positions, dtype=np.float64)
+        pos = frames_in(positions)
         width = bones[2].shape[0] + (0 if root is None else 2)
         if pos.ndim != 3 or pos.shape[2] != 3 or width != self.n_features:
             raise ParameterError(f"positions of shape {pos.shape} with {width} feature "
@@ -367,6 +368,7 @@ def warmup() -> None:
     s = StreamingLOFSegmenter(cfg, fps=100.0)
     s.learn_many(angles)
     s.learn_one(angles[0])
+    s._rebuild_derived()  # a restored checkpoint's neighbour lists
     s.finish()
     # the confirming contrast, whether or not the random stream had a candidate
     fb = np.empty(angles.shape, dtype=np.int8)

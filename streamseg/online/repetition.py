@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from streamseg._kernels import frames_in
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
@@ -130,7 +131,7 @@ def pose_features(positions, names, up="y", scale=None):
     from streamseg.skeleton.bones import up_vector
     from streamseg.skeleton.names import POINTS, resolve
 
-    P = np.ascontiguousarray(positions, dtype=np.float64)
+    P = frames_in(positions)
     idx = np.asarray(resolve(list(names), K.POINTS, POINTS), dtype=np.int64)
     if scale is None:
         scale = body_scale(P, idx)
@@ -272,7 +273,7 @@ class RepetitionCounter:
         if self._upv is None:
             self._upv = np.asarray(up_vector(self._up), dtype=np.float64)
         out = np.empty((X.shape[0], K.N_FEATURES))
-        K.pose_features(np.ascontiguousarray(X), self._idx, K.BONES, self._upv, self._scale,
+        K.pose_features(frames_in(X), self._idx, K.BONES, self._upv, self._scale,
                         out)
         return out
 
@@ -665,8 +666,8 @@ def sets_of(events) -> list:
 def warmup() -> None:
     """Compile the counter's kernels (a few seconds the first time, then cached)."""
     rng = np.random.default_rng(0)
-    K.pose_features(rng.normal(size=(2, 14, 3)), np.arange(14, dtype=np.int64), K.BONES,
-                    np.array([0.0, 1.0, 0.0]), 1.0, np.empty((2, K.N_FEATURES)))
+    K.pose_features(frames_in(rng.normal(size=(2, 14, 3))), np.arange(14, dtype=np.int64),
+                    K.BONES, np.array([0.0, 1.0, 0.0]), 1.0, np.empty((2, K.N_FEATURES)))
     c = RepetitionCounter(fps=30.0)
     t = np.arange(300) / 30.0
     X = np.column_stack([np.sin(2 * np.pi * t / 1.5), np.cos(2 * np.pi * t / 1.5)]) * 1.5
