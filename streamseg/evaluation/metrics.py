@@ -180,49 +180,15 @@ def matched_frame_accuracy(predicted, truth):
 # --- repetition accuracy alpha and count error -----------------------------------------------
 
 
-def repetition_accuracy(found, truth) -> float:
-    """Wang et al. 2015 eq. 15: alpha = 1/D * sum_i (1 - e_i / L_i).
-
-    The i-th found segment is compared with the i-th true one (both in time order);
-    ``e_i`` is the absolute difference of their lengths, ``L_i`` the true length and ``D``
-    the smaller of the two counts. 1 means equal lengths; it is not clipped at 0 (a found
-    segment more than twice the true length gives a negative term).
-
-    Parameters
-    ----------
-    found, truth : sequence of (start, end)
-        Segments, 0-based, end exclusive.
-
-    Returns
-    -------
-    float
-        alpha; 0.0 when either list is empty.
-    """
-    f = sorted((int(a), int(b)) for a, b in found)
-    t = sorted((int(a), int(b)) for a, b in truth)
-    bad = [(a, b) for a, b in t if b <= a]
-    if bad:
-        from streamseg.exceptions import ParameterError
-
-        raise ParameterError(f"true repetition {bad[0]} is empty: every true segment needs "
-                             "end > start")
-    D = min(len(f), len(t))
-    if D == 0:
-        return 0.0
-    terms = [1.0 - abs((fb - fa) - (tb - ta)) / (tb - ta)
-             for (fa, fb), (ta, tb) in zip(f[:D], t[:D])]
-    return float(np.mean(terms))
-
-
 def matched_repetition_accuracy(found, truth) -> float:
-    """Eq. 15's alpha with the repetitions matched by overlap, not by their order.
+    """Wang et al. 2015 eq. 15 (alpha) with the repetitions matched by overlap, not by order.
 
     Found and true repetitions are paired one to one to maximise the frames they share
     (Hungarian assignment); each pair scores ``1 - e / L`` (``e`` the difference of the
     lengths, ``L`` the true length), a pair that shares no frame 0, and the sum is divided by
     ``D``, the smaller of the two counts. A missed or an extra repetition thus costs no term
-    but shifts none of the others (the i-th-to-i-th pairing of :func:`repetition_accuracy`
-    compares every later repetition with the wrong one).
+    but shifts none of the others (the paper pairs the i-th found with the i-th true one,
+    which compares every repetition after a miss with the wrong one).
 
     Parameters
     ----------
