@@ -296,11 +296,8 @@ def aca_prediction(features: np.ndarray, n_clusters: int | None, fps: float,
 
 
 # Every method sees the cut detector's bone features (8 bone angles + 9 inclinations), as
-# the daemon does (a live stream carries positions only); LOF also its 2 root speeds. For
-# ACA the bone features also did better than the 8 angles alone and than joint quaternions
-# on the labelled recordings (mean Hungarian accuracy over 86_01, 14_14, 14_20: 0.893,
-# docs/peers_table.md; 0.875 with the 8 angles and 0.839 with joint quaternions, measured
-# with this table's earlier runs).
+# the daemon does (a live stream carries positions only); LOF also its 2 root speeds. ACA
+# labels them better than the 8 angles alone or joint quaternions (docs/decisions.md, Labels).
 STREAMSEG_METHODS = {
     "LOF offline": lambda item, fps: lof_prediction(_angles(item), fps, False),
     "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),
