@@ -4,7 +4,6 @@ the control token, quotas and stream ownership per connection (or CURVE key), IP
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import stat
@@ -16,6 +15,7 @@ import numpy as np
 import pytest
 import zmq
 
+from benchmarks.faults._hostile import NOBODY, in_child
 from streamseg import protocol as P
 from streamseg.cli import main
 from streamseg.client import listen, request, subscribe
@@ -26,7 +26,6 @@ from streamseg.protocol.auth import read_token, token_path
 from tests.motion import lof_input
 
 pytestmark = pytest.mark.daemon
-NOBODY = 65534
 
 
 @pytest.fixture(scope="module")
@@ -34,34 +33,6 @@ def want(rec):
     seg = StreamingLOFSegmenter(fps=rec.fps)
     ang = lof_input(rec.positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
-
-
-def in_child(fn, other_user: bool) -> dict:
-    """``fn()`` in a forked process; returns its JSON-able result. ``other_user``: the child
-    runs as uid/gid 65534 (``nobody``) when the tests run as root, else it is a process of
-    this user that was not given the token (its token file is elsewhere)."""
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the child: only fresh sockets, no locks of the parent's threads
-        try:
-            os.close(r)
-            if other_user and os.geteuid() == 0:
-                os.setgroups([])
-                os.setgid(NOBODY)
-                os.setuid(NOBODY)
-            elif other_user:
-                os.environ["XDG_RUNTIME_DIR"] = "/nonexistent-streamseg-test"
-                os.environ.pop("STREAMSEG_TOKEN", None)
-            out = fn(zmq.Context())
-        except BaseException as err:  # reported to the parent, which fails the test
-            out = {"raised": f"{type(err).__name__}: {err}"}
-        os.write(w, json.dumps(out).encode())
-        os._exit(0)
-    os.close(w)
-    with os.fdopen(r, "rb") as fh:
-        data = fh.read()
-    os.waitpid(pid, 0)
-    return json.loads(data)
 
 
 def wait_until(check, what: str, timeout: float = 60.0):

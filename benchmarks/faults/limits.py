@@ -6,7 +6,6 @@ Each case runs a `streamseg serve` subprocess (helpers in :mod:`faults._served`)
 
 from __future__ import annotations
 
-import json
 import os
 import socket
 import time
@@ -19,10 +18,10 @@ from streamseg import protocol as P
 from streamseg.client import request
 from streamseg.commands.replay import announce_of, replay
 
+from ._hostile import in_child
 from ._served import MID, Served, base_cuts, drain, holes, named, recording, row, send_good
 
 LOOP = "tcp://127.0.0.1:0"  # another user cannot reach ipc files in this user's temp folder
-NOBODY = 65534
 
 BIG_FRAMES = 14_094  # x 31 joints x 3 x 8 bytes = 10,485,936 bytes: a 10 MB packet
 BIG_PACKETS = 1000
@@ -63,33 +62,6 @@ def big_packets(tmp: Path) -> dict:
               f"{sent:.1f} s)")
     return row("1,000 valid 10 MB packets", result, figure,
                peak < 1024 and tot["frames"] == total)
-
-
-def in_child(fn, other_user: bool):
-    """``fn(ctx)`` in a forked process (as ``nobody`` when ``other_user`` and this runs as
-    root; else a process of this user without the token); returns its JSON-able result."""
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:
-        try:
-            os.close(r)
-            if other_user and os.geteuid() == 0:
-                os.setgroups([])
-                os.setgid(NOBODY)
-                os.setuid(NOBODY)
-            elif other_user:
-                os.environ["XDG_RUNTIME_DIR"] = "/nonexistent-streamseg"
-                os.environ.pop("STREAMSEG_TOKEN", None)
-            out = fn(zmq.Context())
-        except BaseException as err:
-            out = {"raised": f"{type(err).__name__}: {err}"}
-        os.write(w, json.dumps(out).encode())
-        os._exit(0)
-    os.close(w)
-    with os.fdopen(r, "rb") as fh:
-        data = fh.read()
-    os.waitpid(pid, 0)
-    return json.loads(data)
 
 
 def _errors(d, reason):

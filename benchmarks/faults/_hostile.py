@@ -1,0 +1,46 @@
+"""Hostile surroundings for a daemon under test: another local user.
+
+Shared by the fault cases and by the tests that check the same faults at a small size
+(``tests/test_daemon_limits.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+import zmq
+
+NOBODY = 65534  # the uid and gid of ``nobody``
+
+
+def in_child(fn, other_user: bool):
+    """``fn(ctx)`` in a forked process with a fresh ZeroMQ context; returns its JSON-able
+    result, or ``{"raised": "Type: message"}`` when it raised.
+
+    ``other_user``: the child runs as uid/gid :data:`NOBODY` when this runs as root, else it
+    is a process of this user that was not given the control token (its token file is
+    elsewhere).
+    """
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: only fresh sockets, no locks of the parent's threads
+        try:
+            os.close(r)
+            if other_user and os.geteuid() == 0:
+                os.setgroups([])
+                os.setgid(NOBODY)
+                os.setuid(NOBODY)
+            elif other_user:
+                os.environ["XDG_RUNTIME_DIR"] = "/nonexistent-streamseg"
+                os.environ.pop("STREAMSEG_TOKEN", None)
+            out = fn(zmq.Context())
+        except BaseException as err:  # reported to the parent, which judges it
+            out = {"raised": f"{type(err).__name__}: {err}"}
+        os.write(w, json.dumps(out).encode())
+        os._exit(0)
+    os.close(w)
+    with os.fdopen(r, "rb") as fh:
+        data = fh.read()
+    os.waitpid(pid, 0)
+    return json.loads(data)
