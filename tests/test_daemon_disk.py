@@ -3,7 +3,6 @@ namespace of the daemon's own, so nothing is left mounted), filled by a file."""
 
 from __future__ import annotations
 
-import errno
 import os
 import shutil
 import subprocess
@@ -12,22 +11,13 @@ import time
 
 import pytest
 
+from benchmarks.faults._hostile import can_mount, fill
 from streamseg import protocol as P
 from streamseg.client import fetch_since, request, subscriber
 from tests.test_daemon_restart import Sender, config, wait_ping
 
 pytestmark = pytest.mark.daemon
 SIZE_MB = 40
-
-
-def can_mount(tmp_path) -> bool:
-    target = tmp_path / "probe"
-    target.mkdir()
-    if not shutil.which("unshare"):
-        return False
-    probe = subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs "
-                            f"'{target}'"], capture_output=True)
-    return probe.returncode == 0
 
 
 def serve_on_tmpfs(toml, state):
@@ -43,23 +33,11 @@ def serve_on_tmpfs(toml, state):
     return proc
 
 
-def fill(path) -> int:
-    """Write ``path`` until the disk is full; returns the bytes written."""
-    n, block = 0, b"\0" * (1 << 16)
-    with open(path, "wb", buffering=0) as fh:
-        while True:
-            try:
-                n += fh.write(block)
-            except OSError as err:
-                assert err.errno == errno.ENOSPC
-                return n
-
-
 def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
     """The disk fills up while a stream runs: every event seen live is still logged (the
     log's reserve), checkpoint rounds pause and say so; once space is freed they resume and
     their WAL stays truncated."""
-    if not can_mount(tmp_path):
+    if not can_mount():
         pytest.skip("no tmpfs in a user namespace here (unshare -rm and mount refused)")
     ep, state, toml = config(tmp_path, relabel_interval=1.0, relabel_history=8.0,
                              heartbeat=0.2, checkpoint_interval=0.1)

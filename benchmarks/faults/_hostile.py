@@ -1,13 +1,17 @@
-"""Hostile surroundings for a daemon under test: another local user.
+"""Hostile surroundings for a daemon under test: another local user, a full disk.
 
 Shared by the fault cases and by the tests that check the same faults at a small size
-(``tests/test_daemon_limits.py``).
+(``tests/test_daemon_limits.py``, ``tests/test_daemon_disk.py``).
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
+import shutil
+import subprocess
+import tempfile
 
 import zmq
 
@@ -44,3 +48,26 @@ def in_child(fn, other_user: bool):
         data = fh.read()
     os.waitpid(pid, 0)
     return json.loads(data)
+
+
+def can_mount() -> bool:
+    """Whether a tmpfs can be mounted in a user and mount namespace here (``unshare -rm``),
+    the small disk that :func:`fill` fills."""
+    if not shutil.which("unshare"):
+        return False
+    with tempfile.TemporaryDirectory() as d:
+        return subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m "
+                               f"tmpfs '{d}'"], capture_output=True).returncode == 0
+
+
+def fill(path) -> int:
+    """Write ``path`` until its disk is full (ENOSPC); returns the bytes written."""
+    n, block = 0, b"\0" * (1 << 16)
+    with open(path, "wb", buffering=0) as fh:
+        while True:
+            try:
+                n += fh.write(block)
+            except OSError as err:
+                if err.errno != errno.ENOSPC:
+                    raise
+                return n

@@ -255,18 +255,6 @@ def missing_from_log(control, seen) -> list:
     return [e for e in seen if logged.get((e.stream or P.DAEMON_WIDE, e.seq)) != e]
 
 
-def can_mount() -> bool:
-    """Whether a tmpfs can be mounted in a user and mount namespace here."""
-    import shutil
-    import tempfile
-
-    if not shutil.which("unshare"):
-        return False
-    with tempfile.TemporaryDirectory() as d:
-        return subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m "
-                               f"tmpfs '{d}'"], capture_output=True).returncode == 0
-
-
 def drain(sub, ms=300) -> list:
     """Every event ``sub`` receives until it stays quiet for ``ms``."""
     out = []

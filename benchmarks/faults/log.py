@@ -5,7 +5,6 @@ checkpoints); a live subscriber on the publish socket is compared with the log (
 
 from __future__ import annotations
 
-import errno
 import os
 import statistics
 import subprocess
@@ -20,10 +19,10 @@ from streamseg import protocol as P
 from streamseg.client import fetch_since, handshake, listen, subscriber
 from streamseg.commands.replay import announce_of
 
+from ._hostile import can_mount, fill
 from ._served import (
     Sender,
     Served,
-    can_mount,
     drain,
     missing_from_log,
     named,
@@ -282,18 +281,6 @@ def lost_tail(tmp: Path) -> dict:
                got == logged and lost > 0)
 
 
-def _fill(path: str) -> int:
-    n, block = 0, b"\0" * (1 << 16)
-    with open(path, "wb", buffering=0) as fh:
-        while True:
-            try:
-                n += fh.write(block)
-            except OSError as err:
-                if err.errno != errno.ENOSPC:
-                    raise
-                return n
-
-
 @named("full disk, space freed")
 def full_disk(tmp: Path) -> dict:
     """The state directory on a 40 MB tmpfs, filled by a file while a stream runs for 5 s,
@@ -310,7 +297,7 @@ def full_disk(tmp: Path) -> dict:
         sender.start()
         _wait_checkpoint(d)
         filler = str(d.state() / "fill")
-        _fill(filler)
+        fill(filler)
         seen = []
         for hold in (5.0, 5.0):
             end = time.monotonic() + hold
