@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from benchmarks.faults._hostile import can_mount, fill
+from benchmarks.faults._machine import can_mount, fill
 from streamseg import protocol as P
 from streamseg.client import fetch_since, request, subscriber
 from tests.test_daemon_restart import Sender, config, wait_ping

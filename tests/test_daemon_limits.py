@@ -5,7 +5,6 @@ the control token, quotas and stream ownership per connection (or CURVE key), IP
 from __future__ import annotations
 
 import os
-import socket
 import stat
 import subprocess
 import sys
@@ -15,7 +14,7 @@ import numpy as np
 import pytest
 import zmq
 
-from benchmarks.faults._hostile import NOBODY, in_child
+from benchmarks.faults._machine import NOBODY, has_ipv6_loopback, in_child
 from streamseg import protocol as P
 from streamseg.cli import main
 from streamseg.client import listen, request, subscribe
@@ -202,16 +201,7 @@ def test_with_curve_a_second_key_cannot_end_the_first_keys_stream(start_daemon, 
     assert events[-1].type == "closed" and events[-1].reason == "end"
 
 
-def _has_ipv6_loopback() -> bool:
-    try:
-        with socket.socket(socket.AF_INET6) as s:
-            s.bind(("::1", 0))
-        return True
-    except OSError:
-        return False
-
-
-@pytest.mark.skipif(not _has_ipv6_loopback(), reason="this machine has no ::1")
+@pytest.mark.skipif(not has_ipv6_loopback(), reason="this machine has no ::1")
 def test_ipv6_loopback(start_daemon, rec, want):
     loop6 = "tcp://[::1]:0"
     d, ep = start_daemon(ingest=loop6, publish=loop6, control=loop6)

@@ -7,7 +7,6 @@ Each case runs a `streamseg serve` subprocess (helpers in :mod:`faults._served`)
 from __future__ import annotations
 
 import os
-import socket
 import time
 from pathlib import Path
 
@@ -18,7 +17,7 @@ from streamseg import protocol as P
 from streamseg.client import request
 from streamseg.commands.replay import announce_of, replay
 
-from ._hostile import in_child
+from ._machine import has_ipv6_loopback, in_child
 from ._served import MID, Served, base_cuts, drain, holes, named, recording, row, send_good
 
 LOOP = "tcp://127.0.0.1:0"  # another user cannot reach ipc files in this user's temp folder
@@ -168,19 +167,10 @@ def local_announce_flood(tmp: Path) -> dict:
                f"frame {took:.1f} s", tot["streams"] == 1001)
 
 
-def _ipv6() -> bool:
-    try:
-        with socket.socket(socket.AF_INET6) as s:
-            s.bind(("::1", 0))
-        return True
-    except OSError:
-        return False
-
-
 @named("tcp://[::1]")
 def ipv6_loopback(tmp: Path) -> dict:
     """The daemon on IPv6 loopback: the good stream replayed and cut there."""
-    if not _ipv6():
+    if not has_ipv6_loopback():
         return row("tcp://[::1]", "this machine has no ::1", "", True)
     rec = recording()
     d = Served(tmp, endpoint="tcp://[::1]:0")

@@ -19,7 +19,7 @@ from streamseg import protocol as P
 from streamseg.client import fetch_since, handshake, listen, subscriber
 from streamseg.commands.replay import announce_of
 
-from ._hostile import can_mount, fill
+from ._machine import can_mount, fill
 from ._served import (
     Sender,
     Served,

@@ -1,4 +1,4 @@
-"""Hostile surroundings for a daemon under test: another local user, a full disk.
+"""The machine around a daemon under test: another local user, a full disk, IPv6 loopback.
 
 Shared by the fault cases and by the tests that check the same faults at a small size
 (``tests/test_daemon_limits.py``, ``tests/test_daemon_disk.py``).
@@ -10,6 +10,7 @@ import errno
 import json
 import os
 import shutil
+import socket
 import subprocess
 import tempfile
 
@@ -71,3 +72,13 @@ def fill(path) -> int:
                 if err.errno != errno.ENOSPC:
                     raise
                 return n
+
+
+def has_ipv6_loopback() -> bool:
+    """Whether this machine can bind ``::1`` (some containers have no IPv6 at all)."""
+    try:
+        with socket.socket(socket.AF_INET6) as s:
+            s.bind(("::1", 0))
+        return True
+    except OSError:
+        return False
