@@ -36,12 +36,8 @@ import numpy as np
 from streamseg.config import RepetitionConfig
 from streamseg.evaluation.metrics import matched_repetition_accuracy
 from streamseg.evaluation.rep_sets import hdm05_rep_sets, hdm05_routines, load_plan
-from streamseg.online.repetition import (
-    RepetitionCounter,
-    sets_of,
-    stream_events,
-    stream_features,
-)
+from streamseg.online.rep_pose import stream_features
+from streamseg.online.repetition import RepetitionCounter, sets_of, stream_events
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 CHOOSE_ON = "bd"

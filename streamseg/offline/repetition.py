@@ -12,7 +12,8 @@ import numpy as np
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
-from streamseg.online.repetition import RepetitionCounter, stream_features
+from streamseg.online.rep_pose import stream_features
+from streamseg.online.repetition import RepetitionCounter
 from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionSegmenter", "set_summary"]
@@ -69,7 +70,7 @@ class RepetitionSegmenter(Estimator):
         Why not ("" when repetitive).
     features_ : ndarray, shape (n_frames, d)
         The pose features the counter analysed (before its low-pass): for a recording the
-        28 of :func:`~streamseg.online.repetition.pose_features`, for an array the array.
+        28 of :func:`~streamseg.online.rep_pose.pose_features`, for an array the array.
     n_missing_frames_ : int
         Frames with a NaN or infinite value, bridged by interpolation from the good frames
         around them (:mod:`streamseg.offline.missing_frames`).
@@ -146,7 +147,7 @@ class RepetitionSegmenter(Estimator):
         cfg = self.config
         if unusable:
             return f"every frame ({n}) has missing (NaN) values"
-        if n < 2 * counter._dec + 2:
+        if n < 2 * counter._ring.dec + 2:
             return f"too short: {n} frame{'' if n == 1 else 's'}"
         if counter.max_excursion_ < cfg.min_amplitude:
             return (f"no movement as large as a repetition (the pose went at most "

@@ -25,6 +25,9 @@ Events. A repetition is reported (:class:`RepEvent`) when its loop closes: as th
 starts (within the rest's half plus about 0.2 s of its end), the first two of a set when the
 second closes. ``RepetitionSegmenter`` (offline) runs this very counter over a whole
 recording, so the live count of every set equals the offline one.
+
+Where. The pose vector: :mod:`streamseg.online.rep_pose`; the ring of recent poses and how two
+loops compare: :mod:`streamseg.online.rep_loops`; here, the tracker and the sets.
 """
 
 from __future__ import annotations
@@ -37,9 +40,10 @@ from streamseg._kernels import frames_in
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
+from streamseg.online.rep_loops import PoseRing
+from streamseg.online.rep_pose import body_scale
 
-__all__ = ["RepEvent", "RepSet", "RepetitionCounter", "pose_features", "sets_of",
-           "stream_events", "stream_features"]
+__all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
 
 
 @dataclass(frozen=True)
@@ -97,58 +101,6 @@ class RepSet:
         return len(self.repetitions)
 
 
-def stream_features(recording, fps=None) -> np.ndarray:
-    """The pose features a counter computes for ``recording``'s frames (its body size from
-    the first 0.25 s, as live): a counter built without a skeleton on them counts the same."""
-    fps = float(recording.fps if fps is None else fps)
-    init = max(2, int(round(0.25 * fps)))
-    from streamseg.skeleton.names import POINTS, resolve
-
-    P = np.ascontiguousarray(recording.positions, dtype=np.float64)
-    idx = np.asarray(resolve(list(recording.skeleton.names), K.POINTS, POINTS), dtype=np.int64)
-    return pose_features(P, recording.skeleton.names, recording.skeleton.up,
-                         scale=body_scale(P[:init], idx))
-
-
-def pose_features(positions, names, up="y", scale=None):
-    """The counter's pose vector of every frame (before the low-pass).
-
-    Parameters
-    ----------
-    positions : ndarray, shape (n, n_joints, 3)
-    names : sequence of str
-        Joint names (any skeleton :func:`streamseg.skeleton.names.resolve` maps).
-    up : str
-        World up axis (``Skeleton.up``).
-    scale : float, optional
-        Body size (thigh length, positions' units); default: from these frames.
-
-    Returns
-    -------
-    ndarray, shape (n, 28)
-        See :func:`streamseg._kernels.rep_track.pose_features`.
-    """
-    from streamseg.skeleton.bones import up_vector
-    from streamseg.skeleton.names import POINTS, resolve
-
-    P = frames_in(positions)
-    idx = np.asarray(resolve(list(names), K.POINTS, POINTS), dtype=np.int64)
-    if scale is None:
-        scale = body_scale(P, idx)
-    out = np.empty((P.shape[0], K.N_FEATURES))
-    K.pose_features(P, idx, K.BONES, np.asarray(up_vector(up), dtype=np.float64), float(scale),
-                    out)
-    return out
-
-
-def body_scale(P, idx) -> float:
-    """Median thigh length over frames ``P``; 1.0 when undefined."""
-    th = np.concatenate([np.linalg.norm(P[:, idx[10]] - P[:, idx[2]], axis=1),
-                         np.linalg.norm(P[:, idx[12]] - P[:, idx[3]], axis=1)])
-    th = th[np.isfinite(th) & (th > 0)]
-    return float(np.median(th)) if th.size else 1.0
-
-
 class RepetitionCounter:
     """Count repetitions in a joint-position stream (or a stream of pose features).
 
@@ -185,30 +137,21 @@ class RepetitionCounter:
         self.fps = float(fps)
         self._names = None if skeleton is None else tuple(getattr(skeleton, "names", skeleton))
         self._up = getattr(skeleton, "up", "y")
-        self._dec = max(1, int(round(self.fps / cfg.rate_hz)))
-        rate = self.fps / self._dec
-        self._rate = rate
-        from scipy.signal import butter
-
-        self._sos = butter(2, min(cfg.lowpass_hz, 0.45 * self.fps), fs=self.fps, output="sos")
+        self._ring = PoseRing(cfg, self.fps)
+        rate = self.fps / self._ring.dec
         delay = np.sqrt(2.0) / (2 * np.pi * cfg.lowpass_hz)  # the filter's delay at low rates
         self._lag = int(round(delay * self.fps)) if cfg.lag_compensation else 0
         self._pause = max(2, int(round(cfg.pause_s * rate)))
         self._tmax = int(round(cfg.max_cycle_s * rate))
         self._gap = max(1, int(round(cfg.anchor_gap_s * rate)))
-        self._C = int(round(cfg.buffer_s * rate)) + 2
         self._init = max(2, int(round(0.25 * self.fps)))  # as stream_features
         self._idx = None
         self._scale = None
         self._pending = []
-        self._state = None
-        self._Z = None
-        self._SP = np.zeros(self._C)
         self._st = np.zeros((cfg.max_anchors, 3), dtype=np.int64)
         self._Mm = np.zeros((cfg.max_anchors, 2))
         self._na = np.zeros(1, dtype=np.int64)
         self._closed = np.zeros((cfg.max_anchors, 4))
-        self._k = -1  # newest decimated frame
         self._pos = 0  # last decimated frame the tracker processed
         self._search = True
         self._origin = 0
@@ -236,7 +179,7 @@ class RepetitionCounter:
             if X.ndim != 3 or X.shape[1:] != (len(self._names), 3):
                 raise ParameterError(f"positions must have shape (n, {len(self._names)}, 3); "
                                      f"got {X.shape}")
-        elif X.ndim != 2 or (self._Z is not None and X.shape[1] != self._Z.shape[1]):
+        elif X.ndim != 2 or (self._ring.Z is not None and X.shape[1] != self._ring.Z.shape[1]):
             raise ParameterError(f"feature rows must have shape (n, d) with one d throughout; "
                                  f"got {X.shape}")
         if X.shape[0] == 0:
@@ -246,7 +189,7 @@ class RepetitionCounter:
         if F is not None:
             # the ring holds buffer_s: push a few seconds at a time and track them before the
             # next ones overwrite what the tracker may still look back at
-            step = max(1, (self._C // 4) * self._dec)
+            step = max(1, (self._ring.C // 4) * self._ring.dec)
             for i in range(0, F.shape[0], step):
                 self._push(F[i:i + step])
                 self._run()
@@ -278,33 +221,17 @@ class RepetitionCounter:
         return out
 
     def _push(self, F):
-        if self._state is None:
-            from scipy.signal import sosfilt_zi
-
-            # start at rest on the first frame (no transient from zero)
-            self._state = sosfilt_zi(self._sos)[:, :, None] * F[0][None, None, :]
-            self._Z = np.zeros((self._C, F.shape[1]))
-        Y = np.empty_like(F)
-        K.sos_filter(F, self._sos, self._state, Y)
-        first = self.n_seen_
-        fresh = self._k < 0
+        fresh = self._ring.k < 0
+        self._ring.push(F, self.n_seen_)
         self.n_seen_ += F.shape[0]
-        # decimated frames: stream frames 0, dec, 2 dec, ...
-        for f in range((-first) % self._dec, F.shape[0], self._dec):
-            k = (first + f) // self._dec
-            row = k % self._C
-            self._Z[row] = Y[f]
-            self._SP[row] = 0.0 if k == 0 else np.sqrt(np.sum((Y[f] - self._Z[(k - 1) % self._C])
-                                                              ** 2))
-            self._k = k
-        if fresh and self._k >= 0:
+        if fresh and self._ring.k >= 0:
             self._set_anchors([0], 0)
 
     # --- the tracker -----------------------------------------------------------------------
 
     def _run(self):
-        cfg = self.config
-        while self._pos < self._k:
+        cfg, ring = self.config, self._ring
+        while self._pos < ring.k:
             if self._search:
                 thr, timeout = cfg.min_amplitude, self._tmax
             else:
@@ -312,12 +239,12 @@ class RepetitionCounter:
                           cfg.amplitude_ratio * float(np.median(self._cur[2][-5:])))
                 med = float(np.median([b - a for a, b in self._cur[1]]))
                 timeout = min(self._tmax, int(cfg.timeout_cycles * med))
-            t, n = K.advance(self._Z, self._SP, self._pos + 1, self._k + 1, self._search,
-                             self._st, self._Mm, self._na, thr, timeout, cfg.return_ratio,
+            t, n = K.advance(ring.Z, ring.SP, self._pos + 1, ring.k + 1, self._search, self._st,
+                             self._Mm, self._na, thr, timeout, cfg.return_ratio,
                              cfg.rise_ratio, cfg.rise_min, cfg.rest_level, self._pause,
                              self._tmax, self._gap, cfg.max_anchors, self._closed)
             self._pos = t
-            self._now = t * self._dec + 1  # frames seen when frame t decided (any chunking)
+            self._now = t * ring.dec + 1  # frames seen when frame t decided (any chunking)
             for i in range(self._na[0]):
                 self.max_excursion_ = max(self.max_excursion_, float(self._Mm[i, 0]))
             if n:
@@ -333,7 +260,7 @@ class RepetitionCounter:
         """Anchors at ``frames``, caught up to frame ``t``."""
         frames = frames[-self.config.max_anchors:]
         for i, s in enumerate(frames):
-            M, tM, m, tm = K.seed_anchor(self._Z, s, t)
+            M, tM, m, tm = K.seed_anchor(self._ring.Z, s, t)
             self._st[i] = (s, tM, tm)
             self._Mm[i] = (M, m)
         self._na[0] = len(frames)
@@ -355,10 +282,11 @@ class RepetitionCounter:
             self.n_loops_ += 1
             loop = (s, cut, M)
             prev = self._cands.get(s)
-            r = self._dissimilarity(prev, loop) if prev else None
+            r = self._ring.dissimilarity(prev, loop) if prev else None
             if r is not None:
                 self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
-            if r is not None and r <= self.config.max_dissimilarity and self._spread(prev, loop):
+            if (r is not None and r <= self.config.max_dissimilarity
+                    and self._ring.spread(prev, loop)):
                 self._start_set(prev, loop, r)
                 self._cands = {}
                 if kind == K.PAUSE:
@@ -382,7 +310,7 @@ class RepetitionCounter:
             return
         self.n_loops_ += 1
         new = (s, cut, M)
-        r = self._dissimilarity(self._last(), new)
+        r = self._ring.dissimilarity(self._last(), new)
         if r <= self.config.max_dissimilarity:
             self._add(new, r)
             if kind == K.PAUSE:
@@ -406,16 +334,16 @@ class RepetitionCounter:
             b = self._cands.get(loops[0][0])
             if b is None or b[2] < cfg.amplitude_ratio * np.median([x[2] for x in loops]):
                 break
-            if self._length(b) < 0.5 * self._length(loops[0]):
+            if self._ring.length(b) < 0.5 * self._ring.length(loops[0]):
                 break  # as an edge piece: at least half the next one
-            rb = self._dissimilarity(b, loops[0])
+            rb = self._ring.dissimilarity(b, loops[0])
             if rb > cfg.max_dissimilarity:
                 break
             loops.insert(0, b)
             dis[0] = rb
             dis.insert(0, None)
         if cfg.extend_edges:
-            piece = self._edge_before(loops[0])
+            piece = self._ring.edge_before(loops[0], self._origin)
             if piece is not None:
                 loops.insert(0, piece[0])
                 dis[0] = piece[1]
@@ -430,7 +358,7 @@ class RepetitionCounter:
         """The set's first loop starting at most ``pause_s / 2`` before the pose leaves the
         anchor's (a set does not begin with a long rest)."""
         a, b, M = loop
-        d = np.linalg.norm(self._rows(a, b) - self._Z[a % self._C], axis=1)
+        d = np.linalg.norm(self._ring.rows(a, b) - self._ring.Z[a % self._ring.C], axis=1)
         moved = np.flatnonzero(d > self.config.rest_level * M)
         if moved.size and moved[0] > self._pause // 2:
             a += int(moved[0]) - self._pause // 2
@@ -457,113 +385,9 @@ class RepetitionCounter:
         """Stream frame of decimated frame ``k`` (the filter's delay taken off)."""
         if k <= 0:
             return 0
-        if getattr(self, "_final", False) and k >= self._k:
+        if getattr(self, "_final", False) and k >= self._ring.k:
             return self.n_seen_
-        return max(0, k * self._dec - self._lag)
-
-    # --- comparing loops -----------------------------------------------------------------
-
-    def _rows(self, a, b):
-        idx = np.arange(a, b + 1) % self._C
-        return self._Z[idx]
-
-    def _moving(self, p, vmax=None):
-        """Frames ``p[0] .. p[1]`` where the pose moves, as stream-ring indices: those
-        around a speed (3-frame mean) above ``still_ratio`` x ``vmax`` (default: the
-        fastest in the span), and both ends. A rest inside a loop is thus no part of its
-        duration nor of its shape."""
-        a, b = p[0], p[1]
-        idx = np.arange(a, b + 1)
-        if b - a < 4:
-            return idx
-        v = self._speeds(a, b)
-        moving = np.flatnonzero(v > self.config.still_ratio * (v.max() if vmax is None
-                                                               else vmax))
-        if moving.size < 2:
-            return idx
-        keep = np.zeros(idx.size, bool)
-        keep[moving] = True
-        keep[np.maximum(moving - 1, 0)] = True  # speed u is the step from u - 1 to u
-        keep[0] = keep[-1] = True
-        return idx[keep]
-
-    def _speeds(self, a, b):
-        v = self._SP[np.arange(a, b + 1) % self._C]
-        return np.convolve(v, np.ones(3) / 3, mode="same")
-
-    def _vmax(self, p) -> float:
-        return float(self._speeds(p[0], p[1]).max())
-
-    def _length(self, p) -> int:
-        """Loop ``p``'s moving duration (decimated frames)."""
-        return self._moving(p).size - 1
-
-    def _mrows(self, p):
-        return self._Z[self._moving(p) % self._C]
-
-    def _resampled(self, p):
-        A = self._mrows(p)
-        L = min(self.config.resample, A.shape[0])
-        x = np.linspace(0.0, A.shape[0] - 1.0, L)
-        i = np.floor(x).astype(np.int64)
-        j = np.minimum(i + 1, A.shape[0] - 1)
-        w = (x - i)[:, None]
-        return A[i] * (1.0 - w) + A[j] * w
-
-    def _dissimilarity(self, p, q) -> float:
-        """DTW distance of loops ``p`` and ``q`` ((start, end, amplitude)) / amplitude, their
-        moving frames compared (a rest inside either is left out)."""
-        cost = K.dtw_mean(self._resampled(p), self._resampled(q))
-        return float(cost / max(0.5 * (p[2] + q[2]), 1e-12))
-
-    def _spread(self, p, q) -> bool:
-        """The larger loop spans ``spread_ratio`` of the range of both; the smaller is at
-        least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
-        cfg = self.config
-        da, db = self._length(p), self._length(q)
-        if max(da, db) > cfg.start_tempo_ratio * min(da, db):
-            return False
-        W = self._rows(p[0], q[1])
-        i = int(np.argmax(np.linalg.norm(W - W[0], axis=1)))
-        span = float(np.linalg.norm(W - W[i], axis=1).max())
-        big, small = max(p[2], q[2]), min(p[2], q[2])
-        return big >= cfg.spread_ratio * span and small >= cfg.amplitude_ratio * big
-
-    def _oldest(self) -> int:
-        return max(0, self._k - self._C + 1)
-
-    def _edge_before(self, first):
-        """(piece, dissimilarity) before loop ``first`` that aligns with it, or None."""
-        a, b = first[0], first[1]
-        L = self._length(first)
-        lo = max(self._origin, a - 2 * (b - a), self._oldest())
-        idx = self._moving((lo, a), self._vmax(first))
-        if idx.size - 1 < 0.5 * L:
-            return None
-        S = self._Z[idx % self._C]
-        cost, j = K.edge_dtw(self._mrows(first), S)
-        amp = float(np.linalg.norm(S[j:] - S[-1], axis=1).max())
-        return self._edge_ok((int(idx[j]), a, amp), first, cost, L, idx.size - 1 - int(j))
-
-    def _edge_after(self, last, a, t):
-        """(piece, dissimilarity) after loop ``last`` from frame ``a`` to at most ``t`` that
-        aligns with it, or None."""
-        L = self._length(last)
-        idx = self._moving((a, min(t, a + 2 * (last[1] - last[0]))), self._vmax(last))
-        if idx.size - 1 < 0.5 * L:
-            return None
-        S = self._Z[idx % self._C]
-        cost, j = K.edge_dtw(self._mrows(last)[::-1].copy(), S[::-1].copy())
-        end = S.shape[0] - 1 - int(j)
-        amp = float(np.linalg.norm(S[: end + 1] - S[0], axis=1).max())
-        return self._edge_ok((a, int(idx[end]), amp), last, cost, L, end)
-
-    def _edge_ok(self, piece, ref, cost, L, n):
-        cfg = self.config
-        if n < 0.5 * L or piece[2] < cfg.amplitude_ratio * ref[2]:
-            return None
-        r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
-        return (piece, r) if r <= cfg.max_dissimilarity else None
+        return max(0, k * self._ring.dec - self._lag)
 
     # --- end of stream ---------------------------------------------------------------------
 
@@ -576,20 +400,20 @@ class RepetitionCounter:
         same for a loop after a closed one.
         """
         self._events = []
-        if self._Z is None or self._k < 1:
+        if self._ring.Z is None or self._ring.k < 1:
             return []
         self._final = True
         self._now = self.n_seen_
         cfg = self.config
-        t = self._k
+        t = self._ring.k
         n = self._na[0]
         if not self._search and self._cur is not None:
             loop = self._last_loop(0, t, True)
-            r = None if loop is None else self._dissimilarity(self._last(), loop)
+            r = None if loop is None else self._ring.dissimilarity(self._last(), loop)
             if r is not None and r <= cfg.max_dissimilarity:
                 self._add(loop, r)
             elif cfg.extend_edges:
-                piece = self._edge_after(self._last(), int(self._st[0, 0]), t)
+                piece = self._ring.edge_after(self._last(), int(self._st[0, 0]), t)
                 if piece is not None:
                     self._add(*piece)
             self._end_set("end")
@@ -600,8 +424,8 @@ class RepetitionCounter:
                 loop = self._last_loop(i, t, False) if prev else None
                 if loop is None:
                     continue
-                r = self._dissimilarity(prev, loop)
-                if r <= cfg.max_dissimilarity and self._spread(prev, loop):
+                r = self._ring.dissimilarity(prev, loop)
+                if r <= cfg.max_dissimilarity and self._ring.spread(prev, loop):
                     self._start_set(prev, loop, r)
                     done = True
                     break
@@ -610,8 +434,8 @@ class RepetitionCounter:
                     prev = self._cands[e]
                     if prev is None:
                         continue
-                    piece = self._edge_after(prev, e, t)
-                    if piece is not None and self._spread(prev, piece[0]):
+                    piece = self._ring.edge_after(prev, e, t)
+                    if piece is not None and self._ring.spread(prev, piece[0]):
                         self._start_set(prev, piece[0], piece[1])
                         break
             self._end_set("end")
@@ -631,7 +455,7 @@ class RepetitionCounter:
         cut = t
         if m <= cfg.return_ratio * M:
             level = m + cfg.rest_level * (M - m)
-            d = np.linalg.norm(self._rows(s, t) - self._Z[s % self._C], axis=1)
+            d = np.linalg.norm(self._ring.rows(s, t) - self._ring.Z[s % self._ring.C], axis=1)
             e, x = tm - s, tm - s
             while e - 1 > tM - s and d[e - 1] <= level:
                 e -= 1
@@ -640,8 +464,8 @@ class RepetitionCounter:
             if x >= t - s - 1:
                 cut = min(t, s + e + self._pause // 2)
             else:
-                sp = np.linalg.norm(self._rows(s + e + 1, s + x + 1)
-                                    - self._rows(s + e - 1, s + x - 1), axis=1)
+                sp = np.linalg.norm(self._ring.rows(s + e + 1, s + x + 1)
+                                    - self._ring.rows(s + e - 1, s + x - 1), axis=1)
                 cut = s + e + int(np.argmin(sp))
         return (s, cut, M)
 

@@ -1,0 +1,180 @@
+"""The repetition counter's recent poses, and how two loops among them compare.
+
+The counter (:mod:`streamseg.online.repetition`) low-passes its pose rows causally and keeps
+every ``dec``-th (about ``rate_hz``) in a ring of ``buffer_s``, with the speed from one kept
+row to the next. A loop is a span of kept frames with its amplitude, ``(start, end,
+amplitude)``. Loops are compared by their moving frames only, so a rest inside one is no part
+of its duration nor of its shape: DTW over resampled rows, per unit of amplitude.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from streamseg._kernels import rep_track as K
+from streamseg.config import RepetitionConfig
+
+__all__ = ["PoseRing"]
+
+
+class PoseRing:
+    """The low-passed, decimated pose rows of the last ``buffer_s`` and their speeds.
+
+    Parameters
+    ----------
+    config : RepetitionConfig
+    fps : float
+        The stream's frame rate.
+
+    Attributes
+    ----------
+    dec : int
+        Stream frames per kept frame: kept frame ``k`` is stream frame ``k * dec``.
+    C : int
+        Rows of the ring; kept frame ``k`` is row ``k % C``.
+    Z : ndarray, shape (C, d), or None
+        Low-passed pose rows (None until the first frame).
+    SP : ndarray, shape (C,)
+        Distance of each kept row from the one before (0 for the first).
+    k : int
+        Newest kept frame (-1: none yet).
+    """
+
+    def __init__(self, config: RepetitionConfig, fps: float):
+        from scipy.signal import butter
+
+        self.config = cfg = config
+        self.dec = max(1, int(round(fps / cfg.rate_hz)))
+        rate = fps / self.dec
+        self.C = int(round(cfg.buffer_s * rate)) + 2
+        self._sos = butter(2, min(cfg.lowpass_hz, 0.45 * fps), fs=fps, output="sos")
+        self._state = None
+        self.Z = None
+        self.SP = np.zeros(self.C)
+        self.k = -1
+
+    def push(self, F, first: int) -> None:
+        """Pose rows ``F`` (n, d) of stream frames ``first`` on: low-passed, every ``dec``-th
+        kept."""
+        if self._state is None:
+            from scipy.signal import sosfilt_zi
+
+            # start at rest on the first frame (no transient from zero)
+            self._state = sosfilt_zi(self._sos)[:, :, None] * F[0][None, None, :]
+            self.Z = np.zeros((self.C, F.shape[1]))
+        Y = np.empty_like(F)
+        K.sos_filter(F, self._sos, self._state, Y)
+        # kept frames: stream frames 0, dec, 2 dec, ...
+        for f in range((-first) % self.dec, F.shape[0], self.dec):
+            k = (first + f) // self.dec
+            row = k % self.C
+            self.Z[row] = Y[f]
+            self.SP[row] = 0.0 if k == 0 else np.sqrt(np.sum((Y[f] - self.Z[(k - 1) % self.C])
+                                                             ** 2))
+            self.k = k
+
+    # --- comparing loops -----------------------------------------------------------------
+
+    def rows(self, a, b):
+        """Kept rows of frames ``a .. b`` (both included)."""
+        idx = np.arange(a, b + 1) % self.C
+        return self.Z[idx]
+
+    def _moving(self, p, vmax=None):
+        """Frames ``p[0] .. p[1]`` where the pose moves, as stream-ring indices: those
+        around a speed (3-frame mean) above ``still_ratio`` x ``vmax`` (default: the
+        fastest in the span), and both ends. A rest inside a loop is thus no part of its
+        duration nor of its shape."""
+        a, b = p[0], p[1]
+        idx = np.arange(a, b + 1)
+        if b - a < 4:
+            return idx
+        v = self._speeds(a, b)
+        moving = np.flatnonzero(v > self.config.still_ratio * (v.max() if vmax is None
+                                                               else vmax))
+        if moving.size < 2:
+            return idx
+        keep = np.zeros(idx.size, bool)
+        keep[moving] = True
+        keep[np.maximum(moving - 1, 0)] = True  # speed u is the step from u - 1 to u
+        keep[0] = keep[-1] = True
+        return idx[keep]
+
+    def _speeds(self, a, b):
+        v = self.SP[np.arange(a, b + 1) % self.C]
+        return np.convolve(v, np.ones(3) / 3, mode="same")
+
+    def _vmax(self, p) -> float:
+        return float(self._speeds(p[0], p[1]).max())
+
+    def length(self, p) -> int:
+        """Loop ``p``'s moving duration (decimated frames)."""
+        return self._moving(p).size - 1
+
+    def _mrows(self, p):
+        return self.Z[self._moving(p) % self.C]
+
+    def _resampled(self, p):
+        A = self._mrows(p)
+        L = min(self.config.resample, A.shape[0])
+        x = np.linspace(0.0, A.shape[0] - 1.0, L)
+        i = np.floor(x).astype(np.int64)
+        j = np.minimum(i + 1, A.shape[0] - 1)
+        w = (x - i)[:, None]
+        return A[i] * (1.0 - w) + A[j] * w
+
+    def dissimilarity(self, p, q) -> float:
+        """DTW distance of loops ``p`` and ``q`` ((start, end, amplitude)) / amplitude, their
+        moving frames compared (a rest inside either is left out)."""
+        cost = K.dtw_mean(self._resampled(p), self._resampled(q))
+        return float(cost / max(0.5 * (p[2] + q[2]), 1e-12))
+
+    def spread(self, p, q) -> bool:
+        """The larger loop spans ``spread_ratio`` of the range of both; the smaller is at
+        least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
+        cfg = self.config
+        da, db = self.length(p), self.length(q)
+        if max(da, db) > cfg.start_tempo_ratio * min(da, db):
+            return False
+        W = self.rows(p[0], q[1])
+        i = int(np.argmax(np.linalg.norm(W - W[0], axis=1)))
+        span = float(np.linalg.norm(W - W[i], axis=1).max())
+        big, small = max(p[2], q[2]), min(p[2], q[2])
+        return big >= cfg.spread_ratio * span and small >= cfg.amplitude_ratio * big
+
+    def _oldest(self) -> int:
+        return max(0, self.k - self.C + 1)
+
+    def edge_before(self, first, origin):
+        """(piece, dissimilarity) before loop ``first``, from frame ``origin`` at the earliest,
+        that aligns with it, or None."""
+        a, b = first[0], first[1]
+        L = self.length(first)
+        lo = max(origin, a - 2 * (b - a), self._oldest())
+        idx = self._moving((lo, a), self._vmax(first))
+        if idx.size - 1 < 0.5 * L:
+            return None
+        S = self.Z[idx % self.C]
+        cost, j = K.edge_dtw(self._mrows(first), S)
+        amp = float(np.linalg.norm(S[j:] - S[-1], axis=1).max())
+        return self._edge_ok((int(idx[j]), a, amp), first, cost, L, idx.size - 1 - int(j))
+
+    def edge_after(self, last, a, t):
+        """(piece, dissimilarity) after loop ``last`` from frame ``a`` to at most ``t`` that
+        aligns with it, or None."""
+        L = self.length(last)
+        idx = self._moving((a, min(t, a + 2 * (last[1] - last[0]))), self._vmax(last))
+        if idx.size - 1 < 0.5 * L:
+            return None
+        S = self.Z[idx % self.C]
+        cost, j = K.edge_dtw(self._mrows(last)[::-1].copy(), S[::-1].copy())
+        end = S.shape[0] - 1 - int(j)
+        amp = float(np.linalg.norm(S[: end + 1] - S[0], axis=1).max())
+        return self._edge_ok((a, int(idx[end]), amp), last, cost, L, end)
+
+    def _edge_ok(self, piece, ref, cost, L, n):
+        cfg = self.config
+        if n < 0.5 * L or piece[2] < cfg.amplitude_ratio * ref[2]:
+            return None
+        r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
+        return (piece, r) if r <= cfg.max_dissimilarity else None
