@@ -31,31 +31,39 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
         from streamseg.protocol.auth import read_token
 
         fields["auth"] = read_token()
+    body = msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields})
     ctx = ctx or zmq.Context.instance()
     sock = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
     ipv6(sock, endpoint)
-    sock.setsockopt(zmq.SNDTIMEO, int(timeout * 1000))
     if curve is not None:
         curve.apply(sock)
     # a refused CURVE handshake is silent on the socket itself: its monitor says so
     monitor = sock.get_monitor_socket(Refusal.EVENTS)
     refusal = Refusal(endpoint, curve)
     sock.connect(endpoint)
+    # the request goes out once the socket takes it, never by a blocking send: a handshake
+    # refused before it ends the connection and its queue, and a blocking send would wait
+    # out the timeout without reading the monitor that says why
+    poller = zmq.Poller()
+    poller.register(sock, zmq.POLLOUT)
+    poller.register(monitor, zmq.POLLIN)
+    sent = False
+    deadline = time.monotonic() + timeout
     try:
-        sock.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields}))
-        poller = zmq.Poller()
-        poller.register(sock, zmq.POLLIN)
-        poller.register(monitor, zmq.POLLIN)
-        deadline = time.monotonic() + timeout
         while (left := deadline - time.monotonic()) > 0:
             ready = dict(poller.poll(int(left * 1000) + 1))
             if sock in ready:
-                return msgpack.unpackb(sock.recv(), raw=False)
+                if sent:
+                    return msgpack.unpackb(sock.recv(), raw=False)
+                try:
+                    sock.send(body, zmq.NOBLOCK)
+                    sent = True
+                    poller.modify(sock, zmq.POLLIN)
+                except zmq.Again:  # the connection ended since the poll: wait again
+                    pass
             if monitor in ready:
                 refusal.check(recv_monitor_message(monitor)["event"])
-    except zmq.Again:
-        pass
     finally:
         sock.disable_monitor()
         monitor.close(linger=0)

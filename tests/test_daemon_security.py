@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import time
 
 import pytest
 import zmq
@@ -212,6 +213,44 @@ def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, t
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "refused the security handshake" in err[0], err
     assert not d._stop.is_set()
+
+
+class _RefusedFirst(zmq.Socket):
+    """A REQ socket whose ``connect`` returns once the daemon has refused its handshake (the
+    connection and its queue are gone: it takes no message): the order a loaded machine may
+    give :func:`request`, between its connect and its send, made certain."""
+
+    def connect(self, addr):
+        out = super().connect(addr)
+        if self.type == zmq.REQ:
+            for _ in range(30_000):  # until the refusal (a state of the socket, polled)
+                if not self.getsockopt(zmq.EVENTS) & zmq.POLLOUT:
+                    break
+                time.sleep(0.001)
+            else:
+                raise AssertionError("the handshake was never refused")
+        return out
+
+
+class _RefusedFirstContext(zmq.Context):
+    _socket_class = _RefusedFirst
+
+
+def test_a_key_refused_before_the_request_is_sent_is_said_at_once(secure_daemon, keys,
+                                                                    tmp_path):
+    """The refusal of a stranger's key can come before :func:`request` sends (a loaded
+    machine): it is still said, not waited out as a timeout (a blocking send did that: the
+    refused connection takes no message, and the monitor that said why was not read)."""
+    _, ep = secure_daemon()
+    generate(tmp_path / "stranger")
+    own = ClientKeys.load(tmp_path / "stranger")
+    stranger = ClientKeys(own.public, own.secret, ClientKeys.load(keys).server)
+    ctx = _RefusedFirstContext()
+    try:
+        with pytest.raises(ConnectionRefusedError, match="refused this client's CURVE key"):
+            request(ep["control"], "ping", ctx=ctx, curve=stranger, timeout=30)
+    finally:
+        ctx.destroy(linger=0)
 
 
 def test_a_secret_key_readable_by_others_is_warned_about(tmp_path, caplog):
