@@ -251,12 +251,12 @@ class EventLog:
         return out
 
     def sync(self, timeout: float = 10.0) -> bool:
-        """Block until every event appended so far is committed (or failed); False on
-        timeout."""
+        """Block until every event (and skipped range) appended so far is committed (or
+        failed); False on timeout."""
         deadline = time.monotonic() + timeout
         self._wake.set()
         with self._swap:
-            while self._pending or self._writing or self._out:
+            while self._pending or self._skips or self._writing or self._out:
                 left = deadline - time.monotonic()
                 if left <= 0 or not self._thread.is_alive():
                     return False

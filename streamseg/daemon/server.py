@@ -228,6 +228,11 @@ class Daemon(Intake):
             checkpoint.restore(self, self._started)
             self._restored_owners()
             self._close_lost_takes()
+            if self.eventlog is not None:
+                # what the start decided (a damaged log's error, the takes a crash ended, the
+                # numbers skipped) is on record before the daemon answers: a `since` right
+                # after the first ping finds it
+                self.eventlog.sync()
             self._ckpt_start = self._started
             self._next_ckpt = self._started + self.config.checkpoint_interval
             self.ready.set()
