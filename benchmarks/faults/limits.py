@@ -185,4 +185,54 @@ def ipv6_loopback(tmp: Path) -> dict:
                f"{len(events)} events logged", cuts == list(base_cuts()))
 
 
-CASES = [big_packets, stranger, local_announce_flood, ipv6_loopback]
+
+LEAVING = 200  # senders
+LEAVING_FRAMES = 100  # x 31 joints x 3 x 8 bytes = 74 kB: large for the default budget
+
+
+@named("200 senders of large packets that leave")
+def large_senders_leave(tmp: Path) -> dict:
+    """200 senders one after the other, each a connection of its own as `streamseg replay`
+    makes: a take of 500 frames in packets of 100 frames (74 kB, over the default budget's
+    large-message size, so the daemon lowers ZeroMQ's bound and raises it again), its end,
+    and the connection closed at once. Passes when the daemon is still running and took
+    every frame. Known to fail (open): libzmq 4.3.5 sends a new RCVHWM to the pipes of the
+    socket's connections, an ending one's peer may already be freed, and the daemon dies of
+    SIGSEGV in a ZeroMQ I/O thread."""
+    rec = recording()
+    d = Served(tmp, relabel_interval=0.0, heartbeat=0.0)
+    died, k = None, 0
+    try:
+        for k in range(LEAVING):
+            s = d.push()
+            s.send_multipart(P.encode(announce_of(rec, f"s{k}")))
+            for a in range(0, 5 * LEAVING_FRAMES, LEAVING_FRAMES):
+                s.send_multipart(P.encode(P.Frames(f"s{k}", a, 0.0,
+                                                   rec.positions[a:a + LEAVING_FRAMES])))
+            s.send_multipart(P.encode(P.End(f"s{k}")))
+            s.close()  # its linger delivers the packets, then the connection ends
+            if d.proc.poll() is not None:
+                died = d.proc.returncode
+                break
+        total, tot, t0 = LEAVING * 5 * LEAVING_FRAMES, None, time.monotonic()
+        while died is None and time.monotonic() - t0 < 120:  # until every frame is taken
+            try:
+                tot = d.request("stats", timeout=2)["totals"]
+            except TimeoutError:
+                pass
+            died = d.proc.poll()
+            if tot is not None and tot["frames"] == total:
+                break
+            time.sleep(0.05)
+    finally:
+        d.stop()
+    if died is not None:
+        return row("200 senders of large packets that leave",
+                   f"the daemon died (exit {died}) after sender {k + 1} of {LEAVING}",
+                   "ZeroMQ's bound changed on an open socket (libzmq 4.3.5)", False)
+    ok = tot is not None and tot["frames"] == total
+    return row("200 senders of large packets that leave",
+               f"{tot['frames'] if tot else '?'} frames taken of {total}",
+               "the daemon still runs", ok)
+
+CASES = [big_packets, stranger, local_announce_flood, ipv6_loopback, large_senders_leave]
