@@ -17,7 +17,7 @@ from zmq.utils.monitor import recv_monitor_message
 
 from streamseg import protocol
 
-__all__ = ["Refusal", "Subscription", "fetch_since", "handshake", "listen", "request",
+__all__ = ["Refusal", "Subscription", "fetch_since", "handshake", "listen", "request", "takes",
            "subscribe", "subscriber"]
 
 
@@ -228,6 +228,19 @@ def subscribe(endpoint: str, control: str, stream=None, kind=None, ctx=None,
     except BaseException:
         sock.close()
         raise
+
+
+def takes(events) -> list:
+    """A stream id's events split into its takes at each ``closed``, in the order given (a
+    re-announced id's new take follows its old one's ``closed``); the last, still open take
+    (no ``closed`` yet) too."""
+    out, cur = [], []
+    for e in events:
+        cur.append(e)
+        if e.type == "closed":
+            out.append(cur)
+            cur = []
+    return out + ([cur] if cur else [])
 
 
 def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None,

@@ -14,7 +14,7 @@ import zmq
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.client import fetch_since, handshake, listen, request, subscribe
+from streamseg.client import fetch_since, handshake, listen, request, subscribe, takes
 from streamseg.commands.replay import announce_of, replay
 from streamseg.daemon.eventlog import EventLog
 from streamseg.online.lof import StreamingLOFSegmenter
@@ -257,17 +257,6 @@ def offline_cuts(rec, positions):
     seg = StreamingLOFSegmenter(fps=rec.fps)
     ang = lof_input(positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
-
-
-def takes(events):
-    """Events of one stream id split at each `closed`, in the order received."""
-    out, cur = [], []
-    for e in events:
-        cur.append(e)
-        if e.type == "closed":
-            out.append(cur)
-            cur = []
-    return out + ([cur] if cur else [])
 
 
 def test_a_reannounced_stream_closes_before_the_new_take_publishes(start_daemon, rec):

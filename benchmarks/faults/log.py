@@ -17,6 +17,7 @@ import zmq
 
 from streamseg import protocol as P
 from streamseg.client import fetch_since, handshake, listen, subscriber
+from streamseg.client import takes as split_takes
 from streamseg.commands.replay import announce_of
 
 from ._machine import can_mount, fill
@@ -87,16 +88,6 @@ def kill9(tmp: Path) -> dict:
                not missing and not dup and len(seen) > KILLS)
 
 
-def _takes(events) -> list:
-    out, cur = [], []
-    for e in events:
-        cur.append(e)
-        if e.type == "closed":
-            out.append(cur)
-            cur = []
-    return out + ([cur] if cur else [])
-
-
 @named("stream re-announced during its final relabel")
 def reannounce(tmp: Path) -> dict:
     """A sender restarts its take (a second announce right behind the first take's 3,000
@@ -119,7 +110,7 @@ def reannounce(tmp: Path) -> dict:
             live.append(ev)
             if ev.type == "closed" and ev.reason == "end":
                 break
-        takes = _takes(live)
+        takes = split_takes(live)
         want = [offline_cuts(rec, first), offline_cuts(rec, second)]
         got = [[e.frame for e in t if e.type == "cut"] for t in takes]
         early = len(set(want[1]) & set(got[0])) if len(takes) > 1 else len(want[1])

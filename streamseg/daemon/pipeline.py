@@ -177,11 +177,12 @@ class Algorithms:
     def _warm_stream(self, fps: float, rng) -> None:
         """A stream's own path (gap filler, one kernel call per packet, the counter) on a
         random walk of a Kinect v2 body, so its first packets compile nothing in the loop."""
+        from streamseg.daemon.options import skeleton_from
         from streamseg.skeleton.joint_sets import KINECT_V2
 
         n = len(KINECT_V2.names)
-        skeleton = Skeleton(KINECT_V2.names, np.full(n, -1, dtype=np.int64), np.zeros((n, 3)),
-                            KINECT_V2.units, KINECT_V2.up)
+        # as an announce of these joints makes it
+        skeleton = skeleton_from(KINECT_V2.names, [-1] * n, KINECT_V2.units, KINECT_V2.up)
         pipe = StreamPipeline(skeleton, fps, self, history=4.0)
         base = rng.normal(0, 0.3, (1, n, 3)) + np.array([0.0, 1.0, 0.0])
         walk = base + np.cumsum(rng.normal(0, 0.002, (3 * int(fps), n, 3)), axis=0)
