@@ -42,7 +42,7 @@ def in_child(fn, other_user: bool):
             out = fn(zmq.Context())
         except BaseException as err:  # reported to the parent, which judges it
             out = {"raised": f"{type(err).__name__}: {err}"}
-        os.write(w, json.dumps(out).encode())
+        os.write(w, json.dumps(out, allow_nan=False).encode())
         os._exit(0)
     os.close(w)
     with os.fdopen(r, "rb") as fh:
