@@ -97,9 +97,8 @@ def test_announced_up_axis_reaches_the_features(start_daemon, rec):
     assert not [e for e in events if e.type == "error" and e.stream == "z"]
 
 
-@pytest.mark.parametrize("receive_thread", [True, False])
-def test_two_interleaved_streams(start_daemon, rec, receive_thread):
-    d, ep = start_daemon(receive_thread=receive_thread)
+def test_two_interleaved_streams(start_daemon, rec):
+    d, ep = start_daemon()
     s = sub(ep)
     sock = push(ep)
     half = rec.slice(1000, rec.n_frames)
@@ -125,9 +124,8 @@ def test_two_interleaved_streams(start_daemon, rec, receive_thread):
     assert cuts_of(events, "b") == offline_cuts(half)
 
 
-@pytest.mark.parametrize("receive_thread", [True, False])
-def test_garbage_between_good_packets(start_daemon, rec, receive_thread):
-    d, ep = start_daemon(receive_thread=receive_thread)
+def test_garbage_between_good_packets(start_daemon, rec):
+    d, ep = start_daemon()
     s = sub(ep)
     sock = push(ep)
     pos = rec.positions.copy()
@@ -355,7 +353,7 @@ def test_default_skeleton_takes_the_configured_up_axis(start_daemon, rec, data_d
         DaemonConfig(default_up="up")
 
 
-def test_failed_start_with_receive_thread_still_shuts_down():
+def test_failed_start_still_shuts_down():
     """A daemon whose start fails (here: warmup) must close every socket and return,
     including the receiver's wake-up socket that its never-started thread would close."""
 
@@ -363,7 +361,7 @@ def test_failed_start_with_receive_thread_still_shuts_down():
         def warmup(self, relabel: bool = True) -> float:
             raise RuntimeError("warmup failed")
 
-    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, receive_thread=True,
+    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP,
                             relabel_interval=0, heartbeat=0), Broken())
     d.bind()
     box = {}
@@ -381,4 +379,4 @@ def test_failed_start_with_receive_thread_still_shuts_down():
     # the failure reaches the caller, and every socket is closed behind it
     assert isinstance(box.get("err"), RuntimeError) and "warmup failed" in str(box["err"])
     assert "rc" not in box
-    assert d.ingest.closed and d.pub.closed and d.control.closed
+    assert d.ingest.sock.closed and d.ingest.wake.closed and d.pub.closed and d.control.closed

@@ -18,7 +18,7 @@ from streamseg.client import request
 from streamseg.commands.replay import announce_of, replay
 
 from ._machine import has_ipv6_loopback, in_child
-from ._served import MID, Served, base_cuts, drain, holes, named, recording, row, send_good
+from ._served import DATA, MID, Served, base_cuts, drain, holes, named, recording, row, send_good
 
 LOOP = "tcp://127.0.0.1:0"  # another user cannot reach ipc files in this user's temp folder
 
@@ -53,8 +53,9 @@ def big_packets(tmp: Path) -> dict:
     finally:
         d.stop()
     result = (f"{tot['frames']:,} frames taken of {total:,}, errors "
-              f"{tot['errors_by_reason'] or 'none'}; ZeroMQ's bound lowered to "
-              f"{tot['ingest_hwm']} packets")
+              f"{tot['errors_by_reason'] or 'none'}; ZeroMQ's bound {tot['ingest_hwm']} "
+              f"packets per connection (fixed), the receiver's queue at most "
+              f"{tot['ingest_peak_bytes'] / 1e6:.0f} MB")
     figure = (f"RSS peak {peak:.0f} MB; latency p50 {tot['latency_p50_ms']:.0f} ms, p99 "
               f"{tot['latency_p99_ms']:.0f} ms; all processed in {took:.1f} s "
               f"({BIG_PACKETS * BIG_FRAMES * 744 / took / 1e6:.0f} MB/s; sender done after "
@@ -193,12 +194,11 @@ LEAVING_FRAMES = 100  # x 31 joints x 3 x 8 bytes = 74 kB: large for the default
 @named("200 senders of large packets that leave")
 def large_senders_leave(tmp: Path) -> dict:
     """200 senders one after the other, each a connection of its own as `streamseg replay`
-    makes: a take of 500 frames in packets of 100 frames (74 kB, over the default budget's
-    large-message size, so the daemon lowers ZeroMQ's bound and raises it again), its end,
-    and the connection closed at once. Passes when the daemon is still running and took
-    every frame. Known to fail (open): libzmq 4.3.5 sends a new RCVHWM to the pipes of the
-    socket's connections, an ending one's peer may already be freed, and the daemon dies of
-    SIGSEGV in a ZeroMQ I/O thread."""
+    makes: a take of 500 frames in packets of 100 frames (74 kB), its end, and the connection
+    closed at once. Passes when the daemon is still running and took every frame. The
+    daemon died here (SIGSEGV in a ZeroMQ I/O thread) while it changed RCVHWM on the open
+    socket: libzmq 4.3.5 sends a new bound to the pipes of the socket's connections, and an
+    ending one's peer may already be freed (docs/decisions.md, Ingest memory)."""
     rec = recording()
     d = Served(tmp, relabel_interval=0.0, heartbeat=0.0)
     died, k = None, 0
@@ -229,10 +229,109 @@ def large_senders_leave(tmp: Path) -> dict:
     if died is not None:
         return row("200 senders of large packets that leave",
                    f"the daemon died (exit {died}) after sender {k + 1} of {LEAVING}",
-                   "ZeroMQ's bound changed on an open socket (libzmq 4.3.5)", False)
+                   "a daemon that dies loses every open stream's live state", False)
     ok = tot is not None and tot["frames"] == total
     return row("200 senders of large packets that leave",
                f"{tot['frames'] if tot else '?'} frames taken of {total}",
                "the daemon still runs", ok)
 
 CASES = [big_packets, stranger, local_announce_flood, ipv6_loopback, large_senders_leave]
+
+
+REPLAYS = 30
+
+
+@named("30 replays at --speed 0 --batch 120")
+def replays_in_a_row(tmp: Path) -> dict:
+    """`streamseg replay` of CMU 86_01 at --speed 0 --batch 120 (89 kB packets), a new
+    stream id each time, 30 times one after the other into one `streamseg serve` with its
+    defaults on TCP loopback, as a user would. Passes when the daemon is alive after each and
+    took every frame of all of them."""
+    import subprocess
+    import sys
+
+    rec = recording()
+    d = Served(tmp, endpoint=LOOP)
+    died, k = None, 0
+    try:
+        for k in range(REPLAYS):
+            subprocess.run([sys.executable, "-c", "import sys; from streamseg.cli import main; "
+                            "sys.exit(main(sys.argv[1:]))", "replay", str(DATA / "86_01.amc.gz"),
+                            "--skeleton", str(DATA / "86.asf"), "--to", d.ep["ingest"],
+                            "--speed", "0", "--batch", "120", "--stream", f"r{k}"],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            if d.proc.poll() is not None:
+                died = d.proc.returncode
+                break
+        if died is None:  # each replay ended its stream: wait until the last is closed
+            d.wait_closed(f"r{REPLAYS - 1}")
+            tot = d.request("stats")["totals"]
+    finally:
+        d.stop()
+    if died is not None:
+        return row("30 replays at --speed 0 --batch 120",
+                   f"the daemon died (exit {died}) during replay {k + 1} of {REPLAYS}",
+                   "a daemon that dies loses every open stream's live state", False)
+    total = REPLAYS * rec.n_frames
+    return row("30 replays at --speed 0 --batch 120", f"{tot['frames']:,} frames taken of "
+               f"{total:,}", "the daemon still runs", tot["frames"] == total)
+
+
+LARGE_SENDERS, LARGE_PACKETS, LARGE_FRAMES = 8, 30, 12_000
+
+
+@named("8 senders of 8.9 MB packets at once")
+def large_senders_at_once(tmp: Path) -> dict:
+    """8 connections at once, each 30 packets of 12,000 frames of 86_01 in float64 (8.9 MB,
+    the largest the default max_packet_frames allows for 31 joints), sent as fast as the
+    daemon lets them, default ``ingest_bytes`` (256 MiB). The daemon's resident memory
+    growth over idle (VmHWM after, VmRSS before) against the budget. Passes when every frame
+    is taken and the growth is at most 1.25 x ``ingest_bytes``."""
+    rec = recording()
+    budget = 256 << 20
+    d = Served(tmp, endpoint=LOOP, relabel_interval=0.0)
+    try:
+        idx = np.arange(LARGE_FRAMES)
+        socks = []
+        for k in range(LARGE_SENDERS):
+            s = d.push()
+            s.setsockopt(zmq.SNDHWM, 2)  # this process holds few packets itself
+            s.send_multipart(P.encode(announce_of(rec, f"big{k}")))
+            socks.append(s)
+        for k in range(LARGE_SENDERS):
+            d.wait_frame(f"big{k}", 0)
+        base = _rss_mb(d.proc.pid, "VmRSS")
+        with open(f"/proc/{d.proc.pid}/clear_refs", "w") as fh:
+            fh.write("5")  # VmHWM := VmRSS: the peak from here on
+        t0 = time.monotonic()
+        for j in range(LARGE_PACKETS):
+            a = j * LARGE_FRAMES
+            pos = rec.positions[(a + idx) % rec.n_frames].astype(np.float64)
+            for k, s in enumerate(socks):
+                s.send_multipart(P.encode(P.Frames(f"big{k}", a, 0.0, pos)))
+        total = LARGE_PACKETS * LARGE_FRAMES
+        for k in range(LARGE_SENDERS):
+            d.wait_frame(f"big{k}", total, timeout=600)
+        took = time.monotonic() - t0
+        growth = d.rss_peak_mb() - base
+        tot = d.request("stats")["totals"]
+        for s in socks:
+            s.close(linger=0)
+    finally:
+        d.stop()
+    frames = LARGE_SENDERS * total
+    ok = tot["frames"] == frames and growth <= 1.25 * budget / (1 << 20)
+    return row("8 senders of 8.9 MB packets at once",
+               f"{tot['frames']:,} frames taken of {frames:,}; errors "
+               f"{tot['errors_by_reason'] or 'none'}",
+               f"RSS growth {growth:.0f} MiB (1.25 x ingest_bytes = {1.25 * budget / (1 << 20):.0f}"
+               f" MiB); receiver queue peak {tot['ingest_peak_bytes'] / (1 << 20):.0f} MiB; "
+               f"ZeroMQ bound {tot['ingest_hwm']} per connection; {took:.1f} s", ok)
+
+
+def _rss_mb(pid: int, key: str) -> float:
+    with open(f"/proc/{pid}/status") as fh:
+        return next(int(line.split()[1]) / 1024 for line in fh if line.startswith(key))
+
+
+CASES += [replays_in_a_row, large_senders_at_once]

@@ -34,7 +34,8 @@ class DaemonConfig:
     drain, drain_frames : int
         Most packets, and frames, taken from the socket before one vectorised pipeline step.
     ingest_hwm, hwm : int
-        ZeroMQ high-water marks (messages) of ingest (bounds memory; senders wait) and publish.
+        ZeroMQ high-water marks (messages): of ingest, per connection, fixed at bind (with
+        the receiver's queue it bounds memory; senders wait), and of publish.
     ingest_bytes : int
         Bytes of packets queued before the pipeline, ZeroMQ's included; >= 4 max_message_bytes.
     default_skeleton, default_fps, default_up : str, float, str
@@ -51,8 +52,6 @@ class DaemonConfig:
         Dask scheduler address, e.g. ``tcp://10.0.0.5:8786`` (``""``: a local cluster).
     relabel_share : float
         Most share of time an in-thread relabel takes while jobs wait (1: no pause).
-    receive_thread : bool
-        Receive and decode packets in a thread of their own (faster for one busy stream).
     state_dir : str
         Directory of ``events.sqlite`` and ``checkpoints.sqlite`` (``""``, serve ``none``: off).
     log_max_mb, log_max_days : float
@@ -89,7 +88,7 @@ class DaemonConfig:
     max_packet_frames: int = 12000
     drain: int = 16000
     drain_frames: int = 32768
-    ingest_hwm: int = 2000
+    ingest_hwm: int = 4
     hwm: int = 100000
     default_skeleton: str = ""
     default_fps: float = 120.0
@@ -100,7 +99,6 @@ class DaemonConfig:
     relabel_backend: str = "thread"
     relabel_scheduler: str = ""
     relabel_share: float = 0.25
-    receive_thread: bool = False
     state_dir: str = ""
     log_max_mb: float = 256.0
     log_max_days: float = 7.0
@@ -132,8 +130,6 @@ class DaemonConfig:
             isinstance(self.control, str) and (self.control == "" or "://" in self.control),
             'an endpoint or "" (off)',
         )
-        _check("receive_thread", self.receive_thread, isinstance(self.receive_thread, bool),
-               "true or false")
         _check("relabel_processes", self.relabel_processes,
                type(self.relabel_processes) is int and self.relabel_processes >= 0,
                "an integer >= 0")

@@ -1,9 +1,14 @@
-"""Ingest decoding, optionally in its own thread so it overlaps the detector's nogil kernels.
+"""The daemon's ingest: the PULL socket, a receiver thread, and a queue bounded in bytes.
 
-:func:`decode_ingest` turns one received multipart message into a small tuple the ingest loop
-dispatches; :class:`Receiver` runs recv + decode in a thread and hands the tuples over in
-order through a bounded deque (when it is full the thread stops reading, the socket's queue
-fills and PUSH senders wait: backpressure, bounded memory).
+:class:`Ingest` owns the ingest socket. Its options, the message bound ``RCVHWM`` included,
+are set once, before bind, and never changed on the live socket: libzmq 4.3.5 forwards a new
+bound to the peer of every pipe, and the peer of a connection that is ending may already be
+freed (the daemon died of SIGSEGV; docs/decisions.md, Ingest memory). A thread of its own
+reads the socket continuously, decodes each message (:func:`decode_ingest`) and queues it;
+the loop takes the queued messages (:meth:`Ingest.take`). The queue is bounded in bytes over
+every connection together (``ingest_bytes`` less what ZeroMQ may hold), in messages and in
+frames (the latency); when it is full the thread stops reading, ZeroMQ's per-connection
+queues fill up to their fixed bound and PUSH senders wait: backpressure, nothing dropped.
 """
 
 from __future__ import annotations
@@ -11,11 +16,39 @@ from __future__ import annotations
 import collections
 import threading
 import time
+from typing import NamedTuple
 
+import numpy as np
 import zmq
 
 from streamseg import protocol
-from streamseg.daemon.security import peer_of
+
+
+class FramesItem(NamedTuple):
+    """A decoded frames packet (the fast path: no :class:`~streamseg.protocol.Frames`)."""
+
+    stream: str
+    seq: int
+    timestamp: float
+    positions: np.ndarray  # (n, joints, 3), a read-only view on the message
+    arrival: float  # perf_counter() when received
+    sender: zmq.Frame  # the topic frame: who sent it (security.peer_of)
+
+
+class BodyItem(NamedTuple):
+    """Another valid ingest message (announce, end, or a frames body for the slow path)."""
+
+    body: dict
+    sender: zmq.Frame
+    nbytes: int
+
+
+class BadItem(NamedTuple):
+    """A message that could not be decoded: reported as an ``error`` event."""
+
+    stream: str | None
+    reason: str
+    message: str
 
 
 def recv_message(sock, flags: int = 0) -> list:
@@ -31,97 +64,202 @@ def recv_message(sock, flags: int = 0) -> list:
     return parts
 
 
-def decode_ingest(parts, arrival: float) -> tuple:
-    """``("f", stream, seq, timestamp, positions, arrival, topic frame)`` for a frames packet,
-    ``("o", body, topic frame, bytes)`` for another valid message, ``("e", stream, reason,
-    message)`` for garbage.
-    """
+def decode_ingest(parts, arrival: float) -> FramesItem | BodyItem | BadItem:
+    """The queue item of one received multipart message."""
     if len(parts) != 2:
-        return ("e", None, "decode", f"expected 2 message parts [topic, body], got {len(parts)}")
+        return BadItem(None, "decode", f"expected 2 message parts [topic, body], got "
+                                       f"{len(parts)}")
     try:
         obj = protocol.unpack_body(parts[1])
         stream = obj.get("stream")
         if obj["type"] == "frames" and type(stream) is str:
-            return ("f", stream, *protocol.frames_fields(obj, stream), arrival, parts[0])
-        return ("o", obj, parts[0], len(parts[1]))
+            return FramesItem(stream, *protocol.frames_fields(obj, stream), arrival, parts[0])
+        return BodyItem(obj, parts[0], len(parts[1]))
     except protocol.WireError as err:
-        return ("e", err.stream, err.kind, str(err))
+        return BadItem(err.stream, err.kind, str(err))
     except Exception as err:  # a packet validation missed must not stop the receiver
-        return ("e", None, "decode", f"packet could not be handled ({type(err).__name__}: {err})")
+        return BadItem(None, "decode", f"packet could not be handled "
+                                       f"({type(err).__name__}: {err})")
 
 
-class Receiver(threading.Thread):
-    """Reads the ingest socket (used by this thread only) and queues decoded messages.
+def item_bytes(it) -> int:
+    """Bytes an item holds (its positions, or its message)."""
+    if type(it) is FramesItem:
+        return it.positions.nbytes
+    return it.nbytes if type(it) is BodyItem else 0
+
+
+def item_frames(it) -> int:
+    return it.positions.shape[0] if type(it) is FramesItem else 0
+
+
+class IngestBounds(NamedTuple):
+    """What the ingest may hold, from the configuration (fixed for the socket's life).
+
+    ``hwm`` messages per connection in ZeroMQ, ``queue_bytes`` bytes, ``queue_items``
+    messages and ``queue_frames`` frames in the receiver's queue.
+    """
+
+    hwm: int
+    queue_bytes: int
+    queue_items: int
+    queue_frames: int
+
+    @classmethod
+    def of(cls, config) -> IngestBounds:
+        # half the budget for the receiver's queue, at least one largest message; the other
+        # half is what ZeroMQ holds of the connections that send large packets
+        # (docs/decisions.md, Ingest memory)
+        queue = max(config.ingest_bytes // 2, config.max_message_bytes)
+        return cls(config.ingest_hwm, queue, config.drain, config.drain_frames)
+
+
+class Ingest:
+    """The ingest socket, read by a thread of its own into a queue bounded in bytes.
 
     Parameters
     ----------
-    sock : zmq.Socket
-        The bound PULL socket.
-    wake : zmq.Socket
-        PAIR socket connected to the loop's wake-up socket; one byte per batch received.
-    limit, frame_limit : int
-        Decoded messages, and frames, queued at most (the latter bounds the latency).
-    budget : streamseg.daemon.limits.IngestBudget
-        Bytes queued at most (``drain_bytes``), and the socket's ``RCVHWM`` it sets.
+    ctx : zmq.Context
+        The daemon's context.
+    config : streamseg.config.DaemonConfig
+        ``ingest`` (endpoint), ``ingest_hwm``, ``ingest_bytes``, ``max_message_bytes``,
+        ``drain``, ``drain_frames``.
+    secure : callable
+        Applies the daemon's security (CURVE or connection names) to a socket before bind.
+
+    Notes
+    -----
+    Counters are each written by one thread only: ``pushed*`` by the receiver, ``taken*`` by
+    the loop; what is queued is their difference.
     """
 
-    def __init__(self, sock, wake, limit: int, frame_limit: int, budget):
-        super().__init__(name="streamseg-ingest", daemon=True)
-        self.sock, self.wake, self.limit, self.frame_limit = sock, wake, limit, frame_limit
-        self.budget = budget
+    def __init__(self, ctx: zmq.Context, config, secure):
+        from streamseg.daemon.security import ipv6
+
+        self.bounds = IngestBounds.of(config)
+        self.sock = ctx.socket(zmq.PULL)
+        secure(self.sock)
+        # every option before bind: none is ever changed on the live socket
+        self.sock.setsockopt(zmq.RCVHWM, self.bounds.hwm)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        self.sock.setsockopt(zmq.MAXMSGSIZE, config.max_message_bytes)
+        ipv6(self.sock, config.ingest)
+        self.ctx = ctx
         self.items: collections.deque = collections.deque()
-        # frames (bytes) queued = pushed - taken; each counter is written by one thread only
-        self.pushed = self.taken = 0
+        self.pushed = self.taken = 0  # frames
         self.pushed_bytes = self.taken_bytes = 0
+        self.pushed_items = self.taken_items = 0
+        self.peak_bytes = 0  # most bytes queued at once (stats)
+        self.waits = 0  # times the queue was full and reading stopped
+        self._room = threading.Event()  # set by the loop when it takes items
+        self._waiting = False  # the thread waits for room (the loop then sets _room)
         self._stopping = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="streamseg-ingest", daemon=True)
+        self.wake = None  # PAIR the loop polls: one byte per batch queued
+        self._wake_tx = None
 
-    def stop(self) -> None:
-        self._stopping.set()
-        if self.is_alive():
-            self.join(5)
+    def bind(self, endpoint: str) -> str:
+        """Bind the socket; returns the endpoint bound (a port of 0 resolved)."""
+        self.sock.bind(endpoint)
+        name = f"inproc://streamseg-wake-{id(self)}"
+        self.wake = self.ctx.socket(zmq.PAIR)
+        self.wake.bind(name)
+        self._wake_tx = self.ctx.socket(zmq.PAIR)
+        self._wake_tx.connect(name)
+        return self.sock.getsockopt_string(zmq.LAST_ENDPOINT)
 
-    def run(self) -> None:
+    def start(self) -> None:
+        self._thread.start()
+
+    @property
+    def queued_bytes(self) -> int:
+        return self.pushed_bytes - self.taken_bytes
+
+    def _full(self) -> bool:
+        b = self.bounds
+        return (self.pushed_items - self.taken_items >= b.queue_items
+                or self.pushed - self.taken >= b.queue_frames
+                or self.pushed_bytes - self.taken_bytes >= b.queue_bytes)
+
+    def _run(self) -> None:
         poller = zmq.Poller()
         poller.register(self.sock, zmq.POLLIN)
-        sock, clock, items, budget = self.sock, time.perf_counter, self.items, self.budget
-        byte_limit = budget.drain_bytes
-        while not self._stopping.is_set():
-            if (len(items) >= self.limit or self.pushed - self.taken >= self.frame_limit
-                    or self.pushed_bytes - self.taken_bytes >= byte_limit):
-                time.sleep(0.0005)  # the loop is behind: stop reading, let senders wait
-                continue
-            if not poller.poll(50):
-                if budget.senders:  # large messages stopped: raise the bound again
-                    self._tune(0, None)
-                continue
-            biggest, big = 0, None
-            for _ in range(256):
+        sock, clock, items, room = self.sock, time.perf_counter, self.items, self._room
+        try:
+            while not self._stopping.is_set():
+                if self._full():
+                    # the loop is behind: stop reading (senders wait) until it takes some
+                    self.waits += 1
+                    room.clear()
+                    self._waiting = True
+                    if self._full():
+                        room.wait(0.05)
+                    self._waiting = False
+                    continue
+                if not poller.poll(50):
+                    continue
+                for _ in range(256):
+                    try:
+                        parts = recv_message(sock, zmq.NOBLOCK)
+                    except zmq.Again:
+                        break
+                    it = decode_ingest(parts, clock())
+                    self.pushed += item_frames(it)
+                    self.pushed_bytes += item_bytes(it)
+                    self.pushed_items += 1
+                    items.append(it)
+                    if self._full():
+                        break
+                q = self.pushed_bytes - self.taken_bytes
+                if q > self.peak_bytes:
+                    self.peak_bytes = q
                 try:
-                    parts = recv_message(sock, zmq.NOBLOCK)
-                except zmq.Again:
-                    break
-                size = len(parts[-1])
-                if size > biggest:
-                    biggest, big = size, parts[0]
-                it = decode_ingest(parts, clock())
-                if it[0] == "f":
-                    self.pushed += it[4].shape[0]
-                    self.pushed_bytes += it[4].nbytes
-                elif it[0] == "o":
-                    self.pushed_bytes += it[3]
-                items.append(it)
-                if self.pushed_bytes - self.taken_bytes >= byte_limit:
-                    break
-            try:
-                self.wake.send(b"", zmq.NOBLOCK)
-            except zmq.Again:  # the loop has wake-ups pending already
-                pass
-            if biggest >= budget.threshold or budget.senders:
-                self._tune(biggest, big)
-        self.wake.close()
+                    self._wake_tx.send(b"", zmq.NOBLOCK)
+                except zmq.Again:  # the loop has wake-ups pending already
+                    pass
+        finally:
+            self._wake_tx.close(linger=0)
 
-    def _tune(self, biggest: int, frame) -> None:
-        hwm = self.budget.observe(biggest, peer_of(frame) if frame is not None else None,
-                                  time.monotonic())
-        if hwm is not None:
-            self.sock.setsockopt(zmq.RCVHWM, hwm)
+    def clear_wake(self) -> None:
+        """The loop woke on :attr:`wake`: read its pending bytes."""
+        while self.wake.poll(0):
+            self.wake.recv()
+
+    def take(self, max_items: int, max_frames: int):
+        """Yield queued items, oldest first, at most ``max_items`` and, once ``max_frames``
+        frames are out, no more (the loop thread)."""
+        items = self.items
+        frames = 0
+        for _ in range(max_items):
+            if not items:
+                break
+            it = items.popleft()
+            n = item_frames(it)
+            self.taken += n
+            self.taken_bytes += item_bytes(it)
+            self.taken_items += 1
+            if self._waiting:
+                self._room.set()
+            yield it
+            frames += n
+            if frames >= max_frames:
+                break
+
+    def stop(self) -> None:
+        """Stop reading (queued items stay for :meth:`take`)."""
+        self._stopping.set()
+        self._room.set()
+        if self._thread.is_alive():
+            self._thread.join(5)
+        elif self._wake_tx is not None and not self._wake_tx.closed:
+            self._wake_tx.close(linger=0)  # never started: _run did not close it
+
+    def close(self) -> None:
+        for sock in (self.sock, self.wake):
+            if sock is not None:
+                sock.close()
+
+    def stats(self) -> dict:
+        """Totals for ``stats``: the fixed bound, what is queued, and how often it was full."""
+        return {"ingest_hwm": self.bounds.hwm, "ingest_queued_bytes": self.queued_bytes,
+                "ingest_peak_bytes": self.peak_bytes, "ingest_waits": self.waits}

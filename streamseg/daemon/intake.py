@@ -1,7 +1,8 @@
 """How the daemon's loop turns ingest packets into stream work (a part of :class:`Daemon`).
 
-Draining the PULL socket, decoding, announce and the stream table, frame sequencing (gaps,
-duplicates, limits) and the vectorised per-stream flush that publishes cuts and repetitions.
+Taking the receiver's queue (:mod:`streamseg.daemon.ingest`), announce and the stream table,
+frame sequencing (gaps, duplicates, limits) and the vectorised per-stream flush that
+publishes cuts and repetitions.
 The loop, sockets, publication, relabel results and shutdown stay in
 :mod:`streamseg.daemon.server`.
 """
@@ -12,11 +13,10 @@ import logging
 import time
 
 import numpy as np
-import zmq
 
 from streamseg import protocol
 from streamseg.daemon import limits
-from streamseg.daemon.ingest import recv_message
+from streamseg.daemon.ingest import BodyItem, FramesItem
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.security import peer_of
@@ -30,84 +30,35 @@ class Intake:
     """The ingest half of :class:`~streamseg.daemon.server.Daemon` (a mixin: it uses the
     daemon's sockets, stream table, counters and publication methods)."""
 
-    def _drain(self, now: float) -> None:
-        sock, clock, budget = self.ingest, time.perf_counter, self.budget
-        stop_at = self.n_frames + self.config.drain_frames
-        held = biggest = 0
-        big = None
-        for _ in range(self.config.drain):
-            try:
-                parts = recv_message(sock, zmq.NOBLOCK)
-            except zmq.Again:
-                break
-            size = len(parts[-1])
-            held += size
-            if size > biggest:
-                biggest, big = size, parts[0]
-            self._on_message(parts, now, clock())
-            # frames bound the latency of big packets, bytes the memory they hold
-            if self.n_frames >= stop_at or held >= budget.drain_bytes:
-                break
-        for st in self._dirty:
-            self._flush(st)
-        self._dirty.clear()
-        if biggest >= budget.threshold or budget.senders:
-            hwm = budget.observe(biggest, peer_of(big) if big is not None else None, now)
-            if hwm is not None:
-                sock.setsockopt(zmq.RCVHWM, hwm)
-
     def _take(self, now: float) -> None:
-        """Like :meth:`_drain`, from the receiver thread's queue of decoded messages."""
-        items = self.receiver.items
-        stop_at = self.n_frames + self.config.drain_frames
-        for _ in range(self.config.drain):
-            if not items:
-                break
-            it = items.popleft()
+        """Handle the messages the receiver thread queued (at most ``drain`` packets and
+        ``drain_frames`` frames), then run each stream's pipeline once on what it got."""
+        c = self.config
+        for it in self.ingest.take(c.drain, c.drain_frames):
             self.n_packets += 1
             try:
-                if it[0] == "f":
-                    self.receiver.taken += it[4].shape[0]
-                    self.receiver.taken_bytes += it[4].nbytes
-                    st = self.streams.get(it[1])
+                if type(it) is FramesItem:
+                    st = self.streams.get(it.stream)
                     if st is None or st.client is None:
-                        self._sender = it[6]
+                        self._sender = it.sender
                         if st is None:
-                            st = self._unannounced(it[1], now)
+                            st = self._unannounced(it.stream, now)
                             if st is None:
                                 continue
-                    self._on_frames(st, it[2], it[3], it[4], now, it[5])
-                elif it[0] == "o":
-                    self.receiver.taken_bytes += it[3]
-                    self._sender = it[2]
-                    self._on_body(it[1], now, 0.0)
+                    self._on_frames(st, it.seq, it.timestamp, it.positions, now, it.arrival)
+                elif type(it) is BodyItem:
+                    self._sender = it.sender
+                    self._on_body(it.body, now, 0.0)
                 else:
-                    self._error(it[1], it[2], it[3])
+                    self._error(it.stream, it.reason, it.message)
             except protocol.WireError as err:
                 self._error(err.stream, err.kind, str(err))
             except Exception as err:  # a packet validation missed must not stop the daemon
                 self._error(None, "decode", f"packet could not be handled "
                             f"({type(err).__name__}: {err})")
-            if self.n_frames >= stop_at:
-                break
         for st in self._dirty:
             self._flush(st)
         self._dirty.clear()
-
-    def _on_message(self, parts, now: float, arrival: float = 0.0) -> None:
-        self.n_packets += 1
-        if len(parts) != 2:
-            self._error(None, "decode", f"expected 2 message parts [topic, body], got "
-                        f"{len(parts)}")
-            return
-        self._sender = parts[0]
-        try:
-            self._on_body(protocol.unpack_body(parts[1]), now, arrival)
-        except protocol.WireError as err:
-            self._error(err.stream, err.kind, str(err))
-        except Exception as err:  # a packet validation missed must not stop the daemon
-            self._error(None, "decode", f"packet could not be handled "
-                        f"({type(err).__name__}: {err})")
 
     def _on_body(self, obj: dict, now: float, arrival: float) -> None:
         """Dispatch one unpacked ingest body (envelope checked); raises WireError."""

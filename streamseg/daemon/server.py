@@ -24,7 +24,7 @@ from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.control import serve_control
 from streamseg.daemon.cut_events import publish_cut
 from streamseg.daemon.eventlog import Numbering, open_log
-from streamseg.daemon.ingest import Receiver
+from streamseg.daemon.ingest import Ingest
 from streamseg.daemon.intake import Intake
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import Algorithms
@@ -118,7 +118,6 @@ class Daemon(Intake):
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
         self.clients = collections.Counter()  # open streams per client (the quota)
-        self.budget = limits.IngestBudget(self.config.ingest_bytes, self.config.ingest_hwm)
         self._sender = None  # topic frame of the message being handled (its identity)
         self.security = None
         self.conn_ids = None  # names of ingest connections without CURVE (security.py)
@@ -155,15 +154,13 @@ class Daemon(Intake):
             if c.control:
                 self.token, self.token_file = control_token()
         secure = self.security.apply if self.security is not None else (lambda sock: None)
-        self.ingest = self.ctx.socket(zmq.PULL)
-        secure(self.ingest)
-        if self.conn_ids is not None:
-            self.conn_ids.apply(self.ingest)
-        self.ingest.setsockopt(zmq.RCVHWM, c.ingest_hwm)
-        ipv6(self.ingest, c.ingest)
-        self.ingest.setsockopt(zmq.LINGER, 0)
-        self.ingest.setsockopt(zmq.MAXMSGSIZE, c.max_message_bytes)
-        self.ingest.bind(_bindable(c.ingest))
+        def secure_ingest(sock):
+            secure(sock)
+            if self.conn_ids is not None:
+                self.conn_ids.apply(sock)
+
+        self.ingest = Ingest(self.ctx, c, secure_ingest)
+        ingest_endpoint = self.ingest.bind(_bindable(c.ingest))
         self.pub = self.ctx.socket(zmq.PUB)
         secure(self.pub)
         self.pub.setsockopt(zmq.SNDHWM, c.hwm)
@@ -172,21 +169,11 @@ class Daemon(Intake):
         self.pub.bind(_bindable(c.publish))
         self.control = None
         self.poller = zmq.Poller()
-        self.receiver = None
-        if c.receive_thread:
-            self._wake = self.ctx.socket(zmq.PAIR)
-            self._wake.bind(f"inproc://streamseg-wake-{id(self)}")
-            wake_tx = self.ctx.socket(zmq.PAIR)
-            wake_tx.connect(f"inproc://streamseg-wake-{id(self)}")
-            self.receiver = Receiver(self.ingest, wake_tx, c.ingest_hwm, c.drain_frames,
-                                     self.budget)
-            self.poller.register(self._wake, zmq.POLLIN)
-        else:
-            self.poller.register(self.ingest, zmq.POLLIN)
+        self.poller.register(self.ingest.wake, zmq.POLLIN)
         if self.eventlog is not None:
             self.poller.register(self._log_rx, zmq.POLLIN)
         self.endpoints = {
-            "ingest": self.ingest.getsockopt_string(zmq.LAST_ENDPOINT),
+            "ingest": ingest_endpoint,
             "publish": self.pub.getsockopt_string(zmq.LAST_ENDPOINT),
         }
         if c.control:
@@ -218,8 +205,7 @@ class Daemon(Intake):
                      self.endpoints["ingest"], self.endpoints["publish"],
                      self.endpoints.get("control", "off"))
             self.worker.start()
-            if self.receiver is not None:
-                self.receiver.start()
+            self.ingest.start()
             self._started = time.monotonic()
             if self.eventlog is not None and self.eventlog.quarantined:
                 aside, why = self.eventlog.quarantined
@@ -238,17 +224,13 @@ class Daemon(Intake):
             self.ready.set()
             while not self._stop.is_set():
                 busy = self.worker.busy_key is not None or self.worker.queued()
-                timeout = 0 if self.receiver is not None and self.receiver.items else \
+                timeout = 0 if self.ingest.items else \
                     (1 if self._ckpt_round else 10 if busy else 100)
                 events = dict(self.poller.poll(timeout))
                 now = time.monotonic()
-                if self.receiver is not None:
-                    if self._wake in events:
-                        while self._wake.poll(0):
-                            self._wake.recv()
-                    self._take(now)
-                elif self.ingest in events:
-                    self._drain(now)
+                if self.ingest.wake in events:
+                    self.ingest.clear_wake()
+                self._take(now)
                 if self.control is not None and self.control in events:
                     self._serve_control()
                 self._collect()
@@ -552,7 +534,7 @@ class Daemon(Intake):
                    latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
                    latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
                    relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason(),
-                   ingest_hwm=self.budget.hwm)
+                   **self.ingest.stats())
         if self.eventlog is not None and self.eventlog.waits:
             # commit-then-publish: each event's wait for its commit, last 4096 events
             w50, w99 = np.percentile(np.fromiter(self.eventlog.waits, float), (50, 99))

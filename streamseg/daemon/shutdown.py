@@ -26,12 +26,11 @@ def shutdown(daemon) -> None:
                           "published", daemon.eventlog.path)
             daemon._publish_logged()
         daemon.worker.stop(timeout=daemon.config.shutdown_relabel)
-        if daemon.receiver is not None:
-            daemon.receiver.stop()
-            if not daemon.receiver.is_alive():
-                daemon.receiver.wake.close(linger=0)  # its run() closes it only if started
-        for sock in (getattr(daemon, "ingest", None), getattr(daemon, "control", None),
-                     getattr(daemon, "pub", None), getattr(daemon, "_wake", None)):
+        ingest = getattr(daemon, "ingest", None)
+        if ingest is not None:
+            ingest.stop()
+            ingest.close()
+        for sock in (getattr(daemon, "control", None), getattr(daemon, "pub", None)):
             if sock is not None:
                 sock.close()  # default linger: final events still reach listeners
         if daemon.security is not None:
@@ -54,10 +53,9 @@ def shutdown(daemon) -> None:
 def final_events(daemon) -> None:
     """Close every stream: final cuts, a last relabel (bounded by ``shutdown_relabel``), then
     ``closed``; packets already received are processed first."""
-    if daemon.receiver is not None:  # every packet already received is still processed
-        daemon.receiver.stop()
-        while daemon.receiver.items:
-            daemon._take(time.monotonic())
+    daemon.ingest.stop()  # every packet already received is still processed
+    while daemon.ingest.items:
+        daemon._take(time.monotonic())
     deadline = time.monotonic() + daemon.config.shutdown_relabel
     for st in list(daemon.streams.values()):
         daemon._close(st, "shutdown")
