@@ -34,24 +34,6 @@ def snapshot(st: StreamState) -> dict:
     return dump({"stream": st, "pipeline": st.pipeline})
 
 
-def checkpoint(daemon) -> int:
-    """Queue a checkpoint of every open stream at once (the control op ``checkpoint``);
-    returns how many."""
-    store = daemon.checkpoints
-    if store is None:
-        return 0
-    t0 = time.perf_counter()
-    items = []
-    daemon._ckpt_round = []
-    for st in list(daemon.streams.values()):
-        _copy(daemon, st, items)
-    if items:
-        store.put(items)
-    daemon.totals["checkpoints"] += len(items)
-    daemon.checkpoint_seconds += time.perf_counter() - t0
-    return len(items)
-
-
 STEP_BUDGET = 0.002  # seconds of loop time per step of a checkpoint round
 DUTY = 0.02  # at most this share of the loop's time goes to copying states
 # Checkpoints take at most this share of one core on average (the loop's copies and the
@@ -62,72 +44,111 @@ DUTY = 0.02  # at most this share of the loop's time goes to copying states
 CPU_BUDGET = 0.015
 
 
-def step(daemon, now: float) -> int:
-    """One step of the periodic checkpoint: a round starts ``checkpoint_interval`` s after
-    the last one began, or later, once the last round is written, when it cost more than
-    ``CPU_BUDGET`` of a core over that time; it copies the streams that took frames since
-    their last checkpoint. Each step copies streams for at most ``STEP_BUDGET`` s and the
-    next step waits until the copying is at most ``DUTY`` of the loop's time, so the copying
-    never delays packets by more than a step. The spacing is set by the round's own cost,
-    not its predecessor's, so it holds while the streams (and so the rounds) grow. With a
-    few streams the interval is ``checkpoint_interval``; with many it grows with their
-    number (``stats`` reports the spacing; ``docs/protocol.md`` the measured intervals).
-    Returns the streams copied."""
-    store = daemon.checkpoints
-    if not daemon._ckpt_round:
-        if now < daemon._next_ckpt or store.busy():
-            return 0
-        elog = daemon.eventlog
-        if elog is not None and elog.failed != daemon._log_failed_seen:
-            # the event log could not write since the last round (a full disk?): it goes
-            # first, this round is skipped
-            daemon._log_failed_seen = elog.failed
-            store.paused += 1
-            daemon._next_ckpt = now + daemon.config.checkpoint_interval
-            return 0
-        spent = daemon.checkpoint_seconds + store.cpu_seconds
-        cost = spent - daemon._ckpt_spent  # the last round's, now that it is written
-        daemon.checkpoint_gap = max(daemon.config.checkpoint_interval, cost / CPU_BUDGET)
-        daemon._next_ckpt = daemon._ckpt_start + daemon.checkpoint_gap
-        if now < daemon._next_ckpt:
-            return 0
-        daemon._ckpt_start, daemon._ckpt_spent = now, spent
-        daemon._next_ckpt = now + daemon.config.checkpoint_interval
-        seen = daemon._ckpt_seen
-        daemon._ckpt_round = [s for s, st in daemon.streams.items()
-                              if st.frames_in != seen.get(s)]
-    elif now < daemon._ckpt_resume:
-        return 0
-    t0 = time.perf_counter()
-    items = []
-    while daemon._ckpt_round and time.perf_counter() - t0 < STEP_BUDGET:
-        st = daemon.streams.get(daemon._ckpt_round.pop())
-        if st is not None:
-            _copy(daemon, st, items)
-    if items:
-        store.put(items)
-    dt = time.perf_counter() - t0
-    daemon._ckpt_resume = now + dt / DUTY
-    daemon.totals["checkpoints"] += len(items)
-    daemon.checkpoint_seconds += dt
-    return len(items)
+class CheckpointRounds:
+    """When checkpoint rounds run and which streams each copies (the loop thread).
 
+    A round starts ``interval`` s after the last one began, or later, once the last round is
+    written, when it cost more than ``CPU_BUDGET`` of a core over that time; it copies the
+    streams that took frames since their last checkpoint. Each step copies streams for at
+    most ``STEP_BUDGET`` s and the next step waits until the copying is at most ``DUTY`` of
+    the loop's time, so the copying never delays packets by more than a step. The spacing is
+    set by the round's own cost, not its predecessor's, so it holds while the streams (and
+    so the rounds) grow. With a few streams the interval is ``interval``; with many it grows
+    with their number (``stats`` reports the spacing as :attr:`gap`).
 
-def _copy(daemon, st, items: list) -> None:
-    q = daemon.order.get(st.stream) if daemon.order else None
-    if q and q[0][0] != st.gen:
-        # a take waiting for an older one's `closed`: not resumed after a crash either, so
-        # nothing of it can come out before that `closed`
-        return
-    daemon._flush(st)
-    daemon._dirty.pop(st, None)
-    try:
-        items.append((st.stream, st.next_seq, snapshot(st)))
-    except Exception as err:  # e.g. a custom algorithm with state we cannot copy
-        daemon._error(st.stream, "checkpoint", f"stream state not checkpointed: "
-                      f"{type(err).__name__}: {err}")
-        return
-    daemon._ckpt_seen[st.stream] = st.frames_in
+    Parameters
+    ----------
+    store : streamseg.daemon.checkpoint_store.CheckpointStore
+        Where copies go (its writer thread stores them).
+    interval : float
+        ``checkpoint_interval``, seconds.
+    copy : callable
+        ``copy(state) -> (stream, frame, snapshot) or None``: one stream's copy (the daemon
+        flushes the stream first and reports a state it cannot copy).
+    """
+
+    def __init__(self, store, interval: float, copy):
+        self.store, self.interval, self.copy = store, interval, copy
+        self.seconds = 0.0  # loop time spent copying stream states
+        self.copied = 0  # stream states queued for the store
+        self.seen: dict = {}  # stream -> frames_in at its last checkpoint
+        self.gap = interval  # s between round starts, now
+        self._next = 0.0  # monotonic time before which no round starts
+        self._start = 0.0  # monotonic time the last round began
+        self._round: list = []  # streams still to copy in this round
+        self._resume = 0.0  # monotonic time of the round's next step
+        self._spent = 0.0  # seconds + writer CPU when the last round began
+        self._log_failed = 0  # the event log's failed writes when the last round began
+
+    def begin(self, now: float) -> None:
+        """The loop starts: the first round is ``interval`` s away."""
+        self._start, self._next = now, now + self.interval
+
+    @property
+    def in_round(self) -> bool:
+        return bool(self._round)
+
+    def due(self, now: float) -> bool:
+        return bool(self._round) or now >= self._next
+
+    def forget(self, stream: str) -> None:
+        self.seen.pop(stream, None)
+
+    def _queue(self, states) -> int:
+        items = []
+        for st in states:
+            item = self.copy(st)
+            if item is not None:
+                items.append(item)
+                self.seen[st.stream] = st.frames_in
+        if items:
+            self.store.put(items)
+        self.copied += len(items)
+        return len(items)
+
+    def all_now(self, streams: dict) -> int:
+        """Queue a copy of every open stream at once (the control op ``checkpoint``)."""
+        t0 = time.perf_counter()
+        self._round = []
+        n = self._queue(list(streams.values()))
+        self.seconds += time.perf_counter() - t0
+        return n
+
+    def step(self, now: float, streams: dict, log_failed: int) -> int:
+        """One step of the periodic rounds; ``log_failed``: the event log's failed writes so
+        far (a round is skipped after new ones: the log goes first). Returns the streams
+        copied."""
+        store = self.store
+        if not self._round:
+            if now < self._next or store.busy():
+                return 0
+            if log_failed != self._log_failed:
+                self._log_failed = log_failed
+                store.paused += 1
+                self._next = now + self.interval
+                return 0
+            spent = self.seconds + store.cpu_seconds
+            cost = spent - self._spent  # the last round's, now that it is written
+            self.gap = max(self.interval, cost / CPU_BUDGET)
+            self._next = self._start + self.gap
+            if now < self._next:
+                return 0
+            self._start, self._spent = now, spent
+            self._next = now + self.interval
+            self._round = [s for s, st in streams.items() if st.frames_in != self.seen.get(s)]
+        elif now < self._resume:
+            return 0
+        t0 = time.perf_counter()
+        batch = []
+        while self._round and time.perf_counter() - t0 < STEP_BUDGET:
+            st = streams.get(self._round.pop())
+            if st is not None:
+                batch.append(st)
+        n = self._queue(batch)
+        dt = time.perf_counter() - t0
+        self._resume = now + dt / DUTY
+        self.seconds += dt
+        return n
 
 
 def restore(daemon, now: float) -> int:
@@ -155,7 +176,7 @@ def restore(daemon, now: float) -> int:
                       type(err).__name__, err)
             continue
         daemon.streams[stream] = st
-        daemon._ckpt_seen[stream] = st.frames_in
+        daemon.rounds.seen[stream] = st.frames_in
         # events published in the last moments before the crash may not have reached the log:
         # their numbers are skipped, never reused for other events
         # (published only once logged, they are there unless the disk refused them)

@@ -8,7 +8,6 @@ import msgpack
 import zmq
 
 from streamseg import protocol
-from streamseg.daemon.checkpoint import checkpoint
 from streamseg.daemon.eventlog import LogReadError
 from streamseg.protocol.auth import matches
 
@@ -89,7 +88,7 @@ def answer(daemon, req, may_change: bool = True) -> dict:
             return {"ok": False, "error": "checkpoints are off (give --state-dir and a "
                                           "checkpoint_interval > 0)"}
         daemon.checkpoints.wait()
-        n = checkpoint(daemon)
+        n = daemon.rounds.all_now(daemon.streams)
         daemon.checkpoints.wait()  # the reply says it is on disk
         return {"ok": True, "streams": n}
     if op == "shutdown":

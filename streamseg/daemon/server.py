@@ -38,6 +38,7 @@ from streamseg.daemon.security import (
 from streamseg.daemon.shutdown import shutdown
 from streamseg.daemon.state_lock import lock_state_dir
 from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
+from streamseg.daemon.take_order import TakeOrder
 from streamseg.daemon.worker import RelabelJob
 
 log = logging.getLogger("streamseg.daemon")
@@ -108,10 +109,7 @@ class Daemon(Intake):
         os.set_blocking(self._log_rx, False)
         os.set_blocking(self._log_tx, False)
         self.eventlog = open_log(self.config, notify=self._log_committed)
-        # per stream id, while an older take of it awaits its final relabel: the takes whose
-        # events are not all out, oldest first, as [gen, state, held events]; only the oldest
-        # publishes, the others' events wait (docs/protocol.md, order of a stream's events)
-        self.order: dict = {}
+        self.order = TakeOrder()  # a stream id's events across its takes
         # closed stream -> until when the heartbeats carry its last number, oldest first
         self._closed_since_beat: collections.OrderedDict = collections.OrderedDict()
         self._store_failed: dict = {}  # reason -> failed writes already reported
@@ -123,15 +121,10 @@ class Daemon(Intake):
         self.conn_ids = None  # names of ingest connections without CURVE (security.py)
         self.token = self.token_file = None  # the control token without CURVE (protocol/auth.py)
         self.checkpoints = checkpoint_store.open_store(self.config)
-        self.checkpoint_seconds = 0.0  # loop time spent copying stream states
-        self._ckpt_seen: dict = {}  # stream -> frames_in at its last checkpoint
-        self._next_ckpt = 0.0  # monotonic time before which no round starts
-        self._ckpt_start = 0.0  # monotonic time the last round began
-        self._ckpt_round: list = []  # streams still to copy in this checkpoint round
-        self._ckpt_resume = 0.0  # monotonic time of the round's next step
-        self._ckpt_spent = 0.0  # checkpoint_seconds + writer CPU when the last round began
-        self._log_failed_seen = 0  # the event log's failed writes when the last round began
-        self.checkpoint_gap = self.config.checkpoint_interval  # s between round starts, now
+        self.rounds = (checkpoint.CheckpointRounds(self.checkpoints,
+                                                   self.config.checkpoint_interval,
+                                                   self._checkpoint_copy)
+                       if self.checkpoints is not None else None)
         self.worker = relabel_worker(self.algorithms, self.config)
         self.default_skeleton = None
         if self.config.default_skeleton:
@@ -219,13 +212,14 @@ class Daemon(Intake):
                 # numbers skipped) is on record before the daemon answers: a `since` right
                 # after the first ping finds it
                 self.eventlog.sync()
-            self._ckpt_start = self._started
-            self._next_ckpt = self._started + self.config.checkpoint_interval
+            if self.rounds is not None:
+                self.rounds.begin(self._started)
             self.ready.set()
             while not self._stop.is_set():
                 busy = self.worker.busy_key is not None or self.worker.queued()
                 timeout = 0 if self.ingest.items else \
-                    (1 if self._ckpt_round else 10 if busy else 100)
+                    (1 if self.rounds is not None and self.rounds.in_round else
+                     10 if busy else 100)
                 events = dict(self.poller.poll(timeout))
                 now = time.monotonic()
                 if self.ingest.wake in events:
@@ -243,8 +237,9 @@ class Daemon(Intake):
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
                     self._beat(now)
-                if self.checkpoints is not None and (self._ckpt_round or now >= self._next_ckpt):
-                    checkpoint.step(self, now)
+                if self.rounds is not None and self.rounds.due(now):
+                    self.rounds.step(now, self.streams, self.eventlog.failed
+                                     if self.eventlog is not None else 0)
         finally:
             self._shutdown()
         return 0
@@ -284,20 +279,29 @@ class Daemon(Intake):
                                       st.pipeline.previous, final, tuple(st.pipeline.cut_frames)))
         return True
 
+    def _checkpoint_copy(self, st: StreamState):
+        """``(stream, frame, snapshot)`` of one stream for a checkpoint, or None."""
+        if self.order and self.order.waits(st.stream, st.gen):
+            # a take waiting for an older one's `closed`: not resumed after a crash either, so
+            # nothing of it can come out before that `closed`
+            return None
+        self._flush(st)
+        self._dirty.pop(st, None)
+        try:
+            return (st.stream, st.next_seq, checkpoint.snapshot(st))
+        except Exception as err:  # e.g. a custom algorithm with state we cannot copy
+            self._error(st.stream, "checkpoint", f"stream state not checkpointed: "
+                        f"{type(err).__name__}: {err}")
+            return None
+
     # --- events ------------------------------------------------------------------------------
 
     def _publish(self, st: StreamState | None, ev):
         """Number, log and publish one event; returns it with its ``seq`` (None while it waits
         for an older take of its stream id to close). With a log it is published once
         committed (:meth:`_publish_logged`)."""
-        q = self.order.get(ev.stream) if self.order and ev.type != "stats" else None
-        if q is not None:
-            gen = st.gen if st is not None else q[-1][0]
-            if gen != q[0][0]:
-                for take in q:
-                    if take[0] == gen:
-                        take[2].append((st, ev))
-                        return ev
+        if self.order and self.order.hold(st, ev):
+            return ev
         return self._send(st, ev)
 
     def _send(self, st: StreamState | None, ev):
@@ -331,44 +335,6 @@ class Daemon(Intake):
         for parts in self.eventlog.committed():
             self.pub.send_multipart(parts)
 
-    def _wait_for_older_takes(self, st: StreamState) -> None:
-        """A take opens while older takes of its stream id await their final relabel: its
-        events wait until their ``closed`` events are out."""
-        older = sorted(g for (s, g) in self.closing if s == st.stream)
-        q = self.order.get(st.stream)
-        if q is None and older:
-            q = self.order[st.stream] = [[g, self.closing[(st.stream, g)][0], []]
-                                         for g in older]
-        if q is not None:
-            q.append([st.gen, st, []])
-
-    def _take_done(self, st: StreamState) -> None:
-        """``closed`` of ``st`` is out: the next take of its id publishes what it held."""
-        q = self.order.get(st.stream)
-        if not q or q[0][0] != st.gen:
-            return
-        q.pop(0)
-        while q:
-            gen, nxt, held = q[0]
-            if nxt is not None:  # its history starts after the older take's closed
-                nxt.seq_base = self.numbering.current(st.stream)
-            done = False
-            for hst, hev in held:
-                numbered = self._send(hst, hev)
-                if hst is not None:  # the late joiners' copies get their numbers too
-                    if hst.segments is hev:
-                        hst.segments = numbered
-                    for i, c in enumerate(hst.cuts):
-                        if c is hev:
-                            hst.cuts[i] = numbered
-                done = done or hev.type == "closed"
-            held.clear()
-            if not done:
-                break
-            q.pop(0)
-        if len(q) <= 1 and not any(s == st.stream for (s, _) in self.closing):
-            del self.order[st.stream]
-
     def _publish_results(self, st: StreamState, cuts, reps) -> None:
         """Publish a pipeline step's ``(frame, score, emitted, kind)`` cuts and ``(start, end,
         count, emitted, label, set)`` repetitions (live, and the final ones at close)."""
@@ -396,8 +362,9 @@ class Daemon(Intake):
 
     def _open(self, stream, fps, skeleton, now):
         st = super()._open(stream, fps, skeleton, now)
-        if st is not None and self.closing:
-            self._wait_for_older_takes(st)
+        if st is not None and self.closing:  # its events wait for older takes' `closed`
+            older = sorted(g for (s, g) in self.closing if s == st.stream)
+            self.order.opened(st, [(g, self.closing[(st.stream, g)][0]) for g in older])
         return st
 
     def _close(self, st: StreamState, reason: str) -> None:
@@ -421,7 +388,7 @@ class Daemon(Intake):
         del self.streams[st.stream]
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
-            self._ckpt_seen.pop(st.stream, None)
+            self.rounds.forget(st.stream)
         if st.client is not None:
             self.clients[st.client] -= 1
             if not self.clients[st.client]:
@@ -436,7 +403,8 @@ class Daemon(Intake):
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
         if self.order:
-            self._take_done(st)
+            self.order.closed(st, self._send, lambda: self.numbering.current(st.stream),
+                              any(s == st.stream for (s, _) in self.closing))
         self._closed_since_beat[st.stream] = time.monotonic() + CLOSED_LAST_SEQ_S
         self._closed_since_beat.move_to_end(st.stream)
         state = st.state()
@@ -541,7 +509,8 @@ class Daemon(Intake):
             out.update(publish_wait_p50_ms=round(w50 * 1e3, 3),
                        publish_wait_p99_ms=round(w99 * 1e3, 3))
         if self.checkpoints is not None:
-            out["checkpoint_interval_s"] = round(self.checkpoint_gap, 3)
+            out["checkpoints"] = self.rounds.copied  # stream states copied for the store
+            out["checkpoint_interval_s"] = round(self.rounds.gap, 3)
             out["checkpoints_written"] = self.checkpoints.written  # committed, not queued
         return out
 
