@@ -34,8 +34,13 @@ def add_arguments(parser) -> None:
                         help="frame rate of positions without a time column; replaces the "
                              "file's own")
     add_source_arguments(parser)
-    parser.add_argument("--to", required=True, type=endpoint, metavar="ENDPOINT",
-                        help="daemon ingest endpoint")
+    parser.add_argument("--to", type=endpoint, metavar="ENDPOINT",
+                        help="daemon ingest endpoint (PUSH: the daemon's pace)")
+    parser.add_argument("--publish", type=endpoint, metavar="ENDPOINT",
+                        help="instead of --to: publish the stream on this endpoint (a PUB "
+                             "socket bound here), as a mocap bridge does, for daemons "
+                             "started with --subscribe ENDPOINT; the announce is repeated "
+                             "every second for subscribers that join late")
     parser.add_argument("--speed", type=float, default=1.0, help="times real time; 0 = max")
     parser.add_argument("--stream", help="stream id (default: the file's stem)")
     parser.add_argument("--batch", type=int, default=1, metavar="N", help="frames per packet")
@@ -208,6 +213,9 @@ def _run(args) -> int:
                              "characters of A-Z a-z 0-9 _ . : @ + = - (docs/protocol.md)")
     if not args.wait > 0:
         raise ParameterError(f"--wait {args.wait:g} is invalid: expected seconds > 0")
+    if (args.to is None) == (args.publish is None):
+        raise ParameterError("give --to ENDPOINT (a daemon's ingest) or --publish ENDPOINT "
+                             "(publish for daemons that subscribe), one of them")
     if args.labels:  # the view reads them later, elsewhere: a wrong path is said now
         from streamseg.evaluation.labels import read_labels
 
@@ -232,6 +240,8 @@ def _run(args) -> int:
         print(f"streamseg replay: waiting for the daemon at {args.to} (up to {args.wait:g} s)",
               file=sys.stderr, flush=True)
 
+    if args.publish is not None:
+        return _publish_run(args, rec, stream, dtype, ctx)
     while True:
         try:
             sent = replay(rec, args.to, stream=stream, speed=args.speed, batch=args.batch,
@@ -256,3 +266,86 @@ def _run(args) -> int:
               f"{'es' if passes > 1 else ''}) to {args.to}", flush=True)
         if not args.loop:
             return 0
+
+
+REANNOUNCE_S = 1.0  # a publisher's announce is repeated this often (late subscribers)
+
+
+def publish(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: int = 1,
+            dtype=np.float64, ctx: zmq.Context | None = None, end: bool = True,
+            settle: float = 1.0, sock=None) -> int:
+    """Publish one pass of ``recording`` on a PUB socket bound at ``endpoint`` (or ``sock``,
+    already bound); returns the frames sent.
+
+    A publisher has no backpressure: at ``speed`` 0 it sends as fast as it can and a
+    subscriber that cannot keep up loses packets (the daemon reports them as ``gap``
+    events). The announce goes out every :data:`REANNOUNCE_S` seconds, so a daemon that
+    subscribes late still opens the stream; ``settle`` seconds pass after binding before the
+    first packet, for subscribers to connect.
+    """
+    if batch < 1:
+        raise ParameterError(f"--batch {batch} is invalid: expected frames per packet >= 1")
+    if not speed >= 0:
+        raise ParameterError(f"--speed {speed} is invalid: expected times real time >= 0")
+    own = sock is None
+    if own:
+        ctx = ctx or zmq.Context.instance()
+        sock = ctx.socket(zmq.PUB)
+        sock.setsockopt(zmq.LINGER, 2000)
+        ipv6(sock, endpoint)
+        sock.bind(endpoint)
+    positions = np.ascontiguousarray(recording.positions, dtype=dtype)
+    n, fps = positions.shape[0], float(recording.fps)
+    announce = protocol.encode(announce_of(recording, stream))
+    try:
+        time.sleep(settle)
+        sock.send_multipart(announce)
+        t0 = last = time.perf_counter()
+        for a in range(0, n, batch):
+            now = time.perf_counter()
+            if now - last >= REANNOUNCE_S:
+                sock.send_multipart(announce)
+                last = now
+            if speed > 0:
+                pause = t0 + a / (fps * speed) - now
+                if pause > 0:
+                    time.sleep(pause)
+            sock.send_multipart(protocol.encode(
+                protocol.Frames(stream, a, time.time(), positions[a:a + batch])))
+        if end:
+            sock.send_multipart(protocol.encode(protocol.End(stream)))
+    finally:
+        if own:
+            sock.close()
+    return n
+
+
+def _publish_run(args, rec, stream, dtype, ctx) -> int:
+    passes = 0
+    sock = ctx.socket(zmq.PUB)
+    sock.setsockopt(zmq.LINGER, 2000)
+    ipv6(sock, args.publish)
+    try:
+        sock.bind(args.publish)
+    except zmq.ZMQError as err:
+        raise ParameterError(f"--publish {args.publish}: cannot bind there ({err}); give a "
+                             "free address, e.g. tcp://127.0.0.1:5570") from None
+    print(f"streamseg replay: publishing {stream} at {args.publish}", flush=True)
+    try:
+        while True:
+            try:
+                sent = publish(rec, args.publish, stream=stream, speed=args.speed,
+                               batch=args.batch, dtype=dtype, sock=sock,
+                               settle=1.0 if passes == 0 else 0.0)
+            except KeyboardInterrupt:
+                sock.send_multipart(protocol.encode(protocol.End(stream)))
+                print(f"streamseg replay: interrupted: published end of {stream}",
+                      file=sys.stderr)
+                return 130
+            passes += 1
+            print(f"streamseg replay: {stream}: published {sent} frames ({passes} pass"
+                  f"{'es' if passes > 1 else ''}) at {args.publish}", flush=True)
+            if not args.loop:
+                return 0
+    finally:
+        sock.close()

@@ -69,6 +69,11 @@ def add_arguments(parser) -> None:
             parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
                                 action=argparse.BooleanOptionalAction, help=text)
             continue
+        if kind is tuple:  # a list: the option is repeated
+            parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
+                                action="append", metavar="ENDPOINT",
+                                help=f"{para} (repeatable)".replace("%", "%%"))
+            continue
         parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
                             type=kind, metavar="DIR" if f.name == "state_dir"
                             else kind.__name__.upper(), help=text)
@@ -84,6 +89,8 @@ def build(args):
         config, lof, aca, rep = load_config(args.config)
     overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DaemonConfig)
                  if getattr(args, f.name, None) is not None}
+    if "subscribe" in overrides:  # given on the command line too: both lists
+        overrides["subscribe"] = (*config.subscribe, *overrides["subscribe"])
     config = dataclasses.replace(config, **overrides)
     if not config.state_dir:  # the library default is none; a service keeps its log
         from streamseg.daemon.eventlog import default_state_dir

@@ -33,6 +33,11 @@ class DaemonConfig:
         Largest frame count accepted in one packet (bounds memory per message).
     drain, drain_frames : int
         Most packets, and frames, taken from the socket before one vectorised pipeline step.
+    subscribe : tuple of str
+        Publishers of frame packets to subscribe to (SUB), beside the PULL ``ingest``: no
+        backpressure; a packet the publisher dropped shows as a ``gap``.
+    subscribe_hwm : int
+        Packets the subscription holds (fixed at connect); beyond, the publisher drops.
     ingest_hwm, hwm : int
         ZeroMQ high-water marks (messages): of ingest, per connection, fixed at bind (with
         the receiver's queue it bounds memory; senders wait), and of publish.
@@ -89,6 +94,8 @@ class DaemonConfig:
     drain: int = 16000
     drain_frames: int = 32768
     ingest_hwm: int = 4
+    subscribe: tuple = ()
+    subscribe_hwm: int = 64
     hwm: int = 100000
     default_skeleton: str = ""
     default_fps: float = 120.0
@@ -130,6 +137,11 @@ class DaemonConfig:
             isinstance(self.control, str) and (self.control == "" or "://" in self.control),
             'an endpoint or "" (off)',
         )
+        if isinstance(self.subscribe, list):  # TOML gives a list
+            object.__setattr__(self, "subscribe", tuple(self.subscribe))
+        _check("subscribe", self.subscribe, isinstance(self.subscribe, tuple) and all(
+            isinstance(e, str) and "://" in e for e in self.subscribe),
+            'a list of endpoints, e.g. ["tcp://127.0.0.1:5570"]')
         _check("relabel_processes", self.relabel_processes,
                type(self.relabel_processes) is int and self.relabel_processes >= 0,
                "an integer >= 0")
@@ -144,7 +156,7 @@ class DaemonConfig:
                isinstance(self.relabel_share, (int, float)) and 0 < self.relabel_share <= 1,
                "a fraction in (0, 1]")
         for name in ("max_streams", "max_packet_frames", "drain", "drain_frames", "hwm",
-                     "ingest_hwm"):
+                     "ingest_hwm", "subscribe_hwm"):
             v = getattr(self, name)
             _check(
                 name,

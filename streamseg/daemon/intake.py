@@ -48,7 +48,7 @@ class Intake:
                     self._on_frames(st, it.seq, it.timestamp, it.positions, now, it.arrival)
                 elif type(it) is BodyItem:
                     self._sender = it.sender
-                    self._on_body(it.body, now, 0.0)
+                    self._on_body(it.body, now, 0.0, it.subscribed)
                 else:
                     self._error(it.stream, it.reason, it.message)
             except protocol.WireError as err:
@@ -60,7 +60,7 @@ class Intake:
             self._flush(st)
         self._dirty.clear()
 
-    def _on_body(self, obj: dict, now: float, arrival: float) -> None:
+    def _on_body(self, obj: dict, now: float, arrival: float, subscribed: bool = False) -> None:
         """Dispatch one unpacked ingest body (envelope checked); raises WireError."""
         kind = obj["type"]
         stream = obj.get("stream")
@@ -72,7 +72,7 @@ class Intake:
                     return
             self._on_frames(st, *protocol.frames_fields(obj, stream), now, arrival)
         elif kind == "announce":
-            self._on_announce(protocol.from_body(obj), now)
+            self._on_announce(protocol.from_body(obj), now, subscribed)
         elif kind == "end":
             msg = protocol.from_body(obj)
             st = self.streams.get(msg.stream)
@@ -95,18 +95,27 @@ class Intake:
                         "(send an announce message first, or configure default_skeleton)")
         return None
 
-    def _on_announce(self, msg: protocol.Announce, now: float) -> None:
+    def _on_announce(self, msg: protocol.Announce, now: float, subscribed: bool = False) -> None:
         problem = limits.fps_problem(msg.fps, self.config)
         if problem:
             self._error(msg.stream, "field", problem)
             return
         old = self.streams.get(msg.stream)
+        if subscribed and old is not None and _same_take(old, msg):
+            # a publisher announces its streams again and again, for subscribers that join
+            # late (docs/protocol.md, Subscribing): the same announce is no new take
+            old.last_seen = now
+            return
         if old is not None:
             if not self._owns(old, msg.auth, "re-announce"):
                 return
             self._close(old, "reannounced")
         skeleton = skeleton_from(msg.joints, msg.parents, msg.units, msg.up)
         st = self._open(msg.stream, msg.fps, skeleton, now)
+        if st is not None and subscribed:
+            # joined on a publisher's announce, perhaps long into its take: the take starts
+            # at the first frame this daemon receives, not at frame 0 (docs/protocol.md)
+            self.joined.add((st.stream, st.gen))
         if st is not None and msg.labels:  # passed on to subscribers through `state`
             st.labels = {"path": msg.labels, "sequence": msg.labels_sequence or msg.stream}
 
@@ -190,6 +199,10 @@ class Intake:
             st.dropped += n
             self._error(st.stream, "seq" if seq > st.next_seq else "field", problem)
             return
+        if self.joined and st.frames_in == 0 and (st.stream, st.gen) in self.joined:
+            self.joined.discard((st.stream, st.gen))
+            st.next_seq = seq
+            st.pipeline.start_at(seq)
         if st.t0 is None:
             st.t0 = timestamp - seq / st.fps
         if seq != st.next_seq:
@@ -249,3 +262,10 @@ class Intake:
         self.latency.add(time.perf_counter() - np.array(arrivals))
         if self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel:
             self.due[st] = None  # snapshot taken when the worker has a free slot (_feed)
+
+
+def _same_take(st: StreamState, msg: protocol.Announce) -> bool:
+    """Whether ``msg`` announces the open take ``st`` again (rate and skeleton alike)."""
+    sk = st.pipeline.skeleton
+    return (msg.fps == st.fps and tuple(msg.joints) == tuple(sk.names)
+            and list(msg.parents) == [int(p) for p in sk.parents])

@@ -328,6 +328,11 @@ class StreamPipeline:
                 self.cut_frames.remove(ev.frame + o)
         return out
 
+    def start_at(self, frame: int) -> None:
+        """Before the first :meth:`push`: the take's first frame is ``frame`` (a take joined
+        late, through a subscription), not 0."""
+        self.next_frame = self.offset = frame
+
     def push(self, positions: np.ndarray, first_frame: int):
         """Learn stream frames ``first_frame ...`` of ``positions`` (n, J, 3).
 

@@ -179,8 +179,19 @@ def is_loopback(endpoint: str) -> bool:
 
 
 def check_binds(config) -> None:
-    """Refuse non-loopback endpoints without CURVE unless ``insecure`` (ParameterError)."""
-    if config.curve_dir or config.insecure:
+    """Refuse non-loopback endpoints without CURVE unless ``insecure`` (ParameterError);
+    publishers subscribed to (``subscribe``) are never encrypted: beyond loopback they need
+    ``insecure``."""
+    if config.insecure:
+        return
+    for ep in config.subscribe:
+        if not is_loopback(ep):
+            raise ParameterError(
+                f"subscribe={ep} is not a loopback address: a subscription is not encrypted "
+                f"(CURVE covers the PULL ingest only), so anyone on the way could read or "
+                f"forge its frames. Send to the ingest endpoint with CURVE instead, or give "
+                f"--insecure if the network is trusted")
+    if config.curve_dir:
         return
     for name in ("ingest", "publish", "control"):
         ep = getattr(config, name)

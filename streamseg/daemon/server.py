@@ -110,6 +110,7 @@ class Daemon(Intake):
         os.set_blocking(self._log_tx, False)
         self.eventlog = open_log(self.config, notify=self._log_committed)
         self.order = TakeOrder()  # a stream id's events across its takes
+        self.joined: set = set()  # (stream, gen) opened by a subscription, no frame yet
         # closed stream -> until when the heartbeats carry its last number, oldest first
         self._closed_since_beat: collections.OrderedDict = collections.OrderedDict()
         self._store_failed: dict = {}  # reason -> failed writes already reported
