@@ -38,13 +38,24 @@ def add_arguments(group) -> None:
                        help="frame kernel (equality: 1 iff frames are equal)")
     group.add_argument("--sigma", type=float, default=None, metavar="S",
                        help="Gaussian bandwidth (default: from the data)")
-    group.add_argument("--restarts", type=int, default=_DEFAULTS.n_init, metavar="N",
+    group.add_argument("--restarts", type=_restarts, default=_DEFAULTS.n_init, metavar="N",
                        help=f"random restarts (default {_DEFAULTS.n_init})")
     group.add_argument("--seed", type=int, default=0, metavar="N", help="random seed")
     group.add_argument("--reduce", type=int, default=None, metavar="K",
                        help="temporal reduction into K frame classes, 0 = off (default: "
                             f"{_DEFAULTS.k_reduce} for recordings and matrices of more than "
                             "1,000 rows)")
+
+
+def _restarts(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if not 1 <= n <= 1000:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of restarts in "
+                                         "1..1000 (each one is a whole ACA run)")
+    return n
 
 
 def _clusters(text: str):

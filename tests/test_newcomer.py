@@ -1,0 +1,45 @@
+"""What a newcomer trips on (issue 44's table): each gets one line saying what is wrong and
+how to fix it (exit 2), never an ``internal error``, a ``MemoryError`` or silence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.test_cli_audit import _one_line
+
+
+@pytest.fixture(scope="module")
+def features(tmp_path_factory):
+    f = tmp_path_factory.mktemp("x") / "X.npy"
+    np.save(f, np.random.default_rng(0).normal(size=(600, 19)).astype("f4"))
+    return f
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["--fps", "1e9"], "at most 10000"),
+    (["--fps", "120", "--buffer", "1e9"], "lower buffer_s (--buffer)"),
+    (["--fps", "120", "--k", "100000000"], "k (--k)"),
+    (["--fps", "120", "--delay", "1e12"], "delay_s (--delay)"),
+    (["--fps", "120", "--refine", "1e9"], "refine_s (--refine)"),
+    (["--fps", "120", "--method", "aca", "--restarts", "100000000"], "1..1000"),
+])
+def test_sizes_beyond_any_detector_are_one_line_not_a_memory_error(capsys, features, argv,
+                                                                   said):
+    line = _one_line(capsys, ["segment", features, *argv])
+    assert said in line, line
+
+
+def test_an_aca_segment_longer_than_the_take_is_the_take(capsys, features):
+    """``--max-len 1e9`` asked the DP for 2.9 TiB; no segment can outgrow the sequence."""
+    from streamseg.cli import main
+
+    assert main(["segment", str(features), "--fps", "120", "--method", "aca", "--max-len",
+                 "1e9", "--clusters", "2", "--json"]) == 0
+    assert '"segments"' in capsys.readouterr().out
+
+
+def test_eval_all_with_a_file_is_refused_not_ignored(capsys, data_dir):
+    line = _one_line(capsys, ["eval", "--all", data_dir, data_dir / "cmu86" / "86_01.amc.gz",
+                              "--method", "lof"])
+    assert "86_01.amc.gz would be ignored" in line and "either --all DIR or FILE" in line
