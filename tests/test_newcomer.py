@@ -43,3 +43,40 @@ def test_eval_all_with_a_file_is_refused_not_ignored(capsys, data_dir):
     line = _one_line(capsys, ["eval", "--all", data_dir, data_dir / "cmu86" / "86_01.amc.gz",
                               "--method", "lof"])
     assert "86_01.amc.gz would be ignored" in line and "either --all DIR or FILE" in line
+
+
+def test_batch_skips_what_it_cannot_read_and_a_rerun_with_the_missing_skeleton_runs_it(
+        tmp_path, capsys, data_dir):
+    """An AMC without its ASF is skipped with the reason (exit 0: the other was segmented);
+    rerun with ``--skeleton``, only that line runs again, and it is scored against its
+    labels; a batch where nothing could be read exits 1."""
+    import json
+    import shutil
+
+    from streamseg.cli import main
+
+    lone = tmp_path / "exercise"
+    lone.mkdir()
+    shutil.copy(data_dir / "cmu_exercise" / "14_14.amc.gz", lone)
+    shutil.copy(data_dir / "cmu_exercise" / "labels.csv", lone)
+    files = [str(data_dir / "cmu86" / "86_01.amc.gz"), str(lone / "14_14.amc.gz")]
+    out = tmp_path / "o.jsonl"
+    assert main(["batch", *files, "--method", "lof", "--workers", "1", "--output", str(out),
+                 "--labels", str(lone)]) == 0
+    printed = capsys.readouterr()
+    lines = {o["file"]: o for o in map(json.loads, out.read_text().splitlines())}
+    assert lines[files[1]]["skipped"] is True and "--skeleton" in lines[files[1]]["error"]
+    assert "2 recordings (2 run now, 0 already in" in printed.out
+    assert "1 segmented; 1 skipped" in printed.out and "0 failed; 0 scored against" in printed.out
+    assert main(["batch", *files, "--method", "lof", "--workers", "1", "--output", str(out),
+                 "--labels", str(lone), "--skeleton",
+                 str(data_dir / "cmu86" / "86.asf")]) == 0
+    printed = capsys.readouterr()
+    assert "2 recordings (1 run now, 1 already in" in printed.out
+    assert "2 segmented; 0 skipped" in printed.out and "0 failed; 1 scored against" in printed.out
+    lines = {o["file"]: o for o in map(json.loads, out.read_text().splitlines())}
+    assert len(lines) == 2 and "scores" in lines[files[1]]
+    junk = tmp_path / "junk.amc"
+    junk.write_text("not an amc\n")
+    assert main(["batch", str(junk), "--workers", "1", "--output",
+                 str(tmp_path / "j.jsonl")]) == 1  # nothing segmented
