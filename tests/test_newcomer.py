@@ -80,3 +80,41 @@ def test_batch_skips_what_it_cannot_read_and_a_rerun_with_the_missing_skeleton_r
     junk.write_text("not an amc\n")
     assert main(["batch", str(junk), "--workers", "1", "--output",
                  str(tmp_path / "j.jsonl")]) == 1  # nothing segmented
+
+
+@pytest.mark.daemon
+def test_a_view_started_after_a_stream_closed_lists_it(start_daemon, rec):
+    """``streamseg view --control`` beside a daemon whose stream has already ended: the
+    ``streams`` reply names the closed streams and the view lists it, closed (end)."""
+    pytest.importorskip("aiohttp")
+    import dataclasses
+    import json
+    import time
+    import urllib.request
+
+    from streamseg.client import listen, request, subscribe
+    from streamseg.commands.replay import replay
+    from streamseg.view.server import ViewThread
+
+    _, ep = start_daemon()
+    s = subscribe(ep["publish"], ep["control"], stream="done")
+    replay(dataclasses.replace(rec, positions=rec.positions[:600]), ep["ingest"],
+           stream="done", speed=0, batch=60)
+    assert list(listen(s, stream="done", until_end=True, timeout=60))[-1].type == "closed"
+    s.close()
+    listed = request(ep["control"], "streams")
+    assert listed["streams"] == []
+    assert listed["closed"] == [{"stream": "done", "closed": "end", "frame": 600}]
+    view = ViewThread(ep["publish"], ep["control"], poll=0.2)
+    url = view.start()
+    try:
+        deadline = time.monotonic() + 60  # a bound on a wait for the view, not a timing
+        while True:
+            rows = json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
+            if rows:
+                break
+            assert time.monotonic() < deadline, "the view never listed the closed stream"
+            time.sleep(0.1)
+    finally:
+        view.stop()
+    assert [(r["stream"], r["closed"]) for r in rows] == [("done", "end")]
