@@ -118,3 +118,21 @@ def test_a_view_started_after_a_stream_closed_lists_it(start_daemon, rec):
     finally:
         view.stop()
     assert [(r["stream"], r["closed"]) for r in rows] == [("done", "end")]
+
+
+@pytest.mark.parametrize("name", ["LOFSegmenter", "ACASegmenter", "RepetitionSegmenter"])
+def test_every_offline_estimator_takes_config_then_fps(name):
+    """One constructor convention (``streamseg.segments.Estimator``): (config=None,
+    fps=120.0), then keywords with defaults."""
+    import inspect
+
+    import streamseg.offline as offline
+    from streamseg.segments import Estimator
+
+    cls = getattr(offline, name)
+    assert issubclass(cls, Estimator)
+    params = list(inspect.signature(cls).parameters.values())
+    assert [(p.name, p.default) for p in params[:2]] == [("config", None), ("fps", 120.0)]
+    assert all(p.default is not inspect.Parameter.empty for p in params)
+    est = cls(None, 30.0)
+    assert est.fps == 30.0 and est.config == type(est.config)()
