@@ -96,6 +96,8 @@ def _load(args):
 
 #: a feature matrix longer than this gets temporal reduction unless ``--reduce 0``
 REDUCE_ROWS = 1000
+#: the longest ACA segment in frames the command accepts (the default 2 s is 240 at 120 Hz)
+MAX_SEGMENT_FRAMES = 50_000
 
 
 def _config(args, is_matrix, n_rows) -> ACAConfig:
@@ -130,6 +132,12 @@ def _run(args, n_labels: int | None = None):
     if args.clusters == "labels":
         args.clusters = n_labels
     config = _config(args, is_matrix, X.shape[0])
+    longest = config.max_len_s * fps
+    if longest > MAX_SEGMENT_FRAMES:  # the DP holds (longest segment x frames) numbers
+        raise ParameterError(
+            f"--max-len {config.max_len_s:g} s is {longest:,.0f} frames at {fps:g} Hz, more "
+            f"than the {MAX_SEGMENT_FRAMES:,} an ACA segment may span: give a --max-len of at "
+            f"most {MAX_SEGMENT_FRAMES / fps:g} s (the longest cycle of one action)")
     t0 = time.perf_counter()
     model = fit_aca(X, config, fps, n_jobs=-1)  # restarts on every core; same result
     seconds = time.perf_counter() - t0

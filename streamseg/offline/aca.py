@@ -329,8 +329,7 @@ class ACA(Estimator):
         nr = K.shape[0]
         # Lengths are given in original frames; a reduced frame stands for n / nr of them.
         scale = nr / n
-        # no segment is longer than the sequence: a longer max_len only costs DP memory
-        wmax = min(nr, max(1, int(round(self.max_len_frames * scale))))
+        wmax = max(1, int(round(self.max_len_frames * scale)))
         wmin = min(wmax, max(1, int(round(self.min_len_frames * scale))))
         wmin = feasible_min_len(nr, wmin, wmax)
         k = self.n_clusters
