@@ -1,9 +1,9 @@
 """The result type every segmenter returns, and the checks every estimator shares.
 
-Every estimator (:class:`~streamseg.offline.LOFSegmenter`, :class:`~streamseg.offline.ACA`,
-:class:`~streamseg.offline.HACA`, :class:`~streamseg.offline.ACASegmenter`,
-:class:`~streamseg.offline.RepetitionSegmenter`) follows one convention: ``fps`` and a config
-at construction, ``fit(X)`` returns the estimator, ``predict()`` (or ``fit_predict(X)``)
+The estimators (:class:`~streamseg.offline.LOFSegmenter`,
+:class:`~streamseg.offline.ACASegmenter`, :class:`~streamseg.offline.RepetitionSegmenter`)
+follow one convention, spelled out in :class:`Estimator`: ``(config=None, fps=120.0)`` at
+construction, ``fit(X)`` returns the estimator, ``predict()`` (or ``fit_predict(X)``)
 returns a list of :class:`Segment` tiling the frames it was fitted on, and fitted attributes
 end in ``_`` and are returned as copies. Asking before ``fit`` raises
 :class:`~streamseg.exceptions.NotFittedError`.
@@ -60,7 +60,29 @@ def _copy(value):
 class Estimator:
     """Base of the offline estimators: fitted attributes (public names ending in ``_``) are
     kept apart and handed out as copies, so mutating a result never changes the model, and
-    reading one before ``fit`` raises :class:`NotFittedError`."""
+    reading one before ``fit`` raises :class:`NotFittedError`.
+
+    **Constructor convention.** An estimator is built as ``Estimator(config=None,
+    fps=120.0)``, both also keywords:
+
+    * ``config``: the method's frozen config dataclass (:class:`~streamseg.config.LOFConfig`,
+      :class:`~streamseg.config.ACAConfig`, :class:`~streamseg.config.RepetitionConfig`);
+      None: its defaults. Every parameter of the method lives there, validated once, in
+      seconds (``*_s`` names) rather than frames, so one config serves any frame rate and
+      round-trips through TOML (``streamseg serve --config``) and the command line.
+    * ``fps``: the frame rate of what ``fit`` is given (a :class:`~streamseg.recording.Recording`
+      brings its own where the method reads recordings), converting the config's seconds to
+      frames.
+
+    Anything else (e.g. ``LOFSegmenter``'s ``n_features``) comes after, as a keyword with a
+    default. ``LOFSegmenter``, ``ACASegmenter`` and ``RepetitionSegmenter`` follow it
+    (``tests/test_newcomer.py`` checks their signatures). :class:`~streamseg.offline.ACA` and
+    :class:`~streamseg.offline.HACA` are not estimators of this kind but the engines
+    ``ACASegmenter`` runs: lengths in frames and a fixed number of clusters, as the papers
+    state the algorithms (:func:`~streamseg.offline.model_selection.model_from_config`
+    builds them from an ``ACAConfig`` and ``fps``). Use ``ACASegmenter`` unless you need the
+    engine itself.
+    """
 
     def __setattr__(self, name, value):
         if name.endswith("_") and not name.startswith("_"):

@@ -61,8 +61,8 @@ def test_retried_recording_replaces_its_error_line(tmp_path, capsys, clips):
     with open(good, "wb") as fh:
         fh.write(b"not a recording")
     out = tmp_path / "o.jsonl"
-    assert main(["batch", *files, "--workers", "1", "--output", str(out)]) == 1
-    assert sum("error" in o for o in _lines(out)) == 1
+    assert main(["batch", *files, "--workers", "1", "--output", str(out)]) == 0  # skipped
+    assert sum("error" in o and o["skipped"] for o in _lines(out)) == 1
     shutil.move(saved, good)  # the recording is repaired
     assert main(["batch", *files, "--retry-failed", "--workers", "1", "--output",
                  str(out)]) == 0

@@ -130,10 +130,10 @@ def test_demo_runs_and_draws(tmp_path, capsys):
 
 
 def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
-    """The template client in examples/ follows a replay without importing streamseg."""
+    """The template client in clients/python/ follows a replay without importing streamseg."""
     from pathlib import Path
 
-    script = Path(__file__).resolve().parents[1] / "examples" / "minimal_listener.py"
+    script = Path(__file__).resolve().parents[1] / "clients" / "python" / "listener.py"
     assert "streamseg" not in "".join(
         line for line in script.read_text().splitlines() if line.startswith(("import", "from")))
     proc = subprocess.Popen([sys.executable, str(script), daemon["publish"], "m", "--control",

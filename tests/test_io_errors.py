@@ -96,9 +96,14 @@ def test_missing_skeleton(data_dir):
 def test_missing_skeleton_cli_message(data_dir, capsys):
     from streamseg.cli import main
 
-    assert main(["info", str(data_dir / "cmu86/86_01.amc.gz")]) == 2
+    assert main(["segment", str(data_dir / "cmu86/86_01.amc.gz")]) == 2
     err = capsys.readouterr().err
     assert "--skeleton FILE.asf" in err
+    # info describes the file all the same, and says what segmenting it needs
+    assert main(["info", str(data_dir / "cmu86/86_01.amc.gz")]) == 0
+    out = capsys.readouterr().out
+    assert "frames:    4579" in out and "bones:     29 (root, lowerback" in out
+    assert "segmenting: not as it stands" in out and "--skeleton FILE.asf" in out
 
 
 @pytest.mark.parametrize("suffix", [".amc", ".bvh", ".npz", ".asf"])

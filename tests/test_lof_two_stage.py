@@ -183,7 +183,7 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, 
     assert 1128 in withdrawn
     final = [int(f) for f in LOFSegmenter(TWO, FPS).fit(a).cuts_]
     assert 1128 not in final
-    script = Path(__file__).resolve().parents[1] / "examples" / "minimal_listener.py"
+    script = Path(__file__).resolve().parents[1] / "clients" / "python" / "listener.py"
     mini = subprocess.Popen([sys.executable, str(script), ep["publish"], "w", "--control",
                              ep["control"]], stdout=subprocess.PIPE, text=True)
     assert mini.stdout.readline().startswith("listening on")

@@ -180,11 +180,11 @@ def test_batch_on_local_worker_processes(tmp_path, capsys, data_dir):
     rc = main(["batch", *files, "--method", "lof", "--workers", "2", "--output", str(out),
                "--labels", str(data_dir)])
     printed = capsys.readouterr()
-    assert rc == 1  # one failed
+    assert rc == 0  # one skipped with its reason; the others segmented
     lines = [json.loads(x) for x in out.read_text().splitlines()]
     assert sorted(o["file"] for o in lines) == sorted(files)
     by = {o["file"]: o for o in lines}
-    assert set(by[str(bad)]) == {"file", "error", "batch_options"}
+    assert set(by[str(bad)]) == {"file", "error", "skipped", "batch_options"}
     assert str(bad) in by[str(bad)]["error"]
     for f in files[:2]:
         want = segment_json(capsys, f, "--skeleton", batch.skeleton_for(f))
@@ -200,14 +200,16 @@ def test_batch_on_local_worker_processes(tmp_path, capsys, data_dir):
     for k in ("precision", "recall", "f1", "f1_1s", "covering", "n_cuts"):
         assert got[k] == pytest.approx(want[k]), k
     assert "summary" not in printed.out and "| 86_01 |" in printed.out  # the scores table
-    assert "FAILED broken.amc" in printed.err  # the progress bar names it
-    # a rerun runs nothing; --retry-failed runs the failed one again (and it fails again)
+    assert "SKIPPED broken.amc" in printed.err  # the progress bar names it
+    assert "3 recordings (3 run now, 0 already in " in printed.out
+    assert "2 segmented; 1 skipped" in printed.out and "0 failed; 1 scored against" in printed.out
+    # a rerun runs nothing; --retry-failed runs the skipped one again (and it fails again)
     rc = main(["batch", *files, "--output", str(out)])
-    assert rc == 1 and len(out.read_text().splitlines()) == 3
+    assert rc == 0 and len(out.read_text().splitlines()) == 3
     assert "already in" in capsys.readouterr().err
     rc = main(["batch", *files, "--method", "lof", "--output", str(out), "--retry-failed",
                "--workers", "1"])
-    assert rc == 1 and len(out.read_text().splitlines()) == 3  # its line replaced
+    assert rc == 0 and len(out.read_text().splitlines()) == 3  # its line replaced
     assert "2 already in" in capsys.readouterr().err
 
 

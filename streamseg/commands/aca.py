@@ -38,13 +38,24 @@ def add_arguments(group) -> None:
                        help="frame kernel (equality: 1 iff frames are equal)")
     group.add_argument("--sigma", type=float, default=None, metavar="S",
                        help="Gaussian bandwidth (default: from the data)")
-    group.add_argument("--restarts", type=int, default=_DEFAULTS.n_init, metavar="N",
+    group.add_argument("--restarts", type=_restarts, default=_DEFAULTS.n_init, metavar="N",
                        help=f"random restarts (default {_DEFAULTS.n_init})")
     group.add_argument("--seed", type=int, default=0, metavar="N", help="random seed")
     group.add_argument("--reduce", type=int, default=None, metavar="K",
                        help="temporal reduction into K frame classes, 0 = off (default: "
                             f"{_DEFAULTS.k_reduce} for recordings and matrices of more than "
                             "1,000 rows)")
+
+
+def _restarts(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if not 1 <= n <= 1000:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of restarts in "
+                                         "1..1000 (each one is a whole ACA run)")
+    return n
 
 
 def _clusters(text: str):
@@ -85,6 +96,8 @@ def _load(args):
 
 #: a feature matrix longer than this gets temporal reduction unless ``--reduce 0``
 REDUCE_ROWS = 1000
+#: the longest ACA segment in frames the command accepts (the default 2 s is 240 at 120 Hz)
+MAX_SEGMENT_FRAMES = 50_000
 
 
 def _config(args, is_matrix, n_rows) -> ACAConfig:
@@ -119,6 +132,12 @@ def _run(args, n_labels: int | None = None):
     if args.clusters == "labels":
         args.clusters = n_labels
     config = _config(args, is_matrix, X.shape[0])
+    longest = config.max_len_s * fps
+    if longest > MAX_SEGMENT_FRAMES:  # the DP holds (longest segment x frames) numbers
+        raise ParameterError(
+            f"--max-len {config.max_len_s:g} s is {longest:,.0f} frames at {fps:g} Hz, more "
+            f"than the {MAX_SEGMENT_FRAMES:,} an ACA segment may span: give a --max-len of at "
+            f"most {MAX_SEGMENT_FRAMES / fps:g} s (the longest cycle of one action)")
     t0 = time.perf_counter()
     model = fit_aca(X, config, fps, n_jobs=-1)  # restarts on every core; same result
     seconds = time.perf_counter() - t0

@@ -9,6 +9,9 @@ from pathlib import Path
 
 from streamseg.exceptions import ParameterError
 
+# the daemon's default max_fps: no motion-capture system or pose model runs faster
+MAX_FPS = 10000.0
+
 
 def frame_rate(text: str) -> float:
     """An ``--fps`` value: a finite number > 0 (argparse type; else a one-line usage error)."""
@@ -16,9 +19,10 @@ def frame_rate(text: str) -> float:
         fps = float(text)
     except ValueError:
         fps = float("nan")
-    if not (math.isfinite(fps) and fps > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a frame rate in frames per "
-                                         "second, a finite number > 0 (e.g. 120)")
+    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: expected a frame rate in frames per second, a finite number > 0 and "
+            f"at most {MAX_FPS:g} (e.g. 120)")
     return fps
 
 

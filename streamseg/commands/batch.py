@@ -6,9 +6,12 @@ process per core, 127.0.0.1) or on ``--scheduler tcp://HOST:8786``. Each line is
 ``segment --json`` object plus ``"file"``, or ``{"file", "error"}``, each with
 ``"batch_options"`` (the method and options it was made with);
 a rerun skips recordings already in FILE (and refuses to mix results of other options;
-``--retry-failed`` replaces their error lines). ``--labels`` scores each against human labels
-as ``eval --all`` does. Exit
-code 1 when any recording failed. Needs ``pip install streamseg[dask]``.
+``--retry-failed`` replaces their error lines; an error line made with other options, e.g.
+before a ``--skeleton`` was given, runs again by itself). ``--labels`` scores each against
+human labels as ``eval --all`` does. A recording that cannot be read as asked (not a
+recording, an AMC without a skeleton, markers no set maps) is skipped: its line has the
+reason and ``"skipped": true``. Exit code 0 when something was segmented and nothing failed
+while running, else 1. Needs ``pip install streamseg[dask]``.
 """
 
 from __future__ import annotations
@@ -79,7 +82,7 @@ def _refuse_mixing(done: dict, files, key: dict, output) -> None:
     would skip them and report the old results as if they were the new ones: refuse."""
     for f in files:
         line = done.get(os.path.abspath(f))
-        if line is None:
+        if line is None or "error" in line:  # nothing to mix: an error line runs again
             continue
         theirs = line.get("batch_options")
         if theirs is None:  # a line of an older batch: only its method is known
@@ -89,7 +92,7 @@ def _refuse_mixing(done: dict, files, key: dict, output) -> None:
                 continue
             theirs = {"method": method}
         diff = [k for k in sorted(set(theirs) | set(key)) if theirs.get(k) != key.get(k)
-                and k in theirs]
+                and k in theirs and (k != "skeleton" or _needs_given_skeleton(f))]
         if diff:
             def show(v):
                 return "default" if v is None else repr(v)
@@ -100,6 +103,13 @@ def _refuse_mixing(done: dict, files, key: dict, output) -> None:
                 f"--output {output} already holds {os.path.basename(f)} made with other "
                 f"options: {said}; a rerun would skip it and report the old result. Write to "
                 "another --output file, or give the same options to resume that batch")
+
+
+def _needs_given_skeleton(path) -> bool:
+    """Whether ``--skeleton`` decides how ``path`` is read: an AMC with no ASF of its own."""
+    from streamseg.commands import batch_tasks as batch
+
+    return ".amc" in os.path.basename(path).lower() and batch.skeleton_for(path) is None
 
 
 def _compact(output, files) -> None:
@@ -136,8 +146,7 @@ def run(args) -> int:
     done = batch.read_done(args.output)
     key = batch_key(args)
     _refuse_mixing(done, files, key, args.output)
-    todo = [f for f in files if os.path.abspath(f) not in done
-            or (args.retry_failed and "error" in done[os.path.abspath(f)])]
+    todo = [f for f in files if _to_run(done.get(os.path.abspath(f)), key, args.retry_failed)]
     rerun = any(os.path.abspath(f) in done for f in todo)
     options = _options(args)
     cluster = client = None
@@ -176,7 +185,9 @@ def run(args) -> int:
                     obj["batch_options"] = key
                     batch.write_line(fh, obj)
                     done[os.path.abspath(f)] = obj
-                    bar.step(("FAILED " if "error" in obj else "") + os.path.basename(f))
+                    said = ("" if "error" not in obj else "SKIPPED " if obj.get("skipped")
+                            else "FAILED ")
+                    bar.step(said + os.path.basename(f))
                 os.fsync(fh.fileno())
             if rerun:  # retried recordings: their new line replaces the old one
                 _compact(args.output, files)
@@ -189,8 +200,21 @@ def run(args) -> int:
         if cluster is not None:
             cluster.close()
     objects = [done[os.path.abspath(f)] for f in files]
-    _print_summary(objects, args, time.perf_counter() - t0)
-    return 1 if any("error" in o for o in objects) else 0
+    _print_summary(objects, args, time.perf_counter() - t0, len(todo))
+    # what cannot be read is skipped with its reason; a failure while running is a failure
+    failed = any("error" in o and not o.get("skipped") for o in objects)
+    return 1 if failed or all("error" in o for o in objects) else 0
+
+
+def _to_run(line, key: dict, retry_failed: bool) -> bool:
+    """Whether a recording runs: not in the output yet; or its line is an error and either
+    ``--retry-failed`` asks for it or it was made with other options (a ``--skeleton``
+    given since may be what it lacked)."""
+    if line is None:
+        return True
+    if "error" not in line:
+        return False
+    return retry_failed or line.get("batch_options") != key
 
 
 def _ends_with_newline(path) -> bool:
@@ -199,7 +223,7 @@ def _ends_with_newline(path) -> bool:
         return fh.read(1) == b"\n"
 
 
-def _print_summary(objects, args, wall: float) -> None:
+def _print_summary(objects, args, wall: float, ran: int) -> None:
     from streamseg.commands import batch_tasks as batch
     from streamseg.evaluation.corpus import format_table, table_row
 
@@ -218,10 +242,14 @@ def _print_summary(objects, args, wall: float) -> None:
         for name, _, s in scored:
             print(f"| {name} | {s['alpha']:.3f} | {s['count']} | {s['true_count']} | "
                   f"{s['count_error']:.3f} |")
+    skipped = sum(1 for o in objects if o.get("skipped"))
+    failed = sum(1 for o in objects if "error" in o and not o.get("skipped"))
+    segmented = len(objects) - skipped - failed
+    parts = [f"{len(objects)} recording{'s' if len(objects) != 1 else ''} ({ran} run now, "
+             f"{len(objects) - ran} already in {args.output}): {segmented} segmented",
+             f"{skipped} skipped (cannot be read as asked: the reason is in its line)",
+             f"{failed} failed"]
     if args.labels:
-        missing = sum(1 for o in objects if "error" not in o and "scores" not in o)
-        if missing:
-            print(f"({missing} recordings have no rows in the labels and are not scored)")
-    failed = sum(1 for o in objects if "error" in o)
-    print(f"\n{len(objects) - failed} segmented, {failed} failed; {wall:.1f} s; "
-          f"lines in {args.output}")
+        parts.append(f"{len(scored)} scored against {args.labels} (the others have no rows in "
+                     "its label CSVs)")
+    print(f"\n{'; '.join(parts)}; {wall:.1f} s; lines in {args.output}")

@@ -162,13 +162,26 @@ def run_one(file: str, method: str, options: dict, labels_csv: str | None = None
             if labels_csv:
                 out["scores"] = score_object(obj, labels_csv, sequence_of(file))
     except Exception as err:  # a bad recording is reported on its own line, the rest go on
-        return {"file": file, "error": _describe(err)}
+        line = {"file": file, "error": _describe(err)}
+        if cannot_be_read(err):
+            line["skipped"] = True
+        return line
     out.setdefault("seconds", round(time.perf_counter() - t0, 3))
     warnings = [w.strip() for w in said.getvalue().splitlines() if w.strip()]
     if warnings and "warnings" not in out:  # (the segment object keeps its own list)
         out["warnings"] = warnings
     # strict JSON now, in the task: a non-finite number becomes null before it travels
     return strict_json.finite(out)
+
+
+def cannot_be_read(err: BaseException) -> bool:
+    """Whether ``err`` says the input cannot be segmented as asked (a file that is not a
+    recording, an AMC without its skeleton, markers no set maps, ...): the batch skips such a
+    file with its reason, unlike a failure while running (an internal error, a lost task)."""
+    from streamseg.exceptions import ParameterError, RecordingError, SkeletonError
+
+    return isinstance(err, (ParameterError, RecordingError, SkeletonError, FileNotFoundError,
+                            IsADirectoryError, PermissionError, UnicodeDecodeError))
 
 
 def _describe(err: BaseException) -> str:
@@ -206,7 +219,8 @@ def summary(objects: list[dict]) -> str:
     for o in objects:
         name = o["file"]
         if "error" in o:
-            lines.append(f"| {name} | | | failed: {o['error'][:120]} | |")
+            what = "skipped" if o.get("skipped") else "failed"
+            lines.append(f"| {name} | | | {what}: {o['error'][:120]} | |")
             continue
         if "count" in o:
             result = f"{o['count']} repetitions"

@@ -37,18 +37,29 @@ def _matrix_info(path, fps) -> str:
     return "\n".join(out)
 
 
-def info(path, skeleton=None, fps=None, joints=None, gap_fill=None) -> str:
+def info(path, skeleton=None, fps=None, joints=None, gap_fill=None, markers=None) -> str:
     """A readable summary of ``path``: size, rate, joints and feature ranges (a recording),
-    or rows, columns and column ranges (a feature matrix ``.npy``/``.csv``)."""
+    or rows, columns and column ranges (a feature matrix ``.npy``/``.csv``); for a file that
+    cannot be segmented as it stands (markers no set maps, an AMC without its skeleton) what
+    it holds and what segmenting it would need (:mod:`streamseg.commands.info_raw`)."""
     from pathlib import Path
 
     from streamseg.commands.inputs import MATRIX_SUFFIXES, is_positions_table
+    from streamseg.exceptions import RecordingError, SkeletonError
     from streamseg.io.gaps import FILL_S
 
     if Path(path).suffix.lower() in MATRIX_SUFFIXES and not is_positions_table(path, joints):
         return _matrix_info(path, fps)
-    rec = read(path, skeleton, fps=fps, lenient=True, joints=joints,
-               gap_fill=FILL_S if gap_fill is None else gap_fill)
+    try:
+        rec = read(path, skeleton, fps=fps, lenient=True, joints=joints,
+                   gap_fill=FILL_S if gap_fill is None else gap_fill, markers=markers)
+    except (RecordingError, SkeletonError) as err:
+        from streamseg.commands.info_raw import describe
+
+        said = describe(path, err) if Path(path).is_file() else None
+        if said is None:
+            raise
+        return said
     n_nan = int(np.isnan(rec.positions).any(axis=(1, 2)).sum())
     out = [
         f"file:      {path}" + (f" (converted from {rec.source})"
@@ -90,5 +101,5 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     print(info(args.file, skeleton=args.skeleton, fps=args.fps, joints=args.joints,
-               gap_fill=args.gap_fill))
+               gap_fill=args.gap_fill, markers=args.markers))
     return 0

@@ -39,6 +39,10 @@ def add_source_arguments(p, *, write_events: bool = False) -> None:
                    help="joint order of a positions file without joint names (.csv without "
                         "a header, .npy): kinect (v2, 25), blazepose (33 world landmarks), "
                         "coco17, body25 (OpenPose)")
+    p.add_argument("--markers", metavar="MAP.toml",
+                   help="a marker set of your own for .c3d/.trc markers no built-in set maps: "
+                        "TOML of joint = marker or [markers] (streamseg info FILE prints a "
+                        "template; docs/guide/formats.md)")
     p.add_argument("--strict", action="store_true",
                    help="refuse a truncated recording (default: keep its good frames and "
                         "say how many were dropped)")
@@ -89,9 +93,13 @@ def read_recording(args):
     from streamseg.io import read
 
     joints = getattr(args, "joints", None)
+    markers = getattr(args, "markers", None)
     rec = read(args.file, getattr(args, "skeleton", None), fps=getattr(args, "fps", None),
                joints=joints, lenient=not getattr(args, "strict", False),
-               gap_fill=getattr(args, "gap_fill", FILL_S))
+               gap_fill=getattr(args, "gap_fill", FILL_S), markers=markers)
+    if markers and "markers" not in rec.metadata:
+        warn(args, f"--markers {markers} does nothing for {Path(str(args.file)).name}: it "
+                   "maps the markers of .c3d and .trc files")
     for w in rec.metadata.get("warnings", []):
         warn(args, w)
     if joints and not rec.metadata.get("joints"):

@@ -160,7 +160,8 @@ class CutBook:
 def _bad_option(args):
     """What is wrong with the options that need no daemon to check, or None."""
     if args.since is not None and not (args.control and args.stream):
-        return "--since needs --control ENDPOINT and --stream ID"
+        return ("--since needs --control ENDPOINT and --stream ID: the event log numbers each "
+                "stream's events (e.g. listen --from EP --control EP --stream ID --since 0)")
     if args.since is not None and args.since < 0:
         return f"--since {args.since} is invalid: expected a sequence number >= 0 (0: all)"
     if args.count is not None and args.count < 1:

@@ -235,6 +235,11 @@ class LOFConfig:
         back = max(window if refine else 0,
                    contrast if self.min_contrast > 0 or self.novelty > 0 else 0)
         history = window if back == 0 else delay * step + window + refine + back + 1
+        _bounded(fps, "window", window, MAX_WINDOW_FRAMES, "frames", "window_s (--window)")
+        _bounded(fps, "LOF buffer", capacity, MAX_BUFFER_WINDOWS, "windows",
+                 "buffer_s (--buffer), k (--k) or delay_s (--delay), or raise step_s (--step)")
+        _bounded(fps, "frame history", history, MAX_HISTORY_FRAMES, "frames",
+                 "delay_s (--delay), refine_s (--refine) or contrast_s (--contrast)")
         return dict(
             window=window,
             step=step,
@@ -249,6 +254,21 @@ class LOFConfig:
             history=history,
             speed_lag=max(1, int(round(self.speed_lag_s * fps))),
         )
+
+
+# Bounds on what one detector may hold, far above any sensible setting (the defaults at 10 kHz
+# need a 10,000-frame window, 6,000 buffered windows): beyond them a typo (``--fps 1e9``,
+# ``--buffer 1e9``) would be an allocation of gigabytes, refused here in one line instead.
+MAX_WINDOW_FRAMES = 1 << 20
+MAX_BUFFER_WINDOWS = 1 << 17
+MAX_HISTORY_FRAMES = 1 << 23
+
+
+def _bounded(fps, what, value, limit, unit, lower) -> None:
+    if value > limit:
+        raise ParameterError(
+            f"at {fps:g} Hz these settings make a {what} of {value:,} {unit}, more than the "
+            f"{limit:,} one detector holds: check the frame rate (--fps) or lower {lower}")
 
 
 def feature_width(config: LOFConfig, n_features) -> int:

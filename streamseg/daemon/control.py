@@ -62,9 +62,14 @@ def answer(daemon, req, may_change: bool = True) -> dict:
         daemon.pub.send_multipart(protocol.encode(protocol.Hello(token)))
         return {"ok": True}
     if op == "streams":
+        # closed ones too (those `state` still answers for, oldest first): a client that
+        # joins after a stream ended (the view beside a daemon) can still list it
+        closed = [{"stream": s, "closed": cs.get("closed"), "frame": cs.get("frame")}
+                  for s, cs in daemon.closed_states.items() if s not in daemon.streams]
         return {"ok": True, "streams": [{"stream": s, "fps": st.fps, "frame": st.next_seq,
                                          "revision": st.revision}
-                                        for s, st in daemon.streams.items()]}
+                                        for s, st in daemon.streams.items()],
+                "closed": closed}
     if op == "stats":
         return {"ok": True, "uptime": time.monotonic() - daemon._started,
                 "totals": daemon._totals(),

@@ -49,13 +49,14 @@ READERS = {".amc": read_amc, ".bvh": read_bvh, ".c3d": _read_c3d, ".csv": read_p
            ".npy": read_positions, ".npz": _read_npz, ".trc": read_trc}
 #: readers that take ``joints=`` (the joint set of unnamed columns) or ``markers=``
 _JOINTS = (".csv", ".npy", ".npz")
+_MARKERS = (".c3d", ".trc")
 
 __all__ = ["READERS", "read", "read_amc", "read_bvh", "read_npz", "read_positions",
            "read_trc", "write_npz"]
 
 
 def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None,
-         joints: str | None = None, gap_fill: float = FILL_S) -> Recording:
+         joints: str | None = None, gap_fill: float = FILL_S, markers=None) -> Recording:
     """Read any supported recording.
 
     Parameters
@@ -76,6 +77,10 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
     gap_fill : float, default :data:`~streamseg.io.gaps.FILL_S`
         Fill gaps (NaN runs) of a joint up to this many seconds by interpolation; longer
         ones stay NaN and are listed in ``metadata["gaps"]`` as ``[start, end)``. 0: none.
+    markers : str or Path, optional
+        A marker map (TOML, joint -> markers: :mod:`streamseg.skeleton.marker_map`) for the
+        markers of a ``.c3d`` or ``.trc`` file, instead of the built-in marker sets; other
+        formats ignore it.
     """
     if not Path(path).is_file():  # before anything else: a typo is not a format problem
         raise RecordingError(Path(path), None,
@@ -92,6 +97,8 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
             f"one of {', '.join(sorted(READERS))} (optionally .gz)",
         )
     extra = {"joints": joints} if suffix in _JOINTS else {}
+    if markers is not None and suffix in _MARKERS:
+        extra["markers"] = markers
     rec = reader(path, skeleton, lenient=lenient, fps=fps, **extra)
     return with_gaps_filled(rec, gap_fill)
 

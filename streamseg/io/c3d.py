@@ -68,7 +68,7 @@ def c3d_info(c) -> dict:
 
 
 def read_c3d(path, skeleton=None, *, lenient: bool = False,
-             fps: float | None = None) -> Recording:
+             fps: float | None = None, markers=None) -> Recording:
     """Read a C3D file's markers as the canonical joints of the set that covers them.
 
     Parameters
@@ -79,6 +79,9 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
         Keep the frames of a file cut off before its last frame (with a warning).
     fps : float, optional
         Replace the file's point rate.
+    markers : str or Path or MarkerSet, optional
+        A marker map of the user's own (``--markers MAP.toml``,
+        :mod:`streamseg.skeleton.marker_map`) instead of the built-in marker sets.
 
     Returns
     -------
@@ -128,7 +131,7 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
     meta = {"format": "c3d", "manufacturer": info["manufacturer"],
             "first_frame": info["first_frame"], "markers": labels, "warnings": warnings}
     return points_recording(path, xyz, labels, rate, info["units"], meta, up=_screen_up(c),
-                            noun="markers")
+                            noun="markers", marker_map=markers)
 
 
 def _frames_in_file(path: Path) -> tuple[int, int]:

@@ -305,7 +305,7 @@ def _rate(times) -> float | None:
 
 
 def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta: dict, *,
-                     up: str = "y", noun: str = "points") -> Recording:
+                     up: str = "y", noun: str = "points", marker_map=None) -> Recording:
     """Named 3-D points (C3D, TRC) as a recording.
 
     Markers of a set streamseg maps become its joints (joint centres where the set defines
@@ -321,6 +321,10 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
         The up axis when the body does not show one (it stands along an axis otherwise).
     noun : str
         What the file calls its points, for the error.
+    marker_map : MarkerSet or path, optional
+        The user's own marker set (``--markers MAP.toml``,
+        :func:`streamseg.skeleton.marker_map.load_marker_map`), used instead of the built-in
+        ones: every marker it names must be in the file.
 
     Raises
     ------
@@ -332,7 +336,21 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
     from streamseg.skeleton.marker_sets import JOINTS, PARENTS, best_set, joint_positions
     from streamseg.skeleton.names import POINTS, resolve
 
-    mset, chosen, missing = best_set(names)
+    if marker_map is not None:
+        from streamseg.skeleton.marker_map import load_marker_map
+        from streamseg.skeleton.marker_sets import plan
+
+        mset = marker_map if not isinstance(marker_map, (str, Path)) else load_marker_map(
+            marker_map)
+        chosen, missing = plan(mset, names)
+        if missing:
+            lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
+            raise RecordingError(path, None, f"{len(names)} {noun} without the markers "
+                                 f"{mset.name} names, per joint: {lack}",
+                                 f"the file's marker names in the map (streamseg info "
+                                 f"{Path(path).name} lists them)")
+    else:
+        mset, chosen, missing = best_set(names)
     if not missing:
         joints = joint_positions(xyz, names, chosen)
         skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
@@ -346,6 +364,7 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
                              f"{' ...' if len(names) > 12 else ''})",
                              f"a marker set streamseg maps; closest: {mset.name} "
                              f"({mset.description}), which lacks, per joint: {lack}; or the "
-                             "joint names of a skeleton streamseg knows (docs/guide/formats.md)"
-                             ) from None
+                             "joint names of a skeleton streamseg knows (docs/guide/formats.md); "
+                             "or a map of your own: --markers MAP.toml (streamseg info "
+                             f"{Path(path).name} prints a template)") from None
     return positions_recording(path, names, xyz, rate, units, up, meta, detect=True)

@@ -27,7 +27,7 @@ from streamseg.recording import Recording
 
 
 def read_trc(path, skeleton=None, *, lenient: bool = False,
-             fps: float | None = None) -> Recording:
+             fps: float | None = None, markers=None) -> Recording:
     """Read a TRC file's points as joints.
 
     Parameters
@@ -39,6 +39,9 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
         ``NumFrames``), with a warning.
     fps : float, optional
         Replace the file's ``DataRate``.
+    markers : str or Path or MarkerSet, optional
+        A marker map of the user's own (``--markers MAP.toml``,
+        :mod:`streamseg.skeleton.marker_map`) instead of the built-in marker sets.
 
     Returns
     -------
@@ -97,7 +100,8 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
         raise RecordingError(path, 3, "no DataRate", "a TRC DataRate > 0, or --fps")
     units = (keys.get("Units") or "unknown").strip()
     meta = {"format": "trc", "markers": names, "warnings": warnings}
-    return points_recording(path, xyz, names, float(rate), units, meta)  # OpenSim: y up
+    return points_recording(path, xyz, names, float(rate), units, meta,  # OpenSim: y up
+                            marker_map=markers)
 
 
 def _number(text) -> float | None:

@@ -168,6 +168,11 @@ def _plan(mset: MarkerSet, index: dict):
     return chosen, missing
 
 
+def plan(mset: MarkerSet, labels):
+    """``(chosen, missing)`` of one marker set for these ``labels`` (see :func:`best_set`)."""
+    return _plan(mset, _index(labels))
+
+
 def best_set(labels):
     """The marker set that covers ``labels`` best: ``(set, chosen, missing)``; ``missing``
     maps the canonical points it cannot make to the markers they lack."""

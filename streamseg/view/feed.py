@@ -58,6 +58,7 @@ class Feed:
         self.changed = asyncio.Event()  # the hub has dirty streams
         self.wanted = asyncio.Event()  # the hub wants a snapshot
         self.check: set = set()  # open streams the daemon's stats did not list
+        self.listed = False  # the daemon's closed streams asked for (once it answers)
         self._req = None
         self._tasks: list = []
 
@@ -156,6 +157,14 @@ class Feed:
         while True:
             if loop.time() >= next_poll:
                 next_poll = loop.time() + self.poll
+                if not self.listed:  # streams that closed before the view joined
+                    listed = await self.request("streams")
+                    if listed and listed.get("ok"):
+                        self.listed = True
+                        self.hub.want_state.update(
+                            c["stream"] for c in listed.get("closed") or []
+                            if isinstance(c, dict) and isinstance(c.get("stream"), str)
+                            and c["stream"] not in self.hub.streams)
                 stats = await self.request("stats")
                 if stats and stats.get("ok"):
                     self.hub.apply(protocol.Stats(float(stats["uptime"]), stats["totals"],

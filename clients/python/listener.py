@@ -1,6 +1,6 @@
 """What any process needs to follow the daemon: pyzmq and msgpack, nothing of streamseg.
 
-    python examples/minimal_listener.py tcp://127.0.0.1:5561 [STREAM] [--max N]
+    python clients/python/listener.py tcp://127.0.0.1:5561 [STREAM] [--max N]
         [--control tcp://127.0.0.1:5562] [--keys DIR]
 
 Prints one line per cut and relabel (protocol v1, docs/protocol.md) until the stream closes
