@@ -44,6 +44,7 @@ import json
 import statistics
 import sys
 import time
+from types import SimpleNamespace
 
 import numpy as np
 from _common import labelled, markdown_table
@@ -139,17 +140,17 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
         if not focused:
             state["next"] = pipe.learned + int(round(interval * fps))
         result = relabel(algorithms, feats, frames, fps, pipe.previous, tuple(pipe.cut_frames))
-        state["job"] = (t + lag, result, final)
+        state["job"] = (t + lag, result, final, focused)
         return True
 
     def publish(t):
-        ready, result, final = state["job"]
+        ready, result, final, focused = state["job"]
         state["job"] = None
         state["rev"] += 1
         out.append((t, protocol.Segments("s", state["rev"], result.start, result.end,
                                          result.segments, final, 0.0)))
         if settling:
-            for c in pipe.relabelled(result, final, t):
+            for c in pipe.relabelled(result, final, t, focused):
                 out.append((t, _cut_event("s", *c, state["rev"])))
         else:
             pipe.previous = result.window
@@ -238,6 +239,74 @@ def from_daemon(item, algorithms, history, interval, speed):
     return out, n
 
 
+def from_cli(item, args, port0):
+    """``streamseg serve`` + ``streamseg replay --speed`` + ``streamseg listen --jsonl`` as
+    separate processes; an event's time is the stream frame the replay had reached when its
+    line arrived (its start, taken as the latest that no event's ``emitted_at`` contradicts,
+    + elapsed wall time x fps x speed)."""
+    import os
+    import subprocess
+    import tempfile
+
+    from streamseg.client import request
+    from streamseg.io import write_npz
+
+    exe = os.path.join(os.path.dirname(sys.executable), "streamseg")
+    ing, pub, ctl = (f"tcp://127.0.0.1:{port0 + i}" for i in range(3))
+    state = tempfile.mkdtemp(prefix="consumer-view-")
+    serve = subprocess.Popen([exe, "serve", "--ingest", ing, "--publish", pub, "--control",
+                              ctl, "--state-dir", state, *_serve_flags(args)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 600
+        while True:  # ready once control answers (the kernels are warm)
+            try:
+                request(ctl, "ping", timeout=1.0)
+                break
+            except Exception:
+                if time.monotonic() > deadline or serve.poll() is not None:
+                    raise RuntimeError("streamseg serve did not start") from None
+        listen = subprocess.Popen([exe, "listen", "--from", pub, "--control", ctl,
+                                   "--stream", "s", "--jsonl", "--until-end", "--timeout",
+                                   "600"], stdout=subprocess.PIPE, text=True,
+                                  env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        assert json.loads(listen.stdout.readline())["type"] == "state"
+        rec = item.recording
+        fps, n = float(rec.fps), rec.n_frames
+        path = os.path.join(state, "take.npz")  # a joined sequence has no file of its own
+        write_npz(path, rec)
+        replay = subprocess.Popen([exe, "replay", path, "--to", ing, "--speed",
+                                   str(args.speed), "--stream", "s", "--batch", "4"],
+                                  stdout=subprocess.DEVNULL)
+        raw = []
+        for line in listen.stdout:
+            now = time.monotonic()
+            d = json.loads(line)
+            if d.get("type") in ("cut", "confirm", "withdraw", "segments"):
+                d.setdefault("provisional", True)
+                raw.append((now, SimpleNamespace(**d)))
+        # the replay's clock: frame f was sent at t0 + f / (fps x speed), t0 after the
+        # replay process started; no event can arrive before the frame that made it was sent
+        rate = fps * args.speed
+        t0 = min(w - e.emitted_at / rate for w, e in raw if hasattr(e, "emitted_at"))
+        out = [(min((w - t0) * rate, n + 10 * fps), e) for w, e in raw]
+        replay.wait(60)
+        listen.wait(60)
+        return out, n
+    finally:
+        serve.terminate()
+        serve.wait(60)
+
+
+def _serve_flags(args) -> list:
+    flags = []
+    if args.settle is not None:
+        flags += ["--settle", str(args.settle)]
+    if args.focus is not None:
+        flags += ["--focus", str(args.focus)]
+    return flags
+
+
 # --- the view ---------------------------------------------------------------------------------
 
 class Views:
@@ -283,10 +352,17 @@ def view_at(events, t: float, cuts_only: bool = False) -> list:
             for f in [f for f in cuts if a < f < b]:
                 del cuts[f]
             lo, hi = bisect.bisect_right(revision, a), bisect.bisect_left(revision, b)
-            segs = ev.segments
+            segs = _triples(ev.segments)
             new = [int(s[0]) for p, s in zip(segs[:-1], segs[1:]) if p[2] != s[2]]
             revision[lo:hi] = [f for f in new if a < f < b]
     return sorted(set(revision) | set(cuts))
+
+
+def _triples(segments) -> list:
+    """``(start, end, label)`` of a ``segments`` event's list (``listen --jsonl`` writes each
+    as a map)."""
+    return [(s["start"], s["end"], s["label"]) if isinstance(s, dict) else tuple(s)
+            for s in segments]
 
 
 def _near(frames, targets, tol) -> np.ndarray:
@@ -355,8 +431,6 @@ def unresolved(events) -> int:
 
 def _saved(path) -> dict:
     """Recording name -> (events, n) of a ``--save`` file."""
-    from types import SimpleNamespace
-
     out = {}
     for line in open(path):
         d = json.loads(line)
@@ -385,15 +459,19 @@ def run(args) -> list:
         elif args.source == "sim":
             events, n = simulate(item, algorithms, args.history, args.interval, args.lag,
                                  args.packet)
-        else:
+        elif args.source == "daemon":
             events, n = from_daemon(item, algorithms, args.history, args.interval, args.speed)
+        else:
+            events, n = from_cli(item, args, 20000 + 10 * len(rows))
         if args.save and saved is None:
             from streamseg import protocol
 
             with open(args.save, "a") as fh:
                 for when, ev in events:
-                    fh.write(json.dumps({"rec": item.name, "t": when, "n": n,
-                                         "ev": protocol.to_json(ev)}) + "\n")
+                    # events read from `listen --jsonl` are plain namespaces already
+                    body = vars(ev) if isinstance(ev, SimpleNamespace) else protocol.to_json(ev)
+                    fh.write(json.dumps({"rec": item.name, "t": when, "n": n, "ev": body})
+                             + "\n")
         fps = float(item.recording.fps)
         res = score_view(events, n, item.cuts, fps, args.tolerance)
         res["cuts"] = score_view(events, n, item.cuts, fps, args.tolerance, cuts_only=True)
@@ -437,7 +515,7 @@ def main(argv=None) -> None:
     p.add_argument("--only", default="", help="comma-separated recording names")
     p.add_argument("--chosen-on", default="", help="recordings left out of the table (the "
                    "parameters were chosen on them)")
-    p.add_argument("--source", choices=("sim", "daemon"), default="sim")
+    p.add_argument("--source", choices=("sim", "daemon", "cli"), default="sim")
     p.add_argument("--lag", type=float, default=0.5, help="stream seconds from a relabel's "
                    "submission to its result (sim)")
     p.add_argument("--speed", type=float, default=2.0, help="replay speed (daemon)")

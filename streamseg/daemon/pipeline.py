@@ -578,9 +578,13 @@ class StreamPipeline:
             settle.taken()
         return feats, frames, focused
 
-    def relabelled(self, result, final: bool, now: int) -> list:
+    def relabelled(self, result, final: bool, now: int, focused: bool = False) -> list:
         """Take a relabel's result (``Relabelled``, or None when it failed) as the next
         ``previous`` and settle the provisional cuts it holds, at stream frame ``now``.
+
+        The result of a ``focused`` job (a window a cut made due, :meth:`relabel_snapshot`)
+        settles cuts but is not the next ``previous``: the cadence's revisions carry the ids
+        and the label memory from one to the next as without settling.
 
         Returns
         -------
@@ -589,7 +593,7 @@ class StreamPipeline:
             (withdrawn) or ``"found"`` (a boundary no cut announced, announced as a cut that is
             not provisional); empty with settling off.
         """
-        if result is not None:
+        if result is not None and not focused:
             self.previous = result.window
         settle = getattr(self, "settlement", None)
         if settle is None:
@@ -600,14 +604,9 @@ class StreamPipeline:
             segs, start, end = (), now, now  # every open cut stands
         else:
             segs, start, end = result.segments, result.start, result.end
+        # later relabels snap to every cut the detector made, settled or not, as without
+        # settling: a withdrawn true cut still draws a boundary the relabel finds near it
         out = settle.apply(segs, start, end, final, now, self.offset)
-        # later relabels snap to the detector's cuts that stand (not to their own boundaries:
-        # that would feed a relabel's boundaries inside an action back into the next ones)
-        for frame, _, _, kind, settled in out:
-            if kind in ("rejected", "confirmed") and frame in self.cut_frames:
-                self.cut_frames.remove(frame)
-                if kind == "confirmed":
-                    self.cut_frames.append(settled)
         return out
 
     def snapshot(self, seconds: float | None = None, first_frame: int | None = None):

@@ -307,7 +307,8 @@ class Daemon(Intake):
             st.next_relabel = st.pipeline.learned + int(round(self.config.relabel_interval
                                                               * st.fps))
         self.worker.submit(RelabelJob((st.stream, st.gen), feats, frames, st.fps,
-                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames)))
+                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames),
+                                      focused))
         return True
 
     # --- events ------------------------------------------------------------------------------
@@ -490,7 +491,8 @@ class Daemon(Intake):
         failed = isinstance(result, Exception)
         if failed:
             self._error(stream, "relabel", f"relabel failed: {type(result).__name__}: {result}")
-        settled = st.pipeline.relabelled(None if failed else result, job.final, st.next_seq)
+        settled = st.pipeline.relabelled(None if failed else result, job.final, st.next_seq,
+                                         getattr(job, "focused", False))
         if not failed:
             st.revision += 1
             st.relabel_time = result.elapsed

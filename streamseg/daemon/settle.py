@@ -6,15 +6,15 @@ after the cut (at once when the detector decided it later than that), over the w
 open cut it holds with at least ``settle_s`` seconds of frames after it (every cut it holds,
 for the stream's final relabel):
 
-- a boundary between two actions of the relabel within ``radius`` frames of the cut (the
-  relabel's shortest segment, the radius within which its boundaries move to live cuts): the
-  cut is confirmed, at that boundary's frame (``settled``);
+- a boundary between two actions of the relabel within ``radius`` frames of the cut: the
+  cut is confirmed, at its own frame (``settled``: the detector places a cut more precisely
+  than the relabel, whose boundaries move to a live cut within half that radius anyway);
 - none: the cut is withdrawn;
 - a cut older than the window's settled part (it left the relabel history unsettled, e.g.
   while relabels lagged): it stands, confirmed at its own frame.
 
 A boundary of the relabel that is settled in the same sense, that the previous relabel had
-too (within ``radius``; any boundary of the final relabel) and that no cut explains (none
+too (within ``radius / 2``; any boundary of the final relabel) and that no cut explains (none
 within ``radius``, confirmed or open) is announced as a cut that is not provisional. A settled
 frame is never revisited; later revisions still supersede what they cover for a consumer that
 applies them.
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import bisect
 
+AGREE = 2  # consecutive relabels that must hold a boundary before it is announced
 SETTLED_KEPT = 256  # settled frames kept per stream (an announced boundary is not repeated)
 
 
@@ -53,7 +54,7 @@ class Settlement:
         self.open = []  # [frame, score, emitted_at] of provisional cuts not settled, by frame
         self.settled = []  # sorted frames settled (confirmed there, or announced)
         self.due_at = -1  # stream frame from which a focused relabel is due (-1: none)
-        self.last = []  # the previous relabel's boundaries in its settled part
+        self.last = []  # boundaries of the previous AGREE - 1 relabels, newest last
 
     # --- the detector's events ----------------------------------------------------------
     def add(self, frame: int, score: float, emitted: int) -> None:
@@ -107,21 +108,25 @@ class Settlement:
             else:
                 near = [b for b in bounds if abs(b - frame) <= self.radius and b not in used]
                 if near:
-                    b = min(near, key=lambda x: (abs(x - frame), x))
-                    used.add(b)
-                    out.append((frame, score, now, "confirmed", b))
-                    self._settled(b)
+                    # the relabel decides that a boundary is there, the detector where: its
+                    # frame is the more precise (the relabel's boundaries move to a live cut
+                    # within half the radius; one further off is HACA's guess)
+                    used.add(min(near, key=lambda x: (abs(x - frame), x)))
+                    out.append((frame, score, now, "confirmed", frame))
+                    self._settled(frame)
                 else:
                     out.append((frame, score, now, "rejected", None))
-        last, self.last = self.last, [b for b in bounds if lo <= b < hi]
+        last = self.last
+        self.last = (last + [bounds])[-(AGREE - 1):] if AGREE > 1 else []
         for b in bounds:
             if b in used or not lo <= b < hi:
                 continue
             if self._near_settled(b) or any(abs(c[0] - b) <= self.radius for c in keep):
                 continue
-            # settled: the previous relabel had it too (HACA's boundaries inside an action
-            # come and go between revisions), or this is the stream's last relabel
-            if not final and not any(abs(x - b) <= self.radius for x in last):
+            # settled: the previous AGREE - 1 relabels had it too (HACA's boundaries inside an
+            # action come and go between revisions), or this is the stream's last relabel
+            if not final and (len(last) < AGREE - 1 or not all(
+                    any(abs(x - b) <= self.radius // 2 for x in prev) for prev in last)):
                 continue
             out.append((b, 0.0, now, "found", b))
             self._settled(b)
