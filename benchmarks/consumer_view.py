@@ -118,7 +118,8 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
                           algorithms, history)
     settling = hasattr(pipe, "relabel_due")
     lag = int(round(lag_s * fps))
-    state = {"next": int(round(interval * fps)), "job": None, "due": False, "rev": 0}
+    state = {"next": int(round(interval * fps)), "job": None, "due": False, "rev": 0,
+             "work": [[0, 0.0], [0, 0.0]]}  # [count, seconds] of the cadence's, the focused
     out = []
 
     def cuts_at(t, cuts):
@@ -140,6 +141,8 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
         if not focused:
             state["next"] = pipe.learned + int(round(interval * fps))
         result = relabel(algorithms, feats, frames, fps, pipe.previous, tuple(pipe.cut_frames))
+        state["work"][focused][0] += 1
+        state["work"][focused][1] += result.elapsed
         state["job"] = (t + lag, result, final, focused)
         return True
 
@@ -173,7 +176,11 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
         publish(t)
     if interval > 0 and submit(t, True):
         publish(state["job"][0])
+    WORK[item.name] = state["work"]
     return out, n
+
+
+WORK: dict = {}  # recording -> relabels [count, seconds] of the cadence (final included), focused
 
 
 def from_daemon(item, algorithms, history, interval, speed):
@@ -489,6 +496,9 @@ def table(rows, chosen=()) -> str:
     header = ["set", "recordings"] + [f"{lab} {m}" for lab in ("1 s", "3 s", "10 s", "end")
                                       for m in ("R", "P", "F1")] + ["latency med s",
                                                                      "unresolved"]
+    work = any(r["name"] in WORK for r in rows)
+    if work:
+        header += ["relabels (focused)", "relabel s (focused)"]
     groups = {}
     for r in rows:
         if r["name"] in chosen:
@@ -505,6 +515,11 @@ def table(rows, chosen=()) -> str:
         lat = [x for r in rs for x in r["latency"]]
         cells.append(f"{statistics.median(lat):.2f}" if lat else "-")
         cells.append(sum(r["unresolved"] for r in rs))
+        if work:
+            w = [WORK.get(r["name"], [[0, 0.0], [0, 0.0]]) for r in rs]
+            cells.append(f"{sum(x[0][0] + x[1][0] for x in w)} ({sum(x[1][0] for x in w)})")
+            cells.append(f"{sum(x[0][1] + x[1][1] for x in w):.1f} "
+                         f"({sum(x[1][1] for x in w):.1f})")
         out.append(cells)
     return markdown_table(header, out)
 
