@@ -197,3 +197,22 @@ def test_daemon_settles_every_provisional_cut_before_closed(start_daemon, rec):
             assert e.revision in revisions
     assert sorted(settles) == sorted(provisional)
     assert got[-1].type == "closed"
+
+
+def test_wire_fields_of_settled_cuts():
+    """``settled`` and ``revision`` go on the wire only when set (older receivers see the
+    events they knew), and come back as sent."""
+    for ev in (protocol.Confirm("s", 10, 1.0, 1.6, 30, 10, 4),
+               protocol.Withdraw("s", 11, 1.0, 31, False, 4),
+               protocol.Cut("s", 12, 1.0, 0.0, 40, False, None, 4)):
+        back = protocol.decode(protocol.encode(ev, seq=3))
+        assert back == ev and back.seq == 3
+        assert protocol.to_json(ev)["revision"] == 4
+    plain = protocol.Confirm("s", 10, 1.0, 1.6, 30)
+    body = protocol.unpack_body(protocol.encode(plain)[1])
+    assert "settled" not in body and "revision" not in body
+    assert "revision" not in protocol.to_json(protocol.Withdraw("s", 1, 0.0, 2))
+    bad = protocol.unpack_body(protocol.encode(protocol.Confirm("s", 1, 0.0, 1.0, 2, 1, 1))[1])
+    bad["settled"] = -1
+    with pytest.raises(protocol.WireError, match="settled"):
+        protocol.from_body(bad)
