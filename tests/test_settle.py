@@ -141,19 +141,10 @@ def test_every_boundary_of_the_final_relabel_is_a_settled_cut(rec):
     assert all(e[4] == e[0] for e in events if e[3] == "found")
 
 
-@pytest.mark.daemon
-def test_daemon_settles_every_provisional_cut_before_closed(start_daemon, rec):
-    """A real daemon over loopback, relabelling on: every provisional cut of 86_01 is followed,
-    before the stream's ``closed``, by exactly one ``confirm`` with its ``settled`` frame or
-    one ``withdraw``, both naming a revision already published; cuts a relabel announced are
-    not provisional."""
+def _listen_until_closed(ep, stream, got, done):
     from streamseg.client import subscriber
-    from streamseg.commands.replay import announce_of
 
-    d, ep = start_daemon(relabel_interval=5.0, relabel_history=60.0)
-    ctx = zmq.Context.instance()
-    sub = subscriber(ep["publish"], stream="w")
-    got, done = [], threading.Event()
+    sub = subscriber(ep["publish"], stream=stream)
 
     def listen():
         while not done.is_set():
@@ -162,28 +153,40 @@ def test_daemon_settles_every_provisional_cut_before_closed(start_daemon, rec):
                 got.append(ev)
                 if ev.type == "closed":
                     done.set()
+        sub.close(0)
 
     th = threading.Thread(target=listen, daemon=True)
     th.start()
-    push = ctx.socket(zmq.PUSH)
+    return th
+
+
+def _send_take(ep, rec, stream, got, done, end=True):
+    """Announce and send ``rec`` as ``stream`` once the subscription is live (a probe's
+    ``error`` came back through it)."""
+    from streamseg.commands.replay import announce_of
+
+    push = zmq.Context.instance().socket(zmq.PUSH)
     push.connect(ep["ingest"])
-    # the subscription is live once a probe stream's error comes back through it
     while not got:
-        push.send_multipart(protocol.encode(protocol.Frames("w", 0, 0.0, rec.positions[:1])))
+        push.send_multipart(protocol.encode(protocol.Frames(stream, 0, 0.0,
+                                                            rec.positions[:1])))
         done.wait(0.2)
     got.clear()
-    push.send_multipart(protocol.encode(announce_of(rec, "w")))
+    push.send_multipart(protocol.encode(announce_of(rec, stream)))
     for i in range(0, rec.n_frames, 120):
-        push.send_multipart(protocol.encode(protocol.Frames("w", i, i / rec.fps,
+        push.send_multipart(protocol.encode(protocol.Frames(stream, i, i / rec.fps,
                                                             rec.positions[i:i + 120])))
-    push.send_multipart(protocol.encode(protocol.End("w")))
-    assert done.wait(300), "no closed event"
-    th.join(5)
-    sub.close(0)
-    push.close(0)
+    if end:
+        push.send_multipart(protocol.encode(protocol.End(stream)))
+    push.close(5000)
+
+
+def _check_settled(got):
+    """Every provisional cut settled once, by a revision published before (or, when none
+    could run, standing at the last revision); relabel-announced cuts are not provisional."""
     provisional = [e.frame for e in got if e.type == "cut" and e.provisional]
     assert provisional
-    revisions, settles = set(), {}
+    revisions, settles = {0}, {}
     for e in got:
         if e.type == "segments":
             revisions.add(e.revision)
@@ -197,6 +200,42 @@ def test_daemon_settles_every_provisional_cut_before_closed(start_daemon, rec):
             assert e.revision in revisions
     assert sorted(settles) == sorted(provisional)
     assert got[-1].type == "closed"
+    return settles
+
+
+@pytest.mark.daemon
+def test_daemon_settles_every_provisional_cut_before_closed(start_daemon, rec):
+    """A real daemon over loopback, relabelling on: every provisional cut of 86_01 is followed,
+    before the stream's ``closed``, by exactly one ``confirm`` with its ``settled`` frame or
+    one ``withdraw``, both naming a revision already published; cuts a relabel announced are
+    not provisional."""
+    d, ep = start_daemon(relabel_interval=5.0, relabel_history=60.0)
+    got, done = [], threading.Event()
+    th = _listen_until_closed(ep, "w", got, done)
+    _send_take(ep, rec, "w", got, done)
+    assert done.wait(300), "no closed event"
+    th.join(5)
+    _check_settled(got)
+
+
+@pytest.mark.daemon
+def test_cuts_stand_when_shutdown_leaves_no_time_for_the_final_relabel(start_daemon, rec):
+    """Shutdown with ``shutdown_relabel = 0`` closes the open take without its final relabel:
+    its cuts no relabel settled stand (confirmed at their frames) before ``closed``."""
+    d, ep = start_daemon(relabel_interval=5.0, relabel_history=60.0, shutdown_relabel=0.0)
+    got, done = [], threading.Event()
+    th = _listen_until_closed(ep, "w", got, done)
+    _send_take(ep, rec, "w", got, done, end=False)
+    while d.n_frames < rec.n_frames:  # every frame taken (counted as they are received)
+        done.wait(0.05)
+    d.stop()
+    assert done.wait(60), "no closed event"
+    th.join(5)
+    settles = _check_settled(got)
+    assert got[-1].reason == "shutdown"
+    stood = [e for e in settles.values() if e.type == "confirm" and e.emitted_at == rec.n_frames
+             and e.settled == e.frame]
+    assert stood  # the last cuts had no relabel with settle_s of frames after them
 
 
 def test_wire_fields_of_settled_cuts():

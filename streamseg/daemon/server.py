@@ -459,6 +459,10 @@ class Daemon(Intake):
             self._closed(st, reason)
 
     def _closed(self, st: StreamState, reason: str) -> None:
+        # cuts no final relabel settled (none ran: too few frames, or shutdown's time ran
+        # out) stand; after the final relabel there are none left
+        for frame, score, emitted, kind, at in st.pipeline.relabelled(None, True, st.next_seq):
+            publish_cut(self._publish, st, frame, score, emitted, kind, at, st.revision)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
