@@ -7,7 +7,10 @@ and maximum latency over every cut (from its frame to its emission). Then the tw
 decision (``LOFConfig.early_delay_s``): per (early, confirming) delay, the mean F1 of the cuts
 a listener sees first (provisional: every cut emitted, withdraws ignored) and of the final
 cuts, how many pending cuts were withdrawn, and the latency of a final cut's first emission and
-of its final decision. ``--plot PNG`` draws both (docs/img/lof_latency.png).
+of its final decision. Last, the window, look-ahead and localisation together (the other
+parts of the latency): mean F1 and latency on the two recordings a choice would be made on
+(:data:`CHOSEN_ON`) and on the other twelve. ``--plot PNG`` draws the first two
+(docs/img/lof_latency.png).
 
 Run: .venv/bin/python benchmarks/lof_latency.py [--plot docs/img/lof_latency.png]  (~1 min)
 """
@@ -25,6 +28,13 @@ from streamseg.offline.lof import lof_features
 from streamseg.offline.lof_report import lof_report
 
 DELAYS = (1.0, 1.2, 1.5, 1.8, 2.0, 2.5, 3.0)
+#: (window_s, delay_s, refine_s): shorter windows, look-ahead and localisation, the other
+#: parts of the latency (LOFStreamingSegmenter.latency_frames)
+GEOMETRIES = ((1.75, 1.5, 0.8), (1.5, 1.2, 0.2), (1.25, 1.4, 0.2), (1.25, 1.2, 0.4),
+              (1.25, 1.2, 0.3), (1.25, 1.2, 0.2), (1.25, 1.2, 0.1), (1.0, 1.2, 0.2),
+              (1.25, 1.0, 0.2))
+#: the geometry is chosen on these (the rest are held out)
+CHOSEN_ON = ("86_01", "hdm_bd_0")
 TWO_STAGE = ((0.8, 1.5), (1.2, 1.5), (1.2, 2.0))
 SETS = ("cmu", "cmu02", "hdm")
 
@@ -42,7 +52,7 @@ def measure(items, config):
         first += [x / fps for x in res["first_latency"]]
         decided += [x / fps for x in res["latency"]]
         n_withdrawn += len(res["withdrawn"])
-    out = {s: float(np.mean(v)) for s, v in f1.items()}
+    out = {s: float(np.mean(v)) for s, v in f1.items() if v}
     out["all"] = float(np.mean([x for v in f1.values() for x in v]))
     out.update(prov=float(np.mean(prov)), withdrawn=n_withdrawn,
                first=(np.median(first), np.max(first)), decided=(np.median(decided),
@@ -105,6 +115,20 @@ def main():
         [[f"{p[0]:g} / {p[1]:g}", f"{m['prov']:.3f}", f"{m['all']:.3f}", m["withdrawn"],
           "{:.2f} / {:.2f}".format(*m["first"]), "{:.2f} / {:.2f}".format(*m["decided"])]
          for p, m in two]))
+    chosen = [i for i in items if i.name in CHOSEN_ON]
+    rest = [i for i in items if i.name not in CHOSEN_ON]
+    rows = []
+    for w, d, r in GEOMETRIES:
+        cfg = LOFConfig(window_s=w, delay_s=d, refine_s=r)
+        a, b = measure(chosen, cfg), measure(rest, cfg)
+        rows.append([f"{w:g} / {d:g} / {r:g}" + (" (default)" if cfg == LOFConfig() else ""),
+                     f"{a['all']:.3f}", f"{a['decided'][0]:.2f}", f"{b['all']:.3f}",
+                     f"{b['decided'][0]:.2f}", f"{b['decided'][1]:.2f}"])
+    print()
+    print(markdown_table(
+        ["window / delay / refine s", f"F1 chosen on ({', '.join(CHOSEN_ON)})",
+         "latency median s", f"F1 the other {len(rest)}", "latency median s",
+         "latency max s"], rows))
     if args.plot:
         plot(sweep, two, args.plot)
 

@@ -48,7 +48,8 @@ def push(ep):
 
 
 def cuts_of(events, stream):
-    return [e.frame for e in events if e.type == "cut" and e.stream == stream]
+    """The detector's cuts (provisional); a relabel announces the others (Settled cuts)."""
+    return [e.frame for e in events if e.type == "cut" and e.stream == stream and e.provisional]
 
 
 def test_replay_gives_offline_cuts_and_relabels(start_daemon, rec):
@@ -241,7 +242,7 @@ def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
 
     def collect():
         for e in listen(s, stream="slow", until_end=True, timeout=20):
-            if e.type == "cut":
+            if e.type == "cut" and e.provisional:  # the detector's, not a relabel's
                 arrivals.append((time.monotonic(), e.frame))
 
     t = threading.Thread(target=collect)

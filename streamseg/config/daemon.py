@@ -79,6 +79,12 @@ class DaemonConfig:
         Allow binding a non-loopback address without CURVE.
     gap_fill : float
         Longest gap (seconds) in a joint filled by interpolation; longer ones are skipped.
+    settle : float
+        Seconds of frames after a provisional cut the relabel that settles it (``confirm``
+        or ``withdraw``) waits for; each cut makes such a relabel due then (0: cuts are
+        not settled and the cadence alone relabels).
+    focus : float
+        The window of a relabel a cut made due starts this many seconds before the cut.
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
@@ -121,6 +127,8 @@ class DaemonConfig:
     curve_dir: str = ""
     insecure: bool = False
     gap_fill: float = 0.25
+    settle: float = 8.0
+    focus: float = 20.0
 
     def __post_init__(self):
         for name in ("ingest", "publish"):
@@ -204,6 +212,10 @@ class DaemonConfig:
         _check("gap_fill", self.gap_fill, isinstance(self.gap_fill, (int, float))
                and not isinstance(self.gap_fill, bool) and 0 <= self.gap_fill <= 60,
                "seconds >= 0 (0: fill no gap)")
+        for name in ("settle", "focus"):
+            v = getattr(self, name)
+            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
+                   and 0 <= v <= 600, "seconds in [0, 600]")
         _check("max_fps", self.max_fps, self.max_fps >= self.min_fps, "a number >= min_fps")
         _check("checkpoint_interval", self.checkpoint_interval,
                isinstance(self.checkpoint_interval, (int, float)) and self.checkpoint_interval >= 0,

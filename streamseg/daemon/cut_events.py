@@ -2,7 +2,10 @@
 step (the ``state`` reply's ``cuts``: withdrawn cuts leave it, confirmed ones are final).
 
 With the two-stage detector (``LOFConfig.early_delay_s``) a cut may be ``pending``; a later
-``confirm`` or ``withdraw`` event of the same frame settles it (docs/protocol.md).
+``confirm`` or ``withdraw`` event of the same frame settles it (docs/protocol.md). Every
+provisional cut is then settled by a relabel (:mod:`streamseg.daemon.settle`): a ``confirm``
+with its ``settled`` frame, or a ``withdraw``, both with the ``revision``; a boundary of a
+relabel that no cut announced becomes a ``cut`` that is not provisional.
 """
 
 from __future__ import annotations
@@ -11,25 +14,38 @@ import dataclasses
 
 from streamseg import protocol
 
+#: kinds of the events that settle provisional cuts (:meth:`StreamPipeline.relabelled`)
+SETTLE_KINDS = ("confirmed", "rejected", "found")
 
-def publish_cut(publish, st, frame: int, score: float, emitted: int, kind: str) -> None:
+
+def publish_cut(publish, st, frame: int, score: float, emitted: int, kind: str,
+                settled: int | None = None, revision: int | None = None) -> None:
     """Publish one ``(frame, score, emitted, kind)`` cut event of stream ``st`` with
-    ``publish(st, event) -> numbered event`` and update ``st.cuts``."""
+    ``publish(st, event) -> numbered event`` and update ``st.cuts``; the kinds of
+    :data:`SETTLE_KINDS` carry the relabel's ``settled`` frame and its ``revision``."""
     when = st.time_of(frame)
-    if kind in ("cut", "pending"):
-        ev = protocol.Cut(st.stream, frame, when, score, emitted, True,
-                          True if kind == "pending" else None)
+    if kind in ("cut", "pending", "found"):
+        ev = protocol.Cut(st.stream, frame, when, score, emitted, kind != "found",
+                          True if kind == "pending" else None,
+                          revision if kind == "found" else None)
         st.cuts.append(publish(st, ev))
         return
     if kind == "confirm":
         publish(st, protocol.Confirm(st.stream, frame, when, score, emitted))
+    elif kind == "confirmed":
+        publish(st, protocol.Confirm(st.stream, frame, when, score, emitted, settled, revision))
     else:
-        publish(st, protocol.Withdraw(st.stream, frame, when, emitted, kind == "moved"))
+        publish(st, protocol.Withdraw(st.stream, frame, when, emitted, kind == "moved",
+                                      revision if kind == "rejected" else None))
     for i in range(len(st.cuts) - 1, -1, -1):
         c = st.cuts[i]
-        if c.frame == frame and c.pending:
+        if c.frame == frame and (c.pending or kind in SETTLE_KINDS) and c.provisional:
             if kind == "confirm":
                 st.cuts[i] = dataclasses.replace(c, pending=None)
+            elif kind == "confirmed":  # settled: where the relabel puts it, no longer open
+                st.cuts[i] = dataclasses.replace(c, frame=settled, time=st.time_of(settled),
+                                                 pending=None, provisional=False,
+                                                 revision=revision)
             else:
                 del st.cuts[i]
             return

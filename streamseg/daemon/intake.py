@@ -260,7 +260,7 @@ class Intake:
         self._report_gaps(st, bad)
         self._publish_results(st, cuts, reps)
         self.latency.add(time.perf_counter() - np.array(arrivals))
-        if self.config.relabel_interval > 0 and st.pipeline.learned >= st.next_relabel:
+        if self.config.relabel_interval > 0 and st.pipeline.relabel_due(st.next_relabel):
             self.due[st] = None  # snapshot taken when the worker has a free slot (_feed)
 
 

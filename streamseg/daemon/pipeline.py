@@ -57,10 +57,22 @@ class Algorithms:
     gap_fill_s : float or None
         Longest gap filled by interpolation, seconds (None: the daemon's
         ``DaemonConfig.gap_fill``; outside a daemon :data:`streamseg.io.gaps.FILL_S`).
+    settle_s : float or None
+        Seconds of frames a relabel needs after a provisional cut to settle it (confirm or
+        withdraw it, :mod:`streamseg.daemon.settle`); 0: cuts are not settled and make no
+        relabel due. None: the daemon's ``DaemonConfig.settle``, outside a daemon
+        :data:`SETTLE_S`.
+    focus_s : float or None
+        Seconds before the oldest open cut the window of the relabel it makes due starts
+        (None: ``DaemonConfig.focus`` in a daemon, else :data:`FOCUS_S`).
+    radius_s : float or None
+        A relabel boundary within this many seconds of a provisional cut confirms it (None:
+        :data:`RADIUS_S`).
     """
 
     def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
-                 rep_config=None, memory_config=None, gap_fill_s=None):
+                 rep_config=None, memory_config=None, gap_fill_s=None, settle_s=None,
+                 focus_s=None, radius_s=None):
         self.lof_config = lof_config
         self.aca_config = aca_config
         self._relabel = relabel
@@ -68,6 +80,20 @@ class Algorithms:
         self.rep_config = rep_config
         self.memory_config = memory_config
         self.gap_fill_s = None if gap_fill_s is None else float(gap_fill_s)
+        self.settle_s = None if settle_s is None else float(settle_s)
+        self.focus_s = None if focus_s is None else float(focus_s)
+        self.radius_s = None if radius_s is None else float(radius_s)
+
+    def settlement(self, fps: float):
+        """A stream's :class:`~streamseg.daemon.settle.Settlement` (None: settling off)."""
+        from streamseg.daemon.settle import Settlement
+
+        settle = SETTLE_S if self.settle_s is None else self.settle_s
+        if settle <= 0:
+            return None
+        focus = FOCUS_S if self.focus_s is None else self.focus_s
+        radius = int(round((RADIUS_S if self.radius_s is None else self.radius_s) * fps))
+        return Settlement(fps, settle, focus, radius)
 
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
@@ -219,6 +245,9 @@ def _segment_triplets(window) -> list:
 
 
 RECENT_CUTS = 256  # live cuts a stream keeps for its relabels
+SETTLE_S = 8.0  # seconds of frames after a provisional cut a relabel needs to settle it
+FOCUS_S = 20.0  # seconds before the oldest open cut a focused relabel's window starts
+RADIUS_S = 1.0  # a relabel boundary this close to a provisional cut confirms it
 RING_START = 256  # rows of the feature ring at first (it doubles up to the history)
 RESTART_GAP_S = 10.0  # lost frames up to this long go through the gap filler; longer: restart
 UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
@@ -262,7 +291,7 @@ class StreamPipeline:
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "root", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
                  "notices", "_spine", "_spine_n", "cut_frames", "_cap", "filler",
-                 "gaps", "final_bad", "final_reps")
+                 "gaps", "final_bad", "final_reps", "settlement")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton
@@ -300,6 +329,8 @@ class StreamPipeline:
         self.gaps = []  # (start, end) of gaps closed and not yet reported
         self.final_bad = 0  # frames skipped among those released at finish()
         self.final_reps = []  # repetitions completed by the frames released at finish()
+        # the provisional cuts the relabels settle, and the relabel they make due
+        self.settlement = algorithms.settlement(self.fps)
 
     @property
     def fill_frames(self) -> int:
@@ -319,13 +350,20 @@ class StreamPipeline:
         """The detector's events as ``(frame, score, emitted_at, kind)`` in stream frames,
         ``kind`` one of :data:`CUT_KINDS`; :attr:`cut_frames` keeps the cuts not withdrawn."""
         o, out = self.offset, []
+        settle = getattr(self, "settlement", None)  # None also in checkpoints made before it
         for ev in events:
             kind = cut_kind(ev)
-            out.append((ev.frame + o, float(getattr(ev, "score", 0.0)), ev.emitted_at + o, kind))
+            score = float(getattr(ev, "score", 0.0))
+            out.append((ev.frame + o, score, ev.emitted_at + o, kind))
             if kind in ("cut", "pending"):
                 self.cut_frames.append(ev.frame + o)
-            elif kind in ("withdraw", "moved") and ev.frame + o in self.cut_frames:
-                self.cut_frames.remove(ev.frame + o)
+                if settle is not None:
+                    settle.add(ev.frame + o, score, ev.emitted_at + o)
+            elif kind in ("withdraw", "moved"):
+                if ev.frame + o in self.cut_frames:
+                    self.cut_frames.remove(ev.frame + o)
+                if settle is not None:
+                    settle.drop(ev.frame + o)
         return out
 
     def start_at(self, frame: int) -> None:
@@ -518,8 +556,67 @@ class StreamPipeline:
             self._frames[:angles.shape[0] - k] = frames[k:]
         self.learned += m
 
-    def snapshot(self, seconds: float | None = None):
-        """Copy of the last ``seconds`` of stored features for a relabel job.
+    def relabel_due(self, next_relabel: int) -> bool:
+        """Whether this stream should be relabelled now: ``next_relabel`` stored rows are in
+        (the daemon's cadence, ``relabel_interval``), or a provisional cut waits to be
+        settled (:mod:`streamseg.daemon.settle`)."""
+        if self.learned >= next_relabel:
+            return True
+        settle = getattr(self, "settlement", None)
+        return settle is not None and settle.due(self.next_frame)
+
+    def relabel_snapshot(self, whole: bool):
+        """The features of the next relabel job: the whole history (``whole``: the cadence's
+        relabel, or the final one), else the window of the relabel the open provisional
+        cuts made due (from ``focus_s`` before the oldest of them).
+
+        Returns
+        -------
+        features, frames : as :meth:`snapshot`
+        focused : bool
+            True when the window is the focused one (the cadence is left as it was).
+        """
+        settle = getattr(self, "settlement", None)
+        focused = not whole and settle is not None and bool(settle.open)
+        feats, frames = self.snapshot(first_frame=settle.window_start() if focused else None)
+        if settle is not None:
+            settle.taken()
+        return feats, frames, focused
+
+    def relabelled(self, result, final: bool, now: int, focused: bool = False) -> list:
+        """Take a relabel's result (``Relabelled``, or None when it failed) as the next
+        ``previous`` and settle the provisional cuts it holds, at stream frame ``now``.
+
+        The result of a ``focused`` job (a window a cut made due, :meth:`relabel_snapshot`)
+        settles cuts but is not the next ``previous``: the cadence's revisions carry the ids
+        and the label memory from one to the next as without settling.
+
+        Returns
+        -------
+        list of (frame, score, emitted_at, kind, settled)
+            ``kind`` ``"confirmed"`` (at the relabel's frame ``settled``), ``"rejected"``
+            (withdrawn) or ``"found"`` (a boundary no cut announced, announced as a cut that is
+            not provisional); empty with settling off.
+        """
+        if result is not None and not focused:
+            self.previous = result.window
+        settle = getattr(self, "settlement", None)
+        if settle is None:
+            return []
+        if result is None:  # a failed relabel settles nothing, but the final one must end
+            if not final:
+                return []
+            segs, start, end = (), now, now  # every open cut stands
+        else:
+            segs, start, end = result.segments, result.start, result.end
+        # later relabels snap to every cut the detector made, settled or not, as without
+        # settling: a withdrawn true cut still draws a boundary the relabel finds near it
+        out = settle.apply(segs, start, end, final, now, self.offset)
+        return out
+
+    def snapshot(self, seconds: float | None = None, first_frame: int | None = None):
+        """Copy of the last ``seconds`` of stored features for a relabel job (from stream
+        frame ``first_frame`` on, when given).
 
         Returns
         -------
@@ -531,6 +628,9 @@ class StreamPipeline:
         m = min(self.learned, cap)
         if seconds is not None:
             m = min(m, int(round(seconds * self.fps)))
+        if m and first_frame is not None and self._feat is not None:
+            frames = self._frames[(self.learned - m + np.arange(m)) % cap]
+            m -= int(np.searchsorted(frames, first_frame))
         if m == 0 or self._feat is None:
             return np.zeros((0, self._width)), np.zeros(0, dtype=np.int64)
         idx = (self.learned - m + np.arange(m)) % cap

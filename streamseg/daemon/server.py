@@ -82,6 +82,11 @@ class Daemon(Intake):
             self.algorithms.memory_config = LabelMemoryConfig()
         if self.algorithms.gap_fill_s is None:  # Algorithms(gap_fill_s=...) wins over config
             self.algorithms.gap_fill_s = float(self.config.gap_fill)
+        if self.algorithms.settle_s is None:  # as gap_fill_s; settling needs relabels
+            self.algorithms.settle_s = float(self.config.settle) \
+                if self.config.relabel_interval > 0 else 0.0
+        if self.algorithms.focus_s is None:
+            self.algorithms.focus_s = float(self.config.focus)
         self.ctx = zmq.Context()
         self.streams: dict[str, StreamState] = {}
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
@@ -272,12 +277,16 @@ class Daemon(Intake):
                 self._submit(st, final=False)
 
     def _submit(self, st: StreamState, final: bool) -> bool:
-        feats, frames = st.pipeline.snapshot()
+        feats, frames, focused = st.pipeline.relabel_snapshot(
+            final or st.pipeline.learned >= st.next_relabel)
         if feats.shape[0] < 2:
             return False
-        st.next_relabel = st.pipeline.learned + int(round(self.config.relabel_interval * st.fps))
+        if not focused:  # a relabel a cut made due leaves the cadence as it was
+            st.next_relabel = st.pipeline.learned + int(round(self.config.relabel_interval
+                                                              * st.fps))
         self.worker.submit(RelabelJob((st.stream, st.gen), feats, frames, st.fps,
-                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames)))
+                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames),
+                                      focused))
         return True
 
     def _checkpoint_copy(self, st: StreamState):
@@ -400,6 +409,10 @@ class Daemon(Intake):
             self._closed(st, reason)
 
     def _closed(self, st: StreamState, reason: str) -> None:
+        # cuts no final relabel settled (none ran: too few frames, or shutdown's time ran
+        # out) stand; after the final relabel there are none left
+        for frame, score, emitted, kind, at in st.pipeline.relabelled(None, True, st.next_seq):
+            publish_cut(self._publish, st, frame, score, emitted, kind, at, st.revision)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
             self._publish(st, ev)
         self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
@@ -430,20 +443,24 @@ class Daemon(Intake):
             st, reason = self.closing.get(job.key, (None, None))
             if st is None:
                 return  # the stream was re-announced since; the result is stale
-        if isinstance(result, Exception):
+        failed = isinstance(result, Exception)
+        if failed:
             self._error(stream, "relabel", f"relabel failed: {type(result).__name__}: {result}")
-        else:
+        settled = st.pipeline.relabelled(None if failed else result, job.final, st.next_seq,
+                                         getattr(job, "focused", False))
+        if not failed:
             st.revision += 1
             st.relabel_time = result.elapsed
-            st.pipeline.previous = result.window
             ev = protocol.Segments(stream, st.revision, result.start, result.end,
                                    result.segments, job.final, result.elapsed)
             self.totals["relabels"] += 1
             st.segments = self._publish(st, ev)
+        for frame, score, emitted, kind, at in settled:  # after the revision that settles
+            publish_cut(self._publish, st, frame, score, emitted, kind, at, st.revision)
         if job.final and reason is not None:
             self.closing.pop(job.key, None)
             self._closed(st, reason)
-        elif reason is None and st.pipeline.learned >= st.next_relabel:
+        elif reason is None and st.pipeline.relabel_due(st.next_relabel):
             self.due[st] = None  # became due while this one ran: next in line
 
     def _sweep(self, now: float) -> None:

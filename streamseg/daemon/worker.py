@@ -18,9 +18,11 @@ PROCESS_NICE = 10
 class RelabelJob:
     """A snapshot of one stream's features to relabel (taken by the ingest thread)."""
 
-    __slots__ = ("key", "features", "frames", "fps", "previous", "final", "queued", "cuts")
+    __slots__ = ("key", "features", "frames", "fps", "previous", "final", "queued", "cuts",
+                 "focused")
 
-    def __init__(self, key, features, frames, fps, previous, final=False, cuts=()):
+    def __init__(self, key, features, frames, fps, previous, final=False, cuts=(),
+                 focused=False):
         self.key = key  # (stream, generation): a re-announced stream is a new key
         self.features = features
         self.frames = frames
@@ -28,6 +30,7 @@ class RelabelJob:
         self.previous = previous
         self.final = final
         self.cuts = cuts  # live cut frames the relabel's boundaries may snap to
+        self.focused = focused  # the window a provisional cut made due (not the history)
         self.queued = time.monotonic()
 
 

@@ -64,7 +64,8 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
 
 # left out when None (older readers)
 _OPTIONAL = {"announce": ("labels", "labels_sequence", "auth"), "end": ("auth",),
-             "cut": ("pending",), "gap": ("filled",)}
+             "cut": ("pending", "revision"), "confirm": ("settled", "revision"),
+             "withdraw": ("revision",), "gap": ("filled",)}
 
 
 def encode(msg, seq: int | None = None) -> list[bytes]:
@@ -274,6 +275,14 @@ def _pending(obj):
     return True if value else None
 
 
+def _maybe_int(obj, key: str, kind: str):
+    """An optional integer field: the int, or None when absent (older daemons)."""
+    if obj.get(key) is None:
+        return None
+    return _int(obj, key, kind, obj.get("stream") if isinstance(obj.get("stream"), str)
+                else None)
+
+
 def _flag(obj, key: str, kind: str):
     """An optional bool field: True/False, or None when absent."""
     value = obj.get(key)
@@ -300,15 +309,18 @@ _BUILDERS = {
                          _num(o, "time", "cut", None, finite=False),
                          _num(o, "score", "cut", None, finite=False),
                          _int(o, "emitted_at", "cut", None), bool(o["provisional"]),
-                         _pending(o)),
+                         _pending(o), _maybe_int(o, "revision", "cut")),
     "confirm": lambda o: Confirm(_stream(o, "confirm"), _int(o, "frame", "confirm", None),
                                  _num(o, "time", "confirm", None, finite=False),
                                  _num(o, "score", "confirm", None, finite=False),
-                                 _int(o, "emitted_at", "confirm", None)),
+                                 _int(o, "emitted_at", "confirm", None),
+                                 _maybe_int(o, "settled", "confirm"),
+                                 _maybe_int(o, "revision", "confirm")),
     "withdraw": lambda o: Withdraw(_stream(o, "withdraw"), _int(o, "frame", "withdraw", None),
                                    _num(o, "time", "withdraw", None, finite=False),
                                    _int(o, "emitted_at", "withdraw", None),
-                                   bool(o.get("moved", False))),
+                                   bool(o.get("moved", False)),
+                                   _maybe_int(o, "revision", "withdraw")),
     "segments": _segments,
     "rep": lambda o: Rep(_stream(o, "rep"), _int(o, "start", "rep", None),
                          _int(o, "end", "rep", None), _int(o, "count", "rep", None),
@@ -330,7 +342,9 @@ _NUMBERED = frozenset({"cut", "confirm", "withdraw", "segments", "rep", "gap", "
                        "closed"})
 
 
-_JSON_OPTIONAL = {"cut": ("pending",), "gap": ("filled",)}  # left out when None, as on the wire
+# left out when None, as on the wire
+_JSON_OPTIONAL = {"cut": ("pending", "revision"), "confirm": ("settled", "revision"),
+                  "withdraw": ("revision",), "gap": ("filled",)}
 
 
 def to_json(msg) -> dict:

@@ -134,6 +134,8 @@ class Cut:
     # True: an early decision a later ``confirm`` or ``withdraw`` settles (two-stage
     # detector); None (left out on the wire): final when emitted
     pending: bool | None = None
+    # with ``provisional`` false: the ``segments`` revision whose boundary this cut announces
+    revision: int | None = None
     seq: int | None = _seq()
 
     type = "cut"
@@ -142,13 +144,16 @@ class Cut:
 @dataclass(frozen=True)
 class Confirm:
     """Event: the pending cut at ``frame`` stands (the confirming stage decided the same
-    cut at ``emitted_at``, LOF ``score``)."""
+    cut at ``emitted_at``, LOF ``score``); with ``settled``: the provisional cut at ``frame``
+    is settled by the relabel ``revision``, the boundary at frame ``settled``."""
 
     stream: str
     frame: int
     time: float
     score: float
     emitted_at: int
+    settled: int | None = None
+    revision: int | None = None
     seq: int | None = _seq()
 
     type = "confirm"
@@ -157,13 +162,16 @@ class Confirm:
 @dataclass(frozen=True)
 class Withdraw:
     """Event: the pending cut at ``frame`` is taken back (decided at ``emitted_at``);
-    ``moved``: a cut nearby follows (the confirming stage placed it at another frame)."""
+    ``moved``: a cut nearby follows (the confirming stage placed it at another frame). With
+    ``revision``: the provisional cut at ``frame`` is withdrawn by that relabel (it found no
+    boundary there)."""
 
     stream: str
     frame: int
     time: float
     emitted_at: int
     moved: bool = False
+    revision: int | None = None
     seq: int | None = _seq()
 
     type = "withdraw"

@@ -1,0 +1,565 @@
+"""What a consumer of the daemon's events knows about the boundaries, 1, 3 and 10 s after each
+true boundary and at the end of the take.
+
+A consumer's view at stream time ``t`` is built from the events published by then, applied in
+order (docs/protocol.md): a ``cut`` adds its frame, a ``withdraw`` removes it, a ``confirm``
+with a ``settled`` frame moves it there, and a ``segments`` revision ``[start, end)`` replaces
+the revision boundaries inside ``(start, end)`` by its own (where the action label changes)
+and supersedes the provisional cuts inside it published before it (cuts settled by a relabel,
+confirmed or announced with ``provisional: false``, stay). The view is the union of both.
+
+Scores, a boundary counting as known when one of the view lies within ``--tolerance`` (1.5 s)
+of the true one:
+
+* recall at ``d``: the share of true boundaries ``b`` for which the view at ``b + d`` s holds
+  a boundary within the tolerance of ``b``;
+* precision at ``d``: the share of the view's boundaries at ``b + d`` s that lie within the
+  tolerance of a true boundary, averaged over the true boundaries ``b`` (a view that holds
+  nothing yet is left out);
+* end: the view after the stream's ``closed`` against the true boundaries, both ways.
+
+F1 per recording from these, then the mean over recordings per set. ``latency``: per true
+boundary that a cut event (any ``cut``, provisional or not) matched within the tolerance, the
+stream time from the true boundary to the first such cut's emission; median over all.
+
+The events come from the daemon's own per-stream code run in this process on stream time,
+without sockets or a wall clock (``--source sim``, the default): the recording goes in
+packets of ``--packet`` frames through :class:`streamseg.daemon.pipeline.StreamPipeline`,
+relabels are due and taken as the daemon's loop takes them (one worker slot, a job's result
+published ``--lag`` s of stream time after it was submitted, a due job waits for the running
+one), and the final relabel runs after the end. ``--source daemon`` runs a real daemon on
+loopback instead, replays each recording at ``--speed`` times real time, and takes the
+events as a subscriber receives them, on each event's ``emitted_at``-free clock: the stream
+frame the sender had sent when the event arrived (slower; wall time decides).
+
+Run: .venv/bin/python benchmarks/consumer_view.py [--sets cmu,cmu02,hdm] [--chosen-on a,b]
+     [--lag 0.5] [--source sim|daemon] [--delay S] [--early S] [--settle S] [--focus S]
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import json
+import statistics
+import sys
+import time
+from types import SimpleNamespace
+
+import numpy as np
+from _common import labelled, markdown_table
+
+DELAYS = (1.0, 3.0, 10.0)
+
+
+# --- the events -------------------------------------------------------------------------------
+
+def _algorithms(args):
+    from streamseg.config import LOFConfig
+    from streamseg.config.memory import LabelMemoryConfig
+    from streamseg.daemon.pipeline import Algorithms
+
+    lof = LOFConfig(**_lof_overrides(args))
+    return Algorithms(lof_config=lof, memory_config=LabelMemoryConfig(), **_settle_kw(args))
+
+
+def _lof_overrides(args) -> dict:
+    out = {}
+    if args.delay is not None:
+        out["delay_s"] = args.delay
+    if args.early is not None:
+        out["early_delay_s"] = args.early
+    if args.window is not None:
+        out["window_s"] = args.window
+    return out
+
+
+def _settle_kw(args) -> dict:
+    from streamseg.daemon.pipeline import Algorithms
+
+    kw = {}
+    params = Algorithms.__init__.__code__.co_varnames
+    if "settle_s" in params:
+        if args.settle is not None:
+            kw["settle_s"] = args.settle
+        if args.focus is not None:
+            kw["focus_s"] = args.focus
+        if args.radius is not None:
+            kw["radius_s"] = args.radius
+    return kw
+
+
+def _cut_event(stream, frame, score, emitted, kind, settled=None, revision=None):
+    """A pipeline step's cut tuple as the protocol event the daemon publishes."""
+    from streamseg import protocol
+
+    if kind in ("cut", "pending", "found"):
+        return protocol.Cut(stream, frame, 0.0, score, emitted, kind != "found",
+                            True if kind == "pending" else None,
+                            **({"revision": revision} if revision is not None else {}))
+    if kind in ("confirm", "confirmed"):
+        extra = {"settled": settled, "revision": revision} if kind == "confirmed" else {}
+        return protocol.Confirm(stream, frame, 0.0, score, emitted, **extra)
+    extra = {"revision": revision} if kind == "rejected" else {}
+    return protocol.Withdraw(stream, frame, 0.0, emitted, kind == "moved", **extra)
+
+
+def simulate(item, algorithms, history: float, interval: float, lag_s: float, packet: int):
+    """The stream's events as ``(t, event)``, ``t`` the frames the sender had sent when it was
+    published; the daemon's scheduling (server.py, intake.py) on stream time."""
+    from streamseg import protocol
+    from streamseg.daemon.options import skeleton_from
+    from streamseg.daemon.pipeline import StreamPipeline, relabel
+
+    rec = item.recording
+    fps, n = float(rec.fps), rec.n_frames
+    sk = rec.skeleton
+    pipe = StreamPipeline(skeleton_from(sk.names, sk.parents, sk.units, sk.up), fps,
+                          algorithms, history)
+    settling = hasattr(pipe, "relabel_due")
+    lag = int(round(lag_s * fps))
+    state = {"next": int(round(interval * fps)), "job": None, "due": False, "rev": 0,
+             "work": [[0, 0.0], [0, 0.0]]}  # [count, seconds] of the cadence's, the focused
+    out = []
+
+    def cuts_at(t, cuts):
+        for c in cuts:
+            out.append((t, _cut_event("s", *c)))
+
+    def due() -> bool:
+        if settling:
+            return pipe.relabel_due(state["next"])
+        return pipe.learned >= state["next"]
+
+    def submit(t, final):
+        if settling:
+            feats, frames, focused = pipe.relabel_snapshot(final or pipe.learned >= state["next"])
+        else:
+            (feats, frames), focused = pipe.snapshot(), False
+        if feats.shape[0] < 2:
+            return False
+        if not focused:
+            state["next"] = pipe.learned + int(round(interval * fps))
+        result = relabel(algorithms, feats, frames, fps, pipe.previous, tuple(pipe.cut_frames))
+        state["work"][focused][0] += 1
+        state["work"][focused][1] += result.elapsed
+        state["job"] = (t + lag, result, final, focused)
+        return True
+
+    def publish(t):
+        ready, result, final, focused = state["job"]
+        state["job"] = None
+        state["rev"] += 1
+        out.append((t, protocol.Segments("s", state["rev"], result.start, result.end,
+                                         result.segments, final, 0.0)))
+        if settling:
+            for c in pipe.relabelled(result, final, t, focused):
+                out.append((t, _cut_event("s", *c, state["rev"])))
+        else:
+            pipe.previous = result.window
+
+    for i in range(0, n, packet):
+        cuts, _, _ = pipe.push(rec.positions[i:i + packet], i)
+        t = min(i + packet, n)
+        cuts_at(t, cuts)
+        if state["job"] is not None and t >= state["job"][0]:
+            publish(t)
+        if not state["due"] and interval > 0 and due():
+            state["due"] = True
+        if state["due"] and state["job"] is None:
+            state["due"] = False
+            submit(t, False)
+    cuts_at(n, pipe.finish())
+    t = n
+    if state["job"] is not None:  # the running job ends first, then the final one runs
+        t = max(t, state["job"][0])
+        publish(t)
+    if interval > 0 and submit(t, True):
+        publish(state["job"][0])
+    WORK[item.name] = state["work"]
+    return out, n
+
+
+WORK: dict = {}  # recording -> relabels [count, seconds] of the cadence (final included), focused
+
+
+def from_daemon(item, algorithms, history, interval, speed):
+    """The same through a real daemon on loopback: replay at ``speed`` x real time."""
+    import threading
+
+    import zmq
+
+    from streamseg import protocol
+    from streamseg.client import subscriber
+    from streamseg.commands.replay import announce_of
+    from streamseg.config import DaemonConfig
+    from streamseg.daemon import Daemon
+
+    loop = "tcp://127.0.0.1:0"
+    cfg = DaemonConfig(ingest=loop, publish=loop, control=loop, relabel_history=history,
+                       relabel_interval=interval, heartbeat=0)
+    d = Daemon(cfg, algorithms)
+    ep = d.bind()
+    th = threading.Thread(target=d.run, daemon=True)
+    th.start()
+    d.ready.wait(600)
+    ctx = zmq.Context.instance()
+    sub = subscriber(ep["publish"], stream="s")
+    push = ctx.socket(zmq.PUSH)
+    push.connect(ep["ingest"])
+    time.sleep(0.3)
+    rec = item.recording
+    fps, n = float(rec.fps), rec.n_frames
+    push.send_multipart(protocol.encode(announce_of(rec, "s")))
+    sent = [0]
+    out = []
+    done = threading.Event()
+
+    def listen():
+        while True:
+            if not sub.poll(100):
+                continue
+            ev = protocol.decode(sub.recv_multipart())
+            if ev.type in ("cut", "confirm", "withdraw", "segments"):
+                out.append((sent[0], ev))
+            if ev.type == "closed":
+                done.set()
+                return
+
+    lt = threading.Thread(target=listen, daemon=True)
+    lt.start()
+    t0 = time.perf_counter()
+    step = 4
+    for i in range(0, n, step):
+        wait = t0 + i / (fps * speed) - time.perf_counter()
+        if wait > 0:
+            time.sleep(wait)
+        pos = rec.positions[i:i + step]
+        push.send_multipart(protocol.encode(protocol.Frames("s", i, i / fps, pos)))
+        sent[0] = i + pos.shape[0]
+    push.send_multipart(protocol.encode(protocol.End("s")))
+    done.wait(300)
+    d.stop()
+    th.join(60)
+    sub.close(0)
+    push.close(0)
+    return out, n
+
+
+def from_cli(item, args, port0):
+    """``streamseg serve`` + ``streamseg replay --speed`` + ``streamseg listen --jsonl`` as
+    separate processes; an event's time is the stream frame the replay had reached when its
+    line arrived (its start, taken as the latest that no event's ``emitted_at`` contradicts,
+    + elapsed wall time x fps x speed)."""
+    import os
+    import subprocess
+    import tempfile
+
+    from streamseg.client import request
+    from streamseg.io import write_npz
+
+    exe = os.path.join(os.path.dirname(sys.executable), "streamseg")
+    ing, pub, ctl = (f"tcp://127.0.0.1:{port0 + i}" for i in range(3))
+    state = tempfile.mkdtemp(prefix="consumer-view-")
+    serve = subprocess.Popen([exe, "serve", "--ingest", ing, "--publish", pub, "--control",
+                              ctl, "--state-dir", state, *_serve_flags(args)],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 600
+        while True:  # ready once control answers (the kernels are warm)
+            try:
+                request(ctl, "ping", timeout=1.0)
+                break
+            except Exception:
+                if time.monotonic() > deadline or serve.poll() is not None:
+                    raise RuntimeError("streamseg serve did not start") from None
+        listen = subprocess.Popen([exe, "listen", "--from", pub, "--control", ctl,
+                                   "--stream", "s", "--jsonl", "--until-end", "--timeout",
+                                   "600"], stdout=subprocess.PIPE, text=True,
+                                  env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        assert json.loads(listen.stdout.readline())["type"] == "state"
+        rec = item.recording
+        fps, n = float(rec.fps), rec.n_frames
+        path = os.path.join(state, "take.npz")  # a joined sequence has no file of its own
+        write_npz(path, rec)
+        replay = subprocess.Popen([exe, "replay", path, "--to", ing, "--speed",
+                                   str(args.speed), "--stream", "s", "--batch", "4"],
+                                  stdout=subprocess.DEVNULL)
+        raw = []
+        for line in listen.stdout:
+            now = time.monotonic()
+            d = json.loads(line)
+            if d.get("type") in ("cut", "confirm", "withdraw", "segments"):
+                d.setdefault("provisional", True)
+                raw.append((now, SimpleNamespace(**d)))
+        # the replay's clock: frame f was sent at t0 + f / (fps x speed), t0 after the
+        # replay process started; no event can arrive before the frame that made it was sent
+        rate = fps * args.speed
+        t0 = min(w - e.emitted_at / rate for w, e in raw if hasattr(e, "emitted_at"))
+        out = [(min((w - t0) * rate, n + 10 * fps), e) for w, e in raw]
+        replay.wait(60)
+        listen.wait(60)
+        return out, n
+    finally:
+        serve.terminate()
+        serve.wait(60)
+
+
+def _serve_flags(args) -> list:
+    flags = []
+    if args.settle is not None:
+        flags += ["--settle", str(args.settle)]
+    if args.focus is not None:
+        flags += ["--focus", str(args.focus)]
+    return flags
+
+
+# --- the view ---------------------------------------------------------------------------------
+
+class Views:
+    """The view after each event, looked up by time (``events`` sorted by time)."""
+
+    def __init__(self, events, cuts_only=False):
+        self.times = [t for t, _ in events]
+        self.views = [frozenset()]
+        for i in range(len(events)):
+            if i + 1 == len(events) or self.times[i + 1] != self.times[i]:
+                self.views.append(frozenset(view_at(events[:i + 1], float("inf"), cuts_only)))
+            else:
+                self.views.append(None)
+        # the view after the last event published at or before each time
+        self.keys = [t for i, t in enumerate(self.times) if self.views[i + 1] is not None]
+        self.vals = [v for v in self.views[1:] if v is not None]
+
+    def at(self, t: float) -> frozenset:
+        i = bisect.bisect_right(self.keys, t)
+        return self.vals[i - 1] if i else frozenset()
+
+
+def view_at(events, t: float, cuts_only: bool = False) -> list:
+    """The consumer's boundaries after the events published at or before ``t`` (with
+    ``cuts_only``: of the ``cut``, ``confirm`` and ``withdraw`` events alone)."""
+    cuts: dict = {}  # frame -> settled (True: confirmed by a relabel or not provisional)
+    revision: list = []  # sorted boundaries of the revisions
+    for when, ev in events:
+        if when > t:
+            break
+        kind = ev.type
+        if kind == "cut":
+            cuts[ev.frame] = not ev.provisional
+        elif kind == "withdraw":
+            cuts.pop(ev.frame, None)
+        elif kind == "confirm":
+            settled = getattr(ev, "settled", None)
+            if settled is not None and ev.frame in cuts:
+                del cuts[ev.frame]
+                cuts[settled] = True
+        elif kind == "segments" and not cuts_only:
+            a, b = ev.start, ev.end
+            for f in [f for f in cuts if a < f < b]:
+                del cuts[f]
+            lo, hi = bisect.bisect_right(revision, a), bisect.bisect_left(revision, b)
+            segs = _triples(ev.segments)
+            new = [int(s[0]) for p, s in zip(segs[:-1], segs[1:]) if p[2] != s[2]]
+            revision[lo:hi] = [f for f in new if a < f < b]
+    return sorted(set(revision) | set(cuts))
+
+
+def _triples(segments) -> list:
+    """``(start, end, label)`` of a ``segments`` event's list (``listen --jsonl`` writes each
+    as a map)."""
+    return [(s["start"], s["end"], s["label"]) if isinstance(s, dict) else tuple(s)
+            for s in segments]
+
+
+def _near(frames, targets, tol) -> np.ndarray:
+    """For each of ``frames``: whether one of ``targets`` lies within ``tol``."""
+    if not len(frames):
+        return np.zeros(0, dtype=bool)
+    if not len(targets):
+        return np.zeros(len(frames), dtype=bool)
+    t = np.sort(np.asarray(targets))
+    f = np.asarray(frames)
+    i = np.clip(np.searchsorted(t, f), 1, len(t) - 1) if len(t) > 1 else np.zeros(len(f), int)
+    d = np.minimum(np.abs(t[i] - f), np.abs(t[np.maximum(i - 1, 0)] - f))
+    return d <= tol
+
+
+def _f1(p, r) -> float:
+    return 0.0 if p + r == 0 else 2 * p * r / (p + r)
+
+
+def score_view(events, n, truth, fps, tol_s=1.5, cuts_only=False) -> dict:
+    """Recall, precision and F1 at each of :data:`DELAYS` and at the end; first-cut latency."""
+    events = sorted(events, key=lambda e: e[0])  # stable: publication order within a frame
+    tol = tol_s * fps
+    out = {}
+    views = Views(events, cuts_only)
+    for d in DELAYS:
+        dt = d * fps
+        rec, prec = [], []
+        for b in truth:
+            seen = sorted(views.at(b + dt))
+            rec.append(bool(_near([b], seen, tol)[0]))
+            if seen:
+                prec.append(float(np.mean(_near(seen, truth, tol))))
+        r = float(np.mean(rec)) if truth else 1.0
+        p = float(np.mean(prec)) if prec else 1.0
+        out[d] = (r, p, _f1(p, r))
+    final = view_at(events, float("inf"), cuts_only)
+    r = float(np.mean(_near(truth, final, tol))) if truth else 1.0
+    p = float(np.mean(_near(final, truth, tol))) if final else 1.0
+    out["end"] = (r, p, _f1(p, r))
+    lat = []
+    for b in truth:
+        first = [t for t, ev in events if ev.type == "cut" and abs(ev.frame - b) <= tol]
+        if first:
+            lat.append((min(first) - b) / fps)
+    out["latency"] = lat
+    out["unresolved"] = unresolved(events)
+    return out
+
+
+def unresolved(events) -> int:
+    """Provisional cuts no relabel confirmed or withdrew (a detector's own confirm of a
+    pending cut does not settle it)."""
+    open_ = set()
+    for _, ev in events:
+        if ev.type == "cut" and ev.provisional:
+            open_.add(ev.frame)
+        elif ev.type == "withdraw":
+            open_.discard(ev.frame)
+        elif ev.type == "confirm" and getattr(ev, "revision", None) is not None:
+            open_.discard(ev.frame)
+    return len(open_)
+
+
+# --- the table --------------------------------------------------------------------------------
+
+def _saved(path) -> dict:
+    """Recording name -> (events, n) of a ``--save`` file."""
+    out = {}
+    for line in open(path):
+        d = json.loads(line)
+        evs, _ = out.setdefault(d["rec"], ([], d["n"]))
+        ev = dict(d["ev"])
+        ev.setdefault("provisional", True)
+        evs.append((d["t"], SimpleNamespace(**ev)))
+    return out
+
+
+def run(args) -> list:
+    sets = tuple(args.sets.split(","))
+    items = labelled(sets)
+    if args.only:
+        keep = set(args.only.split(","))
+        items = [i for i in items if i.name in keep]
+    saved = _saved(args.load) if args.load else None
+    rows = []
+    for item in items:
+        algorithms = _algorithms(args)
+        t = time.perf_counter()
+        if saved is not None:
+            if item.name not in saved:
+                continue
+            events, n = saved[item.name]
+        elif args.source == "sim":
+            events, n = simulate(item, algorithms, args.history, args.interval, args.lag,
+                                 args.packet)
+        elif args.source == "daemon":
+            events, n = from_daemon(item, algorithms, args.history, args.interval, args.speed)
+        else:
+            events, n = from_cli(item, args, 20000 + 10 * len(rows))
+        if args.save and saved is None:
+            from streamseg import protocol
+
+            with open(args.save, "a") as fh:
+                for when, ev in events:
+                    # events read from `listen --jsonl` are plain namespaces already
+                    body = vars(ev) if isinstance(ev, SimpleNamespace) else protocol.to_json(ev)
+                    fh.write(json.dumps({"rec": item.name, "t": when, "n": n, "ev": body})
+                             + "\n")
+        fps = float(item.recording.fps)
+        res = score_view(events, n, item.cuts, fps, args.tolerance)
+        res["cuts"] = score_view(events, n, item.cuts, fps, args.tolerance, cuts_only=True)
+        res["cuts"]["name"], res["cuts"]["group"] = item.name, item.group
+        res["name"], res["group"] = item.name, item.group
+        res["seconds"] = time.perf_counter() - t
+        rows.append(res)
+        if args.verbose:
+            print(item.name, {k: v for k, v in res.items() if k != "latency"},
+                  file=sys.stderr, flush=True)
+    return rows
+
+
+def table(rows, chosen=()) -> str:
+    header = ["set", "recordings"] + [f"{lab} {m}" for lab in ("1 s", "3 s", "10 s", "end")
+                                      for m in ("R", "P", "F1")] + ["latency med s",
+                                                                     "unresolved"]
+    work = any(r["name"] in WORK for r in rows)
+    if work:
+        header += ["relabels (focused)", "relabel s (focused)"]
+    groups = {}
+    for r in rows:
+        if r["name"] in chosen:
+            continue
+        groups.setdefault(r["group"], []).append(r)
+    if len(groups) > 1:
+        groups["all"] = [r for g in list(groups.values()) for r in g]
+    out = []
+    for g, rs in groups.items():
+        cells = [g, len(rs)]
+        for key in (*DELAYS, "end"):
+            for j in range(3):
+                cells.append(f"{statistics.mean(r[key][j] for r in rs):.3f}")
+        lat = [x for r in rs for x in r["latency"]]
+        cells.append(f"{statistics.median(lat):.2f}" if lat else "-")
+        cells.append(sum(r["unresolved"] for r in rs))
+        if work:
+            w = [WORK.get(r["name"], [[0, 0.0], [0, 0.0]]) for r in rs]
+            cells.append(f"{sum(x[0][0] + x[1][0] for x in w)} ({sum(x[1][0] for x in w)})")
+            cells.append(f"{sum(x[0][1] + x[1][1] for x in w):.1f} "
+                         f"({sum(x[1][1] for x in w):.1f})")
+        out.append(cells)
+    return markdown_table(header, out)
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--sets", default="cmu,cmu02,hdm")
+    p.add_argument("--only", default="", help="comma-separated recording names")
+    p.add_argument("--chosen-on", default="", help="recordings left out of the table (the "
+                   "parameters were chosen on them)")
+    p.add_argument("--source", choices=("sim", "daemon", "cli"), default="sim")
+    p.add_argument("--lag", type=float, default=0.5, help="stream seconds from a relabel's "
+                   "submission to its result (sim)")
+    p.add_argument("--speed", type=float, default=2.0, help="replay speed (daemon)")
+    p.add_argument("--packet", type=int, default=4, help="frames per packet (sim)")
+    p.add_argument("--history", type=float, default=60.0)
+    p.add_argument("--interval", type=float, default=5.0)
+    p.add_argument("--tolerance", type=float, default=1.5)
+    p.add_argument("--delay", type=float, default=None, help="LOFConfig.delay_s")
+    p.add_argument("--early", type=float, default=None, help="LOFConfig.early_delay_s")
+    p.add_argument("--window", type=float, default=None, help="LOFConfig.window_s")
+    p.add_argument("--settle", type=float, default=None)
+    p.add_argument("--focus", type=float, default=None)
+    p.add_argument("--radius", type=float, default=None)
+    p.add_argument("--verbose", action="store_true")
+    p.add_argument("--save", default="", help="append every event as JSON lines to this file")
+    p.add_argument("--load", default="", help="score the events of a --save file instead")
+    args = p.parse_args(argv)
+    rows = run(args)
+    chosen = set(filter(None, args.chosen_on.split(",")))
+    print("The view (cut, confirm, withdraw and segments events):")
+    print(table(rows, chosen))
+    print()
+    print("Cut, confirm and withdraw events alone:")
+    print(table([r["cuts"] for r in rows], chosen))
+    if chosen:
+        print()
+        print("chosen on:")
+        print(table([r for r in rows if r["name"] in chosen]))
+
+
+if __name__ == "__main__":
+    main()
