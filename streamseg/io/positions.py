@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.exceptions import RecordingError, TruncatedRecordingError
+from streamseg.io._text import base_suffix, read_bytes
 from streamseg.recording import Recording, Skeleton
 from streamseg.skeleton.joint_sets import complete, joint_set, sets_of_size
 
@@ -83,7 +84,7 @@ def _cell(text: str) -> float:
 
 def _read_csv(path: Path, joints: str | None, lenient: bool):
     """``(positions (n, J, 3), names or None, times or None, warnings)`` of a CSV."""
-    data = path.read_bytes()
+    data = read_bytes(path)
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
@@ -244,7 +245,7 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
     """
     path = Path(path)
     times = None
-    if path.suffix.lower() == ".csv":
+    if base_suffix(path) == ".csv":
         pos, names, times, warnings = _read_csv(path, joints, lenient)
         file_fps = None
     else:
