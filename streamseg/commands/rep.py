@@ -62,6 +62,10 @@ def _run(args, labels: bool = True):
             from streamseg.offline.sets import action_labels, label_sets
 
             set_labels = label_sets(action_labels(bridge_missing_frames(rec)[0]), seg.sets_)
+    lost = getattr(seg, "lost_joints_", [])
+    if lost:
+        warn(args, f"{', '.join(lost)} lost in most frames: counted with the other body parts "
+             "(the bones ending there are left out)")
     n_bad, n = int(seg.n_missing_frames_), int(seg.n_frames_)
     if n_bad and (n_bad >= n or not getattr(args, "gaps", None)):  # gaps: said at reading
         what = "frames have NaN values"

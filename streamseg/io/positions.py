@@ -335,7 +335,18 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
 
     mset, chosen, missing = best_set(names)
     if not missing:
-        joints = joint_positions(xyz, names, chosen)
+        from streamseg.skeleton.marker_fill import fill_from_clusters
+
+        xyz, notes = fill_from_clusters(xyz, names, mset.clusters, mset.pairs)
+        from streamseg.io.gaps import fill_frames
+
+        joints = joint_positions(xyz, names, chosen, mset, min_run=fill_frames(rate) + 1)
+        gone = [p for j, p in enumerate(JOINTS) if not np.isfinite(joints[:, j]).any()]
+        if gone:
+            notes.append(f"no marker places {', '.join(gone)} in any frame: left out, the "
+                         "other body parts serve")
+        meta = {**meta, "warnings": list(meta.get("warnings", [])) + [
+            f"{Path(str(path)).name}: {n}" for n in notes]}
         skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
                         upright_axis(joints, JOINTS) or up)
         return Recording(rate, skel, joints, None, str(path), {**meta, "marker_set": mset.name})

@@ -18,6 +18,36 @@ from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionSegmenter", "set_summary"]
 
+#: a limb joint lost in more than this share of the frames is left out, not bridged
+LOST_SHARE = 0.5
+
+
+def _without_lost_limbs(rec):
+    """``(rec, names)``: ``rec`` with its limb joints lost in more than :data:`LOST_SHARE` of
+    the frames set lost in every frame, and their names (the trunk and hips, which the
+    torso frame needs, are never left out)."""
+    from dataclasses import replace
+
+    from streamseg._kernels import rep_track as K
+    from streamseg.exceptions import SkeletonError
+    from streamseg.skeleton.names import POINTS, resolve
+
+    P = np.asarray(rec.positions)
+    if P.shape[0] == 0 or np.isfinite(P).all():
+        return rec, []
+    try:
+        idx = resolve(list(rec.skeleton.names), K.POINTS, POINTS)
+    except SkeletonError:
+        return rec, []
+    torso = {idx[K.POINTS.index(p)] for p in ("pelvis", "sternum", "l_hip", "r_hip")}
+    lost = (~np.isfinite(P).all(axis=2)).mean(axis=0)
+    out = [j for j in sorted(set(idx) - torso) if lost[j] > LOST_SHARE]
+    if not out:
+        return rec, []
+    Q = np.array(P, dtype=np.float64)
+    Q[:, out] = np.nan
+    return replace(rec, positions=Q), [rec.skeleton.names[j] for j in out]
+
 
 def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
     """Count, tempo and confidence of a :class:`~streamseg.online.repetition.RepSet`.
@@ -74,6 +104,10 @@ class RepetitionSegmenter(Estimator):
     n_missing_frames_ : int
         Frames with a NaN or infinite value, bridged by interpolation from the good frames
         around them (:mod:`streamseg.offline.missing_frames`).
+    lost_joints_ : list of str
+        Limb joints lost in more than half of the frames: left out (the bones they end are
+        still, :func:`~streamseg._kernels.rep_track.pose_features`), the other body parts
+        count; their frames are not bridged.
     n_frames_ : int
     fps_ : float
     """
@@ -101,9 +135,11 @@ class RepetitionSegmenter(Estimator):
         from streamseg.offline.missing_frames import bad_frames, bridge_missing_frames, bridge_rows
 
         cfg = self.config
+        self.lost_joints_ = []
         if hasattr(X, "positions") and hasattr(X, "skeleton"):
             fps = float(X.fps)
-            X, self.n_missing_frames_ = bridge_missing_frames(X)
+            X, self.lost_joints_ = _without_lost_limbs(X)
+            X, self.n_missing_frames_ = bridge_missing_frames(X, ignore=self.lost_joints_)
             n = X.positions.shape[0]
             counter = RepetitionCounter(cfg, fps, X.skeleton)
             data = None if (n and self.n_missing_frames_ == n) else X.positions
@@ -146,7 +182,8 @@ class RepetitionSegmenter(Estimator):
     def _reason(self, counter, n, unusable) -> str:
         cfg = self.config
         if unusable:
-            return f"every frame ({n}) has missing (NaN) values"
+            return (f"every frame ({n}) has missing (NaN) trunk or hip joints: no pose to "
+                    "read the limbs' movement in")
         if n < 2 * counter._ring.dec + 2:
             return f"too short: {n} frame{'' if n == 1 else 's'}"
         if counter.max_excursion_ < cfg.min_amplitude:
