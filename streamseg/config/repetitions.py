@@ -53,6 +53,8 @@ class RepetitionConfig:
         At the end of the stream a last loop counts when it came back within this share.
     extend_edges : bool
         A piece before a set's first repetition or at the stream's end counts if DTW-alike.
+    edge_ratio : float
+        ...and if it moves at least this share of the repetition next to it.
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -81,6 +83,7 @@ class RepetitionConfig:
     timeout_cycles: float = 3.0
     end_return_ratio: float = 0.6
     extend_edges: bool = True
+    edge_ratio: float = 0.4
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True
@@ -94,7 +97,7 @@ class RepetitionConfig:
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                    "a number > 0")
         for name in ("return_ratio", "rise_ratio", "rest_level", "amplitude_ratio",
-                     "spread_ratio", "end_return_ratio", "still_ratio"):
+                     "spread_ratio", "end_return_ratio", "still_ratio", "edge_ratio"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
                    and 0 <= v <= 1, "a number in [0, 1]")

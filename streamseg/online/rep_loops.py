@@ -152,7 +152,7 @@ class PoseRing:
         L = self.length(first)
         lo = max(origin, a - 2 * (b - a), self._oldest())
         idx = self._moving((lo, a), self._vmax(first))
-        if idx.size - 1 < 0.5 * L:
+        if idx.size - 1 < self.config.edge_ratio * L:
             return None
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(first), S)
@@ -164,7 +164,7 @@ class PoseRing:
         aligns with it, or None."""
         L = self.length(last)
         idx = self._moving((a, min(t, a + 2 * (last[1] - last[0]))), self._vmax(last))
-        if idx.size - 1 < 0.5 * L:
+        if idx.size - 1 < self.config.edge_ratio * L:
             return None
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(last)[::-1].copy(), S[::-1].copy())
@@ -174,7 +174,7 @@ class PoseRing:
 
     def _edge_ok(self, piece, ref, cost, L, n):
         cfg = self.config
-        if n < 0.5 * L or piece[2] < cfg.amplitude_ratio * ref[2]:
+        if n < cfg.edge_ratio * L or piece[2] < cfg.amplitude_ratio * ref[2]:
             return None
         r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
         return (piece, r) if r <= cfg.max_dissimilarity else None
