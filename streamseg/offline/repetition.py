@@ -194,6 +194,19 @@ class RepetitionSegmenter(Estimator):
             return "the pose never came back to where it was: no cycle"
         if not np.isfinite(counter.best_dissimilarity_):
             return "one cycle only: a repetition needs a second one like it"
+        misses = counter.near_misses_
+        if counter.best_dissimilarity_ <= cfg.max_dissimilarity and misses:
+            why = {"tempo": f"their durations differ more than start_tempo_ratio "
+                            f"{cfg.start_tempo_ratio:g} times",
+                   "span": f"together they cover a pose range wider than the larger one "
+                           f"(spread_ratio {cfg.spread_ratio:g}): parts of a longer movement",
+                   "amplitude": f"one moved less than amplitude_ratio "
+                                f"{cfg.amplitude_ratio:g} of the other"}
+            fault = max(misses, key=misses.get)
+            n = sum(misses.values())
+            return (f"consecutive cycles alike in shape ({n} pair{'s' if n > 1 else ''}, the "
+                    f"closest {counter.best_dissimilarity_:.2f} of their amplitude) but not "
+                    f"repetitions of one movement: {why[fault]}")
         return (f"no two consecutive cycles alike (the closest differ by "
                 f"{counter.best_dissimilarity_:.2f} of their amplitude; max_dissimilarity "
                 f"{cfg.max_dissimilarity:g})")

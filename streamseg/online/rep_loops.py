@@ -132,15 +132,22 @@ class PoseRing:
     def spread(self, p, q) -> bool:
         """The larger loop spans ``spread_ratio`` of the range of both; the smaller is at
         least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
+        return not self.spread_fault(p, q)
+
+    def spread_fault(self, p, q) -> str:
+        """Which test of :meth:`spread` loops ``p`` and ``q`` fail: "tempo", "span",
+        "amplitude", or "" (none)."""
         cfg = self.config
         da, db = self.length(p), self.length(q)
         if max(da, db) > cfg.start_tempo_ratio * min(da, db):
-            return False
+            return "tempo"
         W = self.rows(p[0], q[1])
         i = int(np.argmax(np.linalg.norm(W - W[0], axis=1)))
         span = float(np.linalg.norm(W - W[i], axis=1).max())
         big, small = max(p[2], q[2]), min(p[2], q[2])
-        return big >= cfg.spread_ratio * span and small >= cfg.amplitude_ratio * big
+        if big < cfg.spread_ratio * span:
+            return "span"
+        return "" if small >= cfg.amplitude_ratio * big else "amplitude"
 
     def _oldest(self) -> int:
         return max(0, self.k - self.C + 1)

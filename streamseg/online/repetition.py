@@ -125,6 +125,9 @@ class RepetitionCounter:
     best_dissimilarity_ : float
         Smallest dissimilarity of two consecutive loops seen (inf: none), for the reason a
         take has no set.
+    near_misses_ : dict
+        Pairs of consecutive loops alike in shape that did not start a set, by the test they
+        failed (``"tempo"``, ``"span"``, ``"amplitude"``: :meth:`PoseRing.spread_fault`).
     max_excursion_ : float
         Farthest the pose went from any anchor.
     """
@@ -163,6 +166,7 @@ class RepetitionCounter:
         self.sets_ = []
         self.n_loops_ = 0
         self.best_dissimilarity_ = np.inf
+        self.near_misses_ = {}
         self.max_excursion_ = 0.0
 
     # --- input ---------------------------------------------------------------------------
@@ -285,8 +289,8 @@ class RepetitionCounter:
             r = self._ring.dissimilarity(prev, loop) if prev else None
             if r is not None:
                 self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
-            if (r is not None and r <= self.config.max_dissimilarity
-                    and self._ring.spread(prev, loop)):
+            if r is not None and r <= self.config.max_dissimilarity \
+                    and self._alike_pair(prev, loop):
                 self._start_set(prev, loop, r)
                 self._cands = {}
                 if kind == K.PAUSE:
@@ -301,6 +305,14 @@ class RepetitionCounter:
                 frames = sorted(self._st[:n, 0].tolist() + [cut])
                 self._set_anchors(frames, t)
         self._cands = {k: v for k, v in self._cands.items() if t - k <= self._tmax}
+
+    def _alike_pair(self, p, q) -> bool:
+        """Whether alike loops ``p``, ``q`` pass :meth:`PoseRing.spread`; a failure is
+        tallied in ``near_misses_`` (the reason a take without a set is given)."""
+        fault = self._ring.spread_fault(p, q)
+        if fault:
+            self.near_misses_[fault] = self.near_misses_.get(fault, 0) + 1
+        return not fault
 
     def _on_track(self, loop, t):
         s, kind, cut, M = loop
@@ -425,7 +437,8 @@ class RepetitionCounter:
                 if loop is None:
                     continue
                 r = self._ring.dissimilarity(prev, loop)
-                if r <= cfg.max_dissimilarity and self._ring.spread(prev, loop):
+                self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
+                if r <= cfg.max_dissimilarity and self._alike_pair(prev, loop):
                     self._start_set(prev, loop, r)
                     done = True
                     break
@@ -435,7 +448,7 @@ class RepetitionCounter:
                     if prev is None:
                         continue
                     piece = self._ring.edge_after(prev, e, t)
-                    if piece is not None and self._ring.spread(prev, piece[0]):
+                    if piece is not None and self._alike_pair(prev, piece[0]):
                         self._start_set(prev, piece[0], piece[1])
                         break
             self._end_set("end")

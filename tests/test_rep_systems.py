@@ -1,5 +1,6 @@
-"""Markers lost for stretches or for the whole take (real UI-PRMD Vicon takes, data/uiprmd,
-README there): the joints are placed from the markers that remain and the counter counts."""
+"""The repetition counter on other labs' systems (real UI-PRMD Vicon and Kinect takes,
+data/uiprmd; RepCount-A phone-camera pose, data/repcount_pose; READMEs there): markers lost
+for stretches or for the whole take, the reasons given, quality floors."""
 
 from __future__ import annotations
 
@@ -125,3 +126,20 @@ def test_the_cli_names_a_joint_it_left_out(squat, tmp_path, capsys):
     assert out["count"] == 4
     assert "l_ankle lost in most frames: counted with the other body parts" in cap.err
     assert "Traceback" not in cap.err
+
+
+def test_the_reason_for_no_set_is_the_test_that_failed(data_dir):
+    """A take without a set says why: when the closest loops were alike in shape (under
+    max_dissimilarity) it names the test they failed instead, never "not alike"."""
+    reasons = []
+    for file in ("kinect/m06_s01.csv.gz", "kinect/m02_s01.csv.gz", "vicon/m01_s01.trc.gz"):
+        rec = read(data_dir / "uiprmd" / file, fps=30.0 if file.startswith("kinect") else None)
+        reps = _reps(data_dir, file)
+        for k in (1, 2):
+            seg = RepetitionSegmenter().fit(rec.slice(0, reps[k - 1][1]))
+            if seg.count_ == 0:
+                reasons.append(seg.reason_)
+                if seg.reason_.startswith("no two consecutive cycles alike"):
+                    closest = float(seg.reason_.split("differ by ")[1].split()[0])
+                    assert closest > seg.config.max_dissimilarity, seg.reason_
+    assert any("alike in shape" in r and "but not repetitions" in r for r in reasons), reasons
