@@ -143,3 +143,26 @@ def test_the_reason_for_no_set_is_the_test_that_failed(data_dir):
                     closest = float(seg.reason_.split("differ by ")[1].split()[0])
                     assert closest > seg.config.max_dissimilarity, seg.reason_
     assert any("alike in shape" in r and "but not repetitions" in r for r in reasons), reasons
+
+
+def test_each_repetition_says_its_duration_range_of_motion_and_likeness(data_dir, capsys):
+    """A deep squat (UI-PRMD m01 s01, Vicon): the knees move most, by about 120 degrees each
+    repetition (a deep squat bends the knee 100-140 degrees); live events say what the JSON
+    says, fed 1 or 37 frames at a time."""
+    from streamseg.online.repetition import RepetitionCounter, stream_events
+
+    path = data_dir / "uiprmd" / "vicon" / "m01_s01.trc.gz"
+    assert main(["segment", str(path), "--method", "rep", "--rep-no-labels", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (st,) = out["sets"]
+    assert st["count"] == 10 and st["rom_joint"] in ("l_knee", "r_knee")
+    reps = st["repetitions"]
+    assert all(100 < r["rom_deg"] < 140 for r in reps)
+    assert all(r["duration_s"] == pytest.approx((r["end"] - r["start"]) / 100.0) for r in reps)
+    assert all(0.5 < r["likeness"] <= 1 for r in reps)
+    rec = read(path)
+    for chunk in (1, 37):
+        events = stream_events(RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton),
+                               rec.positions, chunk)
+        assert [(e.start, e.end, e.rom_joint, e.rom_deg, e.likeness) for e in events] == [
+            (r["start"], r["end"], st["rom_joint"], r["rom_deg"], r["likeness"]) for r in reps]

@@ -58,7 +58,10 @@ def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
         ``start``, ``end``, ``count``, ``tempo_min_s`` and ``tempo_max_s`` (seconds per
         repetition, shortest and longest), ``confidence`` (1 - the median dissimilarity of
         consecutive repetitions / ``max_dissimilarity``: 1 for identical repetitions, 0 at
-        the limit of the repetitive test), ``end_reason`` and ``repetitions``.
+        the limit of the repetitive test), ``end_reason`` and ``repetitions``; per
+        repetition ``durations_s``, ``rom_deg`` (range of motion of ``rom_joint``, the joint
+        that moves most, degrees; None without joints) and ``likeness``
+        (:class:`~streamseg.online.repetition.RepEvent`).
     """
     durations = [(b - a) / fps for a, b in rep_set.repetitions]
     dis = [d for d in rep_set.dissimilarity if d is not None]
@@ -67,7 +70,11 @@ def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
             "tempo_min_s": round(min(durations), 3), "tempo_max_s": round(max(durations), 3),
             "confidence": round(min(1.0, max(0.0, conf)), 3),
             "end_reason": rep_set.end_reason,
-            "repetitions": [(int(a), int(b)) for a, b in rep_set.repetitions]}
+            "repetitions": [(int(a), int(b)) for a, b in rep_set.repetitions],
+            "durations_s": [round(d, 3) for d in durations],
+            "rom_joint": rep_set.rom_joint,
+            "rom_deg": list(rep_set.rom_deg) or [None] * rep_set.count,
+            "likeness": list(rep_set.likeness)}
 
 
 class RepetitionSegmenter(Estimator):

@@ -41,9 +41,10 @@ from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 from streamseg.online.rep_loops import PoseRing
-from streamseg.online.rep_pose import body_scale
+from streamseg.online.rep_pose import ROM_JOINTS, body_scale, joint_ranges
 
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
+
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,17 @@ class RepEvent:
         whatever the chunks the frames came in.
     set_index : int
         0-based index of its set in the stream.
+    duration_s : float
+        ``(end - start) / fps``.
+    rom_deg : float or None
+        Range of motion of the set's most moving joint (``rom_joint``) in this repetition,
+        degrees (None without a skeleton: feature rows have no joints).
+    rom_joint : str or None
+        That joint (``l_knee``, ``r_shoulder`` ...: :data:`ROM_JOINTS`), chosen once a set
+        starts, on its first repetitions.
+    likeness : float or None
+        ``1 - dissimilarity / max_dissimilarity`` to the repetition before it (the first:
+        to the second); 1 for identical ones, 0 at the limit of the repetitive test.
     """
 
     start: int
@@ -68,6 +80,10 @@ class RepEvent:
     count: int
     emitted_at: int
     set_index: int = 0
+    duration_s: float = 0.0
+    rom_deg: float | None = None
+    rom_joint: str | None = None
+    likeness: float | None = None
 
 
 @dataclass
@@ -82,11 +98,20 @@ class RepSet:
         DTW distance / amplitude of each repetition to the one before (first: None).
     end_reason : str
         Why the set ended: "unlike" (the next loop differs), "pause", "timeout", "end".
+    rom_deg : list of float
+        Each repetition's range of motion of ``rom_joint``, degrees (empty without joints).
+    rom_joint : str or None
+        The joint that moves most over the set's first repetitions.
+    likeness : list of float
+        Each repetition's :attr:`RepEvent.likeness`.
     """
 
     repetitions: list = field(default_factory=list)
     dissimilarity: list = field(default_factory=list)
     end_reason: str = ""
+    rom_deg: list = field(default_factory=list)
+    rom_joint: str | None = None
+    likeness: list = field(default_factory=list)
 
     @property
     def start(self) -> int:
@@ -363,8 +388,11 @@ class RepetitionCounter:
         loops[0] = self._trimmed(loops[0])
         self._cur = [RepSet(), [], []]
         self.sets_.append(self._cur[0])
-        for lp, d in zip(loops, dis):
-            self._add(lp, d)
+        if self._names is not None:  # the joint that moves most over the first loops
+            rom = np.median([joint_ranges(self._ring.rows(a, b)) for a, b, _ in loops], axis=0)
+            self._cur[0].rom_joint = ROM_JOINTS[int(np.argmax(rom))][0]
+        for i, (lp, d) in enumerate(zip(loops, dis)):
+            self._add(lp, d, dis[1] if i == 0 and len(dis) > 1 else None)
 
     def _trimmed(self, loop):
         """The set's first loop starting at most ``pause_s / 2`` before the pose leaves the
@@ -376,16 +404,26 @@ class RepetitionCounter:
             a += int(moved[0]) - self._pause // 2
         return (a, b, M)
 
-    def _add(self, loop, dis):
+    def _add(self, loop, dis, next_dis=None):
         a, b, M = loop
         st, spans, amps = self._cur
         spans.append((a, b))
         amps.append(M)
         st.repetitions.append((self._frame(a), self._frame(b)))
         st.dissimilarity.append(None if dis is None else float(dis))
+        d = dis if dis is not None else next_dis
+        like = None if d is None else round(min(1.0, max(0.0, 1.0 - float(d)
+                                                         / self.config.max_dissimilarity)), 3)
+        st.likeness.append(like)
+        rom = None
+        if st.rom_joint is not None:
+            j = [name for name, _, _ in ROM_JOINTS].index(st.rom_joint)
+            rom = round(float(joint_ranges(self._ring.rows(a, b))[j]), 1)
+            st.rom_deg.append(rom)
         self.count_ = len(spans)
-        self._events.append(RepEvent(st.repetitions[-1][0], st.repetitions[-1][1],
-                                     self.count_, self._now, len(self.sets_) - 1))
+        s0, s1 = st.repetitions[-1]
+        self._events.append(RepEvent(s0, s1, self.count_, self._now, len(self.sets_) - 1,
+                                     round((s1 - s0) / self.fps, 3), rom, st.rom_joint, like))
 
     def _end_set(self, why):
         if self._cur is not None:
