@@ -67,7 +67,7 @@ class RepetitionConfig:
 
     lowpass_hz: float = 4.0
     rate_hz: float = 30.0
-    min_amplitude: float = 0.8
+    min_amplitude: float = 0.6
     return_ratio: float = 0.65
     rise_ratio: float = 0.35
     rise_min: float = 0.15
