@@ -19,6 +19,10 @@ class RepetitionConfig:
     ----------
     lowpass_hz : float
         Causal low-pass of the pose features (2nd-order Butterworth).
+    lowpass_low_rate_hz : float
+        ...instead, for streams at ``low_rate_fps`` or less (Kinect, cameras: noisier).
+    low_rate_fps : float
+        See ``lowpass_low_rate_hz``.
     rate_hz : float
         The loops are tracked at about this frame rate (the features are decimated to it).
     min_amplitude : float
@@ -66,6 +70,8 @@ class RepetitionConfig:
     """
 
     lowpass_hz: float = 4.0
+    lowpass_low_rate_hz: float = 3.0
+    low_rate_fps: float = 60.0
     rate_hz: float = 30.0
     min_amplitude: float = 0.6
     return_ratio: float = 0.65
@@ -90,9 +96,10 @@ class RepetitionConfig:
     buffer_s: float = 20.0
 
     def __post_init__(self):
-        for name in ("lowpass_hz", "rate_hz", "min_amplitude", "rise_min", "pause_s",
-                     "max_cycle_s", "timeout_cycles", "anchor_gap_s", "buffer_s",
-                     "max_dissimilarity", "start_tempo_ratio"):
+        for name in ("lowpass_hz", "lowpass_low_rate_hz", "low_rate_fps", "rate_hz",
+                     "min_amplitude", "rise_min", "pause_s", "max_cycle_s",
+                     "timeout_cycles", "anchor_gap_s", "buffer_s", "max_dissimilarity",
+                     "start_tempo_ratio"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                    "a number > 0")

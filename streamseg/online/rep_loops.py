@@ -14,7 +14,13 @@ import numpy as np
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 
-__all__ = ["PoseRing"]
+__all__ = ["PoseRing", "cutoff_hz"]
+
+
+def cutoff_hz(config: RepetitionConfig, fps: float) -> float:
+    """The low-pass cut-off for a stream at ``fps``: ``lowpass_low_rate_hz`` at
+    ``low_rate_fps`` or less (Kinect, cameras: markerless, noisier), else ``lowpass_hz``."""
+    return config.lowpass_low_rate_hz if fps <= config.low_rate_fps else config.lowpass_hz
 
 
 class PoseRing:
@@ -47,7 +53,8 @@ class PoseRing:
         self.dec = max(1, int(round(fps / cfg.rate_hz)))
         rate = fps / self.dec
         self.C = int(round(cfg.buffer_s * rate)) + 2
-        self._sos = butter(2, min(cfg.lowpass_hz, 0.45 * fps), fs=fps, output="sos")
+        self.cutoff = cutoff_hz(cfg, fps)
+        self._sos = butter(2, min(self.cutoff, 0.45 * fps), fs=fps, output="sos")
         self._state = None
         self.Z = None
         self.SP = np.zeros(self.C)

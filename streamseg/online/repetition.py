@@ -167,7 +167,7 @@ class RepetitionCounter:
         self._up = getattr(skeleton, "up", "y")
         self._ring = PoseRing(cfg, self.fps)
         rate = self.fps / self._ring.dec
-        delay = np.sqrt(2.0) / (2 * np.pi * cfg.lowpass_hz)  # the filter's delay at low rates
+        delay = np.sqrt(2.0) / (2 * np.pi * self._ring.cutoff)  # the filter's delay at low rates
         self._lag = int(round(delay * self.fps)) if cfg.lag_compensation else 0
         self._pause = max(2, int(round(cfg.pause_s * rate)))
         self._tmax = int(round(cfg.max_cycle_s * rate))
