@@ -59,6 +59,9 @@ class RepetitionConfig:
         A piece before a set's first repetition or at the stream's end counts if DTW-alike.
     edge_ratio : float
         ...and if it moves at least this share of the repetition next to it.
+    resume_dissimilarity : float
+        A set ended by an unlike loop goes on when the next set starts within one of its
+        repetitions and within this dissimilarity of its last one (0: never).
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -90,6 +93,7 @@ class RepetitionConfig:
     end_return_ratio: float = 0.6
     extend_edges: bool = True
     edge_ratio: float = 0.4
+    resume_dissimilarity: float = 0.3
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True
@@ -104,7 +108,8 @@ class RepetitionConfig:
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                    "a number > 0")
         for name in ("return_ratio", "rise_ratio", "rest_level", "amplitude_ratio",
-                     "spread_ratio", "end_return_ratio", "still_ratio", "edge_ratio"):
+                     "spread_ratio", "end_return_ratio", "still_ratio", "edge_ratio",
+                     "resume_dissimilarity"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
                    and 0 <= v <= 1, "a number in [0, 1]")

@@ -185,6 +185,7 @@ class RepetitionCounter:
         self._origin = 0
         self._cands = {}
         self._cur = None
+        self._unliked = None
         self._events = []
         self.n_seen_ = 0
         self.count_ = 0
@@ -356,7 +357,9 @@ class RepetitionCounter:
             else:
                 self._track_from(cut, t)
         else:
+            cur, last = self._cur, self._last()
             self._end_set("unlike")
+            self._unliked = (cur, last, s)
             self._cands = {s: None}
             self._search_from(s)
 
@@ -385,6 +388,8 @@ class RepetitionCounter:
                 loops.insert(0, piece[0])
                 dis[0] = piece[1]
                 dis.insert(0, None)
+        if self._resumed(loops, dis):
+            return
         loops[0] = self._trimmed(loops[0])
         self._cur = [RepSet(), [], []]
         self.sets_.append(self._cur[0])
@@ -393,6 +398,28 @@ class RepetitionCounter:
             self._cur[0].rom_joint = ROM_JOINTS[int(np.argmax(rom))][0]
         for i, (lp, d) in enumerate(zip(loops, dis)):
             self._add(lp, d, dis[1] if i == 0 and len(dis) > 1 else None)
+
+    def _resumed(self, loops, dis) -> bool:
+        """The set that ended at an unlike loop goes on with ``loops`` when they start within
+        one of its repetitions of its end and the first is within ``resume_dissimilarity``
+        of its last repetition (one bout, one set: a noisy or odd repetition in the middle of
+        a bout does not split it)."""
+        u, self._unliked = self._unliked, None
+        if not self.config.resume_dissimilarity or u is None:
+            return False
+        cur, last, end = u
+        first = loops[0]
+        if first[0] - end > last[1] - last[0] or last[0] < self._ring._oldest():
+            return False
+        r = self._ring.dissimilarity(last, first)
+        if r > self.config.resume_dissimilarity:
+            return False
+        self._cur = cur
+        cur[0].end_reason = ""
+        dis = [r] + list(dis[1:])
+        for lp, d in zip(loops, dis):
+            self._add(lp, d)
+        return True
 
     def _trimmed(self, loop):
         """The set's first loop starting at most ``pause_s / 2`` before the pose leaves the
@@ -426,6 +453,7 @@ class RepetitionCounter:
                                      round((s1 - s0) / self.fps, 3), rom, st.rom_joint, like))
 
     def _end_set(self, why):
+        self._unliked = None
         if self._cur is not None:
             self._cur[0].end_reason = why
             self._cur = None
