@@ -516,6 +516,16 @@ class RepetitionCounter:
                     piece = self._ring.edge_after(prev, e, t)
                     if piece is not None and self._alike_pair(prev, piece[0]):
                         self._start_set(prev, piece[0], piece[1])
+                        done = True
+                        break
+            if not done and cfg.extend_edges:  # one loop and the piece before it
+                for e in sorted(self._cands, reverse=True):
+                    prev = self._cands[e]
+                    if prev is None:
+                        continue
+                    piece = self._ring.edge_before(prev, self._origin)
+                    if piece is not None and self._alike_pair(piece[0], prev):
+                        self._start_set(piece[0], prev, piece[1])
                         break
             self._end_set("end")
         return self._events
