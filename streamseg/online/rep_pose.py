@@ -21,22 +21,23 @@ ROM_JOINTS = (("l_shoulder", 0, -1), ("l_elbow", 0, 1), ("r_shoulder", 2, -1),
               ("r_knee", 6, 7))
 
 
-def joint_ranges(Z) -> np.ndarray:
-    """Range of motion (degrees) of each of :data:`ROM_JOINTS` over pose rows ``Z`` (n, 28),
-    shape (8,)."""
+def joint_ranges(Z, which=None) -> np.ndarray:
+    """Range of motion (degrees) of each of :data:`ROM_JOINTS` (or of those at indices
+    ``which``) over pose rows ``Z`` (n, 28), shape (8,) (or (len(which),))."""
     def unit(b):
         v = Z[:, 3 * b:3 * b + 3]
-        n = np.linalg.norm(v, axis=1, keepdims=True)
+        n = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
         return np.divide(v, n, out=np.zeros_like(v), where=n > 1e-9)
 
-    down = np.array([0.0, -1.0, 0.0])
-    out = np.zeros(len(ROM_JOINTS))
-    for i, (_, a, b) in enumerate(ROM_JOINTS):
+    rows = range(len(ROM_JOINTS)) if which is None else which
+    out = np.zeros(len(rows))
+    for k, i in enumerate(rows):
+        _, a, b = ROM_JOINTS[i]
         u = unit(a)
-        w = down if b < 0 else unit(b)
-        cos = np.clip(np.sum(u * w, axis=-1), -1.0, 1.0)
-        ang = np.degrees(np.arccos(cos))
-        out[i] = float(ang.max() - ang.min()) if ang.size else 0.0
+        # against the trunk's downward axis (0, -1, 0) of the torso frame, or the next bone
+        cos = -u[:, 1] if b < 0 else np.einsum("ij,ij->i", u, unit(b))
+        ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        out[k] = float(ang.max() - ang.min()) if ang.size else 0.0
     return out
 
 

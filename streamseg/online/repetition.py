@@ -445,7 +445,7 @@ class RepetitionCounter:
         rom = None
         if st.rom_joint is not None:
             j = [name for name, _, _ in ROM_JOINTS].index(st.rom_joint)
-            rom = round(float(joint_ranges(self._ring.rows(a, b))[j]), 1)
+            rom = round(float(joint_ranges(self._ring.rows(a, b), (j,))[0]), 1)
             st.rom_deg.append(rom)
         self.count_ = len(spans)
         s0, s1 = st.repetitions[-1]
