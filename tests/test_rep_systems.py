@@ -201,3 +201,19 @@ def test_quality_floor_on_phone_camera_pose(data_dir, video, floor):
     seg = RepetitionSegmenter().fit(rec)
     assert abs(seg.count_ - len(reps)) <= 1
     assert matched_repetition_accuracy(seg.repetitions_, reps) >= floor
+
+
+def test_a_file_without_a_pelvis_marker_reads_and_counts(squat, tmp_path):
+    """A TRC that leaves LASI out altogether (an exporter that drops a marker never
+    labelled): the marker is mirrored from RASI, the warning names it, the take counts."""
+    from tests.test_io_trc import write_trc
+
+    names, X, reps = squat
+    keep = [i for i, n in enumerate(names) if n != "LASI"]
+    path = tmp_path / "no_lasi.trc"
+    write_trc(path, [names[i] for i in keep], X[:reps[3][1], keep], 100)
+    rec = read(path)
+    assert rec.metadata["marker_set"] == "plug-in-gait" and np.isfinite(rec.positions).all()
+    assert any("marker LASI lost in every frame: placed as RASI mirrored" in w
+               for w in rec.metadata["warnings"])
+    assert RepetitionSegmenter().fit(rec).count_ == 4

@@ -386,6 +386,15 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
     from streamseg.skeleton.names import POINTS, resolve
 
     mset, chosen, missing = best_set(names)
+    if missing:  # a pelvis marker the file leaves out altogether: lost in every frame
+        from streamseg.skeleton.marker_fill import with_absent_pair_markers
+
+        more, wider = with_absent_pair_markers(names, xyz)
+        if len(more) > len(names):
+            again = best_set(more)
+            if not again[2]:
+                names, xyz = more, wider
+                mset, chosen, missing = again
     if not missing:
         from streamseg.skeleton.marker_fill import fill_from_clusters
 

@@ -8,7 +8,8 @@ three of the others are seen, it is placed by the rigid motion (least-squares ro
 translation, Kabsch 1976) that carries those markers from the last frame before and the first
 after where all of them and it were seen, the two placements blended by time. A pelvis
 marker lost in every frame is mirrored from its twin across the pelvis's mid-plane (the
-plane half-way between the other pair, across their axis). What is left lost stays NaN;
+plane half-way between the other pair, across their axis), as is one the file leaves out
+altogether (:func:`with_absent_pair_markers`). What is left lost stays NaN;
 :func:`streamseg.skeleton.marker_sets.joint_positions` then falls back, frame by frame, on
 the other markers of the joint.
 """
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fill_from_clusters"]
+__all__ = ["fill_from_clusters", "with_absent_pair_markers"]
 
 #: a marker is reported when it is lost in at least this share of the frames
 REPORT_SHARE = 0.1
@@ -156,3 +157,23 @@ def fill_from_clusters(markers: np.ndarray, labels, clusters, pairs=()):
         notes.append(f"marker {labels[m]} lost in every frame: the joints made of it come "
                      "from the other markers of the joint where there are some")
     return out, notes
+
+
+def with_absent_pair_markers(labels, markers):
+    """``(labels, markers)`` with a lost-in-every-frame (NaN) column added for each marker of
+    a marker set's pairs (:attr:`MarkerSet.pairs`) that the file leaves out while the other
+    three are there (so that :func:`fill_from_clusters` mirrors it)."""
+    from streamseg.skeleton.marker_sets import MARKER_SETS, _index
+
+    index = _index(labels)
+    add = []
+    for mset in MARKER_SETS.values():
+        for (a, b), (c, d) in mset.pairs:
+            absent = [m for m in (a, b, c, d) if m.upper() not in index]
+            if len(absent) == 1 and absent[0] not in add:
+                add.append(absent[0])
+    if not add:
+        return list(labels), markers
+    X = np.asarray(markers, dtype=np.float64)
+    pad = np.full(X.shape[:1] + (len(add), 3), np.nan)
+    return list(labels) + add, np.concatenate([X, pad], axis=1)
