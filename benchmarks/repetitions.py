@@ -17,8 +17,12 @@ must give the offline sets exactly; delay = emission frame - end of the repetiti
 share of events within the repetition's own duration + 0.5 s. CMU 14_14 / 14_20: every
 labelled block's sets (counts unknown to us: check them on the pictures, ``--plots DIR``).
 
+Other capture systems (UI-PRMD Vicon and Kinect, RepCount-A phone-camera pose, leave-one-
+subject-out): ``--systems`` (``benchmarks/rep_systems.py``).
+
 Run: ``.venv/bin/python benchmarks/repetitions.py [--choose] [--rotate] [--plots DIR]
-[--speed]`` (about half a minute; ``--choose`` five minutes more, ``--rotate`` fifteen).
+[--speed] [--systems]`` (about half a minute; ``--choose`` five minutes more, ``--rotate``
+fifteen, ``--systems`` two).
 """
 
 from __future__ import annotations
@@ -298,6 +302,9 @@ def main(argv=None):
                     help="also choose on bk and on dg, each scored on the other two actors")
     ap.add_argument("--plots", metavar="DIR", help="write the CMU pictures there")
     ap.add_argument("--speed", action="store_true", help="add the CPU per frame")
+    ap.add_argument("--systems", action="store_true",
+                    help="add the UI-PRMD Vicon and Kinect and RepCount-A pose tables "
+                         "(benchmarks/rep_systems.py, data in ../shared/data; 2 minutes)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     mat = Material()
@@ -312,6 +319,10 @@ def main(argv=None):
         print("\n".join(rotate(mat)))
     if args.speed:
         print("\n".join(speed(cfg)))
+    if args.systems:
+        import rep_systems  # beside this file
+
+        rep_systems.main([])
     print(f"\n({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
 
 

@@ -516,7 +516,8 @@ def naive_pose_features(P, idx, bones, up, scale):
         z = np.cross(x, y)
         row = []
         for a, b in bones:
-            v = unit(fr[idx[b]] - fr[idx[a]])
+            v = fr[idx[b]] - fr[idx[a]]
+            v = unit(v) if np.isfinite(v).all() else np.zeros(3)  # a lost limb: 0
             row += [np.dot(v, x), np.dot(v, y), np.dot(v, z)]
         head = unit(z - np.dot(z, up) * up)
         side = np.cross(up, head)

@@ -174,3 +174,26 @@ def test_unknown_skeleton_lists_what_is_missing():
     msg = str(info.value)
     assert "l_elbow (any of" in msg and "Its joints: Root, Torso, ArmL, ArmR" in msg
     assert "formats.md" in msg
+
+
+def test_image_space_pose_says_what_it_assumed(data_dir, tmp_path):
+    """Phone-camera pose (RepCount-A, data/repcount_pose): MediaPipe landmarks normalised per
+    frame are recognised as such; the same as 2-D pixel keypoints with a frame where no
+    person was found ((0, 0) everywhere) read as image coordinates, that frame a gap."""
+    path = data_dir / "repcount_pose" / "poses" / "stu1_27.npy"
+    rec = read(path, joints="blazepose", fps=30)
+    assert rec.skeleton.units == "normalised image" and rec.skeleton.up == "-y"
+    assert any("normalised per frame" in w for w in rec.metadata["warnings"])
+    px = np.load(path)[:, :, :2] * np.array([320.0, 400.0]) + np.array([160.0, 40.0])
+    px[5] = 0.0
+    two = tmp_path / "pixels.npy"
+    np.save(two, px)
+    rec2 = read(two, joints="blazepose", fps=30)
+    assert rec2.skeleton.units == "image" and rec2.n_frames == rec.n_frames
+    warned = " ".join(rec2.metadata["warnings"])
+    assert "2-D keypoints: taken as image coordinates" in warned
+    assert "1 of 300 frames have no keypoint" in warned
+    assert rec2.metadata["filled_frames"] > 0 and np.isfinite(rec2.positions[5]).all()
+    raw = read(two, joints="blazepose", fps=30, gap_fill=0)
+    assert np.isnan(raw.positions[5]).all() and np.isfinite(np.delete(raw.positions, 5, 0)).all()
+    assert (np.delete(raw.positions, 5, 0)[:, :, 2] == 0).all()  # depth 0 in the image plane

@@ -102,3 +102,14 @@ def test_a_row_without_its_trailing_points_has_them_as_gaps(walk, tmp_path):
     assert rec.n_frames == 222 and not rec.metadata["warnings"]
     last = rec.skeleton.index(names[-1])
     assert np.isnan(rec.positions[4, last]).all() and np.isfinite(rec.positions[5, last]).all()
+
+
+def test_a_gzip_compressed_trc_reads_as_the_plain_one(walk, tmp_path):
+    """``.trc.gz`` (how marker takes are archived) gives the frames of the plain file."""
+    import gzip
+
+    gz = tmp_path / "walk.trc.gz"
+    gz.write_bytes(gzip.compress(walk.read_bytes()))
+    plain, packed = read(walk), read(gz)
+    assert packed.fps == plain.fps
+    np.testing.assert_array_equal(packed.positions, plain.positions)

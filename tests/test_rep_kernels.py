@@ -30,6 +30,26 @@ def test_pose_features_match_the_naive_frame_by_frame_version():
     np.testing.assert_allclose(np.linalg.norm(out[:, 24:27], axis=1), 1.0, atol=1e-12)
 
 
+def test_a_lost_limb_gives_still_bones_and_leaves_the_rest():
+    """A wrist lost in every frame: its forearm's three values are 0, every other value is
+    the one of the full pose (nothing NaN), as the naive version says."""
+    rng = np.random.default_rng(5)
+    P = rng.normal(size=(20, 14, 3))
+    idx = np.arange(14, dtype=np.int64)
+    up = np.array([0.0, 1.0, 0.0])
+    full, lost = np.empty((20, K.N_FEATURES)), np.empty((20, K.N_FEATURES))
+    K.pose_features(P, idx, K.BONES, up, 0.4, full)
+    Q = P.copy()
+    Q[:, K.POINTS.index("l_wrist")] = np.nan
+    K.pose_features(Q, idx, K.BONES, up, 0.4, lost)
+    np.testing.assert_allclose(lost, naive_pose_features(Q, idx, K.BONES, up, 0.4), atol=1e-12)
+    forearm = [b for b, (i, j) in enumerate(K.BONES) if K.POINTS[j] == "l_wrist"]
+    cols = np.array([3 * b + c for b in forearm for c in range(3)])
+    assert np.isfinite(lost).all() and (lost[:, cols] == 0).all()
+    rest = np.setdiff1d(np.arange(K.N_FEATURES), cols)
+    np.testing.assert_array_equal(lost[:, rest], full[:, rest])
+
+
 def test_pose_features_do_not_change_with_heading():
     rng = np.random.default_rng(4)
     P = rng.normal(size=(5, 14, 3))

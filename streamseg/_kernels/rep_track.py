@@ -46,8 +46,10 @@ def pose_features(P, idx, bones, up, scale, out):
         Body size (thigh length), for the pelvis height.
     out : ndarray, shape (n, 28)
         Per frame: the 8 bones' unit directions in the torso frame (x from the right hip
-        to the left one, y up the trunk, z forward), 24 values; the trunk's direction in the
-        heading frame (forward, sideways, up), 3; the pelvis height / ``scale``, 1.
+        to the left one, y up the trunk, z forward), 24 values (0 for a bone with a lost
+        end, so that a limb gone for the whole take leaves the other parts to count); the
+        trunk's direction in the heading frame (forward, sideways, up), 3; the pelvis
+        height / ``scale``, 1.
     """
     nb = bones.shape[0]
     for f in range(P.shape[0]):
@@ -58,7 +60,10 @@ def pose_features(P, idx, bones, up, scale, out):
         ax_x = _unit3(lat)
         ax_z = np.cross(ax_x, ax_y)
         for b in range(nb):
-            v = _unit3(P[f, idx[bones[b, 1]]] - P[f, idx[bones[b, 0]]])
+            v = P[f, idx[bones[b, 1]]] - P[f, idx[bones[b, 0]]]
+            if not (np.isfinite(v[0]) and np.isfinite(v[1]) and np.isfinite(v[2])):
+                v[:] = 0.0  # a lost limb: a still bone, not a NaN poisoning every feature
+            v = _unit3(v)
             out[f, 3 * b] = v[0] * ax_x[0] + v[1] * ax_x[1] + v[2] * ax_x[2]
             out[f, 3 * b + 1] = v[0] * ax_y[0] + v[1] * ax_y[1] + v[2] * ax_y[2]
             out[f, 3 * b + 2] = v[0] * ax_z[0] + v[1] * ax_z[1] + v[2] * ax_z[2]

@@ -62,6 +62,10 @@ def _run(args, labels: bool = True):
             from streamseg.offline.sets import action_labels, label_sets
 
             set_labels = label_sets(action_labels(bridge_missing_frames(rec)[0]), seg.sets_)
+    lost = getattr(seg, "lost_joints_", [])
+    if lost:
+        warn(args, f"{', '.join(lost)} lost in most frames: counted with the other body parts "
+             "(the bones ending there are left out)")
     n_bad, n = int(seg.n_missing_frames_), int(seg.n_frames_)
     if n_bad and (n_bad >= n or not getattr(args, "gaps", None)):  # gaps: said at reading
         what = "frames have NaN values"
@@ -71,12 +75,17 @@ def _run(args, labels: bool = True):
 
 
 def _sets(seg, set_labels) -> list:
-    """The JSON "sets": per set its label, count, tempo, confidence and repetitions."""
+    """The JSON "sets": per set its label, count, tempo, confidence, the joint that moves
+    most (``rom_joint``) and repetitions (start, end, ``duration_s``, ``rom_deg`` of that
+    joint, ``likeness`` to the one before)."""
     out = []
     for i, st in enumerate(seg.sets_):
         d = dict(st)
         d["label"] = None if set_labels is None else set_labels[i]
-        d["repetitions"] = [{"start": a, "end": b} for a, b in st["repetitions"]]
+        per = zip(st["repetitions"], d.pop("durations_s"), d.pop("rom_deg"),
+                  d.pop("likeness"))
+        d["repetitions"] = [{"start": a, "end": b, "duration_s": t, "rom_deg": r,
+                             "likeness": k} for (a, b), t, r, k in per]
         out.append(d)
     return out
 

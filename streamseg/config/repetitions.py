@@ -19,6 +19,10 @@ class RepetitionConfig:
     ----------
     lowpass_hz : float
         Causal low-pass of the pose features (2nd-order Butterworth).
+    lowpass_low_rate_hz : float
+        ...instead, for streams at ``low_rate_fps`` or less (Kinect, cameras: noisier).
+    low_rate_fps : float
+        See ``lowpass_low_rate_hz``.
     rate_hz : float
         The loops are tracked at about this frame rate (the features are decimated to it).
     min_amplitude : float
@@ -53,6 +57,11 @@ class RepetitionConfig:
         At the end of the stream a last loop counts when it came back within this share.
     extend_edges : bool
         A piece before a set's first repetition or at the stream's end counts if DTW-alike.
+    edge_ratio : float
+        ...and if it moves at least this share of the repetition next to it.
+    resume_dissimilarity : float
+        A set ended by an unlike loop goes on when the next set starts within one of its
+        repetitions and within this dissimilarity of its last one (0: never).
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -64,8 +73,10 @@ class RepetitionConfig:
     """
 
     lowpass_hz: float = 4.0
+    lowpass_low_rate_hz: float = 3.0
+    low_rate_fps: float = 60.0
     rate_hz: float = 30.0
-    min_amplitude: float = 0.8
+    min_amplitude: float = 0.6
     return_ratio: float = 0.65
     rise_ratio: float = 0.35
     rise_min: float = 0.15
@@ -81,20 +92,24 @@ class RepetitionConfig:
     timeout_cycles: float = 3.0
     end_return_ratio: float = 0.6
     extend_edges: bool = True
+    edge_ratio: float = 0.4
+    resume_dissimilarity: float = 0.3
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True
     buffer_s: float = 20.0
 
     def __post_init__(self):
-        for name in ("lowpass_hz", "rate_hz", "min_amplitude", "rise_min", "pause_s",
-                     "max_cycle_s", "timeout_cycles", "anchor_gap_s", "buffer_s",
-                     "max_dissimilarity", "start_tempo_ratio"):
+        for name in ("lowpass_hz", "lowpass_low_rate_hz", "low_rate_fps", "rate_hz",
+                     "min_amplitude", "rise_min", "pause_s", "max_cycle_s",
+                     "timeout_cycles", "anchor_gap_s", "buffer_s", "max_dissimilarity",
+                     "start_tempo_ratio"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                    "a number > 0")
         for name in ("return_ratio", "rise_ratio", "rest_level", "amplitude_ratio",
-                     "spread_ratio", "end_return_ratio", "still_ratio"):
+                     "spread_ratio", "end_return_ratio", "still_ratio", "edge_ratio",
+                     "resume_dissimilarity"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
                    and 0 <= v <= 1, "a number in [0, 1]")

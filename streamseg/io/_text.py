@@ -35,6 +35,20 @@ def read_text(path) -> str:
     return raw.decode("latin-1").replace("\r\n", "\n").replace("\r", "\n")
 
 
+def read_bytes(path) -> bytes:
+    """The file's bytes, decompressed when they are a gzip stream (whatever the suffix)."""
+    path = Path(path)
+    raw = path.read_bytes()
+    if raw[:2] == b"\x1f\x8b":
+        try:
+            raw = gzip.decompress(raw)
+        except (OSError, EOFError) as err:
+            raise RecordingError(
+                path, None, f"a broken gzip stream ({err})", "a complete gzip file"
+            ) from None
+    return raw
+
+
 def base_suffix(path) -> str:
     """Format suffix ignoring a trailing ``.gz`` (``86_01.amc.gz`` -> ``.amc``)."""
     suffixes = [s.lower() for s in Path(path).suffixes]

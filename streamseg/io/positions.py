@@ -15,6 +15,12 @@ any skeleton exported as positions).
 
 Pose models have no pelvis, spine or neck: they are added as virtual joints
 (:func:`streamseg.skeleton.joint_sets.complete`).
+
+Image-space pose (a phone camera's): 2-D keypoints ``(n, J, 2)`` (or ``(n, J * 2)`` with
+``--joints``) are image coordinates (x right, y down) with depth 0, a keypoint at exactly
+(0, 0) not found; a pose whose every frame spans exactly [0, 1] on x and y is taken as image
+landmarks normalised per frame (MediaPipe's, as some pipelines prepare them); frames without
+any keypoint (no person) are gaps. A warning says what was assumed.
 """
 
 from __future__ import annotations
@@ -26,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.exceptions import RecordingError, TruncatedRecordingError
+from streamseg.io._text import base_suffix, read_bytes
 from streamseg.recording import Recording, Skeleton
 from streamseg.skeleton.joint_sets import complete, joint_set, sets_of_size
 
@@ -83,7 +90,7 @@ def _cell(text: str) -> float:
 
 def _read_csv(path: Path, joints: str | None, lenient: bool):
     """``(positions (n, J, 3), names or None, times or None, warnings)`` of a CSV."""
-    data = path.read_bytes()
+    data = read_bytes(path)
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
@@ -244,7 +251,7 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
     """
     path = Path(path)
     times = None
-    if path.suffix.lower() == ".csv":
+    if base_suffix(path) == ".csv":
         pos, names, times, warnings = _read_csv(path, joints, lenient)
         file_fps = None
     else:
@@ -253,11 +260,17 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
             warnings.append(f"{path.name}: the file was cut off: {arr.shape[0]} whole frames "
                             f"of {arr.promised} kept ({arr.promised - arr.shape[0]} dropped)")
         arr = np.asarray(arr, dtype=np.float64)
+        if joints and arr.ndim == 2 and arr.shape[1] == 2 * len(joint_set(joints).names):
+            arr = arr.reshape(arr.shape[0], -1, 2)
+        if arr.ndim == 3 and arr.shape[2] == 2 and arr.shape[0]:
+            arr, note = _image_keypoints(arr)
+            warnings.append(f"{path.name}: {note}")
         if not np.issubdtype(arr.dtype, np.number) or arr.ndim not in (2, 3) \
                 or (arr.ndim == 3 and arr.shape[2] != 3) or arr.shape[0] == 0:
             raise RecordingError(path, None, f"an array of shape {arr.shape}",
                                  "joint positions (n_frames, n_joints, 3) or "
-                                 "(n_frames, n_joints * 3) with --joints")
+                                 "(n_frames, n_joints * 3) with --joints; image keypoints "
+                                 "(n_frames, n_joints, 2)")
         if names is not None and arr.ndim == 3 and len(names) == arr.shape[1]:
             pos = arr
         else:
@@ -271,10 +284,50 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
     if rate is None:
         raise RecordingError(path, None, "no frame rate", "--fps (frames per second), or a "
                              "time column (time, timestamp: seconds; time_ms) in the CSV")
+    if meta_image(warnings):
+        units = "image"
+    elif pos.size and units in ("m", "unknown"):
+        note = _normalised_image(pos)
+        if note:
+            warnings.append(f"{path.name}: {note}")
+            units = "normalised image"
+    absent = int((~np.isfinite(pos).any(axis=(1, 2))).sum()) if pos.size else 0
+    if absent:
+        warnings.append(f"{path.name}: {absent} of {pos.shape[0]} frames have no keypoint "
+                        "(no person found): gaps")
     meta = {"format": "positions", "warnings": warnings}
     if joints:
         meta["joints"] = joints
     return positions_recording(path, names, pos, float(rate), units, up, meta, detect=detect)
+
+
+def _image_keypoints(arr):
+    """2-D keypoints ``(n, J, 2)`` as points ``(n, J, 3)`` in the image plane (depth 0);
+    a keypoint at exactly (0, 0), the "not found" of OpenPose and COCO, is a gap."""
+    out = np.concatenate([arr, np.zeros(arr.shape[:2] + (1,))], axis=2)
+    out[(arr == 0).all(axis=2)] = np.nan
+    return out, ("2-D keypoints: taken as image coordinates (x right, y down; depth 0), "
+                 "a keypoint at (0, 0) as not found")
+
+
+def meta_image(warnings) -> bool:
+    """Whether the reader took the file's keypoints as 2-D image coordinates."""
+    return any("2-D keypoints" in w for w in warnings)
+
+
+def _normalised_image(pos) -> str:
+    """What a pose whose every frame spans exactly [0, 1] on x and y is (MediaPipe image
+    landmarks min-max normalised per frame), or ""."""
+    good = np.isfinite(pos).all(axis=2).all(axis=1)
+    if good.sum() < 2:
+        return ""
+    P = pos[good]
+    lo, hi = P.min(axis=1), P.max(axis=1)  # (n, 3)
+    if np.allclose(lo[:, :2], 0, atol=1e-3) and np.allclose(hi[:, :2], 1, atol=1e-3):
+        return ("every frame spans [0, 1] on x and y: taken as image landmarks normalised "
+                "per frame (x right, y down; z the model's relative depth); body size and "
+                "place in the image are lost, bone directions serve")
+    return ""
 
 
 def positions_recording(path, names, pos, rate: float, units: str, up: str, meta: dict, *,
@@ -351,8 +404,28 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
                                  f"{Path(path).name} lists them)")
     else:
         mset, chosen, missing = best_set(names)
+        if missing:  # a pelvis marker the file leaves out altogether: lost in every frame
+            from streamseg.skeleton.marker_fill import with_absent_pair_markers
+
+            more, wider = with_absent_pair_markers(names, xyz)
+            if len(more) > len(names):
+                again = best_set(more)
+                if not again[2]:
+                    names, xyz = more, wider
+                    mset, chosen, missing = again
     if not missing:
-        joints = joint_positions(xyz, names, chosen)
+        from streamseg.skeleton.marker_fill import fill_from_clusters
+
+        xyz, notes = fill_from_clusters(xyz, names, mset.clusters, mset.pairs)
+        from streamseg.io.gaps import fill_frames
+
+        joints = joint_positions(xyz, names, chosen, mset, min_run=fill_frames(rate) + 1)
+        gone = [p for j, p in enumerate(JOINTS) if not np.isfinite(joints[:, j]).any()]
+        if gone:
+            notes.append(f"no marker places {', '.join(gone)} in any frame: left out, the "
+                         "other body parts serve")
+        meta = {**meta, "warnings": list(meta.get("warnings", [])) + [
+            f"{Path(str(path)).name}: {n}" for n in notes]}
         skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
                         upright_axis(joints, JOINTS) or up)
         return Recording(rate, skel, joints, None, str(path), {**meta, "marker_set": mset.name})

@@ -5,7 +5,7 @@ Header (OpenSim's ``.trc``): a ``PathFileType`` line; a line of keys (``DataRate
 ``NumFrames``, ``Units`` ...) and one of their values; ``Frame#``, ``Time`` and the point
 names (each followed by two empty cells); ``X1 Y1 Z1 X2 ...``. Then one row per frame. An
 empty cell, ``NaN``, or a row that stops before its last points (some exporters leave trailing
-gaps out) is a gap.
+gaps out) is a gap. A gzip-compressed file (``.trc.gz``) is read as it is.
 
 The points are named in one of two ways, tried in this order:
 
@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.exceptions import RecordingError, TruncatedRecordingError
+from streamseg.io._text import read_bytes
 from streamseg.io.positions import points_recording
 from streamseg.recording import Recording
 
@@ -56,7 +57,7 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
         missing).
     """
     path = Path(path)
-    text = path.read_text(encoding="utf-8", errors="replace").replace("\r\n", "\n")
+    text = read_bytes(path).decode("utf-8", errors="replace").replace("\r\n", "\n")
     lines = text.split("\n")
     if len(lines) < 5 or not lines[0].startswith("PathFileType"):
         raise RecordingError(path, 1, f"{lines[0][:40]!r}", "a TRC file (PathFileType ...)")

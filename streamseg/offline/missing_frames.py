@@ -35,13 +35,15 @@ def bridge_rows(A, bad) -> np.ndarray:
     return out
 
 
-def bridge_missing_frames(recording):
+def bridge_missing_frames(recording, ignore=()):
     """``(recording, n_bad)``: ``recording`` with its bad frames bridged, and how many.
 
     Parameters
     ----------
     recording : Recording
         Positions shape (n_frames, n_joints, 3).
+    ignore : sequence of str
+        Joints whose NaN make no frame bad (lost for good: they stay NaN).
 
     Returns
     -------
@@ -50,7 +52,11 @@ def bridge_missing_frames(recording):
     int
         Frames with a NaN or infinite joint coordinate.
     """
-    bad = bad_frames(recording.positions)
+    P = recording.positions
+    if len(ignore):
+        keep = [j for j, name in enumerate(recording.skeleton.names) if name not in ignore]
+        P = P[:, keep]
+    bad = bad_frames(P)
     n_bad = int(bad.sum())
     if n_bad == 0 or n_bad == bad.size:
         return recording, n_bad

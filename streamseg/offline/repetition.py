@@ -18,6 +18,36 @@ from streamseg.segments import Estimator, Segment
 
 __all__ = ["RepetitionSegmenter", "set_summary"]
 
+#: a limb joint lost in more than this share of the frames is left out, not bridged
+LOST_SHARE = 0.5
+
+
+def _without_lost_limbs(rec):
+    """``(rec, names)``: ``rec`` with its limb joints lost in more than :data:`LOST_SHARE` of
+    the frames set lost in every frame, and their names (the trunk and hips, which the
+    torso frame needs, are never left out)."""
+    from dataclasses import replace
+
+    from streamseg._kernels import rep_track as K
+    from streamseg.exceptions import SkeletonError
+    from streamseg.skeleton.names import POINTS, resolve
+
+    P = np.asarray(rec.positions)
+    if P.shape[0] == 0 or np.isfinite(P).all():
+        return rec, []
+    try:
+        idx = resolve(list(rec.skeleton.names), K.POINTS, POINTS)
+    except SkeletonError:
+        return rec, []
+    torso = {idx[K.POINTS.index(p)] for p in ("pelvis", "sternum", "l_hip", "r_hip")}
+    lost = (~np.isfinite(P).all(axis=2)).mean(axis=0)
+    out = [j for j in sorted(set(idx) - torso) if lost[j] > LOST_SHARE]
+    if not out:
+        return rec, []
+    Q = np.array(P, dtype=np.float64)
+    Q[:, out] = np.nan
+    return replace(rec, positions=Q), [rec.skeleton.names[j] for j in out]
+
 
 def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
     """Count, tempo and confidence of a :class:`~streamseg.online.repetition.RepSet`.
@@ -28,7 +58,10 @@ def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
         ``start``, ``end``, ``count``, ``tempo_min_s`` and ``tempo_max_s`` (seconds per
         repetition, shortest and longest), ``confidence`` (1 - the median dissimilarity of
         consecutive repetitions / ``max_dissimilarity``: 1 for identical repetitions, 0 at
-        the limit of the repetitive test), ``end_reason`` and ``repetitions``.
+        the limit of the repetitive test), ``end_reason`` and ``repetitions``; per
+        repetition ``durations_s``, ``rom_deg`` (range of motion of ``rom_joint``, the joint
+        that moves most, degrees; None without joints) and ``likeness``
+        (:class:`~streamseg.online.repetition.RepEvent`).
     """
     durations = [(b - a) / fps for a, b in rep_set.repetitions]
     dis = [d for d in rep_set.dissimilarity if d is not None]
@@ -37,7 +70,11 @@ def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
             "tempo_min_s": round(min(durations), 3), "tempo_max_s": round(max(durations), 3),
             "confidence": round(min(1.0, max(0.0, conf)), 3),
             "end_reason": rep_set.end_reason,
-            "repetitions": [(int(a), int(b)) for a, b in rep_set.repetitions]}
+            "repetitions": [(int(a), int(b)) for a, b in rep_set.repetitions],
+            "durations_s": [round(d, 3) for d in durations],
+            "rom_joint": rep_set.rom_joint,
+            "rom_deg": list(rep_set.rom_deg) or [None] * rep_set.count,
+            "likeness": list(rep_set.likeness)}
 
 
 class RepetitionSegmenter(Estimator):
@@ -74,6 +111,10 @@ class RepetitionSegmenter(Estimator):
     n_missing_frames_ : int
         Frames with a NaN or infinite value, bridged by interpolation from the good frames
         around them (:mod:`streamseg.offline.missing_frames`).
+    lost_joints_ : list of str
+        Limb joints lost in more than half of the frames: left out (the bones they end are
+        still, :func:`~streamseg._kernels.rep_track.pose_features`), the other body parts
+        count; their frames are not bridged.
     n_frames_ : int
     fps_ : float
     """
@@ -101,9 +142,11 @@ class RepetitionSegmenter(Estimator):
         from streamseg.offline.missing_frames import bad_frames, bridge_missing_frames, bridge_rows
 
         cfg = self.config
+        self.lost_joints_ = []
         if hasattr(X, "positions") and hasattr(X, "skeleton"):
             fps = float(X.fps)
-            X, self.n_missing_frames_ = bridge_missing_frames(X)
+            X, self.lost_joints_ = _without_lost_limbs(X)
+            X, self.n_missing_frames_ = bridge_missing_frames(X, ignore=self.lost_joints_)
             n = X.positions.shape[0]
             counter = RepetitionCounter(cfg, fps, X.skeleton)
             data = None if (n and self.n_missing_frames_ == n) else X.positions
@@ -146,7 +189,8 @@ class RepetitionSegmenter(Estimator):
     def _reason(self, counter, n, unusable) -> str:
         cfg = self.config
         if unusable:
-            return f"every frame ({n}) has missing (NaN) values"
+            return (f"every frame ({n}) has missing (NaN) trunk or hip joints: no pose to "
+                    "read the limbs' movement in")
         if n < 2 * counter._ring.dec + 2:
             return f"too short: {n} frame{'' if n == 1 else 's'}"
         if counter.max_excursion_ < cfg.min_amplitude:
@@ -157,6 +201,19 @@ class RepetitionSegmenter(Estimator):
             return "the pose never came back to where it was: no cycle"
         if not np.isfinite(counter.best_dissimilarity_):
             return "one cycle only: a repetition needs a second one like it"
+        misses = counter.near_misses_
+        if counter.best_dissimilarity_ <= cfg.max_dissimilarity and misses:
+            why = {"tempo": f"their durations differ more than start_tempo_ratio "
+                            f"{cfg.start_tempo_ratio:g} times",
+                   "span": f"together they cover a pose range wider than the larger one "
+                           f"(spread_ratio {cfg.spread_ratio:g}): parts of a longer movement",
+                   "amplitude": f"one moved less than amplitude_ratio "
+                                f"{cfg.amplitude_ratio:g} of the other"}
+            fault = max(misses, key=misses.get)
+            n = sum(misses.values())
+            return (f"consecutive cycles alike in shape ({n} pair{'s' if n > 1 else ''}, the "
+                    f"closest {counter.best_dissimilarity_:.2f} of their amplitude) but not "
+                    f"repetitions of one movement: {why[fault]}")
         return (f"no two consecutive cycles alike (the closest differ by "
                 f"{counter.best_dissimilarity_:.2f} of their amplitude; max_dissimilarity "
                 f"{cfg.max_dissimilarity:g})")

@@ -14,7 +14,13 @@ import numpy as np
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 
-__all__ = ["PoseRing"]
+__all__ = ["PoseRing", "cutoff_hz"]
+
+
+def cutoff_hz(config: RepetitionConfig, fps: float) -> float:
+    """The low-pass cut-off for a stream at ``fps``: ``lowpass_low_rate_hz`` at
+    ``low_rate_fps`` or less (Kinect, cameras: markerless, noisier), else ``lowpass_hz``."""
+    return config.lowpass_low_rate_hz if fps <= config.low_rate_fps else config.lowpass_hz
 
 
 class PoseRing:
@@ -47,7 +53,8 @@ class PoseRing:
         self.dec = max(1, int(round(fps / cfg.rate_hz)))
         rate = fps / self.dec
         self.C = int(round(cfg.buffer_s * rate)) + 2
-        self._sos = butter(2, min(cfg.lowpass_hz, 0.45 * fps), fs=fps, output="sos")
+        self.cutoff = cutoff_hz(cfg, fps)
+        self._sos = butter(2, min(self.cutoff, 0.45 * fps), fs=fps, output="sos")
         self._state = None
         self.Z = None
         self.SP = np.zeros(self.C)
@@ -132,15 +139,22 @@ class PoseRing:
     def spread(self, p, q) -> bool:
         """The larger loop spans ``spread_ratio`` of the range of both; the smaller is at
         least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
+        return not self.spread_fault(p, q)
+
+    def spread_fault(self, p, q) -> str:
+        """Which test of :meth:`spread` loops ``p`` and ``q`` fail: "tempo", "span",
+        "amplitude", or "" (none)."""
         cfg = self.config
         da, db = self.length(p), self.length(q)
         if max(da, db) > cfg.start_tempo_ratio * min(da, db):
-            return False
+            return "tempo"
         W = self.rows(p[0], q[1])
         i = int(np.argmax(np.linalg.norm(W - W[0], axis=1)))
         span = float(np.linalg.norm(W - W[i], axis=1).max())
         big, small = max(p[2], q[2]), min(p[2], q[2])
-        return big >= cfg.spread_ratio * span and small >= cfg.amplitude_ratio * big
+        if big < cfg.spread_ratio * span:
+            return "span"
+        return "" if small >= cfg.amplitude_ratio * big else "amplitude"
 
     def _oldest(self) -> int:
         return max(0, self.k - self.C + 1)
@@ -152,7 +166,7 @@ class PoseRing:
         L = self.length(first)
         lo = max(origin, a - 2 * (b - a), self._oldest())
         idx = self._moving((lo, a), self._vmax(first))
-        if idx.size - 1 < 0.5 * L:
+        if idx.size - 1 < self.config.edge_ratio * L:
             return None
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(first), S)
@@ -164,7 +178,7 @@ class PoseRing:
         aligns with it, or None."""
         L = self.length(last)
         idx = self._moving((a, min(t, a + 2 * (last[1] - last[0]))), self._vmax(last))
-        if idx.size - 1 < 0.5 * L:
+        if idx.size - 1 < self.config.edge_ratio * L:
             return None
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(last)[::-1].copy(), S[::-1].copy())
@@ -174,7 +188,7 @@ class PoseRing:
 
     def _edge_ok(self, piece, ref, cost, L, n):
         cfg = self.config
-        if n < 0.5 * L or piece[2] < cfg.amplitude_ratio * ref[2]:
+        if n < cfg.edge_ratio * L or piece[2] < cfg.amplitude_ratio * ref[2]:
             return None
         r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
         return (piece, r) if r <= cfg.max_dissimilarity else None

@@ -10,7 +10,35 @@ import numpy as np
 from streamseg._kernels import frames_in
 from streamseg._kernels import rep_track as K
 
-__all__ = ["body_scale", "pose_features", "stream_features"]
+__all__ = ["ROM_JOINTS", "body_scale", "joint_ranges", "pose_features", "stream_features"]
+
+#: Joints whose range of motion a repetition reports: (name, bone, second bone or -1 for the
+#: trunk's downward axis), bones as rows of ``rep_track.BONES`` (their directions in the
+#: torso frame are the first 24 pose features): the elbows and knees bend between their two
+#: bones, the shoulders and hips lift their bone from along the trunk.
+ROM_JOINTS = (("l_shoulder", 0, -1), ("l_elbow", 0, 1), ("r_shoulder", 2, -1),
+              ("r_elbow", 2, 3), ("l_hip", 4, -1), ("l_knee", 4, 5), ("r_hip", 6, -1),
+              ("r_knee", 6, 7))
+
+
+def joint_ranges(Z, which=None) -> np.ndarray:
+    """Range of motion (degrees) of each of :data:`ROM_JOINTS` (or of those at indices
+    ``which``) over pose rows ``Z`` (n, 28), shape (8,) (or (len(which),))."""
+    def unit(b):
+        v = Z[:, 3 * b:3 * b + 3]
+        n = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
+        return np.divide(v, n, out=np.zeros_like(v), where=n > 1e-9)
+
+    rows = range(len(ROM_JOINTS)) if which is None else which
+    out = np.zeros(len(rows))
+    for k, i in enumerate(rows):
+        _, a, b = ROM_JOINTS[i]
+        u = unit(a)
+        # against the trunk's downward axis (0, -1, 0) of the torso frame, or the next bone
+        cos = -u[:, 1] if b < 0 else np.einsum("ij,ij->i", u, unit(b))
+        ang = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        out[k] = float(ang.max() - ang.min()) if ang.size else 0.0
+    return out
 
 
 def stream_features(recording, fps=None) -> np.ndarray:

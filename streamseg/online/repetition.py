@@ -32,73 +32,18 @@ loops compare: :mod:`streamseg.online.rep_loops`; here, the tracker and the sets
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from streamseg._kernels import frames_in
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
+from streamseg.online.rep_events import RepEvent, RepSet, sets_of, stream_events
 from streamseg.online.rep_loops import PoseRing
-from streamseg.online.rep_pose import body_scale
+from streamseg.online.rep_pose import ROM_JOINTS, body_scale, joint_ranges
 
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
 
-
-@dataclass(frozen=True)
-class RepEvent:
-    """One repetition found live.
-
-    Attributes
-    ----------
-    start, end : int
-        Counter frame indices (0-based, end exclusive).
-    count : int
-        The repetition's number in its set (1 = the first).
-    emitted_at : int
-        Frames the counter had seen when it decided (``emitted_at - end`` is the delay),
-        whatever the chunks the frames came in.
-    set_index : int
-        0-based index of its set in the stream.
-    """
-
-    start: int
-    end: int
-    count: int
-    emitted_at: int
-    set_index: int = 0
-
-
-@dataclass
-class RepSet:
-    """A set: consecutive repetitions of one movement.
-
-    Attributes
-    ----------
-    repetitions : list of (int, int)
-        Frames, 0-based, end exclusive.
-    dissimilarity : list of float
-        DTW distance / amplitude of each repetition to the one before (first: None).
-    end_reason : str
-        Why the set ended: "unlike" (the next loop differs), "pause", "timeout", "end".
-    """
-
-    repetitions: list = field(default_factory=list)
-    dissimilarity: list = field(default_factory=list)
-    end_reason: str = ""
-
-    @property
-    def start(self) -> int:
-        return self.repetitions[0][0]
-
-    @property
-    def end(self) -> int:
-        return self.repetitions[-1][1]
-
-    @property
-    def count(self) -> int:
-        return len(self.repetitions)
 
 
 class RepetitionCounter:
@@ -125,6 +70,9 @@ class RepetitionCounter:
     best_dissimilarity_ : float
         Smallest dissimilarity of two consecutive loops seen (inf: none), for the reason a
         take has no set.
+    near_misses_ : dict
+        Pairs of consecutive loops alike in shape that did not start a set, by the test they
+        failed (``"tempo"``, ``"span"``, ``"amplitude"``: :meth:`PoseRing.spread_fault`).
     max_excursion_ : float
         Farthest the pose went from any anchor.
     """
@@ -139,7 +87,7 @@ class RepetitionCounter:
         self._up = getattr(skeleton, "up", "y")
         self._ring = PoseRing(cfg, self.fps)
         rate = self.fps / self._ring.dec
-        delay = np.sqrt(2.0) / (2 * np.pi * cfg.lowpass_hz)  # the filter's delay at low rates
+        delay = np.sqrt(2.0) / (2 * np.pi * self._ring.cutoff)  # the filter's delay at low rates
         self._lag = int(round(delay * self.fps)) if cfg.lag_compensation else 0
         self._pause = max(2, int(round(cfg.pause_s * rate)))
         self._tmax = int(round(cfg.max_cycle_s * rate))
@@ -157,12 +105,14 @@ class RepetitionCounter:
         self._origin = 0
         self._cands = {}
         self._cur = None
+        self._unliked = None
         self._events = []
         self.n_seen_ = 0
         self.count_ = 0
         self.sets_ = []
         self.n_loops_ = 0
         self.best_dissimilarity_ = np.inf
+        self.near_misses_ = {}
         self.max_excursion_ = 0.0
 
     # --- input ---------------------------------------------------------------------------
@@ -285,8 +235,8 @@ class RepetitionCounter:
             r = self._ring.dissimilarity(prev, loop) if prev else None
             if r is not None:
                 self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
-            if (r is not None and r <= self.config.max_dissimilarity
-                    and self._ring.spread(prev, loop)):
+            if r is not None and r <= self.config.max_dissimilarity \
+                    and self._alike_pair(prev, loop):
                 self._start_set(prev, loop, r)
                 self._cands = {}
                 if kind == K.PAUSE:
@@ -301,6 +251,14 @@ class RepetitionCounter:
                 frames = sorted(self._st[:n, 0].tolist() + [cut])
                 self._set_anchors(frames, t)
         self._cands = {k: v for k, v in self._cands.items() if t - k <= self._tmax}
+
+    def _alike_pair(self, p, q) -> bool:
+        """Whether alike loops ``p``, ``q`` pass :meth:`PoseRing.spread`; a failure is
+        tallied in ``near_misses_`` (the reason a take without a set is given)."""
+        fault = self._ring.spread_fault(p, q)
+        if fault:
+            self.near_misses_[fault] = self.near_misses_.get(fault, 0) + 1
+        return not fault
 
     def _on_track(self, loop, t):
         s, kind, cut, M = loop
@@ -319,7 +277,9 @@ class RepetitionCounter:
             else:
                 self._track_from(cut, t)
         else:
+            cur, last = self._cur, self._last()
             self._end_set("unlike")
+            self._unliked = (cur, last, s)
             self._cands = {s: None}
             self._search_from(s)
 
@@ -348,11 +308,38 @@ class RepetitionCounter:
                 loops.insert(0, piece[0])
                 dis[0] = piece[1]
                 dis.insert(0, None)
+        if self._resumed(loops, dis):
+            return
         loops[0] = self._trimmed(loops[0])
         self._cur = [RepSet(), [], []]
         self.sets_.append(self._cur[0])
+        if self._names is not None:  # the joint that moves most over the first loops
+            rom = np.median([joint_ranges(self._ring.rows(a, b)) for a, b, _ in loops], axis=0)
+            self._cur[0].rom_joint = ROM_JOINTS[int(np.argmax(rom))][0]
+        for i, (lp, d) in enumerate(zip(loops, dis)):
+            self._add(lp, d, dis[1] if i == 0 and len(dis) > 1 else None)
+
+    def _resumed(self, loops, dis) -> bool:
+        """The set that ended at an unlike loop goes on with ``loops`` when they start within
+        one of its repetitions of its end and the first is within ``resume_dissimilarity``
+        of its last repetition (one bout, one set: a noisy or odd repetition in the middle of
+        a bout does not split it)."""
+        u, self._unliked = self._unliked, None
+        if not self.config.resume_dissimilarity or u is None:
+            return False
+        cur, last, end = u
+        first = loops[0]
+        if first[0] - end > last[1] - last[0] or last[0] < self._ring._oldest():
+            return False
+        r = self._ring.dissimilarity(last, first)
+        if r > self.config.resume_dissimilarity:
+            return False
+        self._cur = cur
+        cur[0].end_reason = ""
+        dis = [r] + list(dis[1:])
         for lp, d in zip(loops, dis):
             self._add(lp, d)
+        return True
 
     def _trimmed(self, loop):
         """The set's first loop starting at most ``pause_s / 2`` before the pose leaves the
@@ -364,18 +351,29 @@ class RepetitionCounter:
             a += int(moved[0]) - self._pause // 2
         return (a, b, M)
 
-    def _add(self, loop, dis):
+    def _add(self, loop, dis, next_dis=None):
         a, b, M = loop
         st, spans, amps = self._cur
         spans.append((a, b))
         amps.append(M)
         st.repetitions.append((self._frame(a), self._frame(b)))
         st.dissimilarity.append(None if dis is None else float(dis))
+        d = dis if dis is not None else next_dis
+        like = None if d is None else round(min(1.0, max(0.0, 1.0 - float(d)
+                                                         / self.config.max_dissimilarity)), 3)
+        st.likeness.append(like)
+        rom = None
+        if st.rom_joint is not None:
+            j = [name for name, _, _ in ROM_JOINTS].index(st.rom_joint)
+            rom = round(float(joint_ranges(self._ring.rows(a, b), (j,))[0]), 1)
+            st.rom_deg.append(rom)
         self.count_ = len(spans)
-        self._events.append(RepEvent(st.repetitions[-1][0], st.repetitions[-1][1],
-                                     self.count_, self._now, len(self.sets_) - 1))
+        s0, s1 = st.repetitions[-1]
+        self._events.append(RepEvent(s0, s1, self.count_, self._now, len(self.sets_) - 1,
+                                     round((s1 - s0) / self.fps, 3), rom, st.rom_joint, like))
 
     def _end_set(self, why):
+        self._unliked = None
         if self._cur is not None:
             self._cur[0].end_reason = why
             self._cur = None
@@ -425,7 +423,8 @@ class RepetitionCounter:
                 if loop is None:
                     continue
                 r = self._ring.dissimilarity(prev, loop)
-                if r <= cfg.max_dissimilarity and self._ring.spread(prev, loop):
+                self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
+                if r <= cfg.max_dissimilarity and self._alike_pair(prev, loop):
                     self._start_set(prev, loop, r)
                     done = True
                     break
@@ -435,8 +434,18 @@ class RepetitionCounter:
                     if prev is None:
                         continue
                     piece = self._ring.edge_after(prev, e, t)
-                    if piece is not None and self._ring.spread(prev, piece[0]):
+                    if piece is not None and self._alike_pair(prev, piece[0]):
                         self._start_set(prev, piece[0], piece[1])
+                        done = True
+                        break
+            if not done and cfg.extend_edges:  # one loop and the piece before it
+                for e in sorted(self._cands, reverse=True):
+                    prev = self._cands[e]
+                    if prev is None:
+                        continue
+                    piece = self._ring.edge_before(prev, self._origin)
+                    if piece is not None and self._alike_pair(piece[0], prev):
+                        self._start_set(piece[0], prev, piece[1])
                         break
             self._end_set("end")
         return self._events
@@ -468,23 +477,6 @@ class RepetitionCounter:
                                     - self._ring.rows(s + e - 1, s + x - 1), axis=1)
                 cut = s + e + int(np.argmin(sp))
         return (s, cut, M)
-
-
-def stream_events(counter: RepetitionCounter, X, chunk: int) -> list[RepEvent]:
-    """Every event of ``counter`` fed ``X`` ``chunk`` frames a call, then finished (what a
-    stream in packets of ``chunk`` frames gets; the sets do not depend on ``chunk``)."""
-    events = []
-    for i in range(0, len(X), chunk):
-        events += counter.learn_many(X[i:i + chunk])
-    return events + counter.finish()
-
-
-def sets_of(events) -> list:
-    """The repetitions ``(start, end)`` of each set, by ``set_index``, from events."""
-    out: dict = {}
-    for e in events:
-        out.setdefault(e.set_index, []).append((e.start, e.end))
-    return [out[i] for i in sorted(out)]
 
 
 def warmup() -> None:

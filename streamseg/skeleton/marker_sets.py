@@ -5,7 +5,10 @@ get it from markers: a joint centre where the set has the markers that define on
 of a lateral and a medial epicondyle or malleolus; the hip centres of a pelvis by Bell,
 Pedersen & Brand 1990), otherwise a marker or the mean of a cluster on the segment, which
 gives the limb's direction (all the bone-angle features use). Alternatives are tried in
-order: the first whose markers are all present wins.
+order: the first whose markers are all present wins; frame by frame, where its markers are
+lost, the next alternative seen there serves. Before that, a marker lost in some frames is
+placed from its segment's other markers (:attr:`MarkerSet.clusters`,
+:mod:`streamseg.skeleton.marker_fill`).
 
 Sets:
 
@@ -63,12 +66,25 @@ class MarkerSet:
         ``("@hip", "l"|"r")``).
     pelvis : tuple of tuple
         Alternatives for the pelvis markers of the hip centres: (LASIS, RASIS, posterior...).
+    clusters : tuple of tuple of str
+        Markers on one rigid segment (a lost one is placed from the others seen).
+    pairs : tuple
+        ``((left_a, right_a), (left_b, right_b))`` of a segment: a marker of one pair lost in
+        every frame is its twin mirrored across the other pair's mid-plane.
     """
 
     name: str
     description: str
     points: dict
     pelvis: tuple = ()
+    clusters: tuple = ()
+    pairs: tuple = ()
+
+
+def _both(*clusters) -> tuple:
+    """Clusters given for the left side, with their right-side twins."""
+    return tuple(clusters) + tuple(tuple(_swap(m) for m in c) for c in clusters
+                                   if all(m.startswith("L") for m in c))
 
 
 PLUG_IN_GAIT = MarkerSet(
@@ -76,18 +92,24 @@ PLUG_IN_GAIT = MarkerSet(
     "Vicon Plug-in Gait full body (CMU variant: LFWT/RFWT/LBWT/RBWT)",
     _sides({
         "pelvis": _PIG_PELVIS,
-        "spine": (("T10", "STRN"),),
-        "sternum": (("CLAV", "STRN"),),
-        "neck": (("C7", "CLAV"),),
+        "spine": (("T10", "STRN"), ("T10",), ("STRN",)),
+        "sternum": (("CLAV", "STRN"), ("CLAV",), ("STRN",)),
+        "neck": (("C7", "CLAV"), ("C7",), ("CLAV",)),
         "l_shoulder": (("LSHO",),),
         "l_elbow": (("LELB",),),
-        "l_wrist": (("LWRA", "LWRB"),),
+        "l_wrist": (("LWRA", "LWRB"), ("LWRA",), ("LWRB",)),
         "l_hip": (("@hip", "l"),),
-        "l_knee": (("LKNE",),),
-        "l_ankle": (("LANK",),),
+        "l_knee": (("LKNE",), ("LTHI", "LTIB")),
+        "l_ankle": (("LANK",), ("LHEE",)),
     }),
     pelvis=(("LASI", "RASI", "LPSI", "RPSI"), ("LASI", "RASI", "SACR"),
             ("LFWT", "RFWT", "LBWT", "RBWT")),
+    clusters=_both(("LASI", "RASI", "LPSI", "RPSI", "SACR"), ("LFWT", "RFWT", "LBWT", "RBWT"),
+                   ("C7", "T10", "CLAV", "STRN"), ("LFHD", "RFHD", "LBHD", "RBHD"),
+                   ("LSHO", "LUPA", "LELB"), ("LELB", "LFRM", "LWRA", "LWRB"),
+                   ("LWRA", "LWRB", "LFIN"), ("LKNE", "LTIB", "LANK"),
+                   ("LANK", "LHEE", "LTOE")),
+    pairs=((("LASI", "RASI"), ("LPSI", "RPSI")), (("LFWT", "RFWT"), ("LBWT", "RBWT"))),
 )
 
 QUALISYS_ISB = MarkerSet(
@@ -107,6 +129,8 @@ QUALISYS_ISB = MarkerSet(
         "l_ankle": (("L_FAL", "L_TAM"), ("L_FAL",)),
     }),
     pelvis=(("L_IAS", "R_IAS", "L_IPS", "R_IPS"),),
+    clusters=(("L_IAS", "R_IAS", "L_IPS", "R_IPS"),),
+    pairs=((("L_IAS", "R_IAS"), ("L_IPS", "R_IPS")),),
 )
 
 QUALISYS_SPORTS = MarkerSet(
@@ -126,6 +150,8 @@ QUALISYS_SPORTS = MarkerSet(
         "l_ankle": (("LAnkleLat",),),
     }),
     pelvis=(("LASIS", "RASIS", "LBackAsis", "RBackAsis"),),
+    clusters=(("LASIS", "RASIS", "LBackAsis", "RBackAsis"),),
+    pairs=((("LASIS", "RASIS"), ("LBackAsis", "RBackAsis")),),
 )
 
 MARKER_SETS = {s.name: s for s in (PLUG_IN_GAIT, QUALISYS_ISB, QUALISYS_SPORTS)}
@@ -185,16 +211,24 @@ def best_set(labels):
     return best
 
 
-def joint_positions(markers: np.ndarray, labels, chosen: dict) -> np.ndarray:
+def joint_positions(markers: np.ndarray, labels, chosen: dict, mset: MarkerSet | None = None,
+                    min_run: int = 1) -> np.ndarray:
     """Canonical points from marker trajectories.
 
     Parameters
     ----------
     markers : ndarray, shape (n_frames, n_markers, 3)
-        NaN where a marker is missing; a point made of a missing marker is NaN there.
+        NaN where a marker is missing; a point made of a missing marker is NaN there, unless
+        another alternative of ``mset`` for it is seen there.
     labels : sequence of str
     chosen : dict
         From :func:`best_set` (every point of :data:`JOINTS` present).
+    mset : MarkerSet, optional
+        The set ``chosen`` comes from: its other alternatives (and pelvis marker sets) fill,
+        frame by frame, where the chosen one's markers are lost.
+    min_run : int
+        An alternative serves runs of at least this many lost frames only (shorter gaps are
+        better interpolated: :mod:`streamseg.io.gaps`).
 
     Returns
     -------
@@ -205,14 +239,41 @@ def joint_positions(markers: np.ndarray, labels, chosen: dict) -> np.ndarray:
     def mean(names):
         return np.mean([markers[:, index[m.upper()]] for m in names], axis=0)
 
+    def point_of(recipe, pel=None):
+        if recipe[0] == "@hip":
+            pel = recipe[2] if pel is None else pel
+            return bell_hip(mean(pel[:1]), mean(pel[1:2]), mean(pel[2:]), recipe[1])
+        return mean(recipe)
+
     out = np.empty((markers.shape[0], len(JOINTS), 3))
     for j, point in enumerate(JOINTS):
         recipe = chosen[point]
+        out[:, j] = point_of(recipe)
+        if mset is None:
+            continue
         if recipe[0] == "@hip":
-            pel = recipe[2]
-            out[:, j] = bell_hip(mean(pel[:1]), mean(pel[1:2]), mean(pel[2:]), recipe[1])
+            spare = [(recipe, p) for p in mset.pelvis if p != recipe[2]
+                     and all(m.upper() in index for m in p)]
         else:
-            out[:, j] = mean(recipe)
+            spare = [(alt, None) for alt in mset.points[point] if alt != recipe
+                     and alt[0] != "@hip" and all(m.upper() in index for m in alt)]
+        for alt, pel in spare:
+            lost = _long_runs(~np.isfinite(out[:, j]).all(axis=1), min_run)
+            if not lost.any():
+                break
+            out[lost, j] = point_of(alt, pel)[lost]
+    return out
+
+
+def _long_runs(mask: np.ndarray, k: int) -> np.ndarray:
+    """``mask`` keeping its runs of True at least ``k`` long."""
+    if k <= 1 or not mask.any():
+        return mask
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    out = np.zeros_like(mask)
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        if b - a >= k:
+            out[a:b] = True
     return out
 
 
