@@ -56,3 +56,26 @@ def test_checkpoints_of_the_previous_release_restore(tmp_path, rec):
     assert not [e for e in events if e.type == "error"]
     final = [e for e in events if e.type == "segments" and e.final]
     assert final and final[-1].end == rec.n_frames
+
+
+def test_a_checkpoint_of_an_unknown_format_is_refused_with_one_line(tmp_path):
+    """A checkpoint this release cannot read (a later release's) is not restored: one log line
+    names the stream, the file and the format; the daemon starts without it."""
+    import sqlite3
+
+    ep, state, toml = config(tmp_path, heartbeat=0)
+    shutil.copytree(FIXTURE, state)
+    con = sqlite3.connect(state / "checkpoints.sqlite")
+    con.execute("UPDATE checkpoints SET format = 99")
+    con.commit()
+    con.close()
+    proc = serve(toml)
+    try:
+        wait_ping(ep, proc)
+        assert request(ep["control"], "streams")["streams"] == []
+    finally:
+        proc.terminate()
+        proc.wait(60)
+    lines = [x for x in proc.stderr.read().splitlines() if "format 99" in x]
+    assert len(lines) == 1 and "checkpoint of k" in lines[0]
+    assert str(state / "checkpoints.sqlite") in lines[0] and "reads formats 5, 6" in lines[0]

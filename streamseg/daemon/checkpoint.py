@@ -163,8 +163,6 @@ def restore(daemon, now: float) -> int:
             pipe = state["pipeline"]
             pipe.algorithms = daemon.algorithms
             pipe.plan = daemon.algorithms.prepare(pipe.skeleton)
-            if not hasattr(pipe, "root"):  # saved before the root speeds: a detector without
-                pipe.root = None
             st.pipeline = pipe
             st.pending, st.arrivals = [], []
             st.gap_limit = limits.RateLimit(daemon.config.gap_events_per_s)

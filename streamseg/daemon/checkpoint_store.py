@@ -20,6 +20,7 @@ import msgpack
 
 from streamseg.daemon.eventlog import connect
 from streamseg.daemon.state_codec import load, packable, stored
+from streamseg.daemon.state_migrations import FORMAT, READS
 
 log = logging.getLogger("streamseg.daemon")
 
@@ -44,7 +45,6 @@ NICE = 10  # the writer thread runs this many nice levels below the daemon (at m
 # WAL, then the file), so the log never meets a disk the checkpoints filled; and the WAL is
 # truncated after each round, so the checkpoints hold no more than their file
 LOW_WATER = 16 << 20  # bytes
-FORMAT = 5  # of the checkpoint blobs; another value is ignored at restore (with a warning)
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS checkpoints (
@@ -124,15 +124,16 @@ class CheckpointStore:
         """``[(stream, state)]`` of every stored checkpoint (unreadable ones skipped)."""
         out = []
         for stream, fmt, blob in self._db.execute("SELECT stream, format, blob FROM checkpoints"):
-            if fmt != FORMAT:
-                log.warning("checkpoint of %s has format %s, not %s: not restored", stream, fmt,
-                            FORMAT)
+            if fmt not in READS:
+                log.error("checkpoint of %s in %s has format %s; this release reads formats "
+                          "%s: not restored (its take is closed)", stream, self.path, fmt,
+                          ", ".join(map(str, READS)))
                 continue
             try:
                 chunks = dict(self._db.execute("SELECT digest, data FROM chunks WHERE stream = ?",
                                                (stream,)))
                 out.append((stream, load(msgpack.unpackb(blob, raw=False,
-                                                         strict_map_key=False), chunks)))
+                                                         strict_map_key=False), chunks, fmt)))
             except Exception as err:  # a damaged row must not stop the daemon
                 log.error("checkpoint of %s unreadable (%s: %s): not restored", stream,
                           type(err).__name__, err)

@@ -350,7 +350,7 @@ class StreamPipeline:
         """The detector's events as ``(frame, score, emitted_at, kind)`` in stream frames,
         ``kind`` one of :data:`CUT_KINDS`; :attr:`cut_frames` keeps the cuts not withdrawn."""
         o, out = self.offset, []
-        settle = getattr(self, "settlement", None)  # None also in checkpoints made before it
+        settle = self.settlement
         for ev in events:
             kind = cut_kind(ev)
             score = float(getattr(ev, "score", 0.0))
@@ -562,7 +562,7 @@ class StreamPipeline:
         settled (:mod:`streamseg.daemon.settle`)."""
         if self.learned >= next_relabel:
             return True
-        settle = getattr(self, "settlement", None)
+        settle = self.settlement
         return settle is not None and settle.due(self.next_frame)
 
     def relabel_snapshot(self, whole: bool):
@@ -576,7 +576,7 @@ class StreamPipeline:
         focused : bool
             True when the window is the focused one (the cadence is left as it was).
         """
-        settle = getattr(self, "settlement", None)
+        settle = self.settlement
         focused = not whole and settle is not None and bool(settle.open)
         feats, frames = self.snapshot(first_frame=settle.window_start() if focused else None)
         if settle is not None:
@@ -600,7 +600,7 @@ class StreamPipeline:
         """
         if result is not None and not focused:
             self.previous = result.window
-        settle = getattr(self, "settlement", None)
+        settle = self.settlement
         if settle is None:
             return []
         if result is None:  # a failed relabel settles nothing, but the final one must end

@@ -21,6 +21,7 @@ import numpy as np
 import xxhash
 
 from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.state_migrations import FORMAT, migrate
 from streamseg.daemon.streams import StreamState
 
 CHUNK = 4096  # bytes of an array chunk: smaller ones store less per round, more rows
@@ -57,11 +58,12 @@ def dump(obj):
     return {"__obj__": f"{cls.__module__}:{cls.__qualname__}", "s": state}
 
 
-def load(obj, chunks=None):
+def load(obj, chunks=None, fmt: int = FORMAT):
     """Inverse of :func:`packable` after msgpack, given the stream's ``chunks`` (a mapping
-    of digest to stored bytes)."""
+    of digest to stored bytes); objects stored in an older format ``fmt`` are migrated
+    (:mod:`streamseg.daemon.state_migrations`)."""
     if isinstance(obj, list):
-        return [load(x, chunks) for x in obj]
+        return [load(x, chunks, fmt) for x in obj]
     if not isinstance(obj, dict):
         return obj
     if "__nd__" in obj:
@@ -73,12 +75,12 @@ def load(obj, chunks=None):
                             for i, d in enumerate(data))
         return np.frombuffer(data.ljust(n, b"\0"), dtype=dtype).reshape(shape).copy()
     if "__t__" in obj:
-        return tuple(load(x, chunks) for x in obj["__t__"])
+        return tuple(load(x, chunks, fmt) for x in obj["__t__"])
     if "__dq__" in obj:
         maxlen, items = obj["__dq__"]
-        return collections.deque((load(x, chunks) for x in items), maxlen=maxlen)
+        return collections.deque((load(x, chunks, fmt) for x in items), maxlen=maxlen)
     if "__d__" in obj:
-        return {load(k, chunks): load(v, chunks) for k, v in obj["__d__"]}
+        return {load(k, chunks, fmt): load(v, chunks, fmt) for k, v in obj["__d__"]}
     if "__obj__" in obj:
         module, qual = obj["__obj__"].split(":")
         if not module.startswith("streamseg."):
@@ -87,11 +89,13 @@ def load(obj, chunks=None):
         for part in qual.split("."):
             cls = getattr(cls, part)
         out = cls.__new__(cls)
-        for k, v in obj["s"].items():
-            object.__setattr__(out, k, load(v, chunks))  # also frozen dataclasses
+        fields = migrate(obj["__obj__"], {k: load(v, chunks, fmt) for k, v in obj["s"].items()},
+                         fmt)
+        for k, v in fields.items():
+            object.__setattr__(out, k, v)  # also frozen dataclasses
         if dataclasses.is_dataclass(cls):  # a field added since the checkpoint: its default
             for f in dataclasses.fields(cls):
-                if f.name not in obj["s"]:
+                if f.name not in fields:
                     if f.default is not dataclasses.MISSING:
                         object.__setattr__(out, f.name, f.default)
                     elif f.default_factory is not dataclasses.MISSING:

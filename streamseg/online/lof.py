@@ -158,10 +158,6 @@ class StreamingLOFSegmenter:
         """Recompute :attr:`_derived_state` from the buffered windows (after a restore):
         the same LOF values and the same later cuts as the state it was saved from
         (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
-        if not hasattr(self, "_pend"):  # saved before the two-stage decision: one stage
-            self._pend = np.zeros((0, 2), dtype=np.int64)
-        if self._geo.size < _ks.GEO_SIZE:  # saved before the root speeds: checks read all
-            self._geo = np.append(self._geo, self._cols)
         self._allocate_derived()
         _kl.ext_rebuild(self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d,
                         self._nn_key, self._nn_cnt, self._trunc, self._lrd, self._lof,

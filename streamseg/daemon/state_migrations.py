@@ -1,0 +1,56 @@
+"""Checkpoints of earlier releases: the one place that knows how their state differs.
+
+A checkpoint row carries its format (:data:`FORMAT`). :func:`migrate` turns the fields of an
+object stored in an older format into today's, class by class, before
+:func:`streamseg.daemon.state_codec.load` sets them: a field added since gets the value a
+stream of that release had in effect. Formats outside :data:`READS` are refused at restore
+with one line naming the file, the stream and the format. A class that gains state adds its
+default here (and bumps :data:`FORMAT` when the meaning of stored fields changes), instead of
+``hasattr`` checks in the algorithm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+FORMAT = 6  # written by this release
+READS = (5, 6)  # restored by this release (5: 3e14a8b, tests/fixtures/checkpoints_3e14a8b)
+
+
+def _lof(fields: dict) -> dict:
+    from streamseg._kernels import lof_stream as ks
+
+    # one-stage decision (no pending cuts); the decision's checks read every column
+    fields.setdefault("_pend", np.zeros((0, 2), dtype=np.int64))
+    geo = fields.get("_geo")
+    if geo is not None and geo.size < ks.GEO_SIZE and "_cols" in fields:
+        fields["_geo"] = np.append(geo, fields["_cols"])
+    return fields
+
+
+def _pipeline(fields: dict) -> dict:
+    fields.setdefault("root", None)  # a detector without root speeds
+    fields.setdefault("settlement", None)  # provisional cuts not settled by relabels
+    return fields
+
+
+def _counter(fields: dict) -> dict:
+    fields.setdefault("near_misses_", {})
+    fields.setdefault("_unliked", None)  # no ended set waiting to resume
+    return fields
+
+
+# (format, "module:Class") -> the migration of its fields to FORMAT
+MIGRATIONS = {
+    (5, "streamseg.online.lof:StreamingLOFSegmenter"): _lof,
+    (5, "streamseg.daemon.pipeline:StreamPipeline"): _pipeline,
+    (5, "streamseg.online.repetition:RepetitionCounter"): _counter,
+}
+
+
+def migrate(name: str, fields: dict, fmt: int) -> dict:
+    """Today's fields of an object of class ``name`` (``module:Class``) stored in ``fmt``."""
+    if fmt == FORMAT:
+        return fields
+    step = MIGRATIONS.get((fmt, name))
+    return step(fields) if step is not None else fields
