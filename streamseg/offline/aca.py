@@ -37,7 +37,7 @@ import numpy as np
 from streamseg._kernels.aca import candidate_sums, relax
 from streamseg._kernels.dtak import segment_kernel_within
 from streamseg.exceptions import ParameterError
-from streamseg.offline.aca_init import kmeans, propagated_init, random_init
+from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init
 from streamseg.offline.dtak import KERNELS, _as_frames, frame_kernel
 from streamseg.segments import Estimator
 
@@ -131,8 +131,14 @@ def dp_step(K, starts, ends, labels, n_c, const, wmin: int, wmax: int, *, binary
     transpose (:func:`dp_kernel`). For a 0/1 kernel the eq. 7 tables are exact narrow
     integers (:func:`work_dtype`). Returns ``(starts, ends, labels, cost)``.
     """
+    F = candidate_table(K, starts, ends, labels, n_c.shape[0], wmin, wmax, binary=binary)
+    return relax(F, n_c, const, wmin, wmax)
+
+
+def candidate_table(K, starts, ends, labels, k: int, wmin: int, wmax: int, *, binary=None):
+    """``F`` (k, wmax + 1, n + 1): ``F[c, w, t]`` the sum of the DTAKs between candidate
+    ``[t, t + w)`` and the old segments of cluster c (``streamseg._kernels.aca``)."""
     n = K.shape[0]
-    k = n_c.shape[0]
     if binary is None:
         binary = bool(np.all((K == 0) | (K == 1)))
     # longest first, then by label: runs of one (length, label) are summed before dividing
@@ -146,7 +152,7 @@ def dp_step(K, starts, ends, labels, n_c, const, wmin: int, wmax: int, *, binary
     acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
     F = np.zeros((k, wmax + 1, n + 1))
     candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, NEG[dtype])
-    return relax(F, n_c, const, wmin, wmax)
+    return F
 
 
 #: the -inf of each work dtype of the DP tables (exact ranges: :func:`work_dtype`)
@@ -169,6 +175,25 @@ def dp_kernel(K, binary: bool):
     return K if np.array_equal(K, K.T) else np.ascontiguousarray(K.T)
 
 
+def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary):
+    """``F`` of the segmentation (:func:`candidate_table`) and each segment's summed DTAK
+    with the segments of its own cluster, itself included (m,).
+
+    The sums are read off ``F``, whose candidates include every old segment of a length in
+    ``[wmin, wmax]``; a segment of another length (only an initial one can be) costs a row of
+    within-cluster DTAKs.
+    """
+    F = candidate_table(K_dp, starts, ends, labels, k, wmin, wmax, binary=binary)
+    lens = ends - starts
+    inside = (lens >= wmin) & (lens <= wmax)
+    own = np.zeros(starts.shape[0])
+    own[inside] = F[labels[inside], lens[inside], starts[inside]]
+    if not inside.all():
+        T = segment_kernel_within(K, starts, ends, labels)
+        own[~inside] = (T[~inside] * (labels[~inside, None] == labels[None, :])).sum(1)
+    return F, own
+
+
 def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int, *,
             binary=None, K_dp=None):
     """Coordinate descent from one initial segmentation on frame kernel ``K`` (n, n).
@@ -176,30 +201,57 @@ def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int
     ``binary``: whether K is 0/1 (computed when None); ``K_dp``: K as the DP step reads it
     (:func:`dp_kernel`; prepared here when None).
     Returns ``(starts, ends, labels, objective, n_iter)``.
+
+    One table of candidate sums per step: the cluster statistics (``h_c``), the objective and
+    the re-seeding of empty clusters all come from the segments' own sums in it (the self-DTAK
+    of a segment is 1 under a unit-diagonal kernel), so no segment DTAK matrix is built.
     """
     starts = np.ascontiguousarray(starts, dtype=np.int64)
     ends = np.ascontiguousarray(ends, dtype=np.int64)
     labels = np.ascontiguousarray(labels, dtype=np.int64)
-    # Only within-cluster DTAKs are ever read (statistics, objective, re-seeding).
-    T = segment_kernel_within(K, starts, ends, labels)
     if binary is None:
         binary = bool(np.all((K == 0.0) | (K == 1.0)))
     if K_dp is None:
         K_dp = dp_kernel(K, binary)
+
+    def prepared(starts, ends, labels):
+        """Labels with empty clusters re-seeded, the candidate table and own sums."""
+        F, own = _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary)
+        while True:
+            counts = np.bincount(labels, minlength=k)
+            empty = np.flatnonzero(counts == 0)
+            movable = counts[labels] >= 2
+            if empty.size == 0 or not movable.any():
+                return labels, F, own
+            n_c, const = _stats(own, labels, k)
+            dist = 1.0 - 2.0 * own / n_c[labels] + const[labels]
+            dist[~movable] = -np.inf
+            labels = labels.copy()
+            labels[int(np.argmax(dist))] = empty[0]
+            F, own = _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary)
+
+    labels, F, own = prepared(starts, ends, labels)
     it = 0
     while it < max_iter:
         it += 1
-        labels = reseed_empty(T, labels, k)
-        n_c, const = cluster_stats(T, labels, k)
-        ns, ne, nl, _ = dp_step(K_dp, starts, ends, labels, n_c, const, wmin, wmax,
-                                binary=binary)
+        n_c, const = _stats(own, labels, k)
+        ns, ne, nl, _ = relax(F, n_c, const, wmin, wmax)
         if (ns.shape == starts.shape and np.array_equal(ns, starts) and np.array_equal(ne, ends)
                 and np.array_equal(nl, labels)):
             break
-        starts, ends, labels = ns, ne, nl
-        T = segment_kernel_within(K, starts, ends, labels)
-    labels = reseed_empty(T, labels, k)
-    return starts, ends, labels, objective(T, labels, k), it
+        starts, ends = ns, ne
+        labels, F, own = prepared(ns, ne, nl)
+    n_c, const = _stats(own, labels, k)
+    return starts, ends, labels, float(np.sum(1.0 - 2.0 * own / n_c[labels] + const[labels])), it
+
+
+def _stats(own, labels, k):
+    """``n_c`` (k,) and ``h_c / n_c**2`` (k,) from the segments' own sums (``h_c`` is their
+    sum over the cluster); as :func:`cluster_stats`."""
+    n_c = np.bincount(labels, minlength=k).astype(np.float64)
+    h = np.bincount(labels, weights=own, minlength=k)
+    const = np.divide(h, n_c ** 2, out=np.zeros(k), where=n_c > 0)
+    return n_c, const
 
 
 class ACA(Estimator):
@@ -337,9 +389,10 @@ class ACA(Estimator):
         binary = self.kernel == "equality" or (
             self.kernel == "precomputed" and bool(np.all((K == 0.0) | (K == 1.0))))
         K_dp = dp_kernel(K, binary)
+        shared = RandomInits(K, wmin, wmax)
         with single_threaded_blas():
             inits = [self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
-                                   runs, n) for r in range(self.n_init)]
+                                   runs, n, shared) for r in range(self.n_init)]
 
             def run(init):
                 return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary,
@@ -364,7 +417,7 @@ class ACA(Estimator):
         self.min_len_used_, self.max_len_used_ = int(wmin), int(wmax)
         return self
 
-    def _initial(self, r, K, X, classes, k, wmin, wmax, rng, runs, n):
+    def _initial(self, r, K, X, classes, k, wmin, wmax, rng, runs, n, shared):
         if isinstance(self.init, (list, tuple)) and r == 0:
             return _explicit_init(self.init, runs, n, K.shape[0], k)
         if self.init == "propagated" and r == 0:
@@ -374,7 +427,7 @@ class ACA(Estimator):
                 else:
                     classes = kmeans(X, self.k_frame, rng)
             return propagated_init(classes, k, wmin, wmax, rng)
-        return random_init(K, k, wmin, wmax, rng)
+        return shared(k, rng)
 
     def _store(self, starts, ends, labels, runs, n, expand_labels):
         seg_lab = np.repeat(labels, ends - starts)
