@@ -115,14 +115,22 @@ def tiling_kernel(K, starts, ends) -> np.ndarray:
     return segment_kernel(K, starts, ends)
 
 
+#: A random restart whose tiling has at most this many segments gets its own segment DTAK
+#: matrix and eigenproblem (:func:`random_init`; a dense one of 500 takes ~20 ms); above it
+#: the restarts of a fit share one embedding (:class:`RandomInits`). Sharing it below this
+#: lost accuracy on noisy synthetic sequences (flat ACA, p_noise 0.3, 5 sequences: 0.745 ->
+#: 0.683 at max_len 15, ``benchmarks/aca_synthetic.py``).
+OWN_EMBEDDING_MAX = 500
+
+
 class RandomInits:
     """The random initializations of one fit, sharing what is expensive in them.
 
-    The first call draws a random tiling of the ``n`` frames of ``K`` (n, n) with lengths in
-    [wmin, wmax] and labels it by spectral clustering of its segment DTAK matrix, exactly as
-    :func:`random_init`. That embedding, spread over the frames (each frame takes its
-    segment's row), is the only one: every later call draws a tiling of its own and embeds a
-    segment as the normalized mean of its frames' rows, then k-means from its own seeds. A
+    A tiling of at most :data:`OWN_EMBEDDING_MAX` segments is labelled on its own, as
+    :func:`random_init` does. Above that, the first such call labels its tiling as
+    :func:`random_init` does, and its embedding, spread over the frames (each frame takes its
+    segment's row), is the only one: every later call embeds each segment of its own tiling
+    as the normalized mean of its frames' rows, then runs k-means from its own seeds. A
     restart thus costs O(n k) instead of a DTAK matrix and an eigenproblem over its m
     segments, which at the fine level of HACA (one-frame segments) is every frame.
     """
@@ -137,15 +145,15 @@ class RandomInits:
         """``(starts, ends, labels)`` of one restart."""
         n = self.K.shape[0]
         starts, ends = random_tiling(n, self.wmin, self.wmax, rng)
+        if starts.shape[0] <= k:  # every segment its own cluster, as spectral_labels
+            return starts, ends, np.arange(starts.shape[0], dtype=np.int64)
+        if starts.shape[0] <= OWN_EMBEDDING_MAX:  # cheap: as random_init, exactly
+            T = tiling_kernel(self.K, starts, ends)
+            return starts, ends, spectral_labels(T, k, rng).astype(np.int64)
         if self._first is None:
             self._first = starts, ends, tiling_kernel(self.K, starts, ends)
         s0, e0, T = self._first
-        if starts.shape[0] <= k:  # every segment its own cluster, as spectral_labels
-            return starts, ends, np.arange(starts.shape[0], dtype=np.int64)
         if k not in self._frames:
-            if s0.shape[0] <= k:  # the first tiling had nothing to embed: this one
-                s0, e0 = starts, ends
-                T = tiling_kernel(self.K, starts, ends)
             emb = spectral_embedding(T, k, rng)
             cum = np.zeros((n + 1, k))
             np.cumsum(np.repeat(emb, e0 - s0, axis=0), axis=0, out=cum[1:])
