@@ -273,21 +273,24 @@ class ACA(Estimator):
             self.kernel == "precomputed" and bool(np.all((K == 0.0) | (K == 1.0))))
         K_dp = dp_kernel(K, binary)
         shared = RandomInits(K, wmin, wmax)
+
+        def initial(r):
+            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
+                                 runs, n, shared)
+
+        def run(init):
+            return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp)
+
+        jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
         with single_threaded_blas():
-            inits = [self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
-                                   runs, n, shared) for r in range(self.n_init)]
-
-            def run(init):
-                return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary,
-                               K_dp=K_dp)
-
-            jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
-            if jobs > 1 and len(inits) > 1 and nr * nr * wmax >= THREADED_WORK:
-                # the kernels release the GIL, so restarts run in parallel threads
-                with ThreadPoolExecutor(min(jobs, len(inits))) as pool:
-                    results = list(pool.map(run, inits))
+            if jobs > 1 and self.n_init > 1 and nr * nr * wmax >= THREADED_WORK:
+                # the kernels release the GIL: descents run in threads while this one draws
+                # the next initializations (in order, from the one generator)
+                with ThreadPoolExecutor(min(jobs, self.n_init)) as pool:
+                    futures = [pool.submit(run, initial(r)) for r in range(self.n_init)]
+                    results = [f.result() for f in futures]
             else:
-                results = [run(init) for init in inits]
+                results = [run(initial(r)) for r in range(self.n_init)]
         best = None
         for res in results:  # first of the lowest objectives: same answer for any n_jobs
             if best is None or res[3] < best[3] - 1e-12:
