@@ -23,7 +23,11 @@ Decisions (see also :class:`ACA`):
 Speed: the DP step (``streamseg._kernels.aca``) costs O(n^2 max_len_frames) per iteration and
 O(k n max_len_frames) memory besides the (n, n) frame kernel, as in section 3.5. For the 0/1
 equality kernel it runs in exact int8 (int16 for long segments) arithmetic, and the kernel is
-kept as int8. Restarts can run in threads (``n_jobs``).
+kept as int8. The cluster statistics, objective and re-seeding of a step are read off the
+same candidate table (:func:`streamseg.offline.aca_descent.descend`), so a step builds no
+segment DTAK matrix. Random restarts of a long tiling share one spectral embedding
+(:class:`streamseg.offline.aca_init.RandomInits`). Restarts of a large problem run in
+threads (``n_jobs``, :data:`THREADED_WORK`).
 """
 
 from __future__ import annotations
@@ -34,14 +38,23 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from streamseg._kernels.aca import candidate_sums, relax
-from streamseg._kernels.dtak import segment_kernel_within
 from streamseg.exceptions import ParameterError
-from streamseg.offline.aca_init import kmeans, propagated_init, random_init
+from streamseg.offline.aca_descent import (  # noqa: F401  (NEG, dp_step, work_dtype: public here)
+    NEG,
+    descend,
+    dp_kernel,
+    dp_step,
+    work_dtype,
+)
+from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init
 from streamseg.offline.dtak import KERNELS, _as_frames, frame_kernel
 from streamseg.segments import Estimator
 
 INITS = ("random", "propagated")
+#: Restarts run in threads only when one DP step reads at least this many kernel cells
+#: (``n^2 wmax``): below it (HACA on a reduced take: ~10^5) a descent takes about a
+#: millisecond and starting and joining threads cost more than they save.
+THREADED_WORK = 10_000_000
 
 
 @functools.cache
@@ -122,84 +135,6 @@ def reseed_empty(T: np.ndarray, labels: np.ndarray, k: int) -> np.ndarray:
         dist = np.diag(T) - 2.0 * own / n_c[labels] + const[labels]
         dist[~movable] = -np.inf
         labels[int(np.argmax(dist))] = empty[0]
-
-
-def dp_step(K, starts, ends, labels, n_c, const, wmin: int, wmax: int, *, binary=None):
-    """One DP segmentation step (eq. 9) under the centres of the old segmentation.
-
-    ``K`` (n, n) is read as ``K[old frame, candidate frame]``: symmetric, or pass its
-    transpose (:func:`dp_kernel`). For a 0/1 kernel the eq. 7 tables are exact narrow
-    integers (:func:`work_dtype`). Returns ``(starts, ends, labels, cost)``.
-    """
-    n = K.shape[0]
-    k = n_c.shape[0]
-    if binary is None:
-        binary = bool(np.all((K == 0) | (K == 1)))
-    # longest first, then by label: runs of one (length, label) are summed before dividing
-    order = np.lexsort((labels, starts - ends))
-    starts, ends, labels = starts[order], ends[order], labels[order]
-    dtype = work_dtype(binary, int((ends - starts).max()), wmax)
-    if dtype != np.float64 and K.dtype not in (np.int8, np.int16):
-        K = K.astype(np.int8)  # callers in a loop pass it converted once (dp_kernel)
-    A = np.empty((wmax + 1, n + 1), dtype)
-    B = np.empty((wmax + 1, n + 1), dtype)
-    acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
-    F = np.zeros((k, wmax + 1, n + 1))
-    candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, NEG[dtype])
-    return relax(F, n_c, const, wmin, wmax)
-
-
-#: the -inf of each work dtype of the DP tables (exact ranges: :func:`work_dtype`)
-NEG = {np.int8: np.int8(-64), np.int16: np.int16(-16000), np.float64: -np.inf}
-
-
-def work_dtype(binary: bool, lmax: int, wmax: int):
-    """The narrowest exact dtype of the DP tables: for a 0/1 kernel every entry is an
-    integer at most ``lmax + wmax`` (see ``streamseg._kernels.aca.candidate_sums``)."""
-    if not binary or lmax + wmax >= 4000:
-        return np.float64
-    return np.int8 if lmax + wmax <= 60 else np.int16
-
-
-def dp_kernel(K, binary: bool):
-    """K as every DP step reads it, prepared once per fit: a 0/1 kernel as int8; a float
-    kernel as its transpose unless it is exactly symmetric (rows = old frames)."""
-    if binary:
-        return K.astype(np.int8, copy=False)
-    return K if np.array_equal(K, K.T) else np.ascontiguousarray(K.T)
-
-
-def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int, *,
-            binary=None, K_dp=None):
-    """Coordinate descent from one initial segmentation on frame kernel ``K`` (n, n).
-
-    ``binary``: whether K is 0/1 (computed when None); ``K_dp``: K as the DP step reads it
-    (:func:`dp_kernel`; prepared here when None).
-    Returns ``(starts, ends, labels, objective, n_iter)``.
-    """
-    starts = np.ascontiguousarray(starts, dtype=np.int64)
-    ends = np.ascontiguousarray(ends, dtype=np.int64)
-    labels = np.ascontiguousarray(labels, dtype=np.int64)
-    # Only within-cluster DTAKs are ever read (statistics, objective, re-seeding).
-    T = segment_kernel_within(K, starts, ends, labels)
-    if binary is None:
-        binary = bool(np.all((K == 0.0) | (K == 1.0)))
-    if K_dp is None:
-        K_dp = dp_kernel(K, binary)
-    it = 0
-    while it < max_iter:
-        it += 1
-        labels = reseed_empty(T, labels, k)
-        n_c, const = cluster_stats(T, labels, k)
-        ns, ne, nl, _ = dp_step(K_dp, starts, ends, labels, n_c, const, wmin, wmax,
-                                binary=binary)
-        if (ns.shape == starts.shape and np.array_equal(ns, starts) and np.array_equal(ne, ends)
-                and np.array_equal(nl, labels)):
-            break
-        starts, ends, labels = ns, ne, nl
-        T = segment_kernel_within(K, starts, ends, labels)
-    labels = reseed_empty(T, labels, k)
-    return starts, ends, labels, objective(T, labels, k), it
 
 
 class ACA(Estimator):
@@ -337,21 +272,25 @@ class ACA(Estimator):
         binary = self.kernel == "equality" or (
             self.kernel == "precomputed" and bool(np.all((K == 0.0) | (K == 1.0))))
         K_dp = dp_kernel(K, binary)
+        shared = RandomInits(K, wmin, wmax)
+
+        def initial(r):
+            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
+                                 runs, n, shared)
+
+        def run(init):
+            return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp)
+
+        jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
         with single_threaded_blas():
-            inits = [self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
-                                   runs, n) for r in range(self.n_init)]
-
-            def run(init):
-                return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary,
-                               K_dp=K_dp)
-
-            jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
-            if jobs > 1 and len(inits) > 1:
-                # the kernels release the GIL, so restarts run in parallel threads
-                with ThreadPoolExecutor(min(jobs, len(inits))) as pool:
-                    results = list(pool.map(run, inits))
+            if jobs > 1 and self.n_init > 1 and nr * nr * wmax >= THREADED_WORK:
+                # the kernels release the GIL: descents run in threads while this one draws
+                # the next initializations (in order, from the one generator)
+                with ThreadPoolExecutor(min(jobs, self.n_init)) as pool:
+                    futures = [pool.submit(run, initial(r)) for r in range(self.n_init)]
+                    results = [f.result() for f in futures]
             else:
-                results = [run(init) for init in inits]
+                results = [run(initial(r)) for r in range(self.n_init)]
         best = None
         for res in results:  # first of the lowest objectives: same answer for any n_jobs
             if best is None or res[3] < best[3] - 1e-12:
@@ -364,7 +303,7 @@ class ACA(Estimator):
         self.min_len_used_, self.max_len_used_ = int(wmin), int(wmax)
         return self
 
-    def _initial(self, r, K, X, classes, k, wmin, wmax, rng, runs, n):
+    def _initial(self, r, K, X, classes, k, wmin, wmax, rng, runs, n, shared):
         if isinstance(self.init, (list, tuple)) and r == 0:
             return _explicit_init(self.init, runs, n, K.shape[0], k)
         if self.init == "propagated" and r == 0:
@@ -374,7 +313,7 @@ class ACA(Estimator):
                 else:
                     classes = kmeans(X, self.k_frame, rng)
             return propagated_init(classes, k, wmin, wmax, rng)
-        return random_init(K, k, wmin, wmax, rng)
+        return shared(k, rng)
 
     def _store(self, starts, ends, labels, runs, n, expand_labels):
         seg_lab = np.repeat(labels, ends - starts)

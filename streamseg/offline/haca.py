@@ -18,10 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from streamseg._kernels.dtak import segment_kernel
 from streamseg.exceptions import ParameterError
 from streamseg.offline.aca import ACA
-from streamseg.offline.aca_init import kmeans
+from streamseg.offline.aca_init import kmeans, tiling_kernel
 from streamseg.offline.dtak import _as_frames, frame_kernel
 from streamseg.offline.reduction import reduce_frames
 from streamseg.segments import Estimator
@@ -127,7 +126,7 @@ class HACA(Estimator):
         if self.coarse_kernel == "labels":
             T = (fine_labels[:, None] == fine_labels[None, :]).astype(np.float64)
         else:
-            T = segment_kernel(K, fs, fe)
+            T = tiling_kernel(K, fs, fe)
         per_unit = n / fs.size  # frames per fine segment
         cmax = max(1, round(self.max_len_frames / per_unit))
         cmin = min(cmax, max(1, round(self.min_len_frames / per_unit)))
