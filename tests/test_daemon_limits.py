@@ -213,16 +213,19 @@ def test_ipv6_loopback(start_daemon, rec, want):
     assert [e.frame for e in events if e.type == "cut"] == want
 
 
-def _serve(tmp_path, *flags):
-    """A `streamseg serve` subprocess on ipc endpoints; ``(process, endpoints)``."""
-    ep = {k: f"ipc://{tmp_path}/{k}" for k in ("ingest", "publish", "control")}
+def _serve(tmp_path, *flags, tcp=False):
+    """A `streamseg serve` subprocess on ipc endpoints (``tcp``: on TCP loopback, free ports,
+    the default transport); ``(process, endpoints)``."""
+    ep = {k: "tcp://127.0.0.1:0" if tcp else f"ipc://{tmp_path}/{k}"
+          for k in ("ingest", "publish", "control")}
     proc = subprocess.Popen(
         [sys.executable, "-c", "import sys; from streamseg.cli import main; "
          "sys.exit(main(sys.argv[1:]))", "serve", "--ingest", ep["ingest"], "--publish",
          ep["publish"], "--control", ep["control"], "--state-dir", "none",
          "--relabel-interval", "0", "--heartbeat", "0", "--log-level", "ERROR", *flags],
         stdout=subprocess.PIPE, text=True)
-    proc.stdout.readline()  # the endpoints line: bound
+    line = proc.stdout.readline()  # the endpoints line: bound (ports resolved)
+    ep.update(kv.split("=", 1) for kv in line.split()[2:] if "=" in kv)
     return proc, ep
 
 
@@ -241,7 +244,7 @@ def test_a_flood_of_large_valid_packets_keeps_memory_within_the_byte_budget(tmp_
     in packets (2,000) and held what the sender was ahead (60 packets: 355-380 MiB)."""
     budget, largest = 160 << 20, 16 << 20
     proc, ep = _serve(tmp_path, "--ingest-bytes", str(budget), "--max-message-bytes",
-                      str(largest))
+                      str(largest), tcp=True)
     try:
         wait_until(lambda: _ping(ep), "the daemon answers", timeout=300)
         push = zmq.Context.instance().socket(zmq.PUSH)
@@ -286,7 +289,7 @@ def test_many_large_senders_all_get_through_within_the_memory_bound(tmp_path, re
     plus ``ingest_hwm + 1`` packets per connection in ZeroMQ, plus one drain's working copy
     (docs/decisions.md, Ingest memory)."""
     budget, hwm = 256 << 20, 4
-    proc, ep = _serve(tmp_path, "--ingest-bytes", str(budget))
+    proc, ep = _serve(tmp_path, "--ingest-bytes", str(budget), tcp=True)
     try:
         wait_until(lambda: _ping(ep), "the daemon answers", timeout=300)
         ctx = zmq.Context.instance()
