@@ -23,13 +23,7 @@ def read_text(path) -> str:
                              "an existing file (check the path)") from None
     except IsADirectoryError:
         raise RecordingError(path, None, "a directory", "a file") from None
-    if raw[:2] == b"\x1f\x8b":
-        try:
-            raw = gzip.decompress(raw)
-        except (OSError, EOFError) as err:
-            raise RecordingError(
-                path, None, f"a broken gzip stream ({err})", "a complete gzip file"
-            ) from None
+    raw = _gunzipped(path, raw)
     if b"\x00" in raw[:4096]:
         raise RecordingError(path, 1, "binary data (NUL bytes)", "a text file")
     return raw.decode("latin-1").replace("\r\n", "\n").replace("\r", "\n")
@@ -38,15 +32,19 @@ def read_text(path) -> str:
 def read_bytes(path) -> bytes:
     """The file's bytes, decompressed when they are a gzip stream (whatever the suffix)."""
     path = Path(path)
-    raw = path.read_bytes()
-    if raw[:2] == b"\x1f\x8b":
-        try:
-            raw = gzip.decompress(raw)
-        except (OSError, EOFError) as err:
-            raise RecordingError(
-                path, None, f"a broken gzip stream ({err})", "a complete gzip file"
-            ) from None
-    return raw
+    return _gunzipped(path, path.read_bytes())
+
+
+def _gunzipped(path, raw: bytes) -> bytes:
+    """``raw`` decompressed when it is a gzip stream (whatever the file's suffix)."""
+    if raw[:2] != b"\x1f\x8b":
+        return raw
+    try:
+        return gzip.decompress(raw)
+    except (OSError, EOFError) as err:
+        raise RecordingError(
+            path, None, f"a broken gzip stream ({err})", "a complete gzip file"
+        ) from None
 
 
 def base_suffix(path) -> str:
