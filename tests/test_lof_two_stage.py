@@ -242,7 +242,7 @@ def test_a_detector_saved_before_the_two_stage_decision_restores_as_one_stage(an
         arr[1], arr[2] = [size], arr[2][:size].copy()
     chunks: dict = {}
     body = msgpack.unpackb(msgpack.packb(packable(saved, chunks)), strict_map_key=False)
-    old = load(body, {k: bytes(v) for k, v in chunks.items()})
+    old = load(body, {k: bytes(v) for k, v in chunks.items()}, fmt=5)  # as such rows have
     assert old._p.size == 7 and old._st.size == 10 and old._pend.shape == (0, 2)
     assert old.config == LOFConfig()  # the new field takes its default
     got = old.learn_many(a[3000:]) + old.finish()
