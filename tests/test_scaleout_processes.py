@@ -86,6 +86,9 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
     algorithms = Algorithms(relabel=functools.partial(dask_gate.gated_relabel, str(gate)))
     d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0.2,
                             relabel_interval=1000.0, relabel_history=60.0,
+                            # one relabel per take, the final one: no relabels that settle
+                            # provisional cuts (docs/protocol.md, Settled cuts)
+                            settle=0.0,
                             relabel_backend="dask", relabel_scheduler=address), algorithms)
     ep = d.bind()
     t = threading.Thread(target=d.run, daemon=True)
