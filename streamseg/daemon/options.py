@@ -15,17 +15,9 @@ def load_config(path) -> tuple:
     Tables ``[daemon]``, ``[lof]``, ``[aca]``, ``[repetitions]``; keys are the dataclass
     fields.
     """
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10: the same parser, installed as a dependency
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ParameterError(f"{path}: no such config file") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ParameterError(f"{path}: not valid TOML ({err})") from None
+    from streamseg.config._toml import read_toml
+
+    doc = read_toml(path, str(path), "no such config file")
     unknown = sorted(set(doc) - {"daemon", "lof", "aca", "repetitions"})
     if unknown:
         raise ParameterError(f"{path}: unknown table(s) {', '.join(unknown)}; "

@@ -34,17 +34,9 @@ def load_marker_map(path) -> MarkerSet:
         The file is missing or not TOML, names a joint that is not one of ``JOINTS``, gives a
         value that is not a marker name or a list of them, or leaves a joint out.
     """
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10: the same parser, installed as a dependency
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ParameterError(f"--markers {path}: no such file") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise ParameterError(f"--markers {path}: not valid TOML ({err})") from None
+    from streamseg.config._toml import read_toml
+
+    doc = read_toml(path, f"--markers {path}")
     unknown = sorted(set(doc) - set(JOINTS))
     if unknown:
         raise ParameterError(f"--markers {path}: {', '.join(unknown)} is not a joint of the "
