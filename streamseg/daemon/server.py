@@ -11,6 +11,7 @@ from __future__ import annotations
 import collections
 import logging
 import os
+import sys
 import threading
 import time
 
@@ -46,6 +47,7 @@ CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
 # seconds the heartbeats still carry a closed stream's last event number (a subscriber that
 # lost the stream's tail, `closed` included, learns it from any of them); CLOSED_KEPT at most
 CLOSED_LAST_SEQ_S = 30.0
+SWITCH_INTERVAL = 0.0005  # s: CPython's GIL switch interval while a daemon runs
 
 
 def _bindable(endpoint: str) -> str:
@@ -193,6 +195,12 @@ class Daemon(Intake):
         """Warm the kernels, serve until :meth:`stop`, shut down cleanly; returns 0."""
         if not self.endpoints:
             self.bind()
+        # the loop and the receiver wait for the GIL behind any thread that holds it (a
+        # relabel's Python, a custom algorithm): ZeroMQ queues only ingest_hwm packets per
+        # connection meanwhile, so each wait is a hand-over of a few packets. A shorter
+        # switch interval than CPython's 5 ms keeps ingest flowing while such a thread runs
+        # (docs/decisions.md, Ingest memory)
+        sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
         try:
             # the control socket answers only once this is done: say why a first start waits
             log.info("warming the kernels (compiled on the first start after an install: a "
