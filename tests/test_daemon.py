@@ -380,4 +380,4 @@ def test_failed_start_still_shuts_down():
     # the failure reaches the caller, and every socket is closed behind it
     assert isinstance(box.get("err"), RuntimeError) and "warmup failed" in str(box["err"])
     assert "rc" not in box
-    assert d.ingest.sock.closed and d.ingest.wake.closed and d.pub.closed and d.control.closed
+    assert d.ingest.sock.closed and d.ingest.wake.closed and d.pub.closed and d.control.sock.closed

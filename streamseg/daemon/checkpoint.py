@@ -21,10 +21,8 @@ from __future__ import annotations
 import logging
 import time
 
-from streamseg.daemon import limits
 from streamseg.daemon.state_codec import dump
 from streamseg.daemon.streams import StreamState
-from streamseg.protocol import SEQ_SKIP
 
 log = logging.getLogger("streamseg.daemon")
 
@@ -151,40 +149,18 @@ class CheckpointRounds:
         return n
 
 
-def restore(daemon, now: float) -> int:
-    """Open the checkpointed streams again (before the loop runs); returns how many."""
-    store = daemon.checkpoints
-    if store is None:
-        return 0
-    n = 0
+def restored(store, algorithms):
+    """The checkpointed streams' states, ready to run again (their pipelines given
+    ``algorithms``); a checkpoint that cannot be restored is logged and skipped."""
     for stream, state in store.read_all():
         try:
             st = state["stream"]
             pipe = state["pipeline"]
-            pipe.algorithms = daemon.algorithms
-            pipe.plan = daemon.algorithms.prepare(pipe.skeleton)
+            pipe.algorithms = algorithms
+            pipe.plan = algorithms.prepare(pipe.skeleton)
             st.pipeline = pipe
-            st.pending, st.arrivals = [], []
-            st.gap_limit = limits.RateLimit(daemon.config.gap_events_per_s)
-            st.last_seen = now
-            daemon._gen += 1
-            st.gen = daemon._gen
         except Exception as err:
             log.error("checkpoint of %s could not be restored (%s: %s)", stream,
                       type(err).__name__, err)
             continue
-        daemon.streams[stream] = st
-        daemon.rounds.seen[stream] = st.frames_in
-        # events published in the last moments before the crash may not have reached the log:
-        # their numbers are skipped, never reused for other events
-        # (published only once logged, they are there unless the disk refused them)
-        last = daemon.numbering.current(stream)
-        daemon.numbering.last[stream] = last + SEQ_SKIP
-        if daemon.eventlog is not None:  # `since` says they were skipped, not lost
-            daemon.eventlog.skip(stream, last + 1, last + SEQ_SKIP)
-        if st.client is not None:
-            daemon.clients[st.client] += 1
-        n += 1
-        log.info("stream %s restored from its checkpoint at frame %d", stream, st.next_seq)
-    daemon.totals["streams_restored"] += n
-    return n
+        yield st

@@ -1,16 +1,18 @@
-"""How the daemon's loop turns ingest packets into stream work (a part of :class:`Daemon`).
+"""The stream table and what turns ingest packets into stream work.
 
-Taking the receiver's queue (:mod:`streamseg.daemon.ingest`), announce and the stream table,
-frame sequencing (gaps, duplicates, limits) and the vectorised per-stream flush that
-publishes cuts and repetitions.
-The loop, sockets, publication, relabel results and shutdown stay in
-:mod:`streamseg.daemon.server`.
+:class:`Intake` takes the receiver's queue (:mod:`streamseg.daemon.ingest`), handles
+announce and ``end``, keeps the open streams (who owns each, the per-client quota), sequences
+frames (gaps, duplicates, limits) and runs each stream's pipeline once per drain on what it
+got (the vectorised path). What it publishes, and a stream's closing (the final relabel),
+go through an :class:`Outbox`, the daemon.
 """
 
 from __future__ import annotations
 
+import collections
 import logging
 import time
+from typing import Protocol
 
 import numpy as np
 
@@ -20,17 +22,83 @@ from streamseg.daemon.ingest import BodyItem, FramesItem
 from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.security import peer_of
-from streamseg.daemon.streams import StreamState
+from streamseg.daemon.streams import LatencyRing, StreamState
 from streamseg.protocol.auth import matches
 
 log = logging.getLogger("streamseg.daemon")
 
 
-class Intake:
-    """The ingest half of :class:`~streamseg.daemon.server.Daemon` (a mixin: it uses the
-    daemon's sockets, stream table, counters and publication methods)."""
+class Outbox(Protocol):
+    """What the intake asks of the daemon (the loop thread)."""
 
-    def _take(self, now: float) -> None:
+    def publish(self, st: StreamState | None, ev) -> object:
+        """Number, log and publish an event."""
+
+    def error(self, stream, reason: str, message: str, n: int = 1) -> None:
+        """Count and report a problem (an ``error`` event, rate limited)."""
+
+    def notices(self, st: StreamState) -> None:
+        """Publish the pipeline's notices (problems that do not stop the stream)."""
+
+    def results(self, st: StreamState, cuts, reps) -> None:
+        """Publish a pipeline step's cuts and repetitions."""
+
+    def opened(self, st: StreamState) -> None:
+        """A take opened (its events may wait for an older take of its id)."""
+
+    def close(self, st: StreamState, reason: str) -> None:
+        """Close a take: final cuts, final relabel, ``closed``."""
+
+    def flushed(self, st: StreamState) -> None:
+        """A stream's pipeline ran on new frames (a relabel may be due)."""
+
+
+class Intake:
+    """The open streams and the handling of every ingest message.
+
+    Parameters
+    ----------
+    config : streamseg.config.DaemonConfig
+        Limits (``max_streams``, quotas, ``drain``, ...), ``relabel_interval``.
+    algorithms : streamseg.daemon.pipeline.Algorithms
+        What each stream's pipeline runs.
+    ingest : streamseg.daemon.ingest.Ingest
+        The receiver's queue.
+    out : Outbox
+        The daemon: publication and closing.
+    errors : streamseg.daemon.streams.ErrorBook
+        Where gaps are counted.
+    numbering : streamseg.daemon.eventlog.Numbering
+        A new take's history starts after its id's last event number.
+    default_skeleton : streamseg.daemon.options.Skeleton, optional
+        For frames of streams that were never announced.
+
+    Notes
+    -----
+    :meth:`owners` must be called once the security is known (at bind).
+    """
+
+    def __init__(self, config, algorithms, ingest, out: Outbox, errors, numbering,
+                 default_skeleton=None):
+        self.config, self.algorithms, self.ingest, self.out = config, algorithms, ingest, out
+        self.errors, self.numbering, self.default_skeleton = errors, numbering, default_skeleton
+        self.streams: dict[str, StreamState] = {}
+        self.clients = collections.Counter()  # open streams per client (the quota)
+        self.joined: set = set()  # (stream, gen) opened by a subscription, no frame yet
+        self.latency = LatencyRing()
+        self.n_packets = self.n_frames = 0  # plain ints: updated per packet
+        self.gen = 0  # the last take's generation
+        self.curve = False  # CURVE authenticates clients (their key owns a stream)
+        self.token = None  # without CURVE, the control token may end any stream
+        self._dirty: dict = {}  # streams with frames received in this drain
+        self._sender = None  # topic frame of the message being handled (its identity)
+
+    def owners(self, curve: bool, token: str | None) -> None:
+        """Who owns a stream: its CURVE key (``curve``) or its connection; ``token`` lets
+        the daemon's user end or re-announce any stream without CURVE."""
+        self.curve, self.token = curve, token
+
+    def take(self, now: float) -> None:
         """Handle the messages the receiver thread queued (at most ``drain`` packets and
         ``drain_frames`` frames), then run each stream's pipeline once on what it got."""
         c = self.config
@@ -50,15 +118,49 @@ class Intake:
                     self._sender = it.sender
                     self._on_body(it.body, now, 0.0, it.subscribed)
                 else:
-                    self._error(it.stream, it.reason, it.message)
+                    self.out.error(it.stream, it.reason, it.message)
             except protocol.WireError as err:
-                self._error(err.stream, err.kind, str(err))
+                self.out.error(err.stream, err.kind, str(err))
             except Exception as err:  # a packet validation missed must not stop the daemon
-                self._error(None, "decode", f"packet could not be handled "
-                            f"({type(err).__name__}: {err})")
+                self.out.error(None, "decode", f"packet could not be handled "
+                               f"({type(err).__name__}: {err})")
         for st in self._dirty:
-            self._flush(st)
+            self.flush(st)
         self._dirty.clear()
+
+    def take_queued(self) -> None:
+        """Stop reading and process every message already received."""
+        self.ingest.stop()
+        while self.ingest.items:
+            self.take(time.monotonic())
+
+    def remove(self, st: StreamState) -> None:
+        """``st`` leaves the table (it is closing): its pending frames processed first."""
+        self.flush(st)
+        self._dirty.pop(st, None)
+        del self.streams[st.stream]
+        self._release(st)
+
+    def _release(self, st: StreamState) -> None:
+        if st.client is not None:
+            self.clients[st.client] -= 1
+            if not self.clients[st.client]:
+                del self.clients[st.client]
+
+    def restored(self, st: StreamState, now: float) -> None:
+        """A stream restored from a checkpoint joins the table as a new take. Without CURVE
+        the connection that announced it is gone with the old process: the first connection
+        that sends it frames again becomes its owner (:meth:`_adopt`)."""
+        self.gen += 1
+        st.gen = self.gen
+        st.pending, st.arrivals = [], []
+        st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
+        st.last_seen = now
+        if not self.curve:
+            st.client = None
+        self.streams[st.stream] = st
+        if st.client is not None:
+            self.clients[st.client] += 1
 
     def _on_body(self, obj: dict, now: float, arrival: float, subscribed: bool = False) -> None:
         """Dispatch one unpacked ingest body (envelope checked); raises WireError."""
@@ -77,28 +179,28 @@ class Intake:
             msg = protocol.from_body(obj)
             st = self.streams.get(msg.stream)
             if st is None:
-                self._error(msg.stream, "unknown_stream", "end of a stream that is not open")
+                self.out.error(msg.stream, "unknown_stream", "end of a stream that is not open")
             elif self._owns(st, msg.auth, "end"):
-                self._close(st, "end")
+                self.out.close(st, "end")
         else:
-            self._error(stream if isinstance(stream, str) else None, "type",
-                        f"{kind} is an event type; the ingest socket takes "
-                        f"{', '.join(protocol.INGEST_TYPES)}")
+            self.out.error(stream if isinstance(stream, str) else None, "type",
+                           f"{kind} is an event type; the ingest socket takes "
+                           f"{', '.join(protocol.INGEST_TYPES)}")
 
     def _unannounced(self, stream, now):
         if not protocol.valid_stream_id(stream):
-            self._error(None, "field", f"frames.stream={stream!r} is not a valid stream id")
+            self.out.error(None, "field", f"frames.stream={stream!r} is not a valid stream id")
         elif self.default_skeleton is not None:
             return self._open(stream, self.config.default_fps, self.default_skeleton, now)
         else:
-            self._error(stream, "unknown_stream", "frames for a stream that was not announced "
-                        "(send an announce message first, or configure default_skeleton)")
+            self.out.error(stream, "unknown_stream", "frames for a stream that was not announced "
+                           "(send an announce message first, or configure default_skeleton)")
         return None
 
     def _on_announce(self, msg: protocol.Announce, now: float, subscribed: bool = False) -> None:
         problem = limits.fps_problem(msg.fps, self.config)
         if problem:
-            self._error(msg.stream, "field", problem)
+            self.out.error(msg.stream, "field", problem)
             return
         old = self.streams.get(msg.stream)
         if subscribed and old is not None and _same_take(old, msg):
@@ -109,7 +211,7 @@ class Intake:
         if old is not None:
             if not self._owns(old, msg.auth, "re-announce"):
                 return
-            self._close(old, "reannounced")
+            self.out.close(old, "reannounced")
         skeleton = skeleton_from(msg.joints, msg.parents, msg.units, msg.up)
         st = self._open(msg.stream, msg.fps, skeleton, now)
         if st is not None and subscribed:
@@ -118,19 +220,6 @@ class Intake:
             self.joined.add((st.stream, st.gen))
         if st is not None and msg.labels:  # passed on to subscribers through `state`
             st.labels = {"path": msg.labels, "sequence": msg.labels_sequence or msg.stream}
-
-    def _restored_owners(self) -> None:
-        """Streams restored from checkpoints keep their CURVE key as owner; without CURVE the
-        connection that announced one is gone with the old process: the first connection that
-        sends it frames again becomes its owner (:meth:`_adopt`)."""
-        if self.security is not None:
-            return
-        for st in self.streams.values():
-            if st.client is not None:
-                self.clients[st.client] -= 1
-                if not self.clients[st.client]:
-                    del self.clients[st.client]
-                st.client = None
 
     def _adopt(self, st: StreamState) -> None:
         st.client = peer_of(self._sender) if self._sender is not None else None
@@ -143,32 +232,32 @@ class Intake:
         that shows the control token (the daemon's user). Else an ``owner`` error."""
         if st.client is None or peer_of(self._sender) == st.client:
             return True
-        if self.security is None and matches(auth, self.token):
+        if not self.curve and matches(auth, self.token):
             return True
-        how = ("its CURVE key" if self.security is not None else
+        how = ("its CURVE key" if self.curve else
                "its connection, or the control token of the daemon's user")
-        self._error(st.stream, "owner", f"{what} refused: stream {st.stream} belongs to the "
-                    f"client that announced it ({how}); send under another stream id")
+        self.out.error(st.stream, "owner", f"{what} refused: stream {st.stream} belongs to the "
+                       f"client that announced it ({how}); send under another stream id")
         return False
 
     def _open(self, stream, fps, skeleton, now):
         if len(self.streams) >= self.config.max_streams:
-            self._error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
-                        f"configured maximum (max_streams); close one or raise the limit")
+            self.out.error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
+                           f"configured maximum (max_streams); close one or raise the limit")
             return None
         quota = self.config.max_streams_per_client
         client = peer_of(self._sender) if self._sender is not None else None
         if quota and client is not None and self.clients[client] >= quota:
-            self._error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
-                        f"streams, its quota (max_streams_per_client); end one first")
+            self.out.error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
+                           f"streams, its quota (max_streams_per_client); end one first")
             return None
         try:
             pipeline = StreamPipeline(skeleton, fps, self.algorithms, self.config.relabel_history)
         except Exception as err:  # e.g. a skeleton without the joints the features need
-            self._error(stream, "skeleton", f"cannot segment this stream: {err}")
+            self.out.error(stream, "skeleton", f"cannot segment this stream: {err}")
             return None
-        self._gen += 1
-        st = StreamState(stream, self._gen, fps, pipeline, now)
+        self.gen += 1
+        st = StreamState(stream, self.gen, fps, pipeline, now)
         st.next_relabel = int(round(self.config.relabel_interval * fps))
         st.gap_limit = limits.RateLimit(self.config.gap_events_per_s)
         st.seq_base = self.numbering.current(stream)
@@ -176,8 +265,8 @@ class Intake:
         if client is not None:
             self.clients[client] += 1
         self.streams[stream] = st
-        self.totals["streams_opened"] += 1
         log.info("stream %s open: %.4g fps, %d joints", stream, fps, skeleton.n_joints)
+        self.out.opened(st)
         return st
 
     def _on_frames(self, st: StreamState, seq: int, timestamp: float, pos: np.ndarray,
@@ -188,16 +277,16 @@ class Intake:
             self._adopt(st)
         if n_joints != st.pipeline.skeleton.n_joints or n > self.config.max_packet_frames:
             st.dropped += n
-            self._error(st.stream, "array", f"packet of shape {list(pos.shape)}: expected "
-                        f"(n <= {self.config.max_packet_frames}, "
-                        f"{st.pipeline.skeleton.n_joints}, 3) as announced")
+            self.out.error(st.stream, "array", f"packet of shape {list(pos.shape)}: expected "
+                           f"(n <= {self.config.max_packet_frames}, "
+                           f"{st.pipeline.skeleton.n_joints}, 3) as announced")
             return
         problem = limits.clock_problem(timestamp) or (
             seq > st.next_seq and limits.jump_problem(seq, st.next_seq, st.fps,
                                                       self.config.max_seq_jump))
         if problem:
             st.dropped += n
-            self._error(st.stream, "seq" if seq > st.next_seq else "field", problem)
+            self.out.error(st.stream, "seq" if seq > st.next_seq else "field", problem)
             return
         if self.joined and st.frames_in == 0 and (st.stream, st.gen) in self.joined:
             self.joined.discard((st.stream, st.gen))
@@ -207,17 +296,17 @@ class Intake:
             st.t0 = timestamp - seq / st.fps
         if seq != st.next_seq:
             if seq > st.next_seq:
-                self._flush(st)  # the segmenter learns contiguous runs
+                self.flush(st)  # the segmenter learns contiguous runs
                 st.lost += seq - st.next_seq
                 self.errors.add(st.stream, "gap", f"frames {st.next_seq}..{seq - 1} missing")
                 if st.gap_limit.allow(now):  # the rest are counted in the `gap` error
                     filled = seq - st.next_seq <= st.pipeline.fill_frames
-                    self._publish(st, protocol.Gap(st.stream, st.next_seq, seq, filled))
+                    self.out.publish(st, protocol.Gap(st.stream, st.next_seq, seq, filled))
             else:
                 overlap = st.next_seq - seq
                 st.dropped += min(overlap, n)
-                self._error(st.stream, "duplicate", f"packet at frame {seq} repeats frames "
-                            f"already received (next expected {st.next_seq})", min(overlap, n))
+                self.out.error(st.stream, "duplicate", f"packet at frame {seq} repeats frames "
+                               f"already received (next expected {st.next_seq})", min(overlap, n))
                 if overlap >= n:
                     return
                 pos = pos[overlap:]
@@ -229,20 +318,20 @@ class Intake:
         self.n_frames += n
         self._dirty[st] = None
 
-    def _report_gaps(self, st: StreamState, bad: int) -> None:
+    def report_gaps(self, st: StreamState, bad: int) -> None:
         """Frames skipped without positions (``nan``), and a ``gap`` event (not filled) for
         each gap of frames that came without the features' joints, longer than the gap
         filler fills (docs/guide/formats.md, Gaps)."""
         if bad:
             st.dropped += bad
-            self._error(st.stream, "nan", "frames without the joint positions the features "
-                        "use, in gaps too long to fill: skipped", bad)
+            self.out.error(st.stream, "nan", "frames without the joint positions the features "
+                           "use, in gaps too long to fill: skipped", bad)
         for start, end in st.pipeline.gaps:
             if st.gap_limit.allow(time.monotonic()):
-                self._publish(st, protocol.Gap(st.stream, start, end, False))
+                self.out.publish(st, protocol.Gap(st.stream, start, end, False))
         st.pipeline.gaps.clear()
 
-    def _flush(self, st: StreamState) -> None:
+    def flush(self, st: StreamState) -> None:
         if not st.pending:
             return
         arrays, arrivals = st.pending, st.arrivals
@@ -253,15 +342,14 @@ class Intake:
             cuts, reps, bad = st.pipeline.push(pos, first)
         except Exception as err:  # never die on input: report and drop these frames
             st.dropped += pos.shape[0]
-            self._error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
-                        f"processed: {type(err).__name__}: {err}", pos.shape[0])
+            self.out.error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
+                           f"processed: {type(err).__name__}: {err}", pos.shape[0])
             return
-        self._report_notices(st)
-        self._report_gaps(st, bad)
-        self._publish_results(st, cuts, reps)
+        self.out.notices(st)
+        self.report_gaps(st, bad)
+        self.out.results(st, cuts, reps)
         self.latency.add(time.perf_counter() - np.array(arrivals))
-        if self.config.relabel_interval > 0 and st.pipeline.relabel_due(st.next_relabel):
-            self.due[st] = None  # snapshot taken when the worker has a free slot (_feed)
+        self.out.flushed(st)
 
 
 def _same_take(st: StreamState, msg: protocol.Announce) -> bool:

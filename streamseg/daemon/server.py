@@ -1,9 +1,14 @@
-"""The daemon's sockets and main loop.
+"""The daemon: its parts wired together, and the main loop.
 
-One thread owns every socket: it drains up to ``drain`` packets from the PULL ingest socket,
-groups them per stream, runs each stream's pipeline once on the concatenated frames (the
-vectorised path), publishes events on PUB, answers control requests on REP, and hands relabel
-snapshots to :class:`~streamseg.daemon.worker.RelabelWorker`, whose results it publishes.
+The parts, each in its own module: :class:`~streamseg.daemon.ingest.Ingest` (the ingest
+sockets, a receiver thread, a queue bounded in bytes), :class:`~streamseg.daemon.intake.Intake`
+(the stream table and the handling of each packet), :class:`~streamseg.daemon.take_order.TakeOrder`
+(a stream id's events across its takes), :class:`~streamseg.daemon.checkpoint.CheckpointRounds`
+(when stream states are copied), :class:`~streamseg.daemon.control.Control` (the REP socket)
+and :class:`~streamseg.daemon.shutdown.Shutdown`. One thread, the loop, runs them all except
+the receiver, the event log's writer and the relabel worker: it takes what the receiver
+queued, publishes events on PUB, answers control requests, and hands relabel snapshots to
+:class:`~streamseg.daemon.worker.RelabelWorker`, whose results it publishes.
 """
 
 from __future__ import annotations
@@ -15,6 +20,7 @@ import sys
 import threading
 import time
 
+import msgpack
 import numpy as np
 import zmq
 
@@ -22,9 +28,9 @@ from streamseg import protocol
 from streamseg.config import DaemonConfig
 from streamseg.daemon import checkpoint, checkpoint_store, limits
 from streamseg.daemon.backends import relabel_worker
-from streamseg.daemon.control import serve_control
+from streamseg.daemon.control import Control
 from streamseg.daemon.cut_events import publish_cut
-from streamseg.daemon.eventlog import Numbering, open_log
+from streamseg.daemon.eventlog import LogReadError, Numbering, open_log
 from streamseg.daemon.ingest import Ingest
 from streamseg.daemon.intake import Intake
 from streamseg.daemon.options import skeleton_from
@@ -36,9 +42,9 @@ from streamseg.daemon.security import (
     control_token,
     ipv6,
 )
-from streamseg.daemon.shutdown import shutdown
-from streamseg.daemon.state_lock import lock_state_dir
-from streamseg.daemon.streams import ErrorBook, LatencyRing, StreamState
+from streamseg.daemon.shutdown import Shutdown
+from streamseg.daemon.state_lock import lock_state_dir, unlock
+from streamseg.daemon.streams import ErrorBook, StreamState
 from streamseg.daemon.take_order import TakeOrder
 from streamseg.daemon.worker import RelabelJob
 
@@ -56,7 +62,7 @@ def _bindable(endpoint: str) -> str:
         else endpoint
 
 
-class Daemon(Intake):
+class Daemon:
     """A live segmentation daemon.
 
     Parameters
@@ -90,18 +96,13 @@ class Daemon(Intake):
         if self.algorithms.focus_s is None:
             self.algorithms.focus_s = float(self.config.focus)
         self.ctx = zmq.Context()
-        self.streams: dict[str, StreamState] = {}
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
         self.closed_states: collections.OrderedDict = collections.OrderedDict()
         self.errors = ErrorBook()
-        self.latency = LatencyRing()
-        self.n_packets = self.n_frames = 0  # plain ints: updated per packet
         self.totals = collections.Counter()
         self.endpoints: dict = {}
         self.ready = threading.Event()
         self._stop = threading.Event()
-        self._gen = 0
-        self._dirty: dict = {}  # streams with frames received in this drain
         # streams due for a relabel, oldest first: each gets its snapshot when the worker has
         # a free slot, so the interval a stream gets adapts to the cores (round robin)
         self.due: collections.OrderedDict = collections.OrderedDict()
@@ -117,14 +118,11 @@ class Daemon(Intake):
         os.set_blocking(self._log_tx, False)
         self.eventlog = open_log(self.config, notify=self._log_committed)
         self.order = TakeOrder()  # a stream id's events across its takes
-        self.joined: set = set()  # (stream, gen) opened by a subscription, no frame yet
         # closed stream -> until when the heartbeats carry its last number, oldest first
         self._closed_since_beat: collections.OrderedDict = collections.OrderedDict()
         self._store_failed: dict = {}  # reason -> failed writes already reported
         self.numbering = Numbering(self.eventlog)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
-        self.clients = collections.Counter()  # open streams per client (the quota)
-        self._sender = None  # topic frame of the message being handled (its identity)
         self.security = None
         self.conn_ids = None  # names of ingest connections without CURVE (security.py)
         self.token = self.token_file = None  # the control token without CURVE (protocol/auth.py)
@@ -141,6 +139,22 @@ class Daemon(Intake):
             asf = read_asf(self.config.default_skeleton)
             self.default_skeleton = skeleton_from(asf.names, asf.parents,
                                                   up=self.config.default_up)
+        self.ingest = None  # its sockets are made at bind
+        self.intake = Intake(self.config, self.algorithms, None, self, self.errors,
+                             self.numbering, self.default_skeleton)
+        self.control = None
+        self.shutdown = Shutdown(self, self.worker, self.algorithms,
+                                 self.config.shutdown_relabel, bool(self.config.heartbeat))
+
+    @property
+    def streams(self) -> dict[str, StreamState]:
+        """The open streams by id."""
+        return self.intake.streams
+
+    @property
+    def n_frames(self) -> int:
+        """Frames taken since the start."""
+        return self.intake.n_frames
 
     # --- lifecycle ---------------------------------------------------------------------------
 
@@ -160,7 +174,8 @@ class Daemon(Intake):
             if self.conn_ids is not None:
                 self.conn_ids.apply(sock)
 
-        self.ingest = Ingest(self.ctx, c, secure_ingest)
+        self.ingest = self.intake.ingest = Ingest(self.ctx, c, secure_ingest)
+        self.intake.owners(self.security is not None, self.token)
         ingest_endpoint = self.ingest.bind(_bindable(c.ingest))
         self.pub = self.ctx.socket(zmq.PUB)
         secure(self.pub)
@@ -168,7 +183,6 @@ class Daemon(Intake):
         ipv6(self.pub, c.publish)
         self.pub.setsockopt(zmq.LINGER, 2000)  # final events get out at shutdown
         self.pub.bind(_bindable(c.publish))
-        self.control = None
         self.poller = zmq.Poller()
         self.poller.register(self.ingest.wake, zmq.POLLIN)
         if self.eventlog is not None:
@@ -178,13 +192,15 @@ class Daemon(Intake):
             "publish": self.pub.getsockopt_string(zmq.LAST_ENDPOINT),
         }
         if c.control:
-            self.control = self.ctx.socket(zmq.REP)
-            secure(self.control)
-            self.control.setsockopt(zmq.LINGER, 0)
-            ipv6(self.control, c.control)
-            self.control.bind(_bindable(c.control))
-            self.poller.register(self.control, zmq.POLLIN)
-            self.endpoints["control"] = self.control.getsockopt_string(zmq.LAST_ENDPOINT)
+            sock = self.ctx.socket(zmq.REP)
+            secure(sock)
+            sock.setsockopt(zmq.LINGER, 0)
+            ipv6(sock, c.control)
+            sock.bind(_bindable(c.control))
+            self.control = Control(sock, self, self.security is not None, self.token,
+                                   self.token_file)
+            self.poller.register(sock, zmq.POLLIN)
+            self.endpoints["control"] = sock.getsockopt_string(zmq.LAST_ENDPOINT)
         return self.endpoints
 
     def stop(self) -> None:
@@ -216,10 +232,9 @@ class Daemon(Intake):
             self._started = time.monotonic()
             if self.eventlog is not None and self.eventlog.quarantined:
                 aside, why = self.eventlog.quarantined
-                self._error(None, "event_log", f"the event log {self.eventlog.path} was "
+                self.error(None, "event_log", f"the event log {self.eventlog.path} was "
                             f"damaged ({why}): moved to {aside}; a new log started")
-            checkpoint.restore(self, self._started)
-            self._restored_owners()
+            self._restore(self._started)
             self._close_lost_takes()
             if self.eventlog is not None:
                 # what the start decided (a damaged log's error, the takes a crash ended, the
@@ -238,10 +253,10 @@ class Daemon(Intake):
                 now = time.monotonic()
                 if self.ingest.wake in events:
                     self.ingest.clear_wake()
-                self._take(now)
-                if self.control is not None and self.control in events:
-                    self._serve_control()
-                self._collect()
+                self.intake.take(now)
+                if self.control is not None and self.control.sock in events:
+                    self.control.serve()
+                self.collect()
                 if self.eventlog is not None:
                     if self._log_rx in events:
                         self._drain_pipe()
@@ -258,7 +273,28 @@ class Daemon(Intake):
             self._shutdown()
         return 0
 
-    # --- ingest ------------------------------------------------------------------------------
+    # --- streams -----------------------------------------------------------------------------
+
+    def _restore(self, now: float) -> int:
+        """Open the checkpointed streams again (before the loop runs); returns how many."""
+        if self.checkpoints is None:
+            return 0
+        n = 0
+        for st in checkpoint.restored(self.checkpoints, self.algorithms):
+            self.intake.restored(st, now)
+            self.rounds.seen[st.stream] = st.frames_in
+            # events published in the last moments before the crash may not have reached the
+            # log: their numbers are skipped, never reused for other events (published only
+            # once logged, they are there unless the disk refused them)
+            last = self.numbering.current(st.stream)
+            self.numbering.last[st.stream] = last + protocol.SEQ_SKIP
+            if self.eventlog is not None:  # `since` says they were skipped, not lost
+                self.eventlog.skip(st.stream, last + 1, last + protocol.SEQ_SKIP)
+            n += 1
+            log.info("stream %s restored from its checkpoint at frame %d", st.stream,
+                     st.next_seq)
+        self.totals["streams_restored"] += n
+        return n
 
     def _close_lost_takes(self) -> None:
         """``closed`` (reason ``restart``) for the takes a crash ended: events of them are in
@@ -272,7 +308,7 @@ class Daemon(Intake):
             log.warning("event log: the open takes could not be read: %s", err)
             return
         for stream in lost:
-            self._publish(None, protocol.Closed(stream, "restart", 0))
+            self.publish(None, protocol.Closed(stream, "restart", 0))
         if lost:
             log.info("%d streams not resumed after the restart: closed (restart)", len(lost))
 
@@ -303,18 +339,17 @@ class Daemon(Intake):
             # a take waiting for an older one's `closed`: not resumed after a crash either, so
             # nothing of it can come out before that `closed`
             return None
-        self._flush(st)
-        self._dirty.pop(st, None)
+        self.intake.flush(st)
         try:
             return (st.stream, st.next_seq, checkpoint.snapshot(st))
         except Exception as err:  # e.g. a custom algorithm with state we cannot copy
-            self._error(st.stream, "checkpoint", f"stream state not checkpointed: "
+            self.error(st.stream, "checkpoint", f"stream state not checkpointed: "
                         f"{type(err).__name__}: {err}")
             return None
 
     # --- events ------------------------------------------------------------------------------
 
-    def _publish(self, st: StreamState | None, ev):
+    def publish(self, st: StreamState | None, ev):
         """Number, log and publish one event; returns it with its ``seq`` (None while it waits
         for an older take of its stream id to close). With a log it is published once
         committed (:meth:`_publish_logged`)."""
@@ -353,77 +388,75 @@ class Daemon(Intake):
         for parts in self.eventlog.committed():
             self.pub.send_multipart(parts)
 
-    def _publish_results(self, st: StreamState, cuts, reps) -> None:
+    def results(self, st: StreamState, cuts, reps) -> None:
         """Publish a pipeline step's ``(frame, score, emitted, kind)`` cuts and ``(start, end,
         count, emitted, label, set)`` repetitions (live, and the final ones at close)."""
         for frame, score, emitted, kind in cuts:
-            publish_cut(self._publish, st, frame, score, emitted, kind)
+            publish_cut(self.publish, st, frame, score, emitted, kind)
         for a, b, count, emitted, label, index in reps:
             st.reps = count
-            self._publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
+            self.publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
                                            label, index))
 
-    def _error(self, stream, reason: str, message: str, n: int = 1) -> None:
+    def error(self, stream, reason: str, message: str, n: int = 1) -> None:
         st = self.streams.get(stream) if stream else None
         if st is None and stream and (stream, reason) not in self.errors.counts \
                 and not self.stray.allow(time.monotonic()):
             stream = None  # a flood of unknown ids: pooled, summarised each heartbeat
         ev = self.errors.add(stream, reason, message, n)
         if ev is not None:
-            self._publish(st, ev)
+            self.publish(st, ev)
 
-    def _report_notices(self, st: StreamState) -> None:
+    def notices(self, st: StreamState) -> None:
         """Publish the pipeline's notices (problems that do not stop the stream) as errors."""
         for kind, message in st.pipeline.notices:
-            self._error(st.stream, kind, message)
+            self.error(st.stream, kind, message)
         st.pipeline.notices.clear()
 
-    def _open(self, stream, fps, skeleton, now):
-        st = super()._open(stream, fps, skeleton, now)
-        if st is not None and self.closing:  # its events wait for older takes' `closed`
+    def opened(self, st: StreamState) -> None:
+        self.totals["streams_opened"] += 1
+        if self.closing:  # its events wait for older takes' `closed`
             older = sorted(g for (s, g) in self.closing if s == st.stream)
             self.order.opened(st, [(g, self.closing[(st.stream, g)][0]) for g in older])
-        return st
 
-    def _close(self, st: StreamState, reason: str) -> None:
+    def flushed(self, st: StreamState) -> None:
+        if self.config.relabel_interval > 0 and st.pipeline.relabel_due(st.next_relabel):
+            self.due[st] = None  # snapshot taken when the worker has a free slot (_feed)
+
+    def close(self, st: StreamState, reason: str) -> None:
         """Final cuts now; the final relabel in the worker; then ``closed``."""
-        self._flush(st)
-        self._dirty.pop(st, None)
+        self.intake.flush(st)
         self.due.pop(st, None)
         try:
             final = st.pipeline.finish()
         except Exception as err:  # never die: report, close without the final cuts
             final = []
-            self._error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
-        self._report_gaps(st, st.pipeline.final_bad)  # frames the gap filler held till now
+            self.error(st.stream, "pipeline", f"final cuts lost: {type(err).__name__}: {err}")
+        self.intake.report_gaps(st, st.pipeline.final_bad)  # frames the gap filler held till now
         try:
             final_reps = st.pipeline.finish_reps()
         except Exception as err:  # the counter is optional: report, close without them
             final_reps = []
-            self._error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
-        self._report_notices(st)
-        self._publish_results(st, final, final_reps)
-        del self.streams[st.stream]
+            self.error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
+        self.notices(st)
+        self.results(st, final, final_reps)
+        self.intake.remove(st)
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
             self.rounds.forget(st.stream)
-        if st.client is not None:
-            self.clients[st.client] -= 1
-            if not self.clients[st.client]:
-                del self.clients[st.client]
         if self.config.relabel_interval > 0 and self._submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
         else:
-            self._closed(st, reason)
+            self.closed(st, reason)
 
-    def _closed(self, st: StreamState, reason: str) -> None:
+    def closed(self, st: StreamState, reason: str) -> None:
         # cuts no final relabel settled (none ran: too few frames, or shutdown's time ran
         # out) stand; after the final relabel there are none left
         for frame, score, emitted, kind, at in st.pipeline.relabelled(None, True, st.next_seq):
-            publish_cut(self._publish, st, frame, score, emitted, kind, at, st.revision)
+            publish_cut(self.publish, st, frame, score, emitted, kind, at, st.revision)
         for ev in self.errors.due_for(st.stream):  # final counts, so `closed` stays last
-            self._publish(st, ev)
-        self._publish(st, protocol.Closed(st.stream, reason, st.next_seq))
+            self.publish(st, ev)
+        self.publish(st, protocol.Closed(st.stream, reason, st.next_seq))
         if self.order:
             self.order.closed(st, self._send, lambda: self.numbering.current(st.stream),
                               any(s == st.stream for (s, _) in self.closing))
@@ -437,13 +470,13 @@ class Daemon(Intake):
             self.closed_states.popitem(last=False)
         log.info("stream %s closed (%s) after %d frames", st.stream, reason, st.next_seq)
 
-    def _collect(self) -> None:
+    def collect(self) -> None:
         for stream, reason, message in self.worker.notices():  # e.g. the cluster was lost
-            self._error(stream if stream in self.streams else None, reason, message)
+            self.error(stream if stream in self.streams else None, reason, message)
         for job, result in self.worker.results():
-            self._relabelled(job, result)
+            self.relabelled(job, result)
 
-    def _relabelled(self, job, result) -> None:
+    def relabelled(self, job, result) -> None:
         stream, gen = job.key
         st = self.streams.get(stream)
         reason = None
@@ -453,7 +486,7 @@ class Daemon(Intake):
                 return  # the stream was re-announced since; the result is stale
         failed = isinstance(result, Exception)
         if failed:
-            self._error(stream, "relabel", f"relabel failed: {type(result).__name__}: {result}")
+            self.error(stream, "relabel", f"relabel failed: {type(result).__name__}: {result}")
         settled = st.pipeline.relabelled(None if failed else result, job.final, st.next_seq,
                                          getattr(job, "focused", False))
         if not failed:
@@ -462,12 +495,12 @@ class Daemon(Intake):
             ev = protocol.Segments(stream, st.revision, result.start, result.end,
                                    result.segments, job.final, result.elapsed)
             self.totals["relabels"] += 1
-            st.segments = self._publish(st, ev)
+            st.segments = self.publish(st, ev)
         for frame, score, emitted, kind, at in settled:  # after the revision that settles
-            publish_cut(self._publish, st, frame, score, emitted, kind, at, st.revision)
+            publish_cut(self.publish, st, frame, score, emitted, kind, at, st.revision)
         if job.final and reason is not None:
             self.closing.pop(job.key, None)
-            self._closed(st, reason)
+            self.closed(st, reason)
         elif reason is None and st.pipeline.relabel_due(st.next_relabel):
             self.due[st] = None  # became due while this one ran: next in line
 
@@ -475,7 +508,7 @@ class Daemon(Intake):
         self._next_sweep = now + 0.5
         limit = now - self.config.idle_timeout
         for st in [s for s in self.streams.values() if s.last_seen < limit]:
-            self._close(st, "idle")
+            self.close(st, "idle")
         self._report_storage()
 
     def _report_storage(self) -> None:
@@ -487,7 +520,7 @@ class Daemon(Intake):
             n = store.failed - self._store_failed.get(reason, 0) if store is not None else 0
             if n > 0:
                 self._store_failed[reason] = store.failed
-                self._error(None, reason, f"{what} in {store.path} (disk full or not "
+                self.error(None, reason, f"{what} in {store.path} (disk full or not "
                                           "writable? the daemon's log says): free space there, "
                                           "or restart with another --state-dir", n)
         store = self.checkpoints
@@ -495,21 +528,21 @@ class Daemon(Intake):
         if n > 0:
             self._store_failed["paused"] = store.paused
             free = "" if store.free_bytes is None else f" ({store.free_bytes / 1e6:.1f} MB free)"
-            self._error(None, "checkpoint", f"checkpoint rounds paused: the disk of "
+            self.error(None, "checkpoint", f"checkpoint rounds paused: the disk of "
                         f"{store.path.parent} is (nearly) full{free} and the event log goes "
                         "first; they resume when there is room", n)
         log_ = self.eventlog
         n = log_.read_failed - self._store_failed.get("read", 0) if log_ is not None else 0
         if n > 0:
             self._store_failed["read"] = log_.read_failed
-            self._error(None, "event_log", f"the event log {log_.path} could not be read (a "
+            self.error(None, "event_log", f"the event log {log_.path} could not be read (a "
                         "damaged file? the daemon's log says): `since` cannot answer from it; "
                         "stop the daemon and move the file aside (a new log starts)", n)
 
     def _beat(self, now: float) -> None:
         self._next_beat = now + self.config.heartbeat
         for ev in self.errors.due():
-            self._publish(self.streams.get(ev.stream) if ev.stream else None, ev)
+            self.publish(self.streams.get(ev.stream) if ev.stream else None, ev)
         # the last numbers published, so a subscriber sees what it lost after a stream's last
         # event it received (events of a take that waits for an older one are not numbered)
         gone = self._closed_since_beat
@@ -517,13 +550,14 @@ class Daemon(Intake):
             gone.popitem(last=False)
         keys = [*gone, *self.streams, protocol.DAEMON_WIDE]
         last = {k: n for k in keys if (n := self.numbering.last.get(k))}
-        self._publish(None, protocol.Stats(round(now - self._started, 3), self._totals(),
+        self.publish(None, protocol.Stats(round(now - self._started, 3), self._totals(),
                                            {s: st.stats() for s, st in self.streams.items()},
                                            last))
 
     def _totals(self) -> dict:
-        out = dict(self.totals, packets=self.n_packets, frames=self.n_frames)
-        p50, p99 = self.latency.percentiles()
+        intake = self.intake
+        out = dict(self.totals, packets=intake.n_packets, frames=intake.n_frames)
+        p50, p99 = intake.latency.percentiles()
         out.update(streams=len(self.streams), errors=self.errors.total,
                    latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
                    latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
@@ -540,12 +574,117 @@ class Daemon(Intake):
             out["checkpoints_written"] = self.checkpoints.written  # committed, not queued
         return out
 
-    # --- control ------------------------------------------------------------------------------
+    # --- what the control endpoint and the shutdown ask ----------------------------------------
 
-    def _serve_control(self) -> None:
-        serve_control(self)
+    def listing(self) -> dict:
+        # closed ones too (those `state` still answers for, oldest first): a client that
+        # joins after a stream ended (the view beside a daemon) can still list it
+        closed = [{"stream": s, "closed": cs.get("closed"), "frame": cs.get("frame")}
+                  for s, cs in self.closed_states.items() if s not in self.streams]
+        return {"streams": [{"stream": s, "fps": st.fps, "frame": st.next_seq,
+                             "revision": st.revision} for s, st in self.streams.items()],
+                "closed": closed}
+
+    def stream_state(self, stream) -> dict | None:
+        st = self.streams.get(stream)
+        if st is not None:
+            return st.state()
+        for (s, _), (cst, reason) in self.closing.items():
+            if s == stream:
+                return {**cst.state(), "closed": reason}
+        return self.closed_states.get(stream)
+
+    def open_ids(self) -> list:
+        return list(self.streams)
+
+    def status(self) -> dict:
+        return {"uptime": time.monotonic() - self._started, "totals": self._totals(),
+                "streams": {s: st.stats() for s, st in self.streams.items()}}
+
+    def hello(self, token: str) -> None:
+        self.pub.send_multipart(protocol.encode(protocol.Hello(token)))
+
+    def checkpoint_now(self) -> int | None:
+        if self.checkpoints is None:
+            return None
+        self.checkpoints.wait()
+        n = self.rounds.all_now(self.streams)
+        self.checkpoints.wait()  # the reply says it is on disk
+        return n
+
+    def events_since(self, stream: str, seq: int, limit: int) -> dict | None:
+        if self.eventlog is None:
+            return None
+        try:
+            bodies, first = self.eventlog.since(stream, seq, limit)
+            last = self.eventlog.logged_seq(stream)
+            skipped = self.eventlog.skipped(stream, seq)
+        except LogReadError:  # a damaged file: said as an `error` event too
+            self._report_storage()
+            raise
+        events = [msgpack.unpackb(b, raw=False) for b in bodies]
+        return {"stream": stream, "events": events, "first": first, "last": last,
+                "skipped": skipped, "more": len(events) == limit}
+
+    def take_queued(self) -> None:
+        self.intake.take_queued()
+
+    def close_all(self, reason: str) -> None:
+        for st in list(self.streams.values()):
+            self.close(st, reason)
+
+    def beat(self) -> None:
+        self._beat(time.monotonic())
 
     # --- shutdown ----------------------------------------------------------------------------
 
     def _shutdown(self) -> None:
-        shutdown(self)
+        """Final events for every stream, then every part released (each step runs even if
+        one before it failed)."""
+        try:
+            if self.endpoints:
+                self.shutdown.final_events()
+        finally:
+            self.shutdown.release(self._release_steps())
+
+    def _release_steps(self) -> list:
+        steps = []
+        if self.eventlog is not None and getattr(self, "pub", None) is not None:
+            steps.append(("publishing the logged events", self._publish_final))
+        steps.append(("stopping the relabel worker",
+                      lambda: self.worker.stop(timeout=self.config.shutdown_relabel)))
+        if self.ingest is not None:
+            steps += [("stopping the ingest", self.ingest.stop),
+                      ("closing the ingest", self.ingest.close)]
+        if self.control is not None:
+            steps.append(("closing the control socket", self.control.close))
+        if getattr(self, "pub", None) is not None:  # default linger: final events get out
+            steps.append(("closing the publish socket", self.pub.close))
+        for part in (self.security, self.conn_ids):
+            if part is not None:
+                steps.append((f"stopping {type(part).__name__}", part.stop))
+        steps.append(("terminating the ZeroMQ context", self.ctx.term))
+        if self.eventlog is not None:  # after the final events: they are logged too
+            steps.append(("closing the event log", self._close_log))
+        steps += [("closing the log pipe", lambda: [os.close(fd) for fd in
+                                                     (self._log_rx, self._log_tx)])]
+        if self.checkpoints is not None:
+            steps.append(("closing the checkpoint store", self.checkpoints.close))
+        # last: another daemon may take the directory now
+        steps.append(("unlocking the state directory", self._unlock))
+        return steps
+
+    def _publish_final(self) -> None:
+        # the final events go out once committed, before the socket closes
+        if not self.eventlog.sync(self.config.shutdown_relabel + 5.0):
+            log.error("event log %s: the last events were not committed in time: not "
+                      "published", self.eventlog.path)
+        self._publish_logged()
+
+    def _close_log(self) -> None:
+        self.eventlog.close()
+        self.eventlog.notify = None
+
+    def _unlock(self) -> None:
+        unlock(self.state_lock)
+        self.state_lock = None

@@ -219,12 +219,12 @@ def live_run(n_streams: int, seconds: float, *, batch: int = 4, preload: float =
             time.sleep(0.05)
     time.sleep(settle)
     f0, r0 = d.n_frames, d.totals["relabels"]
-    d.latency.reset()
+    d.intake.latency.reset()
     t0 = time.perf_counter()
     time.sleep(max(start + preload + seconds - 0.5 - t0, 1.0))
     dt = time.perf_counter() - t0
     f1, r1 = d.n_frames, d.totals["relabels"]
-    p50, p99 = d.latency.percentiles()
+    p50, p99 = d.intake.latency.percentiles()
     p.join()
     stop_daemon(d, t)
     return {"offered": n_streams * rec.fps, "taken": (f1 - f0) / dt, "p50": p50, "p99": p99,
