@@ -20,7 +20,8 @@ import msgpack
 
 from streamseg.daemon.eventlog import connect
 from streamseg.daemon.state_codec import load, packable, stored
-from streamseg.daemon.state_migrations import FORMAT, READS
+from streamseg.state import StateVersionError
+from streamseg.state_migrations import FORMAT, READS
 
 log = logging.getLogger("streamseg.daemon")
 
@@ -134,6 +135,9 @@ class CheckpointStore:
                                                (stream,)))
                 out.append((stream, load(msgpack.unpackb(blob, raw=False,
                                                          strict_map_key=False), chunks, fmt)))
+            except StateVersionError as err:  # written by a newer release
+                log.error("checkpoint of %s in %s: %s: not restored (its take is closed)",
+                          stream, self.path, err)
             except Exception as err:  # a damaged row must not stop the daemon
                 log.error("checkpoint of %s unreadable (%s: %s): not restored", stream,
                           type(err).__name__, err)

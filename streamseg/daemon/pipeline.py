@@ -24,6 +24,7 @@ import numpy as np
 from streamseg.offline.identity import snap_to_cuts, stable_labels
 from streamseg.online.events import ConfirmEvent, WithdrawEvent
 from streamseg.recording import Skeleton
+from streamseg.state import Stateful
 
 __all__ = ["Algorithms", "Relabelled", "StreamPipeline", "relabel", "stable_labels"]
 
@@ -265,7 +266,7 @@ def cut_kind(ev) -> str:
     return "pending" if ev.pending else "cut"
 
 
-class StreamPipeline:
+class StreamPipeline(Stateful):
     """One stream's algorithm state: segmenter, feature ring, frame clock.
 
     The segmenter sees stream frames one for one, after the gap filler
@@ -288,6 +289,8 @@ class StreamPipeline:
         Seconds of features kept for relabelling (the ring's size).
     """
 
+    STATE_VERSION = 2  # 2: root speeds, settlement
+    _transient = ("algorithms", "plan")  # shared by the daemon's streams: given back at restore
     __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "root", "reps", "_feat",
                  "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
                  "notices", "_spine", "_spine_n", "cut_frames", "_cap", "filler",

@@ -26,11 +26,13 @@ from __future__ import annotations
 
 import bisect
 
+from streamseg.state import Stateful
+
 AGREE = 2  # consecutive relabels that must hold a boundary before it is announced
 SETTLED_KEPT = 256  # settled frames kept per stream (an announced boundary is not repeated)
 
 
-class Settlement:
+class Settlement(Stateful):
     """One stream's open provisional cuts and the focused relabel they make due.
 
     Parameters

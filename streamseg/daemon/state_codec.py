@@ -4,11 +4,11 @@
 nothing is shared with the live stream); :func:`packable` turns the copy into msgpack-able
 values in the writer thread, an array of more than :data:`CHUNK` bytes as the digests of its
 content-addressed chunks (XXH3-128 of :data:`CHUNK` bytes each, trailing zero bytes not
-stored); :func:`load` rebuilds it. Only plain values, numpy arrays, tuples, deques, dicts and
-objects of ``streamseg`` classes (their ``__dict__`` / ``__slots__``, rebuilt field by field)
-are written or read. A class may name fields it can recompute from the others in
-``_derived_state``: they are not written, and :func:`load` calls the object's
-``_rebuild_derived()`` once its other fields are set (the cut detector's neighbour lists).
+stored); :func:`load` rebuilds it. Only plain values, numpy arrays, tuples, deques, dicts,
+``streamseg`` dataclasses (values: events, configs, skeletons; their fields) and
+:class:`~streamseg.state.Stateful` components (their versioned ``to_state()``, rebuilt by
+``from_state()``, older versions migrated by :mod:`streamseg.state_migrations`) are written
+or read.
 """
 
 from __future__ import annotations
@@ -20,14 +20,11 @@ import importlib
 import numpy as np
 import xxhash
 
-from streamseg.daemon.pipeline import StreamPipeline
-from streamseg.daemon.state_migrations import FORMAT, migrate
-from streamseg.daemon.streams import StreamState
+from streamseg.state import Stateful
+from streamseg.state_migrations import FORMAT, implied_version, name_of
 
 CHUNK = 4096  # bytes of an array chunk: smaller ones store less per round, more rows
-# fields rebuilt at restore instead of stored (shared algorithms, per-drain buffers)
-SKIP = {StreamPipeline: ("algorithms", "plan"),
-        StreamState: ("pipeline", "pending", "arrivals", "gap_limit")}
+
 
 def dump(obj):
     """A msgpack-able copy of ``obj``: plain values, arrays (as bytes), deques, tuples and
@@ -49,19 +46,21 @@ def dump(obj):
     cls = type(obj)
     if not cls.__module__.startswith("streamseg."):
         raise TypeError(f"cannot checkpoint a {cls.__module__}.{cls.__qualname__}")
-    skip = SKIP.get(cls, ()) + getattr(cls, "_derived_state", ())
-    names = [n for c in cls.__mro__ for n in getattr(c, "__slots__", ())]
-    if hasattr(obj, "__dict__"):
-        names += list(vars(obj))
-    state = {n: dump(getattr(obj, n)) for n in dict.fromkeys(names)
-             if n not in skip and hasattr(obj, n)}
-    return {"__obj__": f"{cls.__module__}:{cls.__qualname__}", "s": state}
+    if isinstance(obj, Stateful):
+        state = obj.to_state()
+        return {"__obj__": name_of(cls), "v": state["version"],
+                "s": {n: dump(v) for n, v in state["fields"].items()}}
+    if dataclasses.is_dataclass(obj):
+        return {"__obj__": name_of(cls),
+                "s": {f.name: dump(getattr(obj, f.name)) for f in dataclasses.fields(obj)}}
+    raise TypeError(f"cannot checkpoint a {cls.__qualname__}: neither a Stateful component "
+                    "(streamseg.state) nor a dataclass")
 
 
 def load(obj, chunks=None, fmt: int = FORMAT):
     """Inverse of :func:`packable` after msgpack, given the stream's ``chunks`` (a mapping
-    of digest to stored bytes); objects stored in an older format ``fmt`` are migrated
-    (:mod:`streamseg.daemon.state_migrations`)."""
+    of digest to stored bytes); ``fmt``: the checkpoint row's format (components of rows
+    before 7 carry no version of their own)."""
     if isinstance(obj, list):
         return [load(x, chunks, fmt) for x in obj]
     if not isinstance(obj, dict):
@@ -88,20 +87,22 @@ def load(obj, chunks=None, fmt: int = FORMAT):
         cls = importlib.import_module(module)
         for part in qual.split("."):
             cls = getattr(cls, part)
+        fields = {k: load(v, chunks, fmt) for k, v in obj["s"].items()}
+        if isinstance(cls, type) and issubclass(cls, Stateful):
+            version = obj.get("v", implied_version(fmt, obj["__obj__"]) if fmt < 7 else None)
+            return cls.from_state({"version": version, "fields": fields})
+        if not dataclasses.is_dataclass(cls):
+            raise TypeError(f"refusing to build {module}.{qual} from a checkpoint: neither a "
+                            "Stateful component nor a dataclass")
         out = cls.__new__(cls)
-        fields = migrate(obj["__obj__"], {k: load(v, chunks, fmt) for k, v in obj["s"].items()},
-                         fmt)
         for k, v in fields.items():
             object.__setattr__(out, k, v)  # also frozen dataclasses
-        if dataclasses.is_dataclass(cls):  # a field added since the checkpoint: its default
-            for f in dataclasses.fields(cls):
-                if f.name not in fields:
-                    if f.default is not dataclasses.MISSING:
-                        object.__setattr__(out, f.name, f.default)
-                    elif f.default_factory is not dataclasses.MISSING:
-                        object.__setattr__(out, f.name, f.default_factory())
-        if hasattr(cls, "_derived_state"):
-            out._rebuild_derived()
+        for f in dataclasses.fields(cls):  # a field added since the checkpoint: its default
+            if f.name not in fields:
+                if f.default is not dataclasses.MISSING:
+                    object.__setattr__(out, f.name, f.default)
+                elif f.default_factory is not dataclasses.MISSING:
+                    object.__setattr__(out, f.name, f.default_factory())
         return out
     raise TypeError(f"unknown checkpoint value with keys {sorted(obj)[:5]}")
 

@@ -8,19 +8,22 @@ import logging
 import numpy as np
 
 from streamseg import protocol
+from streamseg.state import Stateful
 
 log = logging.getLogger("streamseg.daemon")
 
 RECENT_CUTS = 256  # cuts kept per stream for a late joiner's catch-up (after the last relabel)
 
 
-class StreamState:
+class StreamState(Stateful):
     """What the daemon knows about one live stream.
 
     ``pipeline`` does the computing; everything here is counters, sequence tracking and the
     latest published state a late joiner needs (Clone pattern: snapshot + revision).
     """
 
+    # the pipeline is stored beside it; per-drain buffers and the rate limit start anew
+    _transient = ("pipeline", "pending", "arrivals", "gap_limit")
     __slots__ = ("stream", "gen", "fps", "pipeline", "next_seq", "t0", "last_seen", "frames_in",
                  "dropped", "lost", "events_out", "revision", "segments", "cuts", "reps",
                  "next_relabel", "relabel_time", "pending", "arrivals", "labels", "gap_limit",

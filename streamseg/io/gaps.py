@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from streamseg.state import Stateful
+
 #: Gaps up to this many seconds are filled by interpolation (the CLI's ``--gap-fill``).
 FILL_S = 0.25
 
@@ -58,7 +60,7 @@ class GapReport:
         return sum(e - s for s, e in self.gaps)
 
 
-class GapFiller:
+class GapFiller(Stateful):
     """Fill short gaps of each joint on a stream of position packets.
 
     Parameters

@@ -32,9 +32,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from streamseg.state import Stateful
+
 
 @dataclass
-class ExemplarMemory:
+class ExemplarMemory(Stateful):
     """The exemplars of one stream (module docstring). Treated as immutable:
     :meth:`updated` returns a new memory, so a relabel job can run on a copy.
 

@@ -13,9 +13,10 @@ from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
 from streamseg.online.events import ConfirmEvent, CutEvent, WithdrawEvent
 from streamseg.online.speed_features import SpeedColumns
+from streamseg.state import Stateful
 
 
-class StreamingLOFSegmenter:
+class StreamingLOFSegmenter(Stateful):
     """Online version of :class:`streamseg.offline.LOFSegmenter`, bounded memory.
 
     Each frame's features are followed by their angular speeds (``config.speed_max``,
@@ -123,10 +124,11 @@ class StreamingLOFSegmenter:
                               dtype=np.int64)
         self._allocate_derived()
 
+    STATE_VERSION = 2  # 2: the two-stage decision (_pend), the decision's columns in _geo
     # Recomputed from the rest (the window vectors, their sequence numbers and centres) or
-    # scratch: a checkpoint need not store them (streamseg.daemon.state_codec), and they are
-    # half of what changes between two checkpoints of a full stream (scattered list updates)
-    _derived_state = ("_norms", "_nn_idx", "_nn_d", "_nn_key", "_nn_cnt", "_trunc", "_lrd",
+    # scratch: a state need not store them (streamseg.state), and they are half of what
+    # changes between two checkpoints of a full stream (scattered list updates)
+    _transient = ("_norms", "_nn_idx", "_nn_d", "_nn_key", "_nn_cnt", "_trunc", "_lrd",
                       "_lof", "_mark", "_work", "_curve", "_keep", "_stack", "_left", "_right",
                       "_ev")
 
@@ -154,8 +156,11 @@ class StreamingLOFSegmenter:
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
         self._stack = np.zeros(4 * (2 * g["delay"] + 1) + 4, dtype=np.int64)
 
+    def _restored(self) -> None:
+        self._rebuild_derived()
+
     def _rebuild_derived(self) -> None:
-        """Recompute :attr:`_derived_state` from the buffered windows (after a restore):
+        """Recompute :attr:`_transient` from the buffered windows (after a restore):
         the same LOF values and the same later cuts as the state it was saved from
         (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
         self._allocate_derived()

@@ -13,6 +13,7 @@ import numpy as np
 
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
+from streamseg.state import Stateful
 
 __all__ = ["PoseRing", "cutoff_hz"]
 
@@ -23,7 +24,7 @@ def cutoff_hz(config: RepetitionConfig, fps: float) -> float:
     return config.lowpass_low_rate_hz if fps <= config.low_rate_fps else config.lowpass_hz
 
 
-class PoseRing:
+class PoseRing(Stateful):
     """The low-passed, decimated pose rows of the last ``buffer_s`` and their speeds.
 
     Parameters

@@ -41,12 +41,13 @@ from streamseg.exceptions import ParameterError
 from streamseg.online.rep_events import RepEvent, RepSet, sets_of, stream_events
 from streamseg.online.rep_loops import PoseRing
 from streamseg.online.rep_pose import ROM_JOINTS, body_scale, joint_ranges
+from streamseg.state import Stateful
 
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
 
 
 
-class RepetitionCounter:
+class RepetitionCounter(Stateful):
     """Count repetitions in a joint-position stream (or a stream of pose features).
 
     Parameters
@@ -76,6 +77,8 @@ class RepetitionCounter:
     max_excursion_ : float
         Farthest the pose went from any anchor.
     """
+
+    STATE_VERSION = 3  # 2: near_misses_, _unliked; 3: _final always stored
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0,
                  skeleton=None):
@@ -114,6 +117,7 @@ class RepetitionCounter:
         self.best_dissimilarity_ = np.inf
         self.near_misses_ = {}
         self.max_excursion_ = 0.0
+        self._final = False  # finish() ran: the last frames count to the stream's end
 
     # --- input ---------------------------------------------------------------------------
 
@@ -383,7 +387,7 @@ class RepetitionCounter:
         """Stream frame of decimated frame ``k`` (the filter's delay taken off)."""
         if k <= 0:
             return 0
-        if getattr(self, "_final", False) and k >= self._ring.k:
+        if self._final and k >= self._ring.k:
             return self.n_seen_
         return max(0, k * self._ring.dec - self._lag)
 

@@ -14,6 +14,7 @@ import numpy as np
 from streamseg._kernels import root_speed as _kr
 from streamseg.config import LOFConfig
 from streamseg.skeleton.bones import bone_point_indices, up_vector
+from streamseg.state import Stateful
 
 __all__ = ["RootSpeed", "body_scale", "root_speed_columns"]
 
@@ -31,7 +32,7 @@ def body_scale(positions: np.ndarray, bones: np.ndarray) -> np.ndarray:
     return np.where(s > 0, s, np.nan)
 
 
-class RootSpeed:
+class RootSpeed(Stateful):
     """Stateful: joint positions (n, J, 3) in, the two root-speed columns (n, 2) out.
 
     Column 0 is the horizontal, column 1 the vertical speed of the root over the last

@@ -11,9 +11,10 @@ import numpy as np
 
 from streamseg._kernels import speeds as _ks
 from streamseg.config import LOFConfig
+from streamseg.state import Stateful
 
 
-class SpeedColumns:
+class SpeedColumns(Stateful):
     """Stateful: each block of frames (n, d) in, the frames and their speeds (n, 2 d) out.
 
     The speed of a frame uses only frames before it (see :mod:`streamseg._kernels.speeds`),
@@ -24,6 +25,8 @@ class SpeedColumns:
     config.root_columns`` (the root speeds) and their speeds: the checks that place and
     confirm a cut read the first ``config.check_columns(d)`` columns only.
     """
+
+    STATE_VERSION = 2  # 2: _order always stored
 
     def __init__(self, config: LOFConfig, fps: float, d: int):
         lag = config.frames(fps)["speed_lag"]
@@ -40,8 +43,7 @@ class SpeedColumns:
     def __call__(self, block: np.ndarray) -> np.ndarray:
         out = np.empty((block.shape[0], 2 * self.d))
         _ks.append_speeds(block, out, self._st, self._ring, self._ref, self._first, self.scale)
-        order = getattr(self, "_order", None)  # None in checkpoints made before the order
-        return out if order is None else np.ascontiguousarray(out[:, order])
+        return out if self._order is None else np.ascontiguousarray(out[:, self._order])
 
 
 def lof_columns(angles: np.ndarray, config: LOFConfig, fps: float) -> np.ndarray:
