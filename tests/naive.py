@@ -282,6 +282,20 @@ def naive_dtak(K, a0, a1, b0, b1):
     return naive_dtak_p(K, a0, a1, b0, b1)[(na, nb)] / (na + nb)
 
 
+def naive_normalized_affinity(A, dtype=np.float32):
+    """``D^-1/2 S D^-1/2`` of ``S = (A + A.T) / 2`` with a zero diagonal, in ``dtype``, as
+    the spectral initialization built it with numpy before ``streamseg._kernels.affinity``."""
+    M = np.array(A, dtype=dtype)
+    np.fill_diagonal(M, 0.0)
+    M += M.T  # numpy buffers the overlapping transpose
+    M *= 0.5
+    deg = M.sum(1, dtype=np.float64)
+    inv = np.where(deg > 0, 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0)), 0.0)
+    M *= inv[:, None].astype(M.dtype)
+    M *= inv[None, :].astype(M.dtype)
+    return M
+
+
 def naive_dist(K, seg, old_segs, old_labels, c):
     """dist_c of eq. 3 for segment ``seg`` = (s, e) against the centre of cluster c."""
     members = [sg for sg, lab in zip(old_segs, old_labels) if lab == c]

@@ -56,7 +56,8 @@ def _dp(K, starts, ends, labels, k, wmin, wmax, variant):
     work = [np.empty((wmax + 1, n + 1), dtype) for _ in range(2)]
     acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
     F = np.zeros((k, wmax + 1, n + 1))
-    candidate_sums(K.astype(dtype), starts[order], ends[order], labels[order], wmin, wmax,
+    candidate_sums(K.astype(dtype), starts[order], ends[order], labels[order],
+                   np.ones(starts.size, np.int64), wmin, wmax,
                    *work, acc, F, NEG[dtype])
     return relax(F, n_c, const, wmin, wmax)
 

@@ -42,7 +42,7 @@ def _column(up, diag, left, out, x, cnt):
 
 
 @njit(cache=True, nogil=True)
-def candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, neg):
+def candidate_sums(K, starts, ends, labels, counts, wmin, wmax, A, B, acc, F, neg):
     """DTAK sums of every candidate segment with every old cluster.
 
     Parameters
@@ -53,6 +53,9 @@ def candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, neg):
     starts, ends, labels : (m,) int64
         Old segments ``[starts[j], ends[j])`` and their clusters, sorted by decreasing length
         then label (this fixes the order of the floating-point sums).
+    counts : (m,) int64
+        How many old segments of identical frames each one stands for (its table is added
+        that many times; integer tables only, so the sums are exact; 1 for a float ``K``).
     wmin, wmax : int
         Candidate lengths whose sums are kept (the tables are filled from length 1).
     A, B : (wmax + 1, n + 1) work arrays
@@ -85,11 +88,16 @@ def candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, neg):
                 _column(A[w], A[w - 1], B[w - 1], B[w], krow[w - 1:], n - w + 1)
             A, B = B, A
             B[0, :] = neg
+        times = counts[j]
         for w in range(wmin, W):
             row = A[w]
             aw = acc[w]
-            for t in range(n - w + 1):
-                aw[t] += row[t]
+            if times == 1:
+                for t in range(n - w + 1):
+                    aw[t] += row[t]
+            else:
+                for t in range(n - w + 1):
+                    aw[t] += times * row[t]
         if j == m - 1 or ends[j + 1] - starts[j + 1] != ln or labels[j + 1] != labels[j]:
             fc = F[labels[j]]
             for w in range(wmin, W):

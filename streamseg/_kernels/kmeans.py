@@ -11,6 +11,13 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
+def _add_squares(acc, x, row, k):
+    for c in range(k):
+        t = x - row[c]
+        acc[c] += t * t
+
+
+@njit(cache=True, nogil=True)
 def lloyd(X, centres, n_iter):
     """Lloyd's algorithm from ``centres`` (updated in place); returns ``(n,)`` int64 labels.
 
@@ -26,15 +33,22 @@ def lloyd(X, centres, n_iter):
     dist = np.empty((n, k))
     counts = np.zeros(k, np.int64)
     sums = np.zeros((k, d))
+    ct = np.empty((d, k))  # centres transposed: the loop over clusters reads one row
+    acc = np.empty(k)
     for _ in range(n_iter):
+        for c in range(k):
+            for j in range(d):
+                ct[j, c] = centres[c, j]
         for i in range(n):
+            # every cluster's sum over j in the order j = 0..d-1, as one sum per cluster
+            # would add them, but all clusters at once (a loop that vectorizes)
+            acc[:] = 0.0
+            for j in range(d):
+                _add_squares(acc, X[i, j], ct[j], k)
             best = np.inf
             bi = 0
             for c in range(k):
-                s = 0.0
-                for j in range(d):
-                    t = X[i, j] - centres[c, j]
-                    s += t * t
+                s = acc[c]
                 dist[i, c] = s
                 if s < best:
                     best = s

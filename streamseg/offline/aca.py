@@ -25,7 +25,9 @@ O(k n max_len_frames) memory besides the (n, n) frame kernel, as in section 3.5.
 equality kernel it runs in exact int8 (int16 for long segments) arithmetic, and the kernel is
 kept as int8. The cluster statistics, objective and re-seeding of a step are read off the
 same candidate table (:func:`streamseg.offline.aca_descent.descend`), so a step builds no
-segment DTAK matrix. Random restarts of a long tiling share one spectral embedding
+segment DTAK matrix; with a 0/1 kernel, old segments of identical frames (a repeated motif
+of symbols) are computed once and counted (exact integer sums: the same table). Random
+restarts of a long tiling share one spectral embedding
 (:class:`streamseg.offline.aca_init.RandomInits`). Restarts of a large problem run in
 threads (``n_jobs``, :data:`THREADED_WORK`).
 """
@@ -44,6 +46,7 @@ from streamseg.offline.aca_descent import (  # noqa: F401  (NEG, dp_step, work_d
     descend,
     dp_kernel,
     dp_step,
+    frame_ids,
     work_dtype,
 )
 from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init
@@ -272,6 +275,9 @@ class ACA(Estimator):
         binary = self.kernel == "equality" or (
             self.kernel == "precomputed" and bool(np.all((K == 0.0) | (K == 1.0))))
         K_dp = dp_kernel(K, binary)
+        # a 0/1 kernel repeats frames (symbols): old segments of identical frames are
+        # computed once in each DP step (exact); a float kernel's sums keep their order
+        ids = frame_ids(K_dp) if binary else None
         shared = RandomInits(K, wmin, wmax)
 
         def initial(r):
@@ -279,7 +285,8 @@ class ACA(Estimator):
                                  runs, n, shared)
 
         def run(init):
-            return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp)
+            return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp,
+                           ids=ids)
 
         jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
         with single_threaded_blas():

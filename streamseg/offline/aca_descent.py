@@ -23,9 +23,16 @@ def dp_step(K, starts, ends, labels, n_c, const, wmin: int, wmax: int, *, binary
     return relax(F, n_c, const, wmin, wmax)
 
 
-def candidate_table(K, starts, ends, labels, k: int, wmin: int, wmax: int, *, binary=None):
+def candidate_table(K, starts, ends, labels, k: int, wmin: int, wmax: int, *, binary=None,
+                    frame_ids=None):
     """``F`` (k, wmax + 1, n + 1): ``F[c, w, t]`` the sum of the DTAKs between candidate
-    ``[t, t + w)`` and the old segments of cluster c (``streamseg._kernels.aca``)."""
+    ``[t, t + w)`` and the old segments of cluster c (``streamseg._kernels.aca``).
+
+    ``frame_ids`` (n,) int64, optional, for a 0/1 kernel: frames of one id have identical
+    kernel rows (:func:`frame_ids`); old segments of one label whose frames have the same
+    ids have the same DTAK with every candidate, so each such group is computed once and
+    counted as many times (exactly: the sums are integers until the division).
+    """
     n = K.shape[0]
     if binary is None:
         binary = bool(np.all((K == 0) | (K == 1)))
@@ -33,14 +40,47 @@ def candidate_table(K, starts, ends, labels, k: int, wmin: int, wmax: int, *, bi
     order = np.lexsort((labels, starts - ends))
     starts, ends, labels = starts[order], ends[order], labels[order]
     dtype = work_dtype(binary, int((ends - starts).max()), wmax)
+    counts = np.ones(starts.shape[0], np.int64)
+    if frame_ids is not None and dtype != np.float64:
+        starts, ends, labels, counts = _identical_merged(starts, ends, labels, frame_ids)
     if dtype != np.float64 and K.dtype not in (np.int8, np.int16):
         K = K.astype(np.int8)  # callers in a loop pass it converted once (dp_kernel)
     A = np.empty((wmax + 1, n + 1), dtype)
     B = np.empty((wmax + 1, n + 1), dtype)
     acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
     F = np.zeros((k, wmax + 1, n + 1))
-    candidate_sums(K, starts, ends, labels, wmin, wmax, A, B, acc, F, NEG[dtype])
+    candidate_sums(K, starts, ends, labels, counts, wmin, wmax, A, B, acc, F, NEG[dtype])
     return F
+
+
+def _identical_merged(starts, ends, labels, frame_ids):
+    """The old segments (sorted by length, then label) with each group of one length, label
+    and frame ids kept once, in place of its first, and its size: ``(starts, ends, labels,
+    counts)``; the order of (length, label) runs is unchanged."""
+    keep, counts, first = [], [], {}
+    ids = np.asarray(frame_ids)
+    for j, (s, e, lab) in enumerate(zip(starts.tolist(), ends.tolist(), labels.tolist())):
+        key = (e - s, lab, ids[s:e].tobytes())
+        at = first.get(key)
+        if at is None:
+            first[key] = len(keep)
+            keep.append(j)
+            counts.append(1)
+        else:
+            counts[at] += 1
+    keep = np.asarray(keep, dtype=np.int64)
+    return starts[keep], ends[keep], labels[keep], np.asarray(counts, dtype=np.int64)
+
+
+def frame_ids(K) -> np.ndarray:
+    """(n,) int64: frames with identical rows of ``K`` (n, n) share an id (ids in order of
+    first appearance). For the equality kernel these are the frames of one value."""
+    K = np.ascontiguousarray(K)
+    ids = np.empty(K.shape[0], dtype=np.int64)
+    seen: dict = {}
+    for i in range(K.shape[0]):
+        ids[i] = seen.setdefault(K[i].tobytes(), len(seen))
+    return ids
 
 
 #: the -inf of each work dtype of the DP tables (exact ranges: :func:`work_dtype`)
@@ -63,7 +103,7 @@ def dp_kernel(K, binary: bool):
     return K if np.array_equal(K, K.T) else np.ascontiguousarray(K.T)
 
 
-def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary):
+def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary, ids=None):
     """``F`` of the segmentation (:func:`candidate_table`) and each segment's summed DTAK
     with the segments of its own cluster, itself included (m,).
 
@@ -71,7 +111,8 @@ def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary):
     ``[wmin, wmax]``; a segment of another length (only an initial one can be) costs a row of
     within-cluster DTAKs.
     """
-    F = candidate_table(K_dp, starts, ends, labels, k, wmin, wmax, binary=binary)
+    F = candidate_table(K_dp, starts, ends, labels, k, wmin, wmax, binary=binary,
+                        frame_ids=ids)
     lens = ends - starts
     inside = (lens >= wmin) & (lens <= wmax)
     own = np.zeros(starts.shape[0])
@@ -83,11 +124,13 @@ def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary):
 
 
 def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int, *,
-            binary=None, K_dp=None):
+            binary=None, K_dp=None, ids=None):
     """Coordinate descent from one initial segmentation on frame kernel ``K`` (n, n).
 
     ``binary``: whether K is 0/1 (computed when None); ``K_dp``: K as the DP step reads it
-    (:func:`dp_kernel`; prepared here when None).
+    (:func:`dp_kernel`; prepared here when None); ``ids``: :func:`frame_ids` of a 0/1 K,
+    old segments of identical frames then computed once (:func:`candidate_table`; the same
+    answer).
     Returns ``(starts, ends, labels, objective, n_iter)``.
 
     One table of candidate sums per step: the cluster statistics (``h_c``), the objective and
@@ -104,7 +147,7 @@ def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int
 
     def prepared(starts, ends, labels):
         """Labels with empty clusters re-seeded, the candidate table and own sums."""
-        F, own = _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary)
+        F, own = _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary, ids)
         while True:
             counts = np.bincount(labels, minlength=k)
             empty = np.flatnonzero(counts == 0)
@@ -116,7 +159,7 @@ def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int
             dist[~movable] = -np.inf
             labels = labels.copy()
             labels[int(np.argmax(dist))] = empty[0]
-            F, own = _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary)
+            F, own = _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary, ids)
 
     labels, F, own = prepared(starts, ends, labels)
     it = 0

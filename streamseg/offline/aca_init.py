@@ -1,6 +1,7 @@
 """Initial segmentations for ACA (Zhou et al. 2008, section 4.2) and the small clustering
 tools they need (k-means, spectral clustering). Lloyd's iterations run in a numba kernel
-(``streamseg._kernels.kmeans``, GIL released); the rest is plain numpy/scipy.
+(``streamseg._kernels.kmeans``, GIL released), and so do the passes over a large affinity
+matrix (``streamseg._kernels.affinity``); the rest is plain numpy/scipy.
 
 Segmentations are triples of int64 arrays ``(starts, ends, labels)`` with
 ``starts[0] = 0``, ``ends[i] = starts[i + 1]``, ``ends[-1] = n``.
@@ -9,9 +10,8 @@ Segmentations are triples of int64 arrays ``(starts, ends, labels)`` with
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import eigh
-from scipy.sparse.linalg import eigsh
 
+from streamseg._kernels.affinity import scale_both, symmetrized
 from streamseg._kernels.dtak import segment_kernel
 from streamseg._kernels.kmeans import lloyd
 
@@ -60,23 +60,43 @@ def spectral_embedding(A, k: int, rng: np.random.Generator) -> np.ndarray:
     """The ``k`` leading eigenvectors of ``D^-1/2 A D^-1/2`` (zero diagonal) of affinity
     ``A`` (m, m), ``m > k``, rows normalized to unit length: (m, k)."""
     m = np.shape(A)[0]
-    large = m > DENSE_EIGH_MAX
-    M = np.array(A, dtype=np.float32 if large else np.float64)
-    np.fill_diagonal(M, 0.0)
-    M += M.T  # numpy buffers the overlapping transpose
-    M *= 0.5
-    deg = M.sum(1, dtype=np.float64)
-    inv = np.where(deg > 0, 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0)), 0.0)
-    M *= inv[:, None].astype(M.dtype)
-    M *= inv[None, :].astype(M.dtype)
-    if large:
+    if m > DENSE_EIGH_MAX:
+        from scipy.sparse.linalg import eigsh  # imported here: small fits never need it
+
+        M = _normalized_affinity(A)
         v0 = rng.uniform(0.5, 1.0, m).astype(np.float32)
         _, vecs = eigsh(M, k, which="LA", v0=v0)
         vecs = vecs.astype(np.float64)
     else:
+        from scipy.linalg import eigh
+
+        M = np.array(A, dtype=np.float64)
+        np.fill_diagonal(M, 0.0)
+        M += M.T  # numpy buffers the overlapping transpose
+        M *= 0.5
+        deg = M.sum(1, dtype=np.float64)
+        inv = _inv_sqrt(deg)
+        M *= inv[:, None]
+        M *= inv[None, :]
         _, vecs = eigh(M, subset_by_index=[m - k, m - 1])
     norms = np.linalg.norm(vecs, axis=1, keepdims=True)
     return vecs / np.where(norms > 0, norms, 1.0)
+
+
+def _inv_sqrt(deg):
+    return np.where(deg > 0, 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0)), 0.0)
+
+
+def _normalized_affinity(A) -> np.ndarray:
+    """``D^-1/2 S D^-1/2`` in float32 of ``S = (A + A.T) / 2`` with a zero diagonal: the
+    matrix ARPACK multiplies, in three passes (``streamseg._kernels.affinity``); the same
+    to the bit as the numpy expression in ``tests/naive.py``."""
+    A = np.asarray(A)
+    A = A.view(np.uint8) if A.dtype == np.bool_ else A.astype(np.float64, copy=False)
+    M = symmetrized(np.ascontiguousarray(A), np.empty(A.shape, np.float32))
+    inv = _inv_sqrt(M.sum(1, dtype=np.float64))  # numpy's own summation order
+    scale_both(M, inv.astype(np.float32))
+    return M
 
 
 def random_tiling(n: int, wmin: int, wmax: int, rng: np.random.Generator):

@@ -1,0 +1,92 @@
+"""The spectral initialization's normalized affinity (``streamseg._kernels.affinity``) and the
+DP step's merging of old segments of identical frames: both the same to the bit as the plain
+computation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from streamseg._kernels.affinity import scale_both, symmetrized
+from streamseg.offline.aca_descent import candidate_table, descend, frame_ids
+from streamseg.offline.aca_init import _normalized_affinity, random_tiling
+from streamseg.offline.dtak import frame_kernel
+from tests.naive import naive_normalized_affinity
+
+
+def _matrices(m, rng):
+    A = rng.random((m, m))
+    A[rng.random((m, m)) < 0.3] = 0.0  # some exact zeros, a row of them
+    A[m // 2] = 0.0
+    return {"float64": A, "symmetric": (A + A.T) / 2, "bool": A > 0.5}
+
+
+@pytest.mark.parametrize("m", [1, 2, 63, 64, 65, 130, 1001])
+def test_normalized_affinity_equals_the_numpy_expression(m):
+    rng = np.random.default_rng(m)
+    for name, A in _matrices(m, rng).items():
+        got = _normalized_affinity(A)
+        want = naive_normalized_affinity(A)
+        assert got.dtype == want.dtype == np.float32
+        assert np.array_equal(got, want), name
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_kernels_equal_numpy_in_either_dtype(dtype):
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(97, 97))
+    M = symmetrized(A, np.empty(A.shape, dtype))
+    want = np.array(A, dtype=dtype)
+    np.fill_diagonal(want, 0.0)
+    want += want.T
+    want *= 0.5
+    assert np.array_equal(M, want)
+    s = rng.random(97).astype(dtype)
+    scale_both(M, s)
+    want *= s[:, None]
+    want *= s[None, :]
+    assert np.array_equal(M, want)
+
+
+def _symbols(seed, n=240):
+    """A 0/1 equality kernel of a sequence built from repeated motifs (identical segments)."""
+    rng = np.random.default_rng(seed)
+    motifs = [rng.integers(0, 6, int(rng.integers(5, 9))) for _ in range(3)]
+    x = np.concatenate([motifs[int(rng.integers(3))] for _ in range(n // 5)])[:n]
+    return frame_kernel(x, kernel="equality")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_identical_segments_merged_give_the_same_table(seed):
+    K = _symbols(seed).astype(np.int8)
+    n = K.shape[0]
+    rng = np.random.default_rng(seed)
+    starts, ends = random_tiling(n, 5, 8, rng)
+    if seed % 2:  # old segments aligned to the motifs repeat exactly
+        starts, ends = np.arange(0, n, 6), np.minimum(np.arange(6, n + 6, 6), n)
+    labels = rng.integers(0, 3, starts.size).astype(np.int64)
+    ids = frame_ids(K)
+    assert len(set(ids.tolist())) <= 6
+    plain = candidate_table(K, starts, ends, labels, 3, 5, 8, binary=True)
+    merged = candidate_table(K, starts, ends, labels, 3, 5, 8, binary=True, frame_ids=ids)
+    assert np.array_equal(plain, merged)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_descent_with_merged_segments_is_the_same_descent(seed):
+    K = _symbols(seed + 10).astype(np.float64)
+    n = K.shape[0]
+    rng = np.random.default_rng(seed)
+    starts, ends = random_tiling(n, 5, 9, rng)
+    labels = rng.integers(0, 3, starts.size).astype(np.int64)
+    plain = descend(K, starts, ends, labels, 3, 5, 9, 50, binary=True)
+    merged = descend(K, starts, ends, labels, 3, 5, 9, 50, binary=True,
+                     ids=frame_ids(K.astype(np.int8)))
+    for a, b in zip(plain[:3], merged[:3]):
+        assert np.array_equal(a, b)
+    assert plain[3] == merged[3] and plain[4] == merged[4]
+
+
+def test_frame_ids_group_identical_rows():
+    K = frame_kernel(np.array([3, 1, 3, 2, 1, 3]), kernel="equality")
+    assert frame_ids(K).tolist() == [0, 1, 0, 2, 1, 0]
