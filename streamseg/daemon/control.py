@@ -1,4 +1,5 @@
-"""The control endpoint's requests (REQ/REP): ping, hello, streams, state, stats, shutdown."""
+"""The control endpoint's requests (REQ/REP): ping, hello, streams, state, since, logged,
+stats, checkpoint, shutdown."""
 
 from __future__ import annotations
 
@@ -88,6 +89,8 @@ def answer(daemon, req, may_change: bool = True) -> dict:
                                       f"{', '.join(sorted(daemon.streams)[:20]) or 'none'}"}
     if op == "since":
         return since(daemon, req)
+    if op == "logged":
+        return logged(daemon)
     if op == "checkpoint":
         if daemon.checkpoints is None:
             return {"ok": False, "error": "checkpoints are off (give --state-dir and a "
@@ -100,7 +103,7 @@ def answer(daemon, req, may_change: bool = True) -> dict:
         daemon.stop()
         return {"ok": True}
     return {"ok": False, "error": f"unknown op {op!r}; expected ping, hello, streams, state, "
-                                  "since, stats, checkpoint or shutdown"}
+                                  "since, logged, stats, checkpoint or shutdown"}
 
 
 SINCE_LIMIT = 10000  # events per reply at most; ask again from the last one for more
@@ -127,3 +130,22 @@ def since(daemon, req) -> dict:
     events = [msgpack.unpackb(b, raw=False) for b in bodies]
     return {"ok": True, "stream": stream, "events": events, "first": first, "last": last,
             "skipped": skipped, "more": len(events) == limit}
+
+
+LOGGED_LIMIT = 10000  # stream ids per `logged` reply at most
+
+
+def logged(daemon) -> dict:
+    """The stream ids the event log holds events of, with their number ranges
+    (docs/protocol.md): a reader of every stream's back (``listen --since N`` without
+    ``--stream``) asks ``since`` for each."""
+    if daemon.eventlog is None:
+        return {"ok": False, "error": "this daemon keeps no event log (start it with "
+                                      "--state-dir DIR)"}
+    try:
+        rows = daemon.eventlog.streams(LOGGED_LIMIT)
+    except LogReadError as err:
+        daemon._report_storage()
+        return {"ok": False, "error": str(err)}
+    return {"ok": True, "streams": [{"stream": s, "first": a, "last": b} for s, a, b in rows],
+            "more": len(rows) == LOGGED_LIMIT}
