@@ -89,6 +89,10 @@ class Daemon(Intake):
                 if self.config.relabel_interval > 0 else 0.0
         if self.algorithms.focus_s is None:
             self.algorithms.focus_s = float(self.config.focus)
+        if self.algorithms.markers is None and self.config.markers:  # as gap_fill_s
+            from streamseg.skeleton.marker_map import load_marker_map
+
+            self.algorithms.markers = load_marker_map(self.config.markers)
         self.ctx = zmq.Context()
         self.streams: dict[str, StreamState] = {}
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
