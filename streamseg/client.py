@@ -284,10 +284,12 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     or before its newest cut are skipped (they are in the state already), until the stream
     is closed (a snapshot of an already closed stream filters nothing). ``pending``: frames
     received during :func:`handshake`, read before the socket. ``backlog``: events fetched
-    from the event log, yielded first; live events they already hold (by sequence number) are
-    skipped. ``on_hole(key, first, end)`` is called when a stream's sequence
-    numbers skip ``[first, end)`` (only meaningful when every event type of the stream is
-    subscribed), or when a ``stats`` heartbeat says a stream's last number is beyond the last
+    from the event log (of one stream or several, each in order), yielded first; live events
+    they already hold (by sequence number) are skipped; with ``until_end`` the iterator stops
+    after them when the history of one of their streams ends with its ``closed``.
+    ``on_hole(key, first, end)`` is called when a stream's sequence numbers skip
+    ``[first, end)`` (only meaningful when every event type of the stream is subscribed), or
+    when a ``stats`` heartbeat says a stream's last number is beyond the last
     one received (a loss at the tail); it returns the missing events it could fetch, which
     are yielded then. With ``stream`` given, ``stats`` events (subscribed for that) are used
     for the tail and not yielded.
@@ -310,15 +312,17 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
     seen = 0
     last: dict = {}  # stream id (or "*") -> last sequence number yielded
     fetched: dict = {}  # stream id -> highest sequence number yielded from the log
-    for i, ev in enumerate(backlog):
+    newest_type: dict = {}  # stream id -> the type of its last event in the backlog
+    for ev in backlog:
         key = ev.stream or protocol.DAEMON_WIDE
         last[key] = fetched[key] = ev.seq
+        newest_type[key] = ev.type
         seen += 1
         yield ev
         if count is not None and seen >= count:
             return
-        if until_end and ev.type == "closed" and i == len(backlog) - 1:
-            return  # the history ends with the stream closed (earlier ones: re-announced)
+    if until_end and "closed" in newest_type.values():
+        return  # a stream's history ends with it closed (earlier closes: re-announced)
     poller = zmq.Poller()
     poller.register(sock, zmq.POLLIN)
     if monitor is not None:

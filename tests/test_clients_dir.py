@@ -11,6 +11,7 @@ the absence a failure.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -35,14 +36,14 @@ def _missing(what: str, fix: str):
     pytest.skip(f"{what} is missing: {fix}")
 
 
-@pytest.fixture
-def serve(tmp_path):
+@contextlib.contextmanager
+def _serve(state_dir, *extra, curve=None):
     """``streamseg serve`` in its own process on free loopback ports, ready (it answers
     ``ping``); its endpoints. Stopped with SIGTERM at the end; it must exit 0."""
     loop = "tcp://127.0.0.1:0"
     proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "serve", "--ingest", loop,
                              "--publish", loop, "--control", loop, "--state-dir",
-                             str(tmp_path / "state"), "--log-level", "WARNING"],
+                             str(state_dir), "--log-level", "WARNING", *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         line = proc.stdout.readline()
@@ -50,7 +51,7 @@ def serve(tmp_path):
         ep = dict(word.split("=", 1) for word in line.split()[2:])
         while True:  # ready once its kernels are warm and the loop runs
             try:
-                if request(ep["control"], "ping", timeout=2)["ok"]:
+                if request(ep["control"], "ping", timeout=2, curve=curve)["ok"]:
                     break
             except TimeoutError:
                 assert proc.poll() is None, proc.stderr.read()
@@ -64,6 +65,34 @@ def serve(tmp_path):
             code = proc.wait()
     err = proc.stderr.read()
     assert code == 0 and "Traceback" not in err, err
+
+
+@pytest.fixture
+def serve(tmp_path):
+    with _serve(tmp_path / "state") as ep:
+        yield ep
+
+
+@pytest.fixture
+def serve_curve(tmp_path):
+    """A daemon with CURVE on every socket (``streamseg keys DIR``, ``--curve-dir DIR``): its
+    endpoints, with ``keys`` the folder the clients' ``--keys`` read."""
+    from streamseg.daemon.security import ClientKeys
+
+    keys = tmp_path / "keys"
+    assert main(["keys", str(keys)]) == 0
+    with _serve(tmp_path / "state", "--curve-dir", str(keys),
+                curve=ClientKeys.load(str(keys))) as ep:
+        yield {**ep, "keys": str(keys)}
+
+
+@pytest.fixture
+def serve_lossy(tmp_path):
+    """A daemon whose publish queue holds one message per subscriber (``--hwm 1``): a burst
+    of events overflows it, the subscribers see holes in the event numbers."""
+    with _serve(tmp_path / "state", "--hwm", "1", "--gap-events-per-s", "1000000",
+                "--heartbeat", "0.2", "--relabel-interval", "0") as ep:
+        yield ep
 
 
 @pytest.fixture(scope="module")
@@ -92,9 +121,10 @@ def take_csv(tmp_path_factory, data_dir):
 
 def _listen_jsonl(ep, stream):
     """``streamseg listen --jsonl --until-end`` on ``stream``, subscribed (handshake done)."""
+    keys = ["--curve-dir", ep["keys"]] if "keys" in ep else []
     proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "listen", "--from",
                              ep["publish"], "--control", ep["control"], "--stream", stream,
-                             "--jsonl", "--until-end", "--idle", "60"],
+                             "--jsonl", "--until-end", "--idle", "60", *keys],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert json.loads(proc.stdout.readline())["type"] == "state"
     return proc
@@ -126,8 +156,9 @@ def _check_listener(cmd, ep, take_csv, stream, ready="listening on"):
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     first = proc.stdout.readline()
     assert first.startswith(ready), first + proc.stderr.read()
+    keys = ["--keys", ep["keys"]] if "keys" in ep else []
     subprocess.run([sys.executable, str(CLIENTS / "python" / "sender.py"), str(path), "--to",
-                    ep["ingest"], "--stream", stream, "--speed", "0", "--batch", "60"],
+                    ep["ingest"], "--stream", stream, "--speed", "0", "--batch", "60", *keys],
                    check=True, timeout=120)
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 0, err
@@ -226,3 +257,81 @@ def test_every_client_has_a_readme_and_the_protocol_links_them():
         assert (CLIENTS / lang / "README.md").is_file(), lang
         assert f"clients/{lang}/" in protocol, lang
 
+
+
+# CURVE and holes, every client ------------------------------------------------------------
+
+def _client(lang, role, c_clients=None, js_client=None):
+    """The command of a client program: ``lang`` python, c or js; ``role`` send or listen."""
+    if lang == "python":
+        return [sys.executable, str(CLIENTS / "python" / f"{role}er.py")]
+    if lang == "c":
+        return [str(c_clients / f"streamseg-{role}")]
+    return ["node", str(js_client / f"{role}er.js")]
+
+
+@pytest.fixture(params=["python", "c", "js"])
+def lang(request):
+    """Each client language, with its toolchain checked (a skip, or in CI a failure)."""
+    if request.param == "c":
+        request.getfixturevalue("c_clients")
+    elif request.param == "js":
+        request.getfixturevalue("js_client")
+    return request.param
+
+
+def test_clients_speak_curve(lang, serve_curve, take_csv):
+    """With ``--keys DIR`` each sender's stream is segmented as the file is and each listener
+    prints every cut and the close, on a daemon with CURVE on every socket."""
+    ep, c, js = serve_curve, CLIENTS / "c", CLIENTS / "js"
+    _check_sender(_client(lang, "send", c, js) + [
+        str(take_csv[0]), "--to", ep["ingest"], "--stream", f"{lang}-curve-send", "--speed",
+        "0", "--batch", "50", "--keys", ep["keys"]], ep, take_csv, f"{lang}-curve-send")
+    _check_listener(_client(lang, "listen", c, js) + [
+        ep["publish"], f"{lang}-curve-listen", "--control", ep["control"], "--keys",
+        ep["keys"]], ep, take_csv, f"{lang}-curve-listen")
+
+
+def test_clients_refuse_keys_they_cannot_read(lang, tmp_path):
+    c, js = CLIENTS / "c", CLIENTS / "js"
+    done = subprocess.run(_client(lang, "listen", c, js) + [
+        "tcp://127.0.0.1:1", "--keys", str(tmp_path)], capture_output=True, text=True,
+        timeout=30)
+    assert done.returncode == 2
+    assert done.stderr.startswith(f"--keys {tmp_path}: ") and "streamseg keys" in done.stderr
+
+
+@pytest.mark.parametrize("which", ["c", "js"])
+def test_listeners_fill_holes_from_the_event_log(which, serve_lossy, rec, request):
+    """A burst of events (every other packet missing: 59 `gap` events at once) overflows a
+    publish queue of one message: the C and JavaScript listeners see the holes in the event
+    numbers, fetch the missing events with `since` and print every event of the stream once,
+    in order, as the log holds them."""
+    import zmq
+
+    from streamseg import protocol as P
+    from streamseg.client import fetch_since
+    from streamseg.commands.replay import announce_of
+
+    tool = request.getfixturevalue("c_clients" if which == "c" else "js_client")
+    ep, stream = serve_lossy, f"{which}-holes"
+    proc = subprocess.Popen(_client(which, "listen", tool, tool) + [
+        ep["publish"], stream, "--control", ep["control"]], stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().startswith("listening on")
+    sock = zmq.Context.instance().socket(zmq.PUSH)
+    sock.connect(ep["ingest"])
+    sock.send_multipart(P.encode(announce_of(rec, stream)))
+    for a in range(0, 2400, 20):
+        if (a // 20) % 2 == 0:
+            sock.send_multipart(P.encode(P.Frames(stream, a, 0.0, rec.positions[a:a + 20])))
+    sock.send_multipart(P.encode(P.End(stream)))
+    sock.close(linger=10_000)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    logged = fetch_since(ep["control"], stream, 0)
+    lines = out.splitlines()
+    gaps = [int(x.rsplit(" ", 1)[1]) for x in lines if x.startswith(f"{stream}: gap event ")]
+    assert gaps == [e.seq for e in logged if e.type == "gap"] and len(gaps) == 59
+    assert len(lines) == len(logged) and lines[-1] == f"{stream}: closed (end)"
+    assert "fetched from the event log" in err, "no hole: the burst lost nothing"

@@ -6,6 +6,8 @@ import dataclasses
 import functools
 import json
 import sqlite3
+import subprocess
+import sys
 import threading
 import time
 
@@ -144,6 +146,72 @@ def test_listen_since_cli_and_hole_report(start_daemon, rec, capsys):
     assert events[-1]["type"] == "closed"
     assert main(["listen", "--from", ep["publish"], "--since", "0"]) == 2
     assert "--since needs --control" in capsys.readouterr().err
+
+
+def test_listen_since_without_stream_reads_every_streams_back(start_daemon, rec, capsys):
+    """`listen --control EP --since N` without --stream: the logged events above N of every
+    stream the log holds, stream by stream in the order they were first logged (the `logged`
+    op lists them), then the live events, each once."""
+    d, ep = start_daemon(heartbeat=0)  # no `stats` lines among the events
+    for name in ("zb", "ya"):  # logged in this order, which is not the ids' order
+        replay(rec, ep["ingest"], stream=name, speed=0, batch=50)
+        wait_closed(ep, name)
+    listed = request(ep["control"], "logged")
+    assert [r["stream"] for r in listed["streams"]] == ["zb", "ya"] and not listed["more"]
+    logged = {s: fetch_since(ep["control"], s, 0) for s in ("zb", "ya")}
+    assert [(r["first"], r["last"]) for r in listed["streams"]] == \
+        [(1, logged[s][-1].seq) for s in ("zb", "ya")]
+    base = ["listen", "--from", ep["publish"], "--control", ep["control"], "--jsonl",
+            "--idle", "30"]
+    capsys.readouterr()
+    # the histories end closed: --until-end stops after them
+    assert main(base + ["--since", "2", "--until-end"]) == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert lines[0]["type"] == "streams"
+    got = [(x["stream"], x["seq"]) for x in lines[1:]]
+    assert got == [(s, e.seq) for s in ("zb", "ya") for e in logged[s][2:]]
+    assert lines[1] == json.loads(json.dumps(P.to_json(logged["zb"][2])))
+    # --type applies to the back too
+    assert main(base + ["--since", "0", "--type", "closed", "--until-end"]) == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert [(x["stream"], x["type"]) for x in lines[1:]] == [("zb", "closed"), ("ya", "closed")]
+    # the back, then the live events of a new take, each once (a listener of its own
+    # process: its first line comes once its subscription is live)
+    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", *base, "--since", "0"],
+                            stdout=subprocess.PIPE, text=True)
+    got = []
+    try:
+        assert json.loads(proc.stdout.readline())["type"] == "streams"
+        replay(rec, ep["ingest"], stream="zb", speed=0, batch=50)
+        while len(got) <= len(logged["zb"]) + len(logged["ya"]) or got[-1][2] != "closed":
+            x = json.loads(proc.stdout.readline())  # until the new take's `closed`
+            got.append((x["stream"], x["seq"], x["type"]))
+    finally:
+        proc.kill()
+        proc.wait(10)
+    got = [g[:2] for g in got]
+    every = {s: fetch_since(ep["control"], s, 0) for s in ("zb", "ya")}
+    assert len(every["zb"]) > len(logged["zb"])  # the new take is logged
+    assert got == [(s, e.seq) for s in ("zb", "ya") for e in logged[s]] + \
+        [("zb", e.seq) for e in every["zb"][len(logged["zb"]):]]
+    capsys.readouterr()
+    # beyond every stream's newest number: said in one line, then live events are followed
+    newest = fetch_since(ep["control"], "zb", 0)[-1].seq
+    assert main(base[:-1] + ["0.5", "--since", str(newest + 5)]) == 1
+    err = capsys.readouterr().err
+    assert f"--since {newest + 5}: the newest event number of any stream is {newest}" in err
+
+
+def test_listen_since_without_a_log_says_so_and_follows(start_daemon, capsys):
+    d, ep = start_daemon(state_dir="none", heartbeat=0)
+    assert request(ep["control"], "logged") == {
+        "ok": False, "v": P.PROTOCOL_VERSION,
+        "error": "this daemon keeps no event log (start it with --state-dir DIR)"}
+    capsys.readouterr()
+    assert main(["listen", "--from", ep["publish"], "--control", ep["control"], "--since", "0",
+                 "--idle", "0.5"]) == 1  # nothing to follow: the idle limit ends it
+    err = capsys.readouterr().err
+    assert "--since: this daemon keeps no event log (start it with --state-dir DIR)" in err
 
 
 def test_listen_since_says_what_the_log_cannot_give(start_daemon, rec, capsys, tmp_path):

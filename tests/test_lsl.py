@@ -219,3 +219,45 @@ def test_lsl_without_pylsl_or_streams_says_so(tmp_path):
     run = subprocess.run([sys.executable, "-m", "streamseg.cli", "lsl", "--to", "nowhere"],
                          capture_output=True, text=True, timeout=60)
     assert run.returncode == 2 and "tcp://HOST:PORT" in run.stderr
+
+
+def test_lsl_input_sends_markers_as_the_joints_of_the_map(lsl, start_daemon, rec, tmp_path):
+    """An LSL stream whose channels are markers, through `streamseg lsl --markers MAP.toml`:
+    the daemon gets the map's joints, and gives the events of a stream that sends them."""
+    from streamseg.client import subscribe
+    from streamseg.lsl.meta import add_channels
+    from streamseg.skeleton.marker_sets import JOINTS
+    from tests.test_marker_map_live import events_of, marker_take, send
+
+    joints, names, markers, toml = marker_take(rec, 2400)
+    (tmp_path / "map.toml").write_text(toml)
+    d, ep = start_daemon(relabel_interval=0)
+    source = f"mk-{uuid.uuid4().hex[:8]}"
+    subs = {s: subscribe(ep["publish"], ep["control"], stream=s) for s in (source, "j")}
+    info = lsl.StreamInfo("markers-test", "MoCap", 3 * len(names), rec.fps, lsl.cf_double64,
+                          source)
+    add_channels(info.desc(), names, "m")
+    out = lsl.StreamOutlet(info, chunk_size=0, max_buffered=600)
+    bridge = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "lsl", "--to",
+                               ep["ingest"], "--source-id", source, "--up", "y", "--markers",
+                               str(tmp_path / "map.toml")],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "waiting for LSL streams" in bridge.stdout.readline()
+        while not out.wait_for_consumers(0.5):
+            assert bridge.poll() is None, bridge.stderr.read()
+        push_take(out, markers, rec.fps, lsl.local_clock())
+        opened = bridge.stdout.readline()
+        assert f"-> stream {source}" in opened and "16 joints at 120 Hz" in opened, opened
+        wait_frames(ep["control"], source, joints.shape[0])
+        bridge.send_signal(signal.SIGTERM)  # ends the stream: the last cuts come out
+        assert bridge.wait(30) == 0
+    finally:
+        if bridge.poll() is None:
+            bridge.kill()
+    got = events_of(subs[source], source)
+    send(ep, "j", JOINTS, joints, rec.fps)
+    want = events_of(subs["j"], "j")
+    cuts = [e["frame"] for e in got if e["type"] == "cut"]
+    assert cuts == [e["frame"] for e in want if e["type"] == "cut"] and len(cuts) >= 2
+    assert got[-1] == want[-1] == {"type": "closed", "reason": "end", "frames": 2400}

@@ -1,14 +1,20 @@
 /* streamseg-listen: print a streamseg daemon's cuts, relabels and closes (protocol v1).
  *
  *   streamseg-listen tcp://127.0.0.1:5561 [STREAM] [--control tcp://127.0.0.1:5562] [--max N]
+ *                    [--keys DIR]
  *
  * Subscribes to the topics "cut/", "withdraw/", "segments/" and "closed/" (followed by
  * "STREAM/" when a stream is given: topics are "<type>/<stream>/", filtered by prefix) and
  * prints one line per event, the lines of clients/python/listener.py. With --control it first
  * makes sure the subscription is live (the `hello` handshake of docs/protocol.md: subscribe
  * to "hello/<token>/", ask the daemon to publish that token until it arrives), so nothing
- * published after its first line, "listening on ...", is missed. With a STREAM it stops at
- * that stream's `closed`; else after --max N events (default: never).
+ * published after its first line, "listening on ...", is missed; and it follows every event
+ * of the stream (each type; other types get a line "STREAM: TYPE event N"), so the event
+ * numbers (`seq`, per stream) show a loss: the missing events are fetched from the daemon's
+ * event log (the control op `since`), printed in their place and reported on stderr, as
+ * `streamseg listen --control` does; the `stats` heartbeats' `last_seq` show a loss at a
+ * stream's end. With a STREAM it stops at that stream's `closed`; else after --max N events
+ * (default: never). --keys DIR: CURVE with the keys `streamseg keys DIR` wrote (keys.h).
  *
  * C99 with POSIX, libzmq and msgpack-c. Exit codes: 0 done, 1 a ZeroMQ failure, 2 usage.
  */
@@ -21,6 +27,8 @@
 
 #include <msgpack.h>
 #include <zmq.h>
+
+#include "keys.h"
 
 /* The value of `key` in the msgpack map `map`, or NULL. */
 static const msgpack_object *get(const msgpack_object *map, const char *key) {
@@ -75,7 +83,8 @@ static int receive(void *sock, char *topic, size_t size, zmq_msg_t *body) {
     return 0;
 }
 
-static void handshake(void *ctx, void *sub, const char *control) {
+/* The `hello` handshake; returns the control REQ socket, kept for `since` requests. */
+static void *handshake(void *ctx, void *sub, const char *control, const curve_keys *keys) {
     unsigned char raw[8];
     FILE *r = fopen("/dev/urandom", "rb");
     if (!r || fread(raw, 1, sizeof raw, r) != sizeof raw) {
@@ -106,8 +115,10 @@ static void handshake(void *ctx, void *sub, const char *control) {
     msgpack_pack_str_body(&pk, token, 16);
 
     void *req = zmq_socket(ctx, ZMQ_REQ);
-    int linger = 0;
+    int linger = 0, wait_ms = 10000;
     zmq_setsockopt(req, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_setsockopt(req, ZMQ_RCVTIMEO, &wait_ms, sizeof wait_ms);
+    use_keys(req, keys);
     if (zmq_connect(req, control) < 0) {
         fprintf(stderr, "--control %s: %s\n", control, zmq_strerror(zmq_errno()));
         exit(2);
@@ -115,7 +126,8 @@ static void handshake(void *ctx, void *sub, const char *control) {
     for (int live = 0; !live;) {
         char reply[256];
         if (zmq_send(req, buf.data, buf.size, 0) < 0 || zmq_recv(req, reply, sizeof reply, 0) < 0) {
-            fprintf(stderr, "control: %s\n", zmq_strerror(zmq_errno()));
+            fprintf(stderr, "control %s: %s (is the daemon there%s?)\n", control,
+                    zmq_strerror(zmq_errno()), keys ? ", with these keys" : "");
             exit(1);
         }
         zmq_pollitem_t item = {sub, 0, ZMQ_POLLIN, 0};
@@ -127,12 +139,13 @@ static void handshake(void *ctx, void *sub, const char *control) {
             zmq_msg_close(&body);
         }
     }
-    zmq_close(req);
     zmq_setsockopt(sub, ZMQ_UNSUBSCRIBE, topic, (size_t)n);
     msgpack_sbuffer_destroy(&buf);
+    return req;
 }
 
-/* Print one event; returns 1 when it is the close of the awaited stream. */
+/* Print one event: -1 when it has no line (stats, hello), 1 when it is the close of the
+ * awaited stream, else 0. */
 static int print_event(const msgpack_object *ev, const char *only) {
     char type[32], stream[160], reason[64];
     str_of(get(ev, "type"), type, sizeof type);
@@ -162,43 +175,205 @@ static int print_event(const msgpack_object *ev, const char *only) {
     } else if (!strcmp(type, "closed")) {
         printf("%s: closed (%s)\n", stream, str_of(get(ev, "reason"), reason, sizeof reason));
         fflush(stdout);
-        return *only != '\0';
+        return *only != '\0' && !strcmp(stream, only);
+    } else if (!strcmp(type, "stats") || !strcmp(type, "hello") || !*type) {
+        return -1;
+    } else {  /* confirm, rep, gap, error: followed for their numbers */
+        printf("%s: %s event %lld\n", *stream ? stream : "*", type, int_of(get(ev, "seq")));
     }
     fflush(stdout);
     return 0;
 }
 
+/* The last event number printed of each stream id ("*": daemon-wide), -1: none yet. */
+static struct { char id[160]; long long last; } *numbers;
+static size_t n_numbers;
+
+static long long *last_of(const char *id) {
+    for (size_t i = 0; i < n_numbers; i++)
+        if (!strcmp(numbers[i].id, id)) return &numbers[i].last;
+    void *grown = realloc(numbers, (n_numbers + 1) * sizeof *numbers);
+    if (!grown) {
+        fprintf(stderr, "out of memory\n");
+        exit(1);
+    }
+    numbers = grown;
+    snprintf(numbers[n_numbers].id, sizeof numbers[n_numbers].id, "%s", id);
+    numbers[n_numbers].last = -1;
+    return &numbers[n_numbers++].last;
+}
+
+static void pack_str(msgpack_packer *pk, const char *s) {
+    msgpack_pack_str(pk, strlen(s));
+    msgpack_pack_str_body(pk, s, strlen(s));
+}
+
+/* Fetch from the event log (control op `since`, page by page) and print the events of
+ * `stream` numbered after `after` and below `upto` (-1: all); returns how many, -1 when the
+ * daemon could not answer (said on stderr). *done: the awaited stream's close was printed. */
+static long long fill(void *req, const char *stream, long long after, long long upto,
+                      const char *only, long long *printed, int *done) {
+    long long got = 0;
+    for (int more = 1; more && !*done;) {
+        msgpack_sbuffer buf;
+        msgpack_packer pk;
+        msgpack_sbuffer_init(&buf);
+        msgpack_packer_init(&pk, &buf, msgpack_sbuffer_write);
+        msgpack_pack_map(&pk, 4);
+        pack_str(&pk, "v");
+        msgpack_pack_int(&pk, 1);
+        pack_str(&pk, "op");
+        pack_str(&pk, "since");
+        pack_str(&pk, "stream");
+        pack_str(&pk, stream);
+        pack_str(&pk, "seq");
+        msgpack_pack_long_long(&pk, after);
+        zmq_msg_t reply;
+        zmq_msg_init(&reply);
+        int ok = zmq_send(req, buf.data, buf.size, 0) >= 0 && zmq_msg_recv(&reply, req, 0) >= 0;
+        msgpack_sbuffer_destroy(&buf);
+        if (!ok) {
+            fprintf(stderr, "control: %s\n", zmq_strerror(zmq_errno()));
+            exit(1);
+        }
+        msgpack_unpacked up;
+        msgpack_unpacked_init(&up);
+        size_t off = 0;
+        more = 0;
+        if (msgpack_unpack_next(&up, zmq_msg_data(&reply), zmq_msg_size(&reply), &off) !=
+            MSGPACK_UNPACK_SUCCESS) {
+            got = -1;
+        } else if (!get(&up.data, "ok") || !get(&up.data, "ok")->via.boolean) {
+            char error[512];
+            fprintf(stderr, "since: %s\n", str_of(get(&up.data, "error"), error, sizeof error));
+            got = -1;
+        } else {
+            const msgpack_object *evs = get(&up.data, "events");
+            const msgpack_object *m = get(&up.data, "more");
+            more = m && m->type == MSGPACK_OBJECT_BOOLEAN && m->via.boolean;
+            for (uint32_t i = 0; evs && evs->type == MSGPACK_OBJECT_ARRAY &&
+                                 i < evs->via.array.size; i++) {
+                const msgpack_object *ev = &evs->via.array.ptr[i];
+                long long n = int_of(get(ev, "seq"));
+                if (upto >= 0 && n >= upto) {
+                    more = 0;
+                    break;
+                }
+                after = n;
+                got++;
+                int r = print_event(ev, only);
+                if (r >= 0) (*printed)++;
+                if (r == 1) *done = 1;
+                if (*done) break;
+            }
+        }
+        msgpack_unpacked_destroy(&up);
+        zmq_msg_close(&reply);
+        if (got < 0) return -1;
+    }
+    return got;
+}
+
+/* Events `first`..`end - 1` of `id` were missed: fetched and printed (with a control
+ * socket, and not daemon-wide ones: those the subscription may not all hold), and said. */
+static void on_hole(void *req, const char *id, long long first, long long end,
+                    const char *only, long long *printed, int *done) {
+    if (!req || !strcmp(id, "*")) {
+        fprintf(stderr, "hole: events %lld..%lld of stream %s were missed (%lld)%s\n", first,
+                end - 1, id, end - first, req ? "" : "; give --control to fetch them");
+        return;
+    }
+    long long got = fill(req, id, first - 1, end, only, printed, done);
+    if (got < 0)
+        fprintf(stderr, "hole: events %lld..%lld of stream %s were missed; cannot fetch them\n",
+                first, end - 1, id);
+    else
+        fprintf(stderr, "hole: events %lld..%lld of stream %s: %lld fetched from the event "
+                "log\n", first, end - 1, id, got);
+}
+
+/* One received event: its number checked (a hole filled first), then printed. */
+static void take(void *req, const msgpack_object *ev, const char *only, long long *printed,
+                 int *done) {
+    char type[32], id[160];
+    str_of(get(ev, "type"), type, sizeof type);
+    str_of(get(ev, "stream"), id, sizeof id);
+    if (!*id) snprintf(id, sizeof id, "*");
+    if (req && !strcmp(type, "stats")) {  /* the heartbeat's numbers: a loss at a tail */
+        const msgpack_object *m = get(ev, "last_seq");
+        for (uint32_t i = 0; m && m->type == MSGPACK_OBJECT_MAP && i < m->via.map.size &&
+                             !*done; i++) {
+            char key[160];
+            str_of(&m->via.map.ptr[i].key, key, sizeof key);
+            long long newest = int_of(&m->via.map.ptr[i].val), *last = last_of(key);
+            if (*last >= 0 && newest > *last && (!*only || !strcmp(key, only))) {
+                on_hole(req, key, *last + 1, newest + 1, only, printed, done);
+                *last = newest;
+            }
+        }
+        return;
+    }
+    long long n = int_of(get(ev, "seq"));
+    if (n >= 0) {
+        long long *last = last_of(id);
+        if (*last >= 0 && n <= *last) return;  /* printed already, from the log */
+        if (*last >= 0 && n > *last + 1) on_hole(req, id, *last + 1, n, only, printed, done);
+        *last = n;
+        if (*done) return;
+    }
+    int r = print_event(ev, only);
+    if (r >= 0) (*printed)++;
+    if (r == 1) *done = 1;
+}
+
 int main(int argc, char **argv) {
-    const char *endpoint = NULL, *only = "", *control = NULL;
+    const char *endpoint = NULL, *only = "", *control = NULL, *keydir = NULL;
     long long limit = -1;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--control") && i + 1 < argc) control = argv[++i];
         else if (!strcmp(argv[i], "--max") && i + 1 < argc) limit = atoll(argv[++i]);
+        else if (!strcmp(argv[i], "--keys") && i + 1 < argc) keydir = argv[++i];
         else if (argv[i][0] == '-') endpoint = NULL, i = argc;  /* unknown option: usage */
         else if (!endpoint) endpoint = argv[i];
         else only = argv[i];
     }
     if (!endpoint) {
-        fprintf(stderr, "usage: %s ENDPOINT [STREAM] [--control ENDPOINT] [--max N]\n", argv[0]);
+        fprintf(stderr, "usage: %s ENDPOINT [STREAM] [--control ENDPOINT] [--max N] "
+                "[--keys DIR]\n", argv[0]);
         return 2;
+    }
+    curve_keys loaded, *keys = NULL;
+    if (keydir) {
+        loaded = load_keys(keydir);
+        keys = &loaded;
     }
     void *ctx = zmq_ctx_new();
     void *sub = zmq_socket(ctx, ZMQ_SUB);
+    use_keys(sub, keys);
     if (zmq_connect(sub, endpoint) < 0) {
         fprintf(stderr, "%s: %s\n", endpoint, zmq_strerror(zmq_errno()));
         return 2;
     }
-    const char *kinds[] = {"cut", "withdraw", "segments", "closed"};
-    for (int k = 0; k < 4; k++) {
-        char topic[160];
-        int n = snprintf(topic, sizeof topic, "%s/%s%s", kinds[k], only, *only ? "/" : "");
-        zmq_setsockopt(sub, ZMQ_SUBSCRIBE, topic, (size_t)n);
+    /* with --control every type of the stream (its numbers must show a loss) and the
+     * heartbeats (a loss at its end); without, the four this listener prints */
+    const char *kinds[] = {"cut", "withdraw", "segments", "closed", "confirm", "rep", "gap",
+                           "error"};
+    if (control && !*only) {
+        zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "", 0);
+    } else {
+        for (int k = 0; k < (control ? 8 : 4); k++) {
+            char topic[200];
+            int n = snprintf(topic, sizeof topic, "%s/%s%s", kinds[k], only, *only ? "/" : "");
+            zmq_setsockopt(sub, ZMQ_SUBSCRIBE, topic, (size_t)n);
+        }
+        if (control) zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "stats/", 6);
     }
-    if (control) handshake(ctx, sub, control);
+    void *req = control ? handshake(ctx, sub, control, keys) : NULL;
     printf("listening on %s\n", endpoint);
     fflush(stdout);
-    for (long long seen = 0; limit < 0 || seen < limit;) {
-        char topic[160];
+    long long printed = 0;
+    for (int done = 0; !done && (limit < 0 || printed < limit);) {
+        char topic[200];
         zmq_msg_t body;
         if (receive(sub, topic, sizeof topic, &body) < 0) {
             fprintf(stderr, "receive: %s\n", zmq_strerror(zmq_errno()));
@@ -207,22 +382,18 @@ int main(int argc, char **argv) {
         msgpack_unpacked up;
         msgpack_unpacked_init(&up);
         size_t off = 0;
-        int done = 0;
         if (msgpack_unpack_next(&up, zmq_msg_data(&body), zmq_msg_size(&body), &off) ==
             MSGPACK_UNPACK_SUCCESS) {
             long long v = int_of(get(&up.data, "v"));
-            if (v != 1) {
-                fprintf(stderr, "skipping protocol version %lld\n", v);
-            } else {
-                seen++;
-                done = print_event(&up.data, only);
-            }
+            if (v != 1) fprintf(stderr, "skipping protocol version %lld\n", v);
+            else take(req, &up.data, only, &printed, &done);
         }
         msgpack_unpacked_destroy(&up);
         zmq_msg_close(&body);
-        if (done) break;
     }
+    if (req) zmq_close(req);
     zmq_close(sub);
     zmq_ctx_term(ctx);
+    free(numbers);
     return 0;
 }

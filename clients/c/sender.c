@@ -1,7 +1,7 @@
 /* streamseg-send: stream a joint-positions CSV to a streamseg daemon (protocol v1).
  *
  *   streamseg-send TAKE.csv [--to tcp://127.0.0.1:5560] [--stream ID] [--fps HZ]
- *                  [--batch N] [--speed X] [--units mm] [--up y]
+ *                  [--batch N] [--speed X] [--units mm] [--up y] [--keys DIR]
  *
  * The CSV is the one `streamseg segment` reads: a header naming each coordinate
  * <joint>_x, <joint>_y, <joint>_z (CMU/Acclaim, HDM05, BVH or Kinect joint names) and
@@ -12,6 +12,7 @@
  * `frames` packets of --batch frames (float64 little-endian, shape (n, n_joints, 3), `seq` =
  * the stream index of the first frame), one `end`. --speed 1 (default) paces the packets in
  * real time, 0 sends as fast as the daemon takes them (PUSH waits when its queue is full).
+ * --keys DIR: CURVE with the keys `streamseg keys DIR` wrote (keys.h).
  *
  * C99 with POSIX (getline, clock_gettime, nanosleep), libzmq and msgpack-c.
  * Exit codes: 0 sent, 1 a ZeroMQ failure, 2 bad arguments or an unreadable CSV.
@@ -27,6 +28,8 @@
 #include <string.h>
 #include <strings.h>
 #include <time.h>
+
+#include "keys.h"
 
 #include <msgpack.h>
 #include <zmq.h>
@@ -226,9 +229,10 @@ int main(int argc, char **argv) {
     double speed = atof(option(&argc, argv, "--speed", "1"));
     const char *units = option(&argc, argv, "--units", "mm");
     const char *up = option(&argc, argv, "--up", "y");
+    const char *keydir = option(&argc, argv, "--keys", NULL);
     if (argc != 2 || argv[1][0] == '-' || batch < 1 || speed < 0) {
         fprintf(stderr, "usage: %s TAKE.csv [--to ENDPOINT] [--stream ID] [--fps HZ] "
-                "[--batch N] [--speed X] [--units mm] [--up y]\n", argv[0]);
+                "[--batch N] [--speed X] [--units mm] [--up y] [--keys DIR]\n", argv[0]);
         return 2;
     }
     const char *path = argv[1];
@@ -249,6 +253,10 @@ int main(int argc, char **argv) {
     void *sock = zmq_socket(ctx, ZMQ_PUSH);
     int linger = 10000;  /* what is queued at the end still goes out */
     zmq_setsockopt(sock, ZMQ_LINGER, &linger, sizeof linger);
+    if (keydir) {
+        curve_keys keys = load_keys(keydir);
+        use_keys(sock, &keys);
+    }
     if (zmq_connect(sock, to) < 0) die(2, "--to %s: %s", to, zmq_strerror(zmq_errno()));
 
     msgpack_sbuffer buf;

@@ -1,7 +1,7 @@
 // streamseg sender: stream a joint-positions CSV to a streamseg daemon (protocol v1).
 //
 //   node clients/js/sender.js TAKE.csv [--to tcp://127.0.0.1:5560] [--stream ID] [--fps HZ]
-//        [--batch N] [--speed X] [--units mm] [--up y]
+//        [--batch N] [--speed X] [--units mm] [--up y] [--keys DIR]
 //
 // The CSV is the one `streamseg segment` reads: a header naming each coordinate
 // <joint>_x, <joint>_y, <joint>_z and optionally a `time` column in seconds whose median step
@@ -10,12 +10,14 @@
 // `frames` packets of --batch frames (float64 little-endian, shape (n, n_joints, 3), `seq` =
 // index of the first frame), one `end`. --speed 1 (default) paces the packets in real time,
 // 0 sends as fast as the daemon takes them. The same program as clients/python/sender.py.
+// --keys DIR: CURVE with the keys `streamseg keys DIR` wrote (keys.js).
 "use strict"
 
 const fs = require("fs")
 const path = require("path")
 const zmq = require("zeromq")
 const { encode } = require("@msgpack/msgpack")
+const { curveOptions } = require("./keys")
 
 const TIME = { time: 1, timestamp: 1, t: 1, time_s: 1, time_ms: 1e-3, timestamp_ms: 1e-3 }
 
@@ -98,9 +100,10 @@ async function main(argv) {
   const speed = Number(option(args, "--speed", "1"))
   const units = option(args, "--units", "mm")
   const up = option(args, "--up", "y")
+  const keys = option(args, "--keys")
   if (args.length !== 1 || args[0].startsWith("-") || !(batch >= 1) || !(speed >= 0)) {
     console.error("usage: node sender.js TAKE.csv [--to ENDPOINT] [--stream ID] [--fps HZ] " +
-                  "[--batch N] [--speed X] [--units mm] [--up y]")
+                  "[--batch N] [--speed X] [--units mm] [--up y] [--keys DIR]")
     return 2
   }
   const file = args[0]
@@ -108,7 +111,7 @@ async function main(argv) {
   const fps = fpsArg !== undefined ? Number(fpsArg) : fromTime
   if (!(fps > 0)) fail(`${file}: no time column gives the frame rate: give --fps HZ`)
   stream = stream || path.basename(file).replace(/\.[^.]*$/, "")
-  const push = new zmq.Push({ linger: 10000 }) // what is queued at the end still goes out
+  const push = new zmq.Push({ linger: 10000, ...(keys ? curveOptions(keys) : {}) }) // what is queued at the end still goes out
   push.connect(to)
   await push.send(message("announce", stream, {
     fps, joints, parents: joints.map(() => -1), units, up,

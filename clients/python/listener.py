@@ -33,9 +33,14 @@ def option(argv, name):
 
 def use_keys(sock, keys):
     """CURVE on ``sock``: zmq.auth reads ZeroMQ's certificate files made by streamseg keys."""
-    sock.curve_publickey, sock.curve_secretkey = zmq.auth.load_certificate(
-        f"{keys}/client.key_secret")
-    sock.curve_serverkey, _ = zmq.auth.load_certificate(f"{keys}/server.key")
+    try:
+        sock.curve_publickey, sock.curve_secretkey = zmq.auth.load_certificate(
+            f"{keys}/client.key_secret")
+        sock.curve_serverkey, _ = zmq.auth.load_certificate(f"{keys}/server.key")
+    except (OSError, ValueError) as err:  # one line, not a traceback
+        print(f"--keys {keys}: {err}: make the keys with `streamseg keys DIR`",
+              file=sys.stderr)
+        sys.exit(2)
 
 
 def handshake(sub, control, keys=None):

@@ -138,7 +138,12 @@ def run(args) -> int:
         raise ParameterError(f"--runs {args.runs}: expected at least 1")
     methods = methods_for(args)
     sets = _names(args.sets) or None
-    items = labelled_sets(args.all, sets=sets, skeleton=args.skeleton)
+    markers = None
+    if args.markers:  # read once, for every C3D and TRC under the folder
+        from streamseg.skeleton.marker_map import load_marker_map
+
+        markers = load_marker_map(args.markers)
+    items = labelled_sets(args.all, sets=sets, skeleton=args.skeleton, markers=markers)
     if not items:
         raise ParameterError(f"no label CSVs with recordings under {args.all}")
     chosen = _names(args.chosen_on)

@@ -2,7 +2,8 @@
 
 With ``--control`` it first asks for the stream's current state (late-joiner catch-up), then,
 when the daemon keeps an event log, every logged event of the stream since it opened (or
-since ``--since N``), then the live events; ``--count N`` or ``--until-end`` make it stop.
+since ``--since N``; without ``--stream``, of every stream the log holds), then the live
+events; ``--count N`` or ``--until-end`` make it stop.
 Events carry per-stream sequence numbers: a hole (events lost, e.g. to the publish
 high-water mark) is reported on stderr and, with ``--control``, filled from the log.
 """
@@ -38,8 +39,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--control", type=endpoint, metavar="ENDPOINT",
                         help="ask for current state first")
     parser.add_argument("--since", type=int, metavar="N",
-                        help="first print the stream's logged events with sequence numbers "
-                             "> N (needs --control and --stream; 0: all retained)")
+                        help="first print the logged events with sequence numbers > N (each "
+                             "stream numbers its own) of --stream, or of every stream, one "
+                             "after another (needs --control; 0: all retained)")
     stop = parser.add_mutually_exclusive_group()
     stop.add_argument("--count", type=int, metavar="N", help="stop after N events")
     stop.add_argument("--until-end", action="store_true",
@@ -159,9 +161,9 @@ class CutBook:
 
 def _bad_option(args):
     """What is wrong with the options that need no daemon to check, or None."""
-    if args.since is not None and not (args.control and args.stream):
-        return ("--since needs --control ENDPOINT and --stream ID: the event log numbers each "
-                "stream's events (e.g. listen --from EP --control EP --stream ID --since 0)")
+    if args.since is not None and not args.control:
+        return ("--since needs --control ENDPOINT: the daemon's event log is read through it "
+                "(e.g. listen --from EP --control EP --since 0)")
     if args.since is not None and args.since < 0:
         return f"--since {args.since} is invalid: expected a sequence number >= 0 (0: all)"
     if args.count is not None and args.count < 1:
@@ -250,6 +252,8 @@ def run(args) -> int:
                 line = {"type": "streams", "streams": streams.get("streams", [])}
                 out.write((strict_json.dumps(line) if args.jsonl else
                            f"[*] streams  {[s['stream'] for s in line['streams']]}") + "\n")
+                if args.since is not None:
+                    backlog = _every_history(args, ctx, curve)
             out.flush()
         book = CutBook()
         for ev in listen(sock, stream=args.stream, count=args.count, until_end=args.until_end,
@@ -283,33 +287,65 @@ def _history(args, state: dict, ctx, curve=None):
     if args.since is None and (state.get("closed") or "seq_base" not in state):
         return None
     start = args.since if args.since is not None else state["seq_base"]
-
-    said, skipped = [], []
-
-    def say_range(first, last):  # what the log cannot give, said rather than left silent
-        if args.since is not None and args.since > last:
-            newest = f"is {last}" if last else "does not exist (no event logged)"
-            print(f"streamseg listen: --since {args.since}: the newest event of stream "
-                  f"{args.stream} {newest}: nothing to fetch, following live events",
-                  file=sys.stderr)
-        elif first > start + 1:
-            said.append((start + 1, first - 1))
-
     try:
-        evs = fetch_since(args.control, args.stream, start, ctx, curve=curve,
-                          on_range=say_range, skipped=skipped)
+        return _stream_history(args, args.stream, start, ctx, curve, say_newest=True)
     except (LookupError, TimeoutError) as err:
         if args.since is not None:
             print(f"streamseg listen: --since: {err}", file=sys.stderr)
         return None
+
+
+def _every_history(args, ctx, curve=None) -> list:
+    """``--since N`` without ``--stream``: the logged events above N of every stream id the
+    log holds (``*`` for daemon-wide events), stream by stream in the order of their oldest
+    event held, ``--type`` applied."""
+    try:
+        reply = request(args.control, "logged", ctx, curve=curve)
+        if not reply.get("ok"):
+            raise LookupError(reply.get("error"))
+        out = []
+        for row in reply["streams"]:
+            if row["last"] > args.since:
+                out += _stream_history(args, row["stream"], args.since, ctx, curve)
+    except (LookupError, TimeoutError) as err:
+        print(f"streamseg listen: --since: {err}", file=sys.stderr)
+        return []
+    if reply.get("more"):
+        print(f"streamseg listen: --since: the log holds more stream ids than one reply "
+              f"lists; fetched those of the first {len(reply['streams'])}", file=sys.stderr)
+    if not reply["streams"] or max(r["last"] for r in reply["streams"]) <= args.since:
+        newest = max((r["last"] for r in reply["streams"]), default=0)
+        print(f"streamseg listen: --since {args.since}: the newest event number of any "
+              f"stream is {newest}: nothing to fetch, following live events", file=sys.stderr)
+    return out
+
+
+def _stream_history(args, stream: str, start: int, ctx, curve=None,
+                    say_newest: bool = False) -> list:
+    """The logged events of ``stream`` above ``start``, ``--type`` applied; what the log
+    cannot give (retention, numbers skipped at a restart) is said on stderr. Raises
+    LookupError (no log) and TimeoutError."""
+    said, skipped = [], []
+
+    def say_range(first, last):  # what the log cannot give, said rather than left silent
+        if say_newest and args.since is not None and args.since > last:
+            newest = f"is {last}" if last else "does not exist (no event logged)"
+            print(f"streamseg listen: --since {args.since}: the newest event of stream "
+                  f"{stream} {newest}: nothing to fetch, following live events",
+                  file=sys.stderr)
+        elif first > start + 1:
+            said.append((start + 1, first - 1))
+
+    evs = fetch_since(args.control, stream, start, ctx, curve=curve, on_range=say_range,
+                      skipped=skipped)
     for lo, hi in said:
         n_skipped = count_in(skipped, lo, hi)
         if n_skipped == hi - lo + 1:
-            print(f"streamseg listen: numbers {lo}..{hi} of stream {args.stream} were "
+            print(f"streamseg listen: numbers {lo}..{hi} of stream {stream} were "
                   "skipped at a restart after a crash (no event had them); fetching from "
                   f"{hi + 1}", file=sys.stderr)
         else:
-            print(f"streamseg listen: events {lo}..{hi} of stream {args.stream} are no "
+            print(f"streamseg listen: events {lo}..{hi} of stream {stream} are no "
                   "longer in the event log (retention: --log-max-mb, --log-max-days"
                   + (f"; {n_skipped} of the numbers were skipped at a restart" if n_skipped
                      else "") + f"); fetching from {hi + 1}", file=sys.stderr)

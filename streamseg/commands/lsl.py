@@ -45,6 +45,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--curve-dir", metavar="DIR",
                         help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
                              "server.key)")
+    parser.add_argument("--markers", metavar="MAP.toml",
+                        help="a marker set of your own for streams whose channels are markers "
+                             "no skeleton names: TOML of joint = marker or [markers] "
+                             "(docs/guide/formats.md); sent as the joints it makes")
 
 
 def _say(line: str) -> None:
@@ -57,6 +61,11 @@ def run(args) -> int:
 
     from streamseg.lsl.bridge import Bridge, predicate
 
+    markers = None
+    if args.markers:  # a bad map is said before any stream is resolved
+        from streamseg.skeleton.marker_map import load_marker_map
+
+        markers = load_marker_map(args.markers)
     curve = None
     if args.curve_dir:
         from streamseg.daemon.security import ClientKeys
@@ -66,7 +75,7 @@ def run(args) -> int:
                     args.stream, curve,
                     on_error=lambda m: print(f"streamseg lsl: error: {m}", file=sys.stderr,
                                              flush=True),
-                    on_open=_say)
+                    on_open=_say, markers=markers)
     done = threading.Event()
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):

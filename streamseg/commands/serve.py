@@ -75,8 +75,8 @@ def add_arguments(parser) -> None:
                                 help=f"{para} (repeatable)".replace("%", "%%"))
             continue
         parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                            type=kind, metavar="DIR" if f.name == "state_dir"
-                            else kind.__name__.upper(), help=text)
+                            type=kind, metavar={"state_dir": "DIR", "markers": "MAP.toml"}.get(
+                                f.name, kind.__name__.upper()), help=text)
 
 
 def build(args):
@@ -186,5 +186,6 @@ def _start_lsl(args, daemon, endpoints: dict, curve) -> list:
 
         parts.append(Bridge(endpoints["ingest"], args.lsl_type, args.lsl_name,
                             args.lsl_source_id, args.lsl_up, curve=curve,
-                            on_error=lambda m: say(f"error: {m}"), on_open=say).start())
+                            on_error=lambda m: say(f"error: {m}"), on_open=say,
+                            markers=daemon.algorithms.markers).start())
     return parts

@@ -85,6 +85,9 @@ class DaemonConfig:
         not settled and the cadence alone relabels).
     focus : float
         The window of a relabel a cut made due starts this many seconds before the cut.
+    markers : str
+        A marker map (TOML, joint = marker or [markers]; ``streamseg info FILE`` prints a
+        template) for streams that announce markers no skeleton names (``""``: none).
     """
 
     ingest: str = "tcp://127.0.0.1:5560"
@@ -129,6 +132,7 @@ class DaemonConfig:
     gap_fill: float = 0.25
     settle: float = 8.0
     focus: float = 20.0
+    markers: str = ""
 
     def __post_init__(self):
         for name in ("ingest", "publish"):
@@ -204,6 +208,8 @@ class DaemonConfig:
         for name in ("state_dir", "curve_dir"):
             _check(name, getattr(self, name), isinstance(getattr(self, name), str),
                    'a directory path or ""')
+        _check("markers", self.markers, isinstance(self.markers, str),
+               'the path of a marker map (TOML) or ""')
         for name in ("log_max_mb", "log_max_days", "max_seq_jump", "min_fps", "max_fps",
                      "gap_events_per_s", "stray_errors_per_s"):
             v = getattr(self, name)

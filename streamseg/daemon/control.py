@@ -1,5 +1,5 @@
-"""The control endpoint (REQ/REP): ping, hello, streams, state, since, stats, checkpoint,
-shutdown.
+"""The control endpoint (REQ/REP): ping, hello, streams, state, since, logged, stats,
+checkpoint, shutdown.
 
 :class:`Control` owns the REP socket, decides who may change the daemon's state, and answers
 each request from what a :class:`ControlView` tells it; it knows nothing else of the daemon.
@@ -18,6 +18,7 @@ from streamseg.protocol.auth import matches
 
 CHANGING_OPS = protocol.CHANGING_OPS  # ops that change the daemon's state
 SINCE_LIMIT = 10000  # events per reply at most; ask again from the last one for more
+LOGGED_LIMIT = 10000  # stream ids per `logged` reply at most
 
 
 class ControlView(Protocol):
@@ -43,6 +44,10 @@ class ControlView(Protocol):
 
     def events_since(self, stream: str, seq: int, limit: int) -> dict | None:
         """The ``since`` reply's fields; None without an event log; raises LogReadError."""
+
+    def logged_streams(self, limit: int) -> list | None:
+        """``[(stream, first, last)]`` of the streams the event log holds events of; None
+        without an event log; raises LogReadError."""
 
     def stop(self) -> None:
         """Ask the daemon to shut down."""
@@ -126,6 +131,8 @@ class Control:
                                           f"{', '.join(sorted(view.open_ids())[:20]) or 'none'}"}
         if op == "since":
             return self._since(req)
+        if op == "logged":
+            return self._logged()
         if op == "checkpoint":
             n = view.checkpoint_now()
             if n is None:
@@ -136,7 +143,7 @@ class Control:
             view.stop()
             return {"ok": True}
         return {"ok": False, "error": f"unknown op {op!r}; expected ping, hello, streams, "
-                                      "state, since, stats, checkpoint or shutdown"}
+                                      "state, since, logged, stats, checkpoint or shutdown"}
 
     def _since(self, req) -> dict:
         """The logged events of a stream with sequence numbers above ``seq``."""
@@ -154,6 +161,20 @@ class Control:
             return {"ok": False, "error": "this daemon keeps no event log (start it with "
                                           "--state-dir DIR)"}
         return {"ok": True, **reply}
+
+    def _logged(self) -> dict:
+        """The stream ids the event log holds events of, with their number ranges
+        (docs/protocol.md): a reader of every stream's back (``listen --since N`` without
+        ``--stream``) asks ``since`` for each."""
+        try:
+            rows = self.view.logged_streams(LOGGED_LIMIT)
+        except LogReadError as err:
+            return {"ok": False, "error": str(err)}
+        if rows is None:
+            return {"ok": False, "error": "this daemon keeps no event log (start it with "
+                                          "--state-dir DIR)"}
+        return {"ok": True, "more": len(rows) == LOGGED_LIMIT,
+                "streams": [{"stream": s, "first": a, "last": b} for s, a, b in rows]}
 
     def close(self) -> None:
         self.sock.close()

@@ -287,6 +287,24 @@ class EventLog:
         first = self._read("SELECT min(seq) FROM events WHERE stream = ?", (stream,))[0][0]
         return [r[0] for r in rows], first or 0
 
+    def streams(self, limit: int = 10000) -> list:
+        """``[(stream, first, last), ...]``: every stream id the file holds events of, with
+        its lowest and highest sequence number, in the order of their oldest event held; at
+        most ``limit``. A lookup of the index per id (no scan of the rows): the loop answers
+        it between packets. Raises :class:`LogReadError`."""
+        out, key = [], None
+        while len(out) < limit:
+            row = self._read("SELECT min(stream) FROM events" if key is None else
+                             "SELECT min(stream) FROM events WHERE stream > ?",
+                             () if key is None else (key,))
+            key = row[0][0]
+            if key is None:
+                break
+            first_id, first = self._read("SELECT id, seq FROM events WHERE stream = ? ORDER "
+                                         "BY seq LIMIT 1", (key,))[0]
+            out.append((first_id, key, first, self.logged_seq(key)))
+        return [row[1:] for row in sorted(out)]
+
     def skipped(self, stream: str, seq: int) -> list:
         """``[[lo, hi], ...]``: the ranges of numbers of ``stream`` above ``seq`` skipped at a
         restart (never used by any event)."""

@@ -23,6 +23,12 @@ def load_config(path) -> tuple:
         raise ParameterError(f"{path}: unknown table(s) {', '.join(unknown)}; "
                              "expected [daemon], [lof], [aca], [repetitions]")
     daemon = config_from_dict(DaemonConfig, doc.get("daemon", {}))
+    if daemon.markers:  # a marker map beside the config file, wherever serve runs
+        import dataclasses
+        from pathlib import Path
+
+        daemon = dataclasses.replace(daemon, markers=str(Path(path).expanduser().parent
+                                                         / Path(daemon.markers).expanduser()))
     lof = aca = None
     if "lof" in doc:
         from streamseg.config import LOFConfig

@@ -69,11 +69,15 @@ class Algorithms:
     radius_s : float or None
         A relabel boundary within this many seconds of a provisional cut confirms it (None:
         :data:`RADIUS_S`).
+    markers : MarkerSet or None
+        A marker map of the user's own (:func:`streamseg.skeleton.marker_map.load_marker_map`,
+        ``--markers MAP.toml``): a stream whose announced joints hold its markers is
+        segmented on the joints it makes; other streams as announced.
     """
 
     def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
                  rep_config=None, memory_config=None, gap_fill_s=None, settle_s=None,
-                 focus_s=None, radius_s=None):
+                 focus_s=None, radius_s=None, markers=None):
         self.lof_config = lof_config
         self.aca_config = aca_config
         self._relabel = relabel
@@ -84,6 +88,7 @@ class Algorithms:
         self.settle_s = None if settle_s is None else float(settle_s)
         self.focus_s = None if focus_s is None else float(focus_s)
         self.radius_s = None if radius_s is None else float(radius_s)
+        self.markers = markers
 
     def settlement(self, fps: float):
         """A stream's :class:`~streamseg.daemon.settle.Settlement` (None: settling off)."""
@@ -99,15 +104,34 @@ class Algorithms:
     def prepare(self, skeleton: Skeleton):
         """Per-stream feature plan: bone end-point indices, resolved once (raises
         SkeletonError when the skeleton lacks a joint the 8 angles need), the skeleton's
-        up vector when the cut detector uses inclinations (else None), and both as the
-        arguments of the angle kernel (:meth:`StreamingLOFSegmenter.learn_positions`)."""
+        up vector when the cut detector uses inclinations (else None), both as the
+        arguments of the angle kernel (:meth:`StreamingLOFSegmenter.learn_positions`), and
+        the marker map's columns when it applies (:meth:`joints_of`; else None)."""
         from streamseg.config import LOFConfig
         from streamseg.skeleton.bones import bone_point_indices, up_vector
 
+        skeleton, columns = self.joints_of(skeleton)
         inclinations = (self.lof_config or LOFConfig()).inclinations
         points = bone_point_indices(skeleton)
         up = up_vector(skeleton.up) if inclinations else None
-        return points, up, _bone_args(points, up)
+        return points, up, _bone_args(points, up), columns
+
+    def joints_of(self, skeleton: Skeleton):
+        """``(skeleton, columns)``: the skeleton a stream's features are computed on and the
+        marker map's columns for it (:func:`streamseg.skeleton.marker_map.marker_columns`),
+        when ``markers`` is set and the announced joints hold its markers; else the
+        announced skeleton and None. Raises SkeletonError when the announced joints are
+        neither the map's markers nor a skeleton streamseg knows."""
+        if self.markers is None:
+            return skeleton, None
+        from streamseg.skeleton.marker_map import columns_for
+        from streamseg.skeleton.marker_sets import JOINTS, PARENTS
+
+        columns = columns_for(self.markers, skeleton.names)
+        if columns is None:
+            return skeleton, None
+        return Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), skeleton.units,
+                        skeleton.up), columns
 
     def angles(self, positions: np.ndarray, plan) -> np.ndarray:
         """Features ``(n, d)`` of positions ``(n, J, 3)`` (the 8 bone angles, then the 9
@@ -297,8 +321,10 @@ class StreamPipeline(Stateful):
                  "gaps", "final_bad", "final_reps", "settlement")
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
-        self.skeleton = skeleton
+        self.skeleton = skeleton  # as announced (its joints are the packets')
         self.plan = algorithms.prepare(skeleton)
+        # the joints the features see: a marker map's (plan[3]: its columns), else these
+        skeleton = algorithms.joints_of(skeleton)[0]
         self.fps = float(fps)
         self.algorithms = algorithms
         self.segmenter = algorithms.segmenter(fps)
@@ -399,6 +425,10 @@ class StreamPipeline(Stateful):
         and clears them.
         """
         out, reps, n_bad = [], [], 0
+        if self.plan[3] is not None:  # markers: the joints of the map
+            from streamseg.skeleton.marker_map import joints_of_markers
+
+            positions = joints_of_markers(positions, self.plan[3])
         gap = first_frame - self.next_frame
         lost = None
         if 0 < gap <= RESTART_GAP_S * self.fps:  # lost frames: frames without positions

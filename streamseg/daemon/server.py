@@ -95,6 +95,10 @@ class Daemon:
                 if self.config.relabel_interval > 0 else 0.0
         if self.algorithms.focus_s is None:
             self.algorithms.focus_s = float(self.config.focus)
+        if self.algorithms.markers is None and self.config.markers:  # as gap_fill_s
+            from streamseg.skeleton.marker_map import load_marker_map
+
+            self.algorithms.markers = load_marker_map(self.config.markers)
         self.ctx = zmq.Context()
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
         self.closed_states: collections.OrderedDict = collections.OrderedDict()
@@ -625,6 +629,15 @@ class Daemon:
         events = [msgpack.unpackb(b, raw=False) for b in bodies]
         return {"stream": stream, "events": events, "first": first, "last": last,
                 "skipped": skipped, "more": len(events) == limit}
+
+    def logged_streams(self, limit: int) -> list | None:
+        if self.eventlog is None:
+            return None
+        try:
+            return self.eventlog.streams(limit)
+        except LogReadError:  # a damaged file: said as an `error` event too
+            self._report_storage()
+            raise
 
     def take_queued(self) -> None:
         self.intake.take_queued()

@@ -76,13 +76,14 @@ def segments_from_cuts(cuts, n_frames: int, label: str = "part") -> list[LabelSe
             enumerate(zip(bounds[:-1], bounds[1:]))]
 
 
-def discover(folder, skeleton=None) -> list[LabelledRecording]:
+def discover(folder, skeleton=None, markers=None) -> list[LabelledRecording]:
     """Every recording under ``folder`` named by a label CSV beside it.
 
     A CSV counts as labels when its header starts ``sequence,start_frame,end_frame,
     action_label``; each of its sequences must have a recording ``<sequence>.amc[.gz]``,
-    ``.bvh`` or ``.npz`` in the same folder. An AMC uses the one ``.asf`` in its folder, else
-    ``skeleton``.
+    ``.bvh``, ``.c3d``, ``.trc`` or ``.npz`` in the same folder. An AMC uses the one ``.asf``
+    in its folder, else ``skeleton``; C3D and TRC markers use the marker map ``markers``
+    (``--markers MAP.toml``) when given.
 
     Raises
     ------
@@ -112,7 +113,8 @@ def discover(folder, skeleton=None) -> list[LabelledRecording]:
                 raise RecordingError(csv_path, None, f"sequence {seq!r} without a recording",
                                      f"{seq}.amc[.gz], .bvh or .npz beside the labels")
             skel = asfs[0] if len(asfs) == 1 else skeleton
-            rec = read(path, skeleton=skel)
+            rec = read(path, skeleton=skel, markers=markers if path.suffix.lower() in
+                       (".c3d", ".trc") else None)
             out.append(LabelledRecording(seq, rec, read_labels(csv_path, seq),
                                          f"labels: {csv_path.name}"))
     return out

@@ -68,7 +68,7 @@ def _hdm(folder, plans: dict, group: str) -> list[LabelledRecording]:
     return out
 
 
-def labelled_sets(folder, sets=None, skeleton=None) -> list[LabelledRecording]:
+def labelled_sets(folder, sets=None, skeleton=None, markers=None) -> list[LabelledRecording]:
     """Every labelled recording under ``folder`` with its set name (``group``).
 
     Recordings named by a label CSV (:func:`~streamseg.evaluation.corpus.discover`) come
@@ -84,6 +84,9 @@ def labelled_sets(folder, sets=None, skeleton=None) -> list[LabelledRecording]:
         ASF for AMCs whose folder has none. With the bundled layout the CMU exercise takes,
         which have no ASF of their own, default to ``cmu86/86.asf`` (the standard CMU
         layout).
+    markers : str or Path or MarkerSet or None
+        A marker map for the C3D and TRC recordings
+        (:func:`~streamseg.evaluation.corpus.discover`).
 
     Raises
     ------
@@ -100,7 +103,7 @@ def labelled_sets(folder, sets=None, skeleton=None) -> list[LabelledRecording]:
         skeleton = Path(folder) / "cmu86" / "86.asf"
     out = []
     if wanted is None or {"cmu", "files"} & set(wanted):
-        for item in discover(folder, skeleton=skeleton):
+        for item in discover(folder, skeleton=skeleton, markers=markers):
             item.group = "cmu" if bundled and item.name in ("86_01", "14_14", "14_20") else "files"
             out.append(item)
     joined = [s for s in SETS[1:] if wanted is None or s in wanted]

@@ -63,10 +63,13 @@ class Feeder(threading.Thread):
     curve : ClientKeys or None
     on_error : callable(str) or None
         Called with a one-line message when the stream cannot be used.
+    markers : MarkerSet or None
+        A marker map (``--markers MAP.toml``): a stream whose channels are its markers is
+        sent as the joints it makes (:func:`streamseg.skeleton.marker_map.columns_for`).
     """
 
     def __init__(self, info, endpoint: str, stream: str | None = None, up: str | None = None,
-                 curve=None, on_error=None, on_open=None, ctx=None):
+                 curve=None, on_error=None, on_open=None, ctx=None, markers=None):
         super().__init__(daemon=True, name=f"lsl-{info.name()}")
         self.info = info
         self.endpoint = endpoint
@@ -77,6 +80,8 @@ class Feeder(threading.Thread):
         self.on_error = on_error or (lambda msg: log.error("%s", msg))
         self.on_open = on_open or (lambda msg: log.info("%s", msg))
         self.ctx = ctx or zmq.Context.instance()
+        self.markers = markers
+        self.marker_columns = None  # the map's columns, when it applies (_plan)
         self.stopping = threading.Event()
         self.frames_sent = 0
         self.error = None
@@ -123,15 +128,31 @@ class Feeder(threading.Thread):
                                  "motion capture needs its nominal_srate (frames per second)")
         self.columns = np.asarray(skel.columns, dtype=np.int64)
         self.units = skel.units
-        probe = np.zeros((1, len(skel.names), 3))
-        self.names, _ = complete(skel.names, probe)  # pose models: trunk points added
-        self.raw_names = skel.names
+        names = skel.names
+        if self.markers is not None:
+            from streamseg.exceptions import SkeletonError
+            from streamseg.skeleton.marker_map import columns_for
+            from streamseg.skeleton.marker_sets import JOINTS
+
+            try:
+                self.marker_columns = columns_for(self.markers, names)
+            except SkeletonError as err:
+                raise ParameterError(f"LSL stream {self.meta['name']!r}: {err}") from None
+            if self.marker_columns is not None:
+                names = JOINTS
+        probe = np.zeros((1, len(names), 3))
+        self.names, _ = complete(names, probe)  # pose models: trunk points added
+        self.raw_names = names
 
     def _positions(self, chunk) -> np.ndarray:
         from streamseg.skeleton.joint_sets import complete
 
         data = np.asarray(chunk, dtype=np.float64)
         pos = data[:, self.columns]  # (n, J, 3)
+        if self.marker_columns is not None:
+            from streamseg.skeleton.marker_map import joints_of_markers
+
+            pos = joints_of_markers(pos, self.marker_columns)
         return complete(self.raw_names, pos)[1]
 
     def _announce(self, sock, positions: np.ndarray) -> None:
@@ -227,11 +248,14 @@ class Bridge:
         Up axis of every stream (None: judged per stream).
     stream : str or None
         Daemon stream id (only for a single LSL stream; default: its source id or name).
+    markers : MarkerSet or None
+        A marker map for streams whose channels are markers (see :class:`Feeder`).
     """
 
     def __init__(self, endpoint: str, kind: str | None = "MoCap", name: str | None = None,
                  source_id: str | None = None, up: str | None = None,
-                 stream: str | None = None, curve=None, on_error=None, on_open=None):
+                 stream: str | None = None, curve=None, on_error=None, on_open=None,
+                 markers=None):
         self.endpoint = endpoint
         self.predicate = predicate(kind, name, source_id)
         self.up = up
@@ -239,6 +263,7 @@ class Bridge:
         self.curve = curve
         self.on_error = on_error
         self.on_open = on_open
+        self.markers = markers
         self.feeders: dict = {}  # LSL source id (else uid) -> Feeder
         self.refused: set = set()
         self.stopping = threading.Event()
@@ -264,7 +289,7 @@ class Bridge:
                     self.refused.add(key)
                     continue
                 feeder = Feeder(info, self.endpoint, self.stream, self.up, self.curve,
-                                self.on_error, self.on_open)
+                                self.on_error, self.on_open, markers=self.markers)
                 self.feeders[key] = feeder
                 feeder.start()
             self.stopping.wait(0.5)

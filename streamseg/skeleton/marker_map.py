@@ -65,3 +65,57 @@ def template(markers) -> str:
              "(their mean)", f"# this file's markers: {shown}"]
     lines += [f'{j} = ["?"]' for j in JOINTS]
     return "\n".join(lines)
+
+
+def marker_columns(mset: MarkerSet, names):
+    """``(columns, missing)`` of a marker map for a live stream's joint names (the daemon,
+    the LSL input): ``columns[j]``, the indices of the names whose mean is joint ``j`` of
+    :data:`JOINTS` (None when some are absent), and ``missing``, joint -> the markers of the
+    map the names lack."""
+    from streamseg.skeleton.marker_sets import plan
+
+    chosen, missing = plan(mset, names)
+    if missing:
+        return None, missing
+    index = {}
+    for i, name in enumerate(names):
+        index.setdefault(bare(str(name).strip()).upper(), i)
+    return tuple(tuple(index[m.upper()] for m in chosen[j]) for j in JOINTS), {}
+
+
+def columns_for(mset: MarkerSet, names):
+    """The columns of a marker map for a live stream's joint names when they hold its
+    markers (:func:`marker_columns`); None when they do not but name a skeleton streamseg
+    knows (the stream is used as it is).
+
+    Raises
+    ------
+    SkeletonError
+        The names are neither: what the skeleton lacks and the markers the map lacks.
+    """
+    from streamseg.exceptions import SkeletonError
+    from streamseg.skeleton.bones import bone_point_indices
+
+    columns, missing = marker_columns(mset, names)
+    if columns is not None:
+        return columns
+    try:
+        bone_point_indices(tuple(names))
+    except SkeletonError as err:
+        lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in list(missing.items())[:6])
+        raise SkeletonError(f"{err}; nor are they the markers of {mset.name}, which lacks, "
+                            f"per joint: {lack}") from None
+    return None
+
+
+def joints_of_markers(positions, columns):
+    """The joints of :data:`JOINTS` from marker positions ``(n, M, 3)``: each the mean of its
+    ``columns`` (:func:`marker_columns`); NaN where one of them is. Returns ``(n, 16, 3)``."""
+    import numpy as np
+
+    positions = np.asarray(positions, dtype=np.float64)
+    out = np.empty((positions.shape[0], len(columns), 3))
+    for j, cols in enumerate(columns):
+        out[:, j] = positions[:, cols[0]] if len(cols) == 1 else \
+            positions[:, list(cols)].mean(axis=1)
+    return out
