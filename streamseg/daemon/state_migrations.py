@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-FORMAT = 6  # written by this release
-READS = (5, 6)  # restored by this release (5: 3e14a8b, tests/fixtures/checkpoints_3e14a8b)
+FORMAT = 7  # written by this release
+READS = (5, 6, 7)  # restored by this release (5: 3e14a8b, tests/fixtures/checkpoints_3e14a8b)
 
 
 def _lof(fields: dict) -> dict:
@@ -37,6 +37,22 @@ def _pipeline(fields: dict) -> dict:
 def _counter(fields: dict) -> dict:
     fields.setdefault("near_misses_", {})
     fields.setdefault("_unliked", None)  # no ended set waiting to resume
+    return _counter_6(fields)
+
+
+def _counter_6(fields: dict) -> dict:
+    # before lost joints were bridged in the counter (its frames had every joint): a bridge
+    # is made with the next frames, none of the frames seen waited
+    if fields.get("_idx") is not None:
+        from streamseg._kernels import rep_track as K
+        from streamseg.online.rep_bridge import PoseBridge, bridge_frames
+
+        bridge = PoseBridge(len(K.POINTS), bridge_frames(fields["fps"]), range(4))
+        bridge.n_in = bridge.n_out = fields["n_seen_"] + sum(
+            p.shape[0] for p in fields.get("_pending", []))
+        fields.setdefault("_bridge", bridge)
+    fields.setdefault("_bridge", None)
+    fields.setdefault("_waits", {})
     return fields
 
 
@@ -45,6 +61,7 @@ MIGRATIONS = {
     (5, "streamseg.online.lof:StreamingLOFSegmenter"): _lof,
     (5, "streamseg.daemon.pipeline:StreamPipeline"): _pipeline,
     (5, "streamseg.online.repetition:RepetitionCounter"): _counter,
+    (6, "streamseg.online.repetition:RepetitionCounter"): _counter_6,
 }
 
 
