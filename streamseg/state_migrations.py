@@ -47,6 +47,22 @@ def _counter_2(fields: dict) -> dict:
     return fields
 
 
+def _counter_3(fields: dict) -> dict:
+    # before lost joints were bridged in the counter (its frames had every joint): a bridge
+    # is made with the next frames, none of the frames seen waited
+    if fields.get("_idx") is not None:
+        from streamseg._kernels import rep_track as K
+        from streamseg.online.rep_bridge import PoseBridge, bridge_frames
+
+        bridge = PoseBridge(len(K.POINTS), bridge_frames(fields["fps"]), range(4))
+        bridge.n_in = bridge.n_out = fields["n_seen_"] + sum(
+            p.shape[0] for p in fields.get("_pending", []))
+        fields.setdefault("_bridge", bridge)
+    fields.setdefault("_bridge", None)
+    fields.setdefault("_waits", {})
+    return fields
+
+
 def _speeds_1(fields: dict) -> dict:
     fields.setdefault("_order", None)  # columns in the order they are computed
     return fields
@@ -63,6 +79,7 @@ MIGRATIONS = {
     (PIPELINE, 1): _pipeline_1,
     (COUNTER, 1): _counter_1,
     (COUNTER, 2): _counter_2,
+    (COUNTER, 3): _counter_3,
     (SPEEDS, 1): _speeds_1,
 }
 

@@ -664,3 +664,43 @@ def naive_edge_dtw(T, S):
                 cell[i, j] = (tot, k, st)
     tot, k, st = cell[n - 1, m - 1]
     return tot / k, st
+
+
+# --- lost joints bridged for the repetition counter ---------------------------------
+
+
+def naive_pose_bridge(P, hold, needed):
+    """The bridge's rule over a whole take, frame by frame (streamseg.online.rep_bridge):
+    frames before the first with every ``needed`` joint are its copies; then each joint's run
+    of lost frames [a, b) of at most ``hold`` frames that ends before the take does is
+    interpolated (from the frame it is seen again when never seen before), a longer or
+    unended one holds the last value seen (NaN when none). None: no frame has the needed."""
+    P = np.array(P, dtype=np.float64)
+    n, J = P.shape[:2]
+    ok = [all(np.isfinite(P[f, j]).all() for j in needed) for f in range(n)]
+    if not any(ok):
+        return None
+    k = ok.index(True)
+    for f in range(k):
+        P[f] = P[k]
+    out = P.copy()
+    for j in range(J):
+        f = 0
+        while f < n:
+            if np.isfinite(P[f, j]).all():
+                f += 1
+                continue
+            a = f
+            while f < n and not np.isfinite(P[f, j]).all():
+                f += 1
+            b = f
+            before = P[a - 1, j] if a > 0 else np.full(3, np.nan)
+            for i in range(a, b):
+                if b < n and b - a <= hold:
+                    if np.isfinite(before).all():
+                        out[i, j] = before + (i - a + 1) / (b - a + 1) * (P[b, j] - before)
+                    else:
+                        out[i, j] = P[b, j]
+                else:
+                    out[i, j] = before
+    return out

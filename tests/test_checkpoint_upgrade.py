@@ -78,4 +78,4 @@ def test_a_checkpoint_of_an_unknown_format_is_refused_with_one_line(tmp_path):
         proc.wait(60)
     lines = [x for x in proc.stderr.read().splitlines() if "format 99" in x]
     assert len(lines) == 1 and "checkpoint of k" in lines[0]
-    assert str(state / "checkpoints.sqlite") in lines[0] and "reads formats 5, 6" in lines[0]
+    assert str(state / "checkpoints.sqlite") in lines[0] and "reads formats 5, 6, 7" in lines[0]

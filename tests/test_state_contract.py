@@ -55,15 +55,19 @@ STORED = {
         '_centres', '_cols', '_cur', '_explicit_width', '_geo', '_p', '_pend', '_rb', '_rv',
         '_seqs', '_speeds', '_st', '_vecs', 'config', 'fps', 'geometry', 'n_features'
     }),
+    'streamseg.online.rep_bridge:PoseBridge': (1, {
+        '_buf', '_lead', '_prev', '_since', 'hold', 'long_lost', 'n_in', 'n_joints', 'n_out',
+        'needed', 'told'
+    }),
     'streamseg.online.rep_loops:PoseRing': (1, {
         'C', 'SP', 'Z', '_sos', '_state', 'config', 'cutoff', 'dec', 'k'
     }),
-    'streamseg.online.repetition:RepetitionCounter': (3, {
-        '_Mm', '_cands', '_closed', '_cur', '_events', '_final', '_gap', '_idx', '_init',
-        '_lag', '_na', '_names', '_now', '_origin', '_pause', '_pending', '_pos', '_ring',
-        '_scale', '_search', '_st', '_tmax', '_unliked', '_up', '_upv', 'best_dissimilarity_',
-        'config', 'count_', 'fps', 'max_excursion_', 'n_loops_', 'n_seen_', 'near_misses_',
-        'sets_'
+    'streamseg.online.repetition:RepetitionCounter': (4, {
+        '_Mm', '_bridge', '_cands', '_closed', '_cur', '_events', '_final', '_gap', '_idx',
+        '_init', '_lag', '_na', '_names', '_now', '_origin', '_pause', '_pending', '_pos',
+        '_ring', '_scale', '_search', '_st', '_tmax', '_unliked', '_up', '_upv', '_waits',
+        'best_dissimilarity_', 'config', 'count_', 'fps', 'max_excursion_', 'n_loops_',
+        'n_seen_', 'near_misses_', 'sets_'
     }),
     'streamseg.online.root_speed:RootSpeed': (1, {
         '_prev', '_ring', '_st', 'fps', 'jump', 'lag', 'limbs', 'root', 'up', 'v_max'

@@ -65,12 +65,12 @@ def _run(args, labels: bool = True):
     lost = getattr(seg, "lost_joints_", [])
     if lost:
         warn(args, f"{', '.join(lost)} lost in most frames: counted with the other body parts "
-             "(the bones ending there are left out)")
+             "(held where last seen; never seen: the bones ending there are left out)")
     n_bad, n = int(seg.n_missing_frames_), int(seg.n_frames_)
     if n_bad and (n_bad >= n or not getattr(args, "gaps", None)):  # gaps: said at reading
         what = "frames have NaN values"
-        warn(args, f"{n_bad} of {n} {what}: skipped (bridged by interpolation from the "
-             "frames around them)" if n_bad < n else f"all {n} {what}: nothing to count")
+        warn(args, f"{n_bad} of {n} {what}: bridged (a joint lost up to 0.5 s interpolated, "
+             "longer held where last seen)" if n_bad < n else f"all {n} {what}: nothing to count")
     return cfg, seg, set_labels, time.perf_counter() - t0
 
 

@@ -23,6 +23,7 @@ import numpy as np
 
 from streamseg.offline.identity import snap_to_cuts, stable_labels
 from streamseg.online.events import ConfirmEvent, WithdrawEvent
+from streamseg.online.rep_bridge import BRIDGE_S
 from streamseg.recording import Skeleton
 from streamseg.state import Stateful
 
@@ -472,7 +473,7 @@ class StreamPipeline(Stateful):
             self._remember(angles[ok], first_frame + np.flatnonzero(ok))
         else:
             self._remember(angles, first_frame)
-        reps = self._repetitions(positions, first_frame, ok) if self.reps is not None else []
+        reps = self._repetitions(positions, first_frame) if self.reps is not None else []
         return out, reps, n_bad
 
     def _take_gaps(self) -> None:
@@ -499,22 +500,29 @@ class StreamPipeline(Stateful):
                 "replay --up), or the bone inclinations change with the heading"))
         self._spine_n = -1
 
-    def _repetitions(self, positions, first_frame, ok) -> list:
+    def _repetitions(self, positions, first_frame) -> list:
         """``(start, end, count, emitted_at, label, set_index)`` of completed repetitions, in
         stream frames.
 
-        The counter sees the frames with finite features only, so its frame numbers are
-        stream frames offset by the first one; exact unless frames were lost or NaN.
+        The counter sees every frame the gap filler releases, joints still lost included:
+        it bridges them itself as offline (:mod:`streamseg.online.rep_bridge`), so a marker
+        lost for good stops nothing and its frame numbers are the stream's offset by the
+        first one (exact unless the stream restarted after a long absence).
         """
         if self.rep_offset is None:
             self.rep_offset = first_frame
         try:
-            reps = self.reps.learn_many(positions[ok] if not ok.all() else positions)
+            reps = self.reps.learn_many(positions)
         except Exception as err:  # the counter is optional: turn it off for this stream
             self.reps = None
             self.notices.append(("rep", f"repetition counting stopped: "
                                         f"{type(err).__name__}: {err}"))
             return []
+        lost = self.reps.new_lost_joints()
+        if lost:
+            self.notices.append(("rep", f"{', '.join(lost)} lost for more than "
+                                        f"{BRIDGE_S:g} s: repetitions counted with the other "
+                                        "body parts (held where last seen)"))
         return self._rep_tuples(reps)
 
     def finish_reps(self) -> list:

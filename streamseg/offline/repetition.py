@@ -12,6 +12,7 @@ import numpy as np
 
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
+from streamseg.offline.missing_frames import bad_frames
 from streamseg.online.rep_pose import stream_features
 from streamseg.online.repetition import RepetitionCounter
 from streamseg.segments import Estimator, Segment
@@ -22,31 +23,29 @@ __all__ = ["RepetitionSegmenter", "set_summary"]
 LOST_SHARE = 0.5
 
 
-def _without_lost_limbs(rec):
-    """``(rec, names)``: ``rec`` with its limb joints lost in more than :data:`LOST_SHARE` of
-    the frames set lost in every frame, and their names (the trunk and hips, which the
-    torso frame needs, are never left out)."""
-    from dataclasses import replace
-
+def _lost(rec):
+    """``(names, n_bad, unusable)`` of the joints the counter reads in ``rec``: the limb
+    joints lost in more than :data:`LOST_SHARE` of the frames (the counter holds a joint lost
+    long where it was last seen, :mod:`streamseg.online.rep_bridge`; one never seen is left
+    out), the frames where another of them is lost, and whether no frame has the trunk and
+    hips (nothing to count)."""
     from streamseg._kernels import rep_track as K
     from streamseg.exceptions import SkeletonError
     from streamseg.skeleton.names import POINTS, resolve
 
     P = np.asarray(rec.positions)
     if P.shape[0] == 0 or np.isfinite(P).all():
-        return rec, []
+        return [], 0, False
     try:
         idx = resolve(list(rec.skeleton.names), K.POINTS, POINTS)
     except SkeletonError:
-        return rec, []
-    torso = {idx[K.POINTS.index(p)] for p in ("pelvis", "sternum", "l_hip", "r_hip")}
+        return [], 0, False
+    torso = [idx[K.POINTS.index(p)] for p in ("pelvis", "sternum", "l_hip", "r_hip")]
+    unusable = not np.isfinite(P[:, torso]).all(axis=(1, 2)).any()
     lost = (~np.isfinite(P).all(axis=2)).mean(axis=0)
-    out = [j for j in sorted(set(idx) - torso) if lost[j] > LOST_SHARE]
-    if not out:
-        return rec, []
-    Q = np.array(P, dtype=np.float64)
-    Q[:, out] = np.nan
-    return replace(rec, positions=Q), [rec.skeleton.names[j] for j in out]
+    out = [j for j in sorted(set(idx) - set(torso)) if lost[j] > LOST_SHARE]
+    n_bad = int(bad_frames(P[:, sorted(set(idx) - set(out))]).sum())
+    return [rec.skeleton.names[j] for j in out], n_bad, unusable
 
 
 def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
@@ -109,12 +108,16 @@ class RepetitionSegmenter(Estimator):
         The pose features the counter analysed (before its low-pass): for a recording the
         28 of :func:`~streamseg.online.rep_pose.pose_features`, for an array the array.
     n_missing_frames_ : int
-        Frames with a NaN or infinite value, bridged by interpolation from the good frames
-        around them (:mod:`streamseg.offline.missing_frames`).
+        Frames with a NaN or infinite value in a joint the counter reads (outside
+        ``lost_joints_``). For a recording the
+        counter bridges each lost joint as live (:mod:`streamseg.online.rep_bridge`: runs of
+        up to 0.5 s interpolated, longer ones held where the joint was last seen); feature
+        rows are interpolated from the good rows around them
+        (:mod:`streamseg.offline.missing_frames`).
     lost_joints_ : list of str
-        Limb joints lost in more than half of the frames: left out (the bones they end are
-        still, :func:`~streamseg._kernels.rep_track.pose_features`), the other body parts
-        count; their frames are not bridged.
+        Limb joints lost in more than half of the frames (held where last seen, or, never
+        seen, left out: the bones they end are still,
+        :func:`~streamseg._kernels.rep_track.pose_features`); the other body parts count.
     n_frames_ : int
     fps_ : float
     """
@@ -139,17 +142,18 @@ class RepetitionSegmenter(Estimator):
         -------
         self
         """
-        from streamseg.offline.missing_frames import bad_frames, bridge_missing_frames, bridge_rows
+        from streamseg.offline.missing_frames import bridge_rows
 
         cfg = self.config
         self.lost_joints_ = []
         if hasattr(X, "positions") and hasattr(X, "skeleton"):
             fps = float(X.fps)
-            X, self.lost_joints_ = _without_lost_limbs(X)
-            X, self.n_missing_frames_ = bridge_missing_frames(X, ignore=self.lost_joints_)
-            n = X.positions.shape[0]
+            # lost joints are bridged in the counter, frame by frame as live
+            self.lost_joints_, self.n_missing_frames_, unusable = _lost(X)
+            P = X.positions
+            n = P.shape[0]
             counter = RepetitionCounter(cfg, fps, X.skeleton)
-            data = None if (n and self.n_missing_frames_ == n) else X.positions
+            data = None if (n and unusable) else P
             self.features_ = (np.zeros((n, 28)) if data is None or n == 0 else
                               stream_features(X))
         else:

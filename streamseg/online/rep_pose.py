@@ -21,6 +21,9 @@ ROM_JOINTS = (("l_shoulder", 0, -1), ("l_elbow", 0, 1), ("r_shoulder", 2, -1),
               ("r_knee", 6, 7))
 
 
+OWN = np.arange(len(K.POINTS), dtype=np.int64)  # joint indices of frames holding POINTS
+
+
 def joint_ranges(Z, which=None) -> np.ndarray:
     """Range of motion (degrees) of each of :data:`ROM_JOINTS` (or of those at indices
     ``which``) over pose rows ``Z`` (n, 28), shape (8,) (or (len(which),))."""
@@ -46,12 +49,17 @@ def stream_features(recording, fps=None) -> np.ndarray:
     the first 0.25 s, as live): a counter built without a skeleton on them counts the same."""
     fps = float(recording.fps if fps is None else fps)
     init = max(2, int(round(0.25 * fps)))
+    from streamseg.online.rep_bridge import PoseBridge, bridge_frames
     from streamseg.skeleton.names import POINTS, resolve
 
-    P = np.ascontiguousarray(recording.positions, dtype=np.float64)
+    P = np.asarray(recording.positions, dtype=np.float64)
     idx = np.asarray(resolve(list(recording.skeleton.names), K.POINTS, POINTS), dtype=np.int64)
-    return pose_features(P, recording.skeleton.names, recording.skeleton.up,
-                         scale=body_scale(P[:init], idx))
+    # lost joints bridged as the counter bridges them
+    bridge = PoseBridge(len(K.POINTS), bridge_frames(fps), range(4))
+    P = np.concatenate([bridge.push(P[:, idx])[0], bridge.finish()[0]])
+    if P.shape[0] < recording.positions.shape[0]:  # no frame with a trunk: no pose
+        return np.zeros((recording.positions.shape[0], K.N_FEATURES))
+    return pose_features(P, K.POINTS, recording.skeleton.up, scale=body_scale(P[:init], OWN))
 
 
 def pose_features(positions, names, up="y", scale=None):

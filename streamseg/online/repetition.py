@@ -40,7 +40,7 @@ from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 from streamseg.online.rep_events import RepEvent, RepSet, sets_of, stream_events
 from streamseg.online.rep_loops import PoseRing
-from streamseg.online.rep_pose import ROM_JOINTS, body_scale, joint_ranges
+from streamseg.online.rep_pose import OWN, ROM_JOINTS, body_scale, joint_ranges
 from streamseg.state import Stateful
 
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
@@ -78,7 +78,7 @@ class RepetitionCounter(Stateful):
         Farthest the pose went from any anchor.
     """
 
-    STATE_VERSION = 3  # 2: near_misses_, _unliked; 3: _final always stored
+    STATE_VERSION = 4  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge, _waits
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0,
                  skeleton=None):
@@ -97,6 +97,8 @@ class RepetitionCounter(Stateful):
         self._gap = max(1, int(round(cfg.anchor_gap_s * rate)))
         self._init = max(2, int(round(0.25 * self.fps)))  # as stream_features
         self._idx = None
+        self._bridge = None  # lost joints bridged (rep_bridge), made with the joint lookup
+        self._waits = {}  # counter frame -> frames received when it was released, if later
         self._scale = None
         self._pending = []
         self._st = np.zeros((cfg.max_anchors, 3), dtype=np.int64)
@@ -139,40 +141,80 @@ class RepetitionCounter(Stateful):
         if X.shape[0] == 0:
             return []
         self._events = []
-        F = self._features(X)
-        if F is not None:
-            # the ring holds buffer_s: push a few seconds at a time and track them before the
-            # next ones overwrite what the tracker may still look back at
-            step = max(1, (self._ring.C // 4) * self._ring.dec)
-            for i in range(0, F.shape[0], step):
-                self._push(F[i:i + step])
-                self._run()
+        self._learn(self._features(X))
         return self._events
 
-    def _features(self, X):
+    def _learn(self, F):
+        if F is None:
+            return
+        # the ring holds buffer_s: push a few seconds at a time and track them before the
+        # next ones overwrite what the tracker may still look back at
+        step = max(1, (self._ring.C // 4) * self._ring.dec)
+        for i in range(0, F.shape[0], step):
+            self._push(F[i:i + step])
+            self._run()
+
+    @property
+    def lost_joints_(self) -> list:
+        """The counter's joints (canonical names) lost for longer than the bridge
+        interpolates (:mod:`streamseg.online.rep_bridge`) so far: held where last seen."""
+        b = self._bridge
+        return [] if b is None else [K.POINTS[j] for j in b.long_lost]
+
+    def new_lost_joints(self) -> list:
+        """:attr:`lost_joints_` not returned by an earlier call (a live stream's warning)."""
+        b = self._bridge
+        if b is None or b.told == len(b.long_lost):
+            return []
+        new, b.told = b.long_lost[b.told:], len(b.long_lost)
+        return [K.POINTS[j] for j in new]
+
+    def _features(self, X, final=False):
+        """Pose rows of the frames the bridge releases (None: none yet)."""
         if self._names is None:
             return X
         if self._idx is None:
+            from streamseg.online.rep_bridge import PoseBridge, bridge_frames
             from streamseg.skeleton.names import POINTS, resolve
 
             self._idx = np.asarray(resolve(list(self._names), K.POINTS, POINTS), dtype=np.int64)
             self._upv = None
+            # no pose without the pelvis, the sternum and the hips (POINTS 0-3)
+            self._bridge = PoseBridge(len(K.POINTS), bridge_frames(self.fps), range(4))
+        X, got = self._bridge.finish() if final else self._bridge.push(X[:, self._idx])
+        if got is not None:
+            self._wait(got)
+        if X.shape[0] == 0 and self._scale is not None:
+            return None
         if self._scale is None:  # body size from exactly the first frames: chunking-free
             self._pending.append(X)
             buf = np.concatenate(self._pending)
             if buf.shape[0] < self._init:
                 return None
             self._pending = []
-            self._scale = body_scale(buf[: self._init], self._idx)
+            self._scale = body_scale(buf[: self._init], OWN)
             X = buf
         from streamseg.skeleton.bones import up_vector
 
         if self._upv is None:
             self._upv = np.asarray(up_vector(self._up), dtype=np.float64)
         out = np.empty((X.shape[0], K.N_FEATURES))
-        K.pose_features(frames_in(X), self._idx, K.BONES, self._upv, self._scale,
-                        out)
+        K.pose_features(frames_in(X), OWN, K.BONES, self._upv, self._scale, out)
         return out
+
+    def _wait(self, got):
+        """Remember the counter frames the bridge released late (for ``emitted_at``)."""
+        first = self.n_seen_ + sum(p.shape[0] for p in self._pending)
+        late = np.flatnonzero(got != first + np.arange(1, got.shape[0] + 1))
+        if late.size:
+            self._waits.update(zip((first + late).tolist(), got[late].tolist()))
+            if len(self._waits) > 4 * self._ring.C * self._ring.dec:  # older than the ring
+                old = first - self._ring.C * self._ring.dec
+                self._waits = {k: v for k, v in self._waits.items() if k >= old}
+
+    def _emitted(self) -> int:
+        """Frames received when the frame deciding now (``_now - 1``) was released."""
+        return self._waits.get(self._now - 1, self._now) if self._waits else self._now
 
     def _push(self, F):
         fresh = self._ring.k < 0
@@ -373,8 +415,9 @@ class RepetitionCounter(Stateful):
             st.rom_deg.append(rom)
         self.count_ = len(spans)
         s0, s1 = st.repetitions[-1]
-        self._events.append(RepEvent(s0, s1, self.count_, self._now, len(self.sets_) - 1,
-                                     round((s1 - s0) / self.fps, 3), rom, st.rom_joint, like))
+        self._events.append(RepEvent(s0, s1, self.count_, self._emitted(),
+                                     len(self.sets_) - 1, round((s1 - s0) / self.fps, 3),
+                                     rom, st.rom_joint, like))
 
     def _end_set(self, why):
         self._unliked = None
@@ -402,8 +445,11 @@ class RepetitionCounter(Stateful):
         same for a loop after a closed one.
         """
         self._events = []
+        if self._bridge is not None:  # the frames still waiting for a lost joint
+            self._learn(self._features(None, final=True))
+        flushed, self._events = self._events, []
         if self._ring.Z is None or self._ring.k < 1:
-            return []
+            return flushed
         self._final = True
         self._now = self.n_seen_
         cfg = self.config
@@ -452,7 +498,7 @@ class RepetitionCounter(Stateful):
                         self._start_set(piece[0], prev, piece[1])
                         break
             self._end_set("end")
-        return self._events
+        return flushed + self._events
 
     def _last_loop(self, i, t, in_set):
         """Anchor ``i``'s loop at the end of the stream, leniently closed, or None."""
