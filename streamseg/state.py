@@ -7,9 +7,9 @@ bookkeeping) derives from :class:`Stateful`:
 - ``obj.to_state()`` is ``{"version": STATE_VERSION, "fields": {name: value}}``: every
   attribute but the ``_transient`` ones (rebuilt by ``_restored()`` or given back by the
   owner), values not copied;
-- ``Cls.from_state(state)`` builds the component from a state of its own version or an
-  older one, which :mod:`streamseg.state_migrations` (the one place that knows how earlier
-  releases differ) brings up to date; a newer or unknown version raises
+- ``Cls.from_state(state)`` builds the component from a state of its own version;
+  :func:`streamseg.state_migrations.upgrade` (the one place that knows how earlier releases
+  differ) brings an older one up to date first; a newer or unknown version raises
   :class:`StateVersionError`.
 
 A class that renames, adds or changes the meaning of a stored field bumps its
@@ -45,10 +45,13 @@ class Stateful:
 
     @classmethod
     def from_state(cls, state: dict):
-        """The component a :meth:`to_state` of this or an earlier release described."""
-        from streamseg.state_migrations import migrate
-
-        fields = migrate(cls, state["version"], dict(state["fields"]))
+        """The component a :meth:`to_state` of this version described (an earlier version:
+        :func:`streamseg.state_migrations.upgrade`)."""
+        if state["version"] != cls.STATE_VERSION:
+            raise StateVersionError(f"{cls.__qualname__} state version {state['version']!r}: "
+                                    f"from_state reads version {cls.STATE_VERSION}; an earlier "
+                                    "one goes through streamseg.state_migrations.upgrade")
+        fields = state["fields"]
         out = cls.__new__(cls)
         for name, value in fields.items():
             object.__setattr__(out, name, value)  # also frozen dataclasses

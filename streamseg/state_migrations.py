@@ -110,3 +110,9 @@ def migrate(cls, version, fields: dict) -> dict:
         fields = step(fields)
         version += 1
     return fields
+
+
+def upgrade(cls, state: dict):
+    """``cls.from_state`` of a state of any version this release reads."""
+    fields = migrate(cls, state["version"], dict(state["fields"]))
+    return cls.from_state({"version": cls.STATE_VERSION, "fields": fields})

@@ -21,7 +21,7 @@ import numpy as np
 import xxhash
 
 from streamseg.state import Stateful
-from streamseg.state_migrations import FORMAT, implied_version, name_of
+from streamseg.state_migrations import FORMAT, implied_version, name_of, upgrade
 
 CHUNK = 4096  # bytes of an array chunk: smaller ones store less per round, more rows
 
@@ -90,7 +90,7 @@ def load(obj, chunks=None, fmt: int = FORMAT):
         fields = {k: load(v, chunks, fmt) for k, v in obj["s"].items()}
         if isinstance(cls, type) and issubclass(cls, Stateful):
             version = obj.get("v", implied_version(fmt, obj["__obj__"]) if fmt < 7 else None)
-            return cls.from_state({"version": version, "fields": fields})
+            return upgrade(cls, {"version": version, "fields": fields})
         if not dataclasses.is_dataclass(cls):
             raise TypeError(f"refusing to build {module}.{qual} from a checkpoint: neither a "
                             "Stateful component nor a dataclass")
