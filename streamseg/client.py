@@ -9,6 +9,7 @@ printing; programs (the demo, the tests, a client of your own) import it from he
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import msgpack
@@ -18,7 +19,24 @@ from zmq.utils.monitor import recv_monitor_message
 from streamseg import protocol
 
 __all__ = ["Refusal", "Subscription", "fetch_since", "handshake", "listen", "request", "takes",
-           "subscribe", "subscriber"]
+           "sending_context", "subscribe", "subscriber"]
+
+
+@contextlib.contextmanager
+def sending_context(ctx: zmq.Context | None = None):
+    """The context a sender's sockets live in: ``ctx`` as given, else a private one that is
+    terminated on leaving, which waits (up to each socket's linger) until what is queued has
+    gone out. pyzmq never terminates ``zmq.Context.instance()`` at interpreter exit, so a
+    process that ends right after closing a socket of it loses what is still queued: a
+    replay's last packets and its ``end``. Close every socket before leaving."""
+    if ctx is not None:
+        yield ctx
+        return
+    own = zmq.Context()
+    try:
+        yield own
+    finally:
+        own.term()
 
 
 def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,

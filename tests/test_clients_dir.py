@@ -187,6 +187,26 @@ def test_python_sender_streams_a_csv_segmented_as_the_file(serve, take_csv):
                    "--batch", "50"], serve, take_csv, "py-send")
 
 
+def test_python_sender_exits_only_once_every_packet_is_out(tmp_path, rec):
+    """The whole take (3.4 MB) to a reader slower than the sender: the script ends after its
+    queue is delivered, `end` last (before it terminated its own context: 44 of 79)."""
+    from tests.test_replay_cli import slow_pull
+
+    path = tmp_path / "whole.csv"
+    header = ["time"] + [f"{j}_{a}" for j in rec.skeleton.names for a in "xyz"]
+    with path.open("w") as f:
+        f.write(",".join(header) + "\n")
+        for i, frame in enumerate(rec.positions):
+            f.write(f"{i / rec.fps:.6f}," + ",".join(f"{v:.6f}" for v in frame.ravel()) + "\n")
+    to, got, reader = slow_pull()
+    done = subprocess.run([sys.executable, str(CLIENTS / "python" / "sender.py"), str(path),
+                           "--to", to, "--speed", "0", "--batch", "60"],
+                          capture_output=True, text=True, timeout=120)
+    reader.join()
+    assert done.returncode == 0, done.stderr
+    assert got == ["announce"] + ["frames"] * -(-rec.n_frames // 60) + ["end"]
+
+
 def test_python_listener_prints_what_the_daemon_published(serve, take_csv):
     _check_listener([sys.executable, str(CLIENTS / "python" / "listener.py"),
                      serve["publish"], "py-listen", "--control", serve["control"]],

@@ -88,3 +88,40 @@ def test_ctrl_c_and_sigterm_send_end(data_dir, sig):
     finally:
         d.stop()
         t.join(10)
+
+
+def slow_pull():
+    """A PULL socket on a free loopback port that takes one message per 50 ms with the
+    smallest queues, so a fast sender's packets wait in the sender's own queue; the
+    messages' types in arrival order (the list grows until 5 s pass without one)."""
+    import zmq
+
+    ctx = zmq.Context.instance()
+    pull = ctx.socket(zmq.PULL)
+    pull.setsockopt(zmq.RCVHWM, 1)
+    pull.setsockopt(zmq.RCVBUF, 4096)
+    port = pull.bind_to_random_port("tcp://127.0.0.1")
+    got = []
+
+    def take():
+        while pull.poll(5000):
+            got.append(pull.recv_multipart()[0].split(b"/")[0].decode())
+            time.sleep(0.05)
+        pull.close()
+
+    reader = threading.Thread(target=take)
+    reader.start()
+    return f"tcp://127.0.0.1:{port}", got, reader
+
+
+def test_replay_exits_only_once_every_packet_is_out(data_dir, rec):
+    """The process ends after its queue is delivered: pyzmq never terminates its global
+    context at exit, so a replay that just closed its socket lost its last ~15 packets and
+    its `end` to a daemon slower than the sender (measured before the fix: 26 of 41)."""
+    to, got, reader = slow_pull()
+    proc = subprocess.run(replay_cmd(data_dir, to, "--speed", "0", "--batch", "120"),
+                          capture_output=True, text=True, timeout=120)
+    reader.join()
+    assert proc.returncode == 0, proc.stderr
+    n_packets = -(-rec.n_frames // 120)
+    assert got == ["announce"] + ["frames"] * n_packets + ["end"]

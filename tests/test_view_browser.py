@@ -4,7 +4,9 @@ published (collected by a listener of our own)."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import json
 import shutil
 import tempfile
 import threading
@@ -148,6 +150,29 @@ def frames_of(page, selector, attr):
         selector, f"els => els.map(e => e.getAttribute('{attr}'))"))
 
 
+def wait_frames(page, selector, attr, expected):
+    """Wait until the page draws exactly ``expected`` (sorted ints of ``attr``): a count alone
+    can match a page that has not yet applied a later withdraw and cut. On a timeout the
+    caller's assert shows the difference."""
+    with contextlib.suppress(sync_api.TimeoutError):
+        page.wait_for_function(
+            "([sel, attr, want]) => JSON.stringify([...document.querySelectorAll(sel)]"
+            ".map(e => +e.getAttribute(attr)).sort((a, b) => a - b)) === want",
+            arg=[selector, attr, json.dumps(sorted(int(v) for v in expected),
+                                            separators=(",", ":"))])
+
+
+def wait_segments(page, expected):
+    """Wait until the page draws exactly the ``expected`` [start, end, label] segments."""
+    with contextlib.suppress(sync_api.TimeoutError):
+        page.wait_for_function(
+            "want => JSON.stringify([...document.querySelectorAll('#seg-layer rect.seg')]"
+            ".map(e => [+e.dataset.start, +e.dataset.end, +e.dataset.label])"
+            ".sort((a, b) => a[0] - b[0] || a[1] - b[1] || a[2] - b[2])) === want",
+            arg=json.dumps(sorted([int(a), int(b), int(c)] for a, b, c in expected),
+                           separators=(",", ":")))
+
+
 def segments_of(page):
     return sorted(tuple(s) for s in page.eval_on_selector_all(
         "#seg-layer rect.seg", "els => els.map(e => [+e.dataset.start, +e.dataset.end, "
@@ -182,13 +207,11 @@ def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_di
     assert cuts and len(final) == 1
     expected = sorted(tuple(s) for s in final[0].segments)
     assert final[0].start == 0 and final[0].end == rec.n_frames  # one relabel covers it all
-    page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut').length "
-                           f"=== {len(cuts)}")
+    wait_frames(page, "#cut-layer line.cut", "data-frame", cuts)
     assert frames_of(page, "#cut-layer line.cut", "data-frame") == cuts
     emitted = {e.frame: e.emitted_at for e in kept}
     assert frames_of(page, "#cut-layer line.cut", "data-emitted") == sorted(emitted.values())
-    page.wait_for_function(f"() => document.querySelectorAll('#seg-layer rect.seg').length "
-                           f"=== {len(expected)}")
+    wait_segments(page, expected)
     assert segments_of(page) == expected
     # the colour key names every relabelled id; the current action is the last segment's
     keys = page.eval_on_selector_all("#key [data-label]", "els => els.map(e => +e.dataset.label)")
@@ -210,11 +233,9 @@ def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_di
     late = browser.new_page()
     late.goto(lv.url + "#stream=86_01")
     late.wait_for_selector('.row[data-stream="86_01"][data-closed="end"]')
-    late.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut').length "
-                           f"=== {len(cuts)}")
+    wait_frames(late, "#cut-layer line.cut", "data-frame", cuts)
     assert frames_of(late, "#cut-layer line.cut", "data-frame") == cuts
-    late.wait_for_function(f"() => document.querySelectorAll('#seg-layer rect.seg').length "
-                           f"=== {len(expected)}")
+    wait_segments(late, expected)
     assert segments_of(late) == expected
     page.close()
     late.close()
@@ -289,8 +310,7 @@ def test_a_withdrawn_pending_cut_leaves_the_page(live, browser, rec):
     page.wait_for_selector('.row[data-stream="w"][data-closed="end"]')
     page.wait_for_function("() => !document.querySelector('#cut-layer line.cut"
                            f"[data-frame=\"{f}\"]')")
-    page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut').length "
-                           f"=== {len(final)}")
+    wait_frames(page, "#cut-layer line.cut", "data-frame", final)
     assert frames_of(page, "#cut-layer line.cut", "data-frame") == final
     assert [e.frame for e in lv.of("w", "withdraw")] == [e.frame for e in events
                                                          if isinstance(e, WithdrawEvent)]

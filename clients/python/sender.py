@@ -121,8 +121,12 @@ def main(argv):
     if fps is None or not fps > 0:
         sys.exit(f"{path}: no time column gives the frame rate: give --fps HZ")
     stream = stream or path.replace("\\", "/").rsplit("/", 1)[-1].rsplit(".", 1)[0]
-    sock = zmq.Context.instance().socket(zmq.PUSH)
-    sock.setsockopt(zmq.LINGER, 10_000)  # what is queued at the end still goes out
+    # a context of our own, terminated at the end: termination waits (up to the linger)
+    # until the queued packets are out; pyzmq never terminates Context.instance() at exit,
+    # so a script that just closes its socket and exits can lose its last packets and `end`
+    ctx = zmq.Context()
+    sock = ctx.socket(zmq.PUSH)
+    sock.setsockopt(zmq.LINGER, 10_000)  # how long ctx.term() waits for the queue at the end
     if keys:
         use_keys(sock, keys)
     sock.connect(endpoint)
@@ -137,6 +141,7 @@ def main(argv):
                                           len(joints)))
     sock.send_multipart(message("end", stream))
     sock.close()
+    ctx.term()
     print(f"{stream}: sent {len(rows)} frames of {len(joints)} joints at {fps:g} Hz",
           flush=True)
     return 0

@@ -8,6 +8,7 @@ With no daemon listening it says it is waiting and gives up after ``--wait`` sec
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import sys
 import time
@@ -17,7 +18,7 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
-from streamseg.client import ipv6
+from streamseg.client import ipv6, sending_context
 from streamseg.exceptions import ParameterError
 from streamseg.protocol.auth import read_token
 from streamseg.recording import UP_AXES
@@ -145,8 +146,9 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
         raise ParameterError(f"--speed {speed} is invalid: expected times real time >= 0 "
                              "(0: as fast as the daemon takes the frames)")
     own = sock is None
+    delivery = contextlib.ExitStack()  # a private context: leaving waits for the queue
     if own:
-        ctx = ctx or zmq.Context.instance()
+        ctx = delivery.enter_context(sending_context(ctx))
         sock = ctx.socket(zmq.PUSH)
         sock.setsockopt(zmq.LINGER, 30000)  # deliver what is queued before closing
         if wait is not None:  # writable only once connected: "waiting" is then visible
@@ -187,6 +189,7 @@ def replay(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch: 
     finally:
         if own:
             sock.close()
+        delivery.close()
     return n
 
 
@@ -205,6 +208,13 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
+    # the command's own context: it ends only once the queued packets are out (or the
+    # linger is over), never losing the last ones as an exit from Context.instance() does
+    with sending_context() as ctx:
+        return _replay_command(args, ctx)
+
+
+def _replay_command(args, ctx) -> int:
     from streamseg.commands.inputs import read_recording
 
     # what the daemon would refuse, refused here: it would only log it, and we would say "sent"
@@ -228,7 +238,6 @@ def _run(args) -> int:
         rec = dataclasses.replace(rec, skeleton=dataclasses.replace(rec.skeleton, up=args.up))
     stream = args.stream or stream_id(args.file)
     dtype = np.float32 if args.float32 else np.float64
-    ctx = zmq.Context.instance()
     curve = None
     if args.curve_dir:
         from streamseg.daemon.security import ClientKeys
@@ -288,8 +297,9 @@ def publish(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch:
     if not speed >= 0:
         raise ParameterError(f"--speed {speed} is invalid: expected times real time >= 0")
     own = sock is None
+    delivery = contextlib.ExitStack()
     if own:
-        ctx = ctx or zmq.Context.instance()
+        ctx = delivery.enter_context(sending_context(ctx))
         sock = ctx.socket(zmq.PUB)
         sock.setsockopt(zmq.LINGER, 2000)
         ipv6(sock, endpoint)
@@ -317,6 +327,7 @@ def publish(recording, endpoint: str, *, stream: str, speed: float = 1.0, batch:
     finally:
         if own:
             sock.close()
+        delivery.close()
     return n
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
-from streamseg.client import ipv6
+from streamseg.client import ipv6, sending_context
 from streamseg.exceptions import ParameterError
 from streamseg.lsl import pylsl
 from streamseg.lsl.meta import describe, stream_skeleton
@@ -79,7 +79,7 @@ class Feeder(threading.Thread):
         self.curve = curve
         self.on_error = on_error or (lambda msg: log.error("%s", msg))
         self.on_open = on_open or (lambda msg: log.info("%s", msg))
-        self.ctx = ctx or zmq.Context.instance()
+        self.ctx = ctx  # None: the thread's own, which ends once its queue is out
         self.markers = markers
         self.marker_columns = None  # the map's columns, when it applies (_plan)
         self.stopping = threading.Event()
@@ -106,17 +106,18 @@ class Feeder(threading.Thread):
             self.error = f"LSL stream {self.meta['name']!r}: {type(err).__name__}: {err}"
             self.on_error(self.error)
             return
-        sock = self.ctx.socket(zmq.PUSH)
-        sock.setsockopt(zmq.LINGER, 2000)
-        if self.curve is not None:
-            self.curve.apply(sock)
-        ipv6(sock, self.endpoint)
-        sock.connect(self.endpoint)
-        try:
-            self._pump(lsl, inlet, sock)
-        finally:
-            sock.close()
-            inlet.close_stream()
+        with sending_context(self.ctx) as ctx:
+            sock = ctx.socket(zmq.PUSH)
+            sock.setsockopt(zmq.LINGER, 2000)
+            if self.curve is not None:
+                self.curve.apply(sock)
+            ipv6(sock, self.endpoint)
+            sock.connect(self.endpoint)
+            try:
+                self._pump(lsl, inlet, sock)
+            finally:
+                sock.close()
+                inlet.close_stream()
 
     def _plan(self, xml: str) -> None:
         from streamseg.skeleton.joint_sets import complete
