@@ -381,3 +381,27 @@ def test_failed_start_still_shuts_down():
     assert isinstance(box.get("err"), RuntimeError) and "warmup failed" in str(box["err"])
     assert "rc" not in box
     assert d.ingest.sock.closed and d.ingest.wake.closed and d.pub.closed and d.control.sock.closed
+
+
+def test_control_answers_while_a_lossy_burst_is_processed(start_daemon, rec):
+    """A sender with a frame missing before every packet makes the daemon run the pipeline
+    once per packet (a gap each). The loop works through such a backlog in slices, answering
+    control requests between them: replies during the burst show the stream part-way, where
+    one loop pass over the whole queue answered only once it was done."""
+    d, ep = start_daemon()
+    sock = push(ep)
+    sock.send_multipart(P.encode(announce_of(rec, "lossy")))
+    last = 4000
+    for a in range(0, last, 2):
+        sock.send_multipart(P.encode(P.Frames("lossy", a, a / rec.fps, rec.positions[a:a + 1])))
+    sock.send_multipart(P.encode(P.End("lossy")))
+    sock.close(linger=10_000)
+    seen = []
+    while True:
+        state = request(ep["control"], "state", stream="lossy")
+        if state.get("closed"):
+            break
+        if state.get("ok"):
+            seen.append(state["frame"])
+    assert any(0 < f < last - 1 for f in seen), seen
+    assert d.streams == {} and state["frame"] == last - 1

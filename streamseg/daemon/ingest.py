@@ -259,13 +259,14 @@ class Ingest:
         while self.wake.poll(0):
             self.wake.recv()
 
-    def take(self, max_items: int, max_frames: int):
+    def take(self, max_items: int, max_frames: int, until: float | None = None):
         """Yield queued items, oldest first, at most ``max_items`` and, once ``max_frames``
-        frames are out, no more (the loop thread)."""
+        frames are out or ``time.perf_counter()`` passed ``until``, no more (the loop
+        thread)."""
         items = self.items
         frames = 0
         for _ in range(max_items):
-            if not items:
+            if not items or (until is not None and time.perf_counter() > until):
                 break
             it = items.popleft()
             n = item_frames(it)

@@ -28,6 +28,9 @@ from streamseg.protocol.auth import matches
 log = logging.getLogger("streamseg.daemon")
 
 
+SLICE_S = 0.02  # s: the longest the loop spends on ingest before it serves the rest
+
+
 class Outbox(Protocol):
     """What the intake asks of the daemon (the loop thread)."""
 
@@ -100,9 +103,13 @@ class Intake:
 
     def take(self, now: float) -> None:
         """Handle the messages the receiver thread queued (at most ``drain`` packets and
-        ``drain_frames`` frames), then run each stream's pipeline once on what it got."""
+        ``drain_frames`` frames, and no more once :data:`SLICE_S` of work is done), then run
+        each stream's pipeline once on what it got."""
         c = self.config
-        for it in self.ingest.take(c.drain, c.drain_frames):
+        # packets that each run a pipeline (a gap in every one) can cost a millisecond each:
+        # the loop answers control requests and beats between slices of them
+        until = time.perf_counter() + SLICE_S
+        for it in self.ingest.take(c.drain, c.drain_frames, until):
             self.n_packets += 1
             try:
                 if type(it) is FramesItem:

@@ -2,20 +2,24 @@
 
 The parts, each in its own module: :class:`~streamseg.daemon.ingest.Ingest` (the ingest
 sockets, a receiver thread, a queue bounded in bytes), :class:`~streamseg.daemon.intake.Intake`
-(the stream table and the handling of each packet), :class:`~streamseg.daemon.take_order.TakeOrder`
-(a stream id's events across its takes), :class:`~streamseg.daemon.checkpoint.CheckpointRounds`
-(when stream states are copied), :class:`~streamseg.daemon.control.Control` (the REP socket)
+(the stream table and the handling of each packet),
+:class:`~streamseg.daemon.publication.Publication` (numbering, the event log, the PUB socket
+and the order of a stream id's takes), :class:`~streamseg.daemon.relabel_queue.RelabelQueue`
+(which stream is relabelled next), :class:`~streamseg.daemon.checkpoint.CheckpointRounds`
+(when stream states are copied), :class:`~streamseg.daemon.closed_streams.ClosedStreams`
+(what late joiners learn of ended streams), :class:`~streamseg.daemon.storage_report.StorageReport`
+(failed writes said as errors), :class:`~streamseg.daemon.control.Control` (the REP socket)
 and :class:`~streamseg.daemon.shutdown.Shutdown`. One thread, the loop, runs them all except
 the receiver, the event log's writer and the relabel worker: it takes what the receiver
-queued, publishes events on PUB, answers control requests, and hands relabel snapshots to
-:class:`~streamseg.daemon.worker.RelabelWorker`, whose results it publishes.
+queued (in slices of at most ``intake.SLICE_S``, so control requests and heartbeats are
+served between them), publishes events, answers control requests, and hands relabel
+snapshots to :class:`~streamseg.daemon.worker.RelabelWorker`, whose results it publishes.
 """
 
 from __future__ import annotations
 
 import collections
 import logging
-import os
 import sys
 import threading
 import time
@@ -28,13 +32,15 @@ from streamseg import protocol
 from streamseg.config import DaemonConfig
 from streamseg.daemon import checkpoint, checkpoint_store, limits
 from streamseg.daemon.backends import relabel_worker
+from streamseg.daemon.closed_streams import ClosedStreams
 from streamseg.daemon.control import Control
 from streamseg.daemon.cut_events import publish_cut
-from streamseg.daemon.eventlog import LogReadError, Numbering, open_log
+from streamseg.daemon.eventlog import LogReadError
 from streamseg.daemon.ingest import Ingest
 from streamseg.daemon.intake import Intake
-from streamseg.daemon.options import skeleton_from
-from streamseg.daemon.pipeline import Algorithms
+from streamseg.daemon.options import algorithms_for, skeleton_from
+from streamseg.daemon.publication import Publication
+from streamseg.daemon.relabel_queue import RelabelQueue
 from streamseg.daemon.security import (
     ConnectionIds,
     ServerSecurity,
@@ -44,15 +50,10 @@ from streamseg.daemon.security import (
 )
 from streamseg.daemon.shutdown import Shutdown
 from streamseg.daemon.state_lock import lock_state_dir, unlock
+from streamseg.daemon.storage_report import StorageReport
 from streamseg.daemon.streams import ErrorBook, StreamState
-from streamseg.daemon.take_order import TakeOrder
-from streamseg.daemon.worker import RelabelJob
 
 log = logging.getLogger("streamseg.daemon")
-CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
-# seconds the heartbeats still carry a closed stream's last event number (a subscriber that
-# lost the stream's tail, `closed` included, learns it from any of them); CLOSED_KEPT at most
-CLOSED_LAST_SEQ_S = 30.0
 SWITCH_INTERVAL = 0.0005  # s: CPython's GIL switch interval while a daemon runs
 
 
@@ -79,53 +80,26 @@ class Daemon:
     >>> endpoints = d.bind(); threading.Thread(target=d.run).start()  # doctest: +SKIP
     """
 
-    def __init__(self, config: DaemonConfig | None = None, algorithms: Algorithms | None = None):
+    def __init__(self, config: DaemonConfig | None = None, algorithms=None):
         self.config = config or DaemonConfig()
-        self.algorithms = algorithms or Algorithms(repetitions=self.config.repetitions)
-        if self.config.label_memory and self.algorithms.memory_config is None:
-            from streamseg.config.memory import LabelMemoryConfig
-
-            # the switch turns the memory on with its defaults; Algorithms(memory_config=...)
-            # sets other ones (and turns it on by itself)
-            self.algorithms.memory_config = LabelMemoryConfig()
-        if self.algorithms.gap_fill_s is None:  # Algorithms(gap_fill_s=...) wins over config
-            self.algorithms.gap_fill_s = float(self.config.gap_fill)
-        if self.algorithms.settle_s is None:  # as gap_fill_s; settling needs relabels
-            self.algorithms.settle_s = float(self.config.settle) \
-                if self.config.relabel_interval > 0 else 0.0
-        if self.algorithms.focus_s is None:
-            self.algorithms.focus_s = float(self.config.focus)
-        if self.algorithms.markers is None and self.config.markers:  # as gap_fill_s
-            from streamseg.skeleton.marker_map import load_marker_map
-
-            self.algorithms.markers = load_marker_map(self.config.markers)
+        self.algorithms = algorithms_for(self.config, algorithms)
         self.ctx = zmq.Context()
         self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
-        self.closed_states: collections.OrderedDict = collections.OrderedDict()
+        self.gone = ClosedStreams()  # for late joiners, and the heartbeats' last numbers
         self.errors = ErrorBook()
         self.totals = collections.Counter()
         self.endpoints: dict = {}
         self.ready = threading.Event()
         self._stop = threading.Event()
-        # streams due for a relabel, oldest first: each gets its snapshot when the worker has
-        # a free slot, so the interval a stream gets adapts to the cores (round robin)
-        self.due: collections.OrderedDict = collections.OrderedDict()
         self._started = time.monotonic()
         self._next_beat = 0.0
         self._next_sweep = 0.0
         state_dir = self.config.state_dir if self.config.state_dir != "none" else ""
         # before the log and the checkpoints are opened: a second daemon touches neither
         self.state_lock = lock_state_dir(state_dir) if state_dir else None
-        # the log's writer thread says "committed" through a pipe the loop polls
-        self._log_rx, self._log_tx = os.pipe()
-        os.set_blocking(self._log_rx, False)
-        os.set_blocking(self._log_tx, False)
-        self.eventlog = open_log(self.config, notify=self._log_committed)
-        self.order = TakeOrder()  # a stream id's events across its takes
-        # closed stream -> until when the heartbeats carry its last number, oldest first
-        self._closed_since_beat: collections.OrderedDict = collections.OrderedDict()
-        self._store_failed: dict = {}  # reason -> failed writes already reported
-        self.numbering = Numbering(self.eventlog)
+        self.out = Publication(self.config, self.totals)
+        self.eventlog, self.numbering, self.order = (self.out.eventlog, self.out.numbering,
+                                                     self.out.order)
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
         self.security = None
         self.conn_ids = None  # names of ingest connections without CURVE (security.py)
@@ -135,7 +109,9 @@ class Daemon:
                                                    self.config.checkpoint_interval,
                                                    self._checkpoint_copy)
                        if self.checkpoints is not None else None)
+        self.storage = StorageReport(self.eventlog, self.checkpoints, self.error)
         self.worker = relabel_worker(self.algorithms, self.config)
+        self.relabels = RelabelQueue(self.worker, self.config.relabel_interval)
         self.default_skeleton = None
         if self.config.default_skeleton:
             from streamseg.io.asf import read_asf
@@ -181,20 +157,13 @@ class Daemon:
         self.ingest = self.intake.ingest = Ingest(self.ctx, c, secure_ingest)
         self.intake.owners(self.security is not None, self.token)
         ingest_endpoint = self.ingest.bind(_bindable(c.ingest))
-        self.pub = self.ctx.socket(zmq.PUB)
-        secure(self.pub)
-        self.pub.setsockopt(zmq.SNDHWM, c.hwm)
-        ipv6(self.pub, c.publish)
-        self.pub.setsockopt(zmq.LINGER, 2000)  # final events get out at shutdown
-        self.pub.bind(_bindable(c.publish))
+        publish_endpoint = self.out.bind(self.ctx, _bindable(c.publish), secure)
+        self.pub = self.out.pub
         self.poller = zmq.Poller()
         self.poller.register(self.ingest.wake, zmq.POLLIN)
         if self.eventlog is not None:
-            self.poller.register(self._log_rx, zmq.POLLIN)
-        self.endpoints = {
-            "ingest": ingest_endpoint,
-            "publish": self.pub.getsockopt_string(zmq.LAST_ENDPOINT),
-        }
+            self.poller.register(self.out.wake_fd, zmq.POLLIN)
+        self.endpoints = {"ingest": ingest_endpoint, "publish": publish_endpoint}
         if c.control:
             sock = self.ctx.socket(zmq.REP)
             secure(sock)
@@ -262,10 +231,10 @@ class Daemon:
                     self.control.serve()
                 self.collect()
                 if self.eventlog is not None:
-                    if self._log_rx in events:
-                        self._drain_pipe()
-                    self._publish_logged()
-                self._feed()
+                    if self.out.wake_fd in events:
+                        self.out.woken()
+                    self.out.publish_logged()
+                self.relabels.feed(self.streams)
                 if now >= self._next_sweep:
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
@@ -316,27 +285,6 @@ class Daemon:
         if lost:
             log.info("%d streams not resumed after the restart: closed (restart)", len(lost))
 
-    def _feed(self) -> None:
-        """Hand the oldest due streams' snapshots to the worker while it has free slots."""
-        while self.due and self.worker.free() > 0:
-            st, _ = self.due.popitem(last=False)
-            if (self.streams.get(st.stream) is st
-                    and not self.worker.pending((st.stream, st.gen))):
-                self._submit(st, final=False)
-
-    def _submit(self, st: StreamState, final: bool) -> bool:
-        feats, frames, focused = st.pipeline.relabel_snapshot(
-            final or st.pipeline.learned >= st.next_relabel)
-        if feats.shape[0] < 2:
-            return False
-        if not focused:  # a relabel a cut made due leaves the cadence as it was
-            st.next_relabel = st.pipeline.learned + int(round(self.config.relabel_interval
-                                                              * st.fps))
-        self.worker.submit(RelabelJob((st.stream, st.gen), feats, frames, st.fps,
-                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames),
-                                      focused))
-        return True
-
     def _checkpoint_copy(self, st: StreamState):
         """``(stream, frame, snapshot)`` of one stream for a checkpoint, or None."""
         if self.order and self.order.waits(st.stream, st.gen):
@@ -354,43 +302,8 @@ class Daemon:
     # --- events ------------------------------------------------------------------------------
 
     def publish(self, st: StreamState | None, ev):
-        """Number, log and publish one event; returns it with its ``seq`` (None while it waits
-        for an older take of its stream id to close). With a log it is published once
-        committed (:meth:`_publish_logged`)."""
-        if self.order and self.order.hold(st, ev):
-            return ev
-        return self._send(st, ev)
-
-    def _send(self, st: StreamState | None, ev):
-        ev, parts = self.numbering.encode(ev)
-        if self.eventlog is None:
-            self.pub.send_multipart(parts)
-        elif ev.type == "stats":  # behind the events numbered before it
-            self.eventlog.publish_after(parts)
-            self._publish_logged()
-        self.totals["events"] += 1
-        if st is not None:
-            st.events_out += 1
-        return ev
-
-    def _log_committed(self) -> None:
-        """The log's writer thread: a batch is committed (wakes the loop)."""
-        try:
-            os.write(self._log_tx, b"\0")
-        except (BlockingIOError, OSError):
-            pass  # the pipe is full (the loop wakes anyway) or closed (shutdown)
-
-    def _drain_pipe(self) -> None:
-        try:
-            while os.read(self._log_rx, 4096):
-                pass
-        except (BlockingIOError, OSError):
-            pass
-
-    def _publish_logged(self) -> None:
-        """Publish the events the log has committed, in their order."""
-        for parts in self.eventlog.committed():
-            self.pub.send_multipart(parts)
+        """Number, log and publish one event (:meth:`Publication.publish`)."""
+        return self.out.publish(st, ev)
 
     def results(self, st: StreamState, cuts, reps) -> None:
         """Publish a pipeline step's ``(frame, score, emitted, kind)`` cuts and ``(start, end,
@@ -424,13 +337,12 @@ class Daemon:
             self.order.opened(st, [(g, self.closing[(st.stream, g)][0]) for g in older])
 
     def flushed(self, st: StreamState) -> None:
-        if self.config.relabel_interval > 0 and st.pipeline.relabel_due(st.next_relabel):
-            self.due[st] = None  # snapshot taken when the worker has a free slot (_feed)
+        self.relabels.check(st)  # its snapshot is taken when the worker has a free slot
 
     def close(self, st: StreamState, reason: str) -> None:
         """Final cuts now; the final relabel in the worker; then ``closed``."""
         self.intake.flush(st)
-        self.due.pop(st, None)
+        self.relabels.drop(st)
         try:
             final = st.pipeline.finish()
         except Exception as err:  # never die: report, close without the final cuts
@@ -448,7 +360,7 @@ class Daemon:
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
             self.rounds.forget(st.stream)
-        if self.config.relabel_interval > 0 and self._submit(st, final=True):
+        if self.config.relabel_interval > 0 and self.relabels.submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
         else:
             self.closed(st, reason)
@@ -462,16 +374,9 @@ class Daemon:
             self.publish(st, ev)
         self.publish(st, protocol.Closed(st.stream, reason, st.next_seq))
         if self.order:
-            self.order.closed(st, self._send, lambda: self.numbering.current(st.stream),
+            self.order.closed(st, self.out.send, lambda: self.numbering.current(st.stream),
                               any(s == st.stream for (s, _) in self.closing))
-        self._closed_since_beat[st.stream] = time.monotonic() + CLOSED_LAST_SEQ_S
-        self._closed_since_beat.move_to_end(st.stream)
-        state = st.state()
-        state["closed"] = reason
-        self.closed_states[st.stream] = state
-        self.closed_states.move_to_end(st.stream)
-        while len(self.closed_states) > CLOSED_KEPT:
-            self.closed_states.popitem(last=False)
+        self.gone.add(st.stream, st.state(), reason)
         log.info("stream %s closed (%s) after %d frames", st.stream, reason, st.next_seq)
 
     def collect(self) -> None:
@@ -505,43 +410,15 @@ class Daemon:
         if job.final and reason is not None:
             self.closing.pop(job.key, None)
             self.closed(st, reason)
-        elif reason is None and st.pipeline.relabel_due(st.next_relabel):
-            self.due[st] = None  # became due while this one ran: next in line
+        elif reason is None:
+            self.relabels.check(st)  # became due while this one ran: next in line
 
     def _sweep(self, now: float) -> None:
         self._next_sweep = now + 0.5
         limit = now - self.config.idle_timeout
         for st in [s for s in self.streams.values() if s.last_seen < limit]:
             self.close(st, "idle")
-        self._report_storage()
-
-    def _report_storage(self) -> None:
-        """Failed writes of the state directory (disk full, unwritable), counted by the writer
-        threads, as daemon-wide ``error`` events: the live events go on, but an operator must
-        learn that the log or the checkpoints are not being kept."""
-        for store, reason, what in ((self.eventlog, "event_log", "events not logged"),
-                                    (self.checkpoints, "checkpoint", "checkpoint writes failed")):
-            n = store.failed - self._store_failed.get(reason, 0) if store is not None else 0
-            if n > 0:
-                self._store_failed[reason] = store.failed
-                self.error(None, reason, f"{what} in {store.path} (disk full or not "
-                                          "writable? the daemon's log says): free space there, "
-                                          "or restart with another --state-dir", n)
-        store = self.checkpoints
-        n = store.paused - self._store_failed.get("paused", 0) if store is not None else 0
-        if n > 0:
-            self._store_failed["paused"] = store.paused
-            free = "" if store.free_bytes is None else f" ({store.free_bytes / 1e6:.1f} MB free)"
-            self.error(None, "checkpoint", f"checkpoint rounds paused: the disk of "
-                        f"{store.path.parent} is (nearly) full{free} and the event log goes "
-                        "first; they resume when there is room", n)
-        log_ = self.eventlog
-        n = log_.read_failed - self._store_failed.get("read", 0) if log_ is not None else 0
-        if n > 0:
-            self._store_failed["read"] = log_.read_failed
-            self.error(None, "event_log", f"the event log {log_.path} could not be read (a "
-                        "damaged file? the daemon's log says): `since` cannot answer from it; "
-                        "stop the daemon and move the file aside (a new log starts)", n)
+        self.storage.check()
 
     def _beat(self, now: float) -> None:
         self._next_beat = now + self.config.heartbeat
@@ -549,10 +426,7 @@ class Daemon:
             self.publish(self.streams.get(ev.stream) if ev.stream else None, ev)
         # the last numbers published, so a subscriber sees what it lost after a stream's last
         # event it received (events of a take that waits for an older one are not numbered)
-        gone = self._closed_since_beat
-        while gone and (next(iter(gone.values())) < now or len(gone) > CLOSED_KEPT):
-            gone.popitem(last=False)
-        keys = [*gone, *self.streams, protocol.DAEMON_WIDE]
+        keys = [*self.gone.recent(now), *self.streams, protocol.DAEMON_WIDE]
         last = {k: n for k in keys if (n := self.numbering.last.get(k))}
         self.publish(None, protocol.Stats(round(now - self._started, 3), self._totals(),
                                            {s: st.stats() for s, st in self.streams.items()},
@@ -583,8 +457,7 @@ class Daemon:
     def listing(self) -> dict:
         # closed ones too (those `state` still answers for, oldest first): a client that
         # joins after a stream ended (the view beside a daemon) can still list it
-        closed = [{"stream": s, "closed": cs.get("closed"), "frame": cs.get("frame")}
-                  for s, cs in self.closed_states.items() if s not in self.streams]
+        closed = self.gone.listing(self.streams)
         return {"streams": [{"stream": s, "fps": st.fps, "frame": st.next_seq,
                              "revision": st.revision} for s, st in self.streams.items()],
                 "closed": closed}
@@ -596,7 +469,7 @@ class Daemon:
         for (s, _), (cst, reason) in self.closing.items():
             if s == stream:
                 return {**cst.state(), "closed": reason}
-        return self.closed_states.get(stream)
+        return self.gone.get(stream)
 
     def open_ids(self) -> list:
         return list(self.streams)
@@ -606,7 +479,7 @@ class Daemon:
                 "streams": {s: st.stats() for s, st in self.streams.items()}}
 
     def hello(self, token: str) -> None:
-        self.pub.send_multipart(protocol.encode(protocol.Hello(token)))
+        self.out.hello(token)
 
     def checkpoint_now(self) -> int | None:
         if self.checkpoints is None:
@@ -624,7 +497,7 @@ class Daemon:
             last = self.eventlog.logged_seq(stream)
             skipped = self.eventlog.skipped(stream, seq)
         except LogReadError:  # a damaged file: said as an `error` event too
-            self._report_storage()
+            self.storage.check()
             raise
         events = [msgpack.unpackb(b, raw=False) for b in bodies]
         return {"stream": stream, "events": events, "first": first, "last": last,
@@ -636,7 +509,7 @@ class Daemon:
         try:
             return self.eventlog.streams(limit)
         except LogReadError:  # a damaged file: said as an `error` event too
-            self._report_storage()
+            self.storage.check()
             raise
 
     def take_queued(self) -> None:
@@ -663,7 +536,8 @@ class Daemon:
     def _release_steps(self) -> list:
         steps = []
         if self.eventlog is not None and getattr(self, "pub", None) is not None:
-            steps.append(("publishing the logged events", self._publish_final))
+            steps.append(("publishing the logged events",
+                          lambda: self.out.publish_final(self.config.shutdown_relabel + 5.0)))
         steps.append(("stopping the relabel worker",
                       lambda: self.worker.stop(timeout=self.config.shutdown_relabel)))
         if self.ingest is not None:
@@ -678,25 +552,13 @@ class Daemon:
                 steps.append((f"stopping {type(part).__name__}", part.stop))
         steps.append(("terminating the ZeroMQ context", self.ctx.term))
         if self.eventlog is not None:  # after the final events: they are logged too
-            steps.append(("closing the event log", self._close_log))
-        steps += [("closing the log pipe", lambda: [os.close(fd) for fd in
-                                                     (self._log_rx, self._log_tx)])]
+            steps.append(("closing the event log", self.out.close_log))
+        steps.append(("closing the log pipe", self.out.close_pipe))
         if self.checkpoints is not None:
             steps.append(("closing the checkpoint store", self.checkpoints.close))
         # last: another daemon may take the directory now
         steps.append(("unlocking the state directory", self._unlock))
         return steps
-
-    def _publish_final(self) -> None:
-        # the final events go out once committed, before the socket closes
-        if not self.eventlog.sync(self.config.shutdown_relabel + 5.0):
-            log.error("event log %s: the last events were not committed in time: not "
-                      "published", self.eventlog.path)
-        self._publish_logged()
-
-    def _close_log(self) -> None:
-        self.eventlog.close()
-        self.eventlog.notify = None
 
     def _unlock(self) -> None:
         unlock(self.state_lock)
