@@ -13,6 +13,8 @@ import collections
 import logging
 import os
 
+import msgpack
+import numpy as np
 import zmq
 
 from streamseg import protocol
@@ -76,6 +78,52 @@ class Publication:
         if st is not None:
             st.events_out += 1
         return ev
+
+    def skip_unlogged(self, stream: str) -> None:
+        """After a restart that resumed ``stream``: the numbers of events published in the
+        last moments before the crash may not have reached the log. They are skipped, never
+        reused for other events (published only once logged, they are there unless the disk
+        refused them); ``since`` says they were skipped, not lost."""
+        last = self.numbering.current(stream)
+        self.numbering.last[stream] = last + protocol.SEQ_SKIP
+        if self.eventlog is not None:
+            self.eventlog.skip(stream, last + 1, last + protocol.SEQ_SKIP)
+
+    def close_lost_takes(self, resumed) -> None:
+        """``closed`` (reason ``restart``) for the takes a crash ended: events of them are in
+        the log, no ``closed``, and they are not in ``resumed``; so every take of an id ends
+        with ``closed`` before the next one begins."""
+        if self.eventlog is None:
+            return
+        try:
+            lost = [s for s in self.eventlog.open_takes() if s not in resumed]
+        except Exception as err:  # an unreadable log is reported by its read counter
+            log.warning("event log: the open takes could not be read: %s", err)
+            return
+        for stream in lost:
+            self.publish(None, protocol.Closed(stream, "restart", 0))
+        if lost:
+            log.info("%d streams not resumed after the restart: closed (restart)", len(lost))
+
+    def since(self, stream: str, seq: int, limit: int) -> dict | None:
+        """The control op ``since``: at most ``limit`` logged events of ``stream`` after
+        ``seq`` (None without a log); raises LogReadError on a damaged file."""
+        if self.eventlog is None:
+            return None
+        bodies, first = self.eventlog.since(stream, seq, limit)
+        last = self.eventlog.logged_seq(stream)
+        skipped = self.eventlog.skipped(stream, seq)
+        events = [msgpack.unpackb(b, raw=False) for b in bodies]
+        return {"stream": stream, "events": events, "first": first, "last": last,
+                "skipped": skipped, "more": len(events) == limit}
+
+    def wait_stats(self) -> dict:
+        """Commit-then-publish: each event's wait for its commit, last 4096 events, in ms."""
+        if self.eventlog is None or not self.eventlog.waits:
+            return {}
+        w50, w99 = np.percentile(np.fromiter(self.eventlog.waits, float), (50, 99))
+        return {"publish_wait_p50_ms": round(w50 * 1e3, 3),
+                "publish_wait_p99_ms": round(w99 * 1e3, 3)}
 
     def hello(self, token: str) -> None:
         """The control token's proof on PUB (protocol/auth.py), not numbered."""

@@ -24,8 +24,6 @@ import sys
 import threading
 import time
 
-import msgpack
-import numpy as np
 import zmq
 
 from streamseg import protocol
@@ -208,7 +206,7 @@ class Daemon:
                 self.error(None, "event_log", f"the event log {self.eventlog.path} was "
                             f"damaged ({why}): moved to {aside}; a new log started")
             self._restore(self._started)
-            self._close_lost_takes()
+            self.out.close_lost_takes(self.streams)
             if self.eventlog is not None:
                 # what the start decided (a damaged log's error, the takes a crash ended, the
                 # numbers skipped) is on record before the daemon answers: a `since` right
@@ -256,34 +254,12 @@ class Daemon:
         for st in checkpoint.restored(self.checkpoints, self.algorithms):
             self.intake.restored(st, now)
             self.rounds.seen[st.stream] = st.frames_in
-            # events published in the last moments before the crash may not have reached the
-            # log: their numbers are skipped, never reused for other events (published only
-            # once logged, they are there unless the disk refused them)
-            last = self.numbering.current(st.stream)
-            self.numbering.last[st.stream] = last + protocol.SEQ_SKIP
-            if self.eventlog is not None:  # `since` says they were skipped, not lost
-                self.eventlog.skip(st.stream, last + 1, last + protocol.SEQ_SKIP)
+            self.out.skip_unlogged(st.stream)
             n += 1
             log.info("stream %s restored from its checkpoint at frame %d", st.stream,
                      st.next_seq)
         self.totals["streams_restored"] += n
         return n
-
-    def _close_lost_takes(self) -> None:
-        """``closed`` (reason ``restart``) for the takes a crash ended: events of them are in
-        the log, no ``closed``, and no checkpoint resumed them; so every take of an id ends
-        with ``closed`` before the next one begins."""
-        if self.eventlog is None:
-            return
-        try:
-            lost = [s for s in self.eventlog.open_takes() if s not in self.streams]
-        except Exception as err:  # an unreadable log is reported by its read counter
-            log.warning("event log: the open takes could not be read: %s", err)
-            return
-        for stream in lost:
-            self.publish(None, protocol.Closed(stream, "restart", 0))
-        if lost:
-            log.info("%d streams not resumed after the restart: closed (restart)", len(lost))
 
     def _checkpoint_copy(self, st: StreamState):
         """``(stream, frame, snapshot)`` of one stream for a checkpoint, or None."""
@@ -441,11 +417,7 @@ class Daemon:
                    latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
                    relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason(),
                    **self.ingest.stats())
-        if self.eventlog is not None and self.eventlog.waits:
-            # commit-then-publish: each event's wait for its commit, last 4096 events
-            w50, w99 = np.percentile(np.fromiter(self.eventlog.waits, float), (50, 99))
-            out.update(publish_wait_p50_ms=round(w50 * 1e3, 3),
-                       publish_wait_p99_ms=round(w99 * 1e3, 3))
+        out.update(self.out.wait_stats())
         if self.checkpoints is not None:
             out["checkpoints"] = self.rounds.copied  # stream states copied for the store
             out["checkpoint_interval_s"] = round(self.rounds.gap, 3)
@@ -490,18 +462,11 @@ class Daemon:
         return n
 
     def events_since(self, stream: str, seq: int, limit: int) -> dict | None:
-        if self.eventlog is None:
-            return None
         try:
-            bodies, first = self.eventlog.since(stream, seq, limit)
-            last = self.eventlog.logged_seq(stream)
-            skipped = self.eventlog.skipped(stream, seq)
+            return self.out.since(stream, seq, limit)
         except LogReadError:  # a damaged file: said as an `error` event too
             self.storage.check()
             raise
-        events = [msgpack.unpackb(b, raw=False) for b in bodies]
-        return {"stream": stream, "events": events, "first": first, "last": last,
-                "skipped": skipped, "more": len(events) == limit}
 
     def logged_streams(self, limit: int) -> list | None:
         if self.eventlog is None:
