@@ -246,6 +246,31 @@ class Algorithms:
         pipe.finish_reps()
 
 
+def algorithms_for(config, algorithms: Algorithms | None = None) -> Algorithms:
+    """The daemon's per-stream algorithms: ``algorithms`` (default: LOF cuts + ACA relabel
+    with default configs) with what it leaves unset taken from ``config``. What
+    ``Algorithms(...)`` was given wins over the config."""
+    algorithms = algorithms or Algorithms(repetitions=config.repetitions)
+    if config.label_memory and algorithms.memory_config is None:
+        from streamseg.config.memory import LabelMemoryConfig
+
+        # the switch turns the memory on with its defaults; Algorithms(memory_config=...)
+        # sets other ones (and turns it on by itself)
+        algorithms.memory_config = LabelMemoryConfig()
+    if algorithms.gap_fill_s is None:
+        algorithms.gap_fill_s = float(config.gap_fill)
+    if algorithms.settle_s is None:  # settling needs relabels
+        algorithms.settle_s = float(config.settle) if config.relabel_interval > 0 else 0.0
+    if algorithms.focus_s is None:
+        algorithms.focus_s = float(config.focus)
+    if algorithms.markers is None and config.markers:
+        from streamseg.skeleton.marker_map import load_marker_map
+
+        algorithms.markers = load_marker_map(config.markers)
+    return algorithms
+
+
+
 def _bone_args(points: np.ndarray, up) -> tuple:
     """The angle kernel's arguments (:func:`streamseg._kernels.bones.angles_kernel`) for bone
     end points ``points`` (9, 2) and the up vector (None: no inclinations), as

@@ -36,7 +36,8 @@ from streamseg.daemon.cut_events import publish_cut
 from streamseg.daemon.eventlog import LogReadError
 from streamseg.daemon.ingest import Ingest
 from streamseg.daemon.intake import Intake
-from streamseg.daemon.options import algorithms_for, skeleton_from
+from streamseg.daemon.options import skeleton_from
+from streamseg.daemon.pipeline import algorithms_for
 from streamseg.daemon.publication import Publication
 from streamseg.daemon.relabel_queue import RelabelQueue
 from streamseg.daemon.security import (
