@@ -94,7 +94,8 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
     try:
-        assert d.ready.wait(60) and d.worker.wait_connected(60)
+        # both workers warm: a job never waits behind a warm-up (the gated job holds one)
+        assert d.ready.wait(60) and d.worker.wait_warm(180)
         s = subscriber(ep["publish"])
         next(e for e in listen(s, timeout=30) if e.type == "stats")  # subscribed
 

@@ -161,6 +161,23 @@ class DaskRelabelWorker(threading.Thread):
         """True once a cluster is connected (tests and benchmarks wait on this)."""
         return self._connected.wait(timeout)
 
+    def wait_warm(self, timeout: float | None = None) -> bool:
+        """True once a cluster is connected and each of its workers has its kernels loaded
+        (tests and benchmarks wait on this before they time or gate jobs: a worker still
+        warming takes no job, so a job would wait for it)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        if not self._connected.wait(timeout):
+            return False
+        for future in list(self._warmed.values()):
+            left = None if deadline is None else max(deadline - time.monotonic(), 0.0)
+            try:
+                future.exception(timeout=left)  # waits; a failed warm-up is warm enough
+            except TimeoutError:
+                return False
+            except Exception as err:  # cancelled: its worker left; the others still count
+                log.debug("warm-up future: %s", err)
+        return True
+
     def stop(self, timeout: float | None = None) -> None:
         with self._cond:
             self._stopping = True
