@@ -12,7 +12,11 @@ Material (``../shared/data`` by default, ``--data DIR``; READMEs there give prov
 
 The counter runs as ``segment --method rep`` does (:class:`RepetitionSegmenter`, the file read
 by streamseg's readers). Leave-one-subject-out: the parameters are chosen on the subjects of
-:data:`CHOSEN_ON` only; rows over the others are marked held-out.
+:data:`CHOSEN_ON` only; rows over the others are marked held-out. ``--choose`` re-runs the
+choice of the defaults on every system's chosen-on recordings at once (with HDM05 bd:
+:func:`choose`) and says whether it lands on the defaults.
+
+Run: ``cd benchmarks && ../.venv/bin/python rep_systems.py [--system S] [--choose] [-v]``.
 
 Columns as ``benchmarks/repetitions.py``: exact, off-by-one (OBO), nMAE (|found - true| /
 true), alpha (eq. 15, repetitions matched by overlap). A UI-PRMD set's count is that of the
@@ -192,6 +196,84 @@ def repcount_table(results):
     return "\n".join(lines)
 
 
+class ChosenOn:
+    """The recordings every parameter is chosen on: each system's :data:`CHOSEN_ON` subjects
+    and HDM05 bd (``benchmarks/repetitions.py``), read once."""
+
+    def __init__(self, data):
+        import repetitions as H  # beside this file
+
+        from streamseg.io import read
+
+        self.uiprmd = {m: [(read_take(data, f, m), t[3]) for f, t in
+                           sorted(uiprmd_takes(data, m).items()) if t[0] in CHOSEN_ON[m]]
+                       for m in ("vicon", "kinect")}
+        self.repcount = [(read(data / "repcount_pose" / f, fps=30.0, joints="blazepose"), v[2],
+                          v[3]) for f, v in sorted(repcount_videos(data).items())
+                         if v[0] in CHOSEN_ON["repcount"]]
+        self.hdm05 = H.Material(actors=(H.CHOOSE_ON,))
+
+    def objective(self, cfg) -> tuple:
+        """(objective, per-system summaries): Vicon and Kinect exact + alpha over their sets,
+        RepCount-A OBO - nMAE + alpha, HDM05 bd's objective (exact + alpha on its sets of
+        2-6 + the share of its routine sets counted right)."""
+        import repetitions as H
+
+        out, total = {}, 0.0
+        for m, takes in self.uiprmd.items():
+            rows = []
+            for rec, reps in takes:
+                for n in SIZES:
+                    seg = _segment(rec.slice(0, reps[n - 1][1]), cfg)
+                    rows.append((n, *_score_set([x["repetitions"] for x in seg.sets_],
+                                                reps[:n])))
+            out[m] = _summary(rows)
+            total += out[m][1] + out[m][4]
+        rows = []
+        for rec, count, reps in self.repcount:
+            found = [r for st in _segment(rec, cfg).sets_ for r in st["repetitions"]]
+            rows.append((count, len(found), matched_repetition_accuracy(found, reps) if reps
+                         else float(not found)))
+        out["repcount"] = _summary(rows)
+        total += out["repcount"][2] - out["repcount"][3] + out["repcount"][4]
+        bd = H.objective(*H.evaluate(self.hdm05, cfg, (H.CHOOSE_ON,)))
+        out["hdm05 bd"] = bd
+        return total + bd, out
+
+
+def choose(data, log=print):
+    """Coordinate ascent from the defaults (chosen on HDM05 bd alone) over
+    ``repetitions.GRID`` and the low-rate low-pass, each value of each parameter in turn, a
+    change kept when it raises :meth:`ChosenOn.objective` (every system's chosen-on
+    recordings), rounds until one keeps nothing; returns the config."""
+    from dataclasses import replace
+
+    import repetitions as H
+
+    grid = {**H.GRID, "lowpass_low_rate_hz": (2.0, 2.5, 3.0, 3.5)}
+    mat = ChosenOn(data)
+    cfg = RepetitionConfig()
+    best, _ = mat.objective(cfg)
+    log(f"start (the defaults): {best:.4f}")
+    changed = True
+    while changed:
+        changed = False
+        for name, values in grid.items():
+            for v in values:
+                if v == getattr(cfg, name):
+                    continue
+                trial = replace(cfg, **{name: v})
+                score, _ = mat.objective(trial)
+                log(f"  {name}={v}: {score:.4f}")
+                if score > best + 1e-9:
+                    best, cfg, changed = score, trial, True
+    chosen = {k: getattr(cfg, k) for k in grid}
+    now = {k: getattr(RepetitionConfig(), k) for k in grid}
+    log(f"chosen: {chosen} (objective {best:.4f}); "
+        f"{'the defaults' if chosen == now else 'NOT the defaults ' + str(now)}")
+    return cfg
+
+
 def main(argv=None):
     import argparse
     import sys
@@ -202,7 +284,12 @@ def main(argv=None):
     ap.add_argument("--sizes", default=",".join(map(str, SIZES)),
                     help="UI-PRMD set sizes (first N repetitions of each take)")
     ap.add_argument("-v", "--verbose", action="store_true", help="one line per take")
+    ap.add_argument("--choose", action="store_true",
+                    help="re-run the choice of the defaults on every system's chosen-on "
+                         "recordings first (about ten minutes)")
     args = ap.parse_args(argv)
+    if args.choose:
+        choose(args.data)
     cfg = RepetitionConfig()
     sizes = tuple(int(x) for x in args.sizes.split(","))
     log = (lambda s: print(s, file=sys.stderr, flush=True)) if args.verbose else None

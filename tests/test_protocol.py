@@ -46,6 +46,10 @@ messages = st.one_of(
     st.builds(P.Segments, ids, nat, nat, nat, segments, st.booleans(), finite),
     st.builds(P.Rep, ids, nat, nat, nat, finite, nat),
     st.builds(P.Rep, ids, nat, nat, nat, finite, nat, st.one_of(st.none(), nat), nat),
+    st.builds(P.Rep, ids, nat, nat, nat, finite, nat, st.one_of(st.none(), nat), nat,
+              st.one_of(st.none(), finite), st.one_of(st.none(), finite),
+              st.one_of(st.none(), st.sampled_from(["l_knee", "r_shoulder"])),
+              st.one_of(st.none(), st.floats(0.0, 1.0))),
     st.builds(P.Gap, ids, nat, nat),
     st.builds(P.Error, st.one_of(st.none(), ids), st.text(max_size=10), st.text(max_size=30),
               nat),
@@ -164,3 +168,16 @@ def test_frame_numbers_beyond_2_53_are_rejected():
     parts = P.encode(P.Frames("s", 2**60, 0.0, np.zeros((1, 2, 3))))
     with pytest.raises(P.WireError, match=r"seq=.*2\*\*53"):
         P.decode(parts)
+
+
+def test_rep_measures_travel_and_an_older_sender_has_none():
+    rep = P.Rep("s", 10, 70, 2, 0.7, 80, None, 0, 0.6, 84.5, "l_knee", 0.81)
+    assert P.decode(P.encode(rep)) == rep
+    assert P.to_json(rep)["rom_deg"] == 84.5 and P.to_json(rep)["rom_joint"] == "l_knee"
+    old = {"v": 1, "type": "rep", "stream": "s", "start": 10, "end": 70, "count": 2,
+           "time": 0.7, "emitted_at": 80}
+    back = P.decode([b"rep/s/", msgpack.packb(old)])
+    assert (back.duration_s, back.rom_deg, back.rom_joint, back.likeness) == (None,) * 4
+    for key, bad in (("likeness", 1.5), ("rom_deg", "wide"), ("rom_joint", 3)):
+        with pytest.raises(P.WireError, match=key):
+            P.decode([b"rep/s/", msgpack.packb({**old, key: bad})])

@@ -115,10 +115,11 @@ def test_live_counts_equal_offline_on_a_take_with_lost_markers(lossy_squat):
 
 @pytest.mark.daemon
 def test_a_daemon_counts_a_take_with_lost_markers_as_offline(start_daemon, lossy_squat):
-    """A real daemon fed the take by ``replay`` over ZeroMQ: every ``rep`` event what the
-    counter gives offline on the file's frames (gaps up to 0.25 s filled, as a reader and the
-    daemon's gap filler do), a warning naming the joint lost; the frames the cut detector
-    cannot use are still counted in the ``nan`` error."""
+    """A real daemon fed the take by ``replay`` over ZeroMQ: every ``rep`` event (its
+    duration, range of motion and likeness too) what the counter gives offline on the file's
+    frames (gaps up to 0.25 s filled, as a reader and the daemon's gap filler do),
+    a warning naming the joint lost; the frames the cut detector cannot use are still
+    counted in the ``nan`` error."""
     from streamseg.client import listen, subscribe
     from streamseg.commands.replay import replay
     from streamseg.daemon.pipeline import Algorithms
@@ -131,9 +132,14 @@ def test_a_daemon_counts_a_take_with_lost_markers_as_offline(start_daemon, lossy
     events = list(listen(s, stream="lossy", until_end=True, timeout=60))
     c = RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton)
     want = c.learn_many(rec.positions) + c.finish()
-    got = [(e.start, e.end, e.count, e.emitted_at) for e in events if e.type == "rep"]
+    got = [(e.start, e.end, e.count, e.emitted_at, e.duration_s, e.rom_deg, e.rom_joint,
+            e.likeness) for e in events if e.type == "rep"]
     assert len(want) == 10
-    assert got == [(r.start, r.end, r.count, r.emitted_at) for r in want]
+    assert got == [(r.start, r.end, r.count, r.emitted_at, r.duration_s, r.rom_deg,
+                    r.rom_joint, r.likeness) for r in want]
+    # what a therapist reads of each repetition travels with it: a deep squat's knee range
+    assert all(g[6] in ("l_knee", "r_knee", "l_hip", "r_hip") and g[5] > 90 for g in got)
+    assert all(0 <= g[7] <= 1 for g in got) and all(g[4] > 0.5 for g in got)
     errors = [e for e in events if e.type == "error"]
     warned = [e.message for e in errors if e.reason == "rep"]
     assert warned and "l_wrist" in warned[0] and "lost for more than 0.5 s" in warned[0]

@@ -16,6 +16,7 @@ Repetition counting (:class:`streamseg.online.RepetitionCounter`, off by default
 from __future__ import annotations
 
 import collections
+import math
 import time
 from dataclasses import dataclass
 
@@ -307,6 +308,11 @@ UP_CHECK_S = 2.0  # seconds of frames the declared up axis is checked on
 CUT_KINDS = ("cut", "pending", "confirm", "withdraw", "moved")
 
 
+def _finite(x):
+    """``x`` as a float, None when absent or not finite (events are strict JSON)."""
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
 def cut_kind(ev) -> str:
     """The :data:`CUT_KINDS` entry of a cut detector event."""
     if isinstance(ev, ConfirmEvent):
@@ -438,10 +444,12 @@ class StreamPipeline(Stateful):
         -------
         cuts : list of (frame, score, emitted_at, kind)
             New cut events, in stream frames (``kind``: :data:`CUT_KINDS`).
-        reps : list of (start, end, count, emitted_at, label, set_index)
+        reps : list of (start, end, count, emitted_at, label, set_index, duration_s, rom_deg,
+                rom_joint, likeness)
             Completed repetitions (empty without a repetition counter): ``count`` in its
             set, the action ``label`` (None: not yet relabelled;
-            :mod:`streamseg.online.rep_sets`) and the set's index (the counter's).
+            :mod:`streamseg.online.rep_sets`), the set's index (the counter's) and the
+            repetition's measures (:class:`streamseg.online.RepEvent`).
         n_bad : int
             Frames received whose features are not finite after the gap filling (skipped by
             the segmenter and the ring).
@@ -526,8 +534,7 @@ class StreamPipeline(Stateful):
         self._spine_n = -1
 
     def _repetitions(self, positions, first_frame) -> list:
-        """``(start, end, count, emitted_at, label, set_index)`` of completed repetitions, in
-        stream frames.
+        """Completed repetitions as :meth:`push` gives them, in stream frames.
 
         The counter sees every frame the gap filler releases, joints still lost included:
         it bridges them itself as offline (:mod:`streamseg.online.rep_bridge`), so a marker
@@ -568,7 +575,8 @@ class StreamPipeline(Stateful):
         for r in reps:
             a, b = r.start + o, r.end + o
             label = label_at(a, b, segs, getattr(w, "end", None), self.cut_frames)
-            out.append((a, b, int(r.count), r.emitted_at + o, label, int(r.set_index)))
+            out.append((a, b, int(r.count), r.emitted_at + o, label, int(r.set_index),
+                        r.duration_s, _finite(r.rom_deg), r.rom_joint, _finite(r.likeness)))
         return out
 
     def finish(self) -> list:

@@ -284,13 +284,14 @@ class Daemon:
 
     def results(self, st: StreamState, cuts, reps) -> None:
         """Publish a pipeline step's ``(frame, score, emitted, kind)`` cuts and ``(start, end,
-        count, emitted, label, set)`` repetitions (live, and the final ones at close)."""
+        count, emitted, label, set, duration_s, rom_deg, rom_joint, likeness)`` repetitions
+        (live, and the final ones at close)."""
         for frame, score, emitted, kind in cuts:
             publish_cut(self.publish, st, frame, score, emitted, kind)
-        for a, b, count, emitted, label, index in reps:
+        for a, b, count, emitted, label, index, *measures in reps:
             st.reps = count
             self.publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
-                                           label, index))
+                                           label, index, *measures))
 
     def error(self, stream, reason: str, message: str, n: int = 1) -> None:
         st = self.streams.get(stream) if stream else None

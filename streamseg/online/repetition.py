@@ -27,7 +27,9 @@ second closes. ``RepetitionSegmenter`` (offline) runs this very counter over a w
 recording, so the live count of every set equals the offline one.
 
 Where. The pose vector: :mod:`streamseg.online.rep_pose`; the ring of recent poses and how two
-loops compare: :mod:`streamseg.online.rep_loops`; here, the tracker and the sets.
+loops compare: :mod:`streamseg.online.rep_loops`; the input (lost joints bridged, pose rows):
+:mod:`streamseg.online.rep_counter_input`; the end of a stream:
+:mod:`streamseg.online.rep_stream_end`; here, the tracker and the sets.
 """
 
 from __future__ import annotations
@@ -38,16 +40,18 @@ from streamseg._kernels import frames_in
 from streamseg._kernels import rep_track as K
 from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
+from streamseg.online.rep_counter_input import PoseInput
 from streamseg.online.rep_events import RepEvent, RepSet, sets_of, stream_events
 from streamseg.online.rep_loops import PoseRing
-from streamseg.online.rep_pose import OWN, ROM_JOINTS, body_scale, joint_ranges
+from streamseg.online.rep_pose import ROM_JOINTS, joint_ranges
+from streamseg.online.rep_stream_end import StreamEnd
 from streamseg.state import Stateful
 
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
 
 
 
-class RepetitionCounter(Stateful):
+class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     """Count repetitions in a joint-position stream (or a stream of pose features).
 
     Parameters
@@ -153,68 +157,6 @@ class RepetitionCounter(Stateful):
         for i in range(0, F.shape[0], step):
             self._push(F[i:i + step])
             self._run()
-
-    @property
-    def lost_joints_(self) -> list:
-        """The counter's joints (canonical names) lost for longer than the bridge
-        interpolates (:mod:`streamseg.online.rep_bridge`) so far: held where last seen."""
-        b = self._bridge
-        return [] if b is None else [K.POINTS[j] for j in b.long_lost]
-
-    def new_lost_joints(self) -> list:
-        """:attr:`lost_joints_` not returned by an earlier call (a live stream's warning)."""
-        b = self._bridge
-        if b is None or b.told == len(b.long_lost):
-            return []
-        new, b.told = b.long_lost[b.told:], len(b.long_lost)
-        return [K.POINTS[j] for j in new]
-
-    def _features(self, X, final=False):
-        """Pose rows of the frames the bridge releases (None: none yet)."""
-        if self._names is None:
-            return X
-        if self._idx is None:
-            from streamseg.online.rep_bridge import PoseBridge, bridge_frames
-            from streamseg.skeleton.names import POINTS, resolve
-
-            self._idx = np.asarray(resolve(list(self._names), K.POINTS, POINTS), dtype=np.int64)
-            self._upv = None
-            # no pose without the pelvis, the sternum and the hips (POINTS 0-3)
-            self._bridge = PoseBridge(len(K.POINTS), bridge_frames(self.fps), range(4))
-        X, got = self._bridge.finish() if final else self._bridge.push(X[:, self._idx])
-        if got is not None:
-            self._wait(got)
-        if X.shape[0] == 0 and self._scale is not None:
-            return None
-        if self._scale is None:  # body size from exactly the first frames: chunking-free
-            self._pending.append(X)
-            buf = np.concatenate(self._pending)
-            if buf.shape[0] < self._init:
-                return None
-            self._pending = []
-            self._scale = body_scale(buf[: self._init], OWN)
-            X = buf
-        from streamseg.skeleton.bones import up_vector
-
-        if self._upv is None:
-            self._upv = np.asarray(up_vector(self._up), dtype=np.float64)
-        out = np.empty((X.shape[0], K.N_FEATURES))
-        K.pose_features(frames_in(X), OWN, K.BONES, self._upv, self._scale, out)
-        return out
-
-    def _wait(self, got):
-        """Remember the counter frames the bridge released late (for ``emitted_at``)."""
-        first = self.n_seen_ + sum(p.shape[0] for p in self._pending)
-        late = np.flatnonzero(got != first + np.arange(1, got.shape[0] + 1))
-        if late.size:
-            self._waits.update(zip((first + late).tolist(), got[late].tolist()))
-            if len(self._waits) > 4 * self._ring.C * self._ring.dec:  # older than the ring
-                old = first - self._ring.C * self._ring.dec
-                self._waits = {k: v for k, v in self._waits.items() if k >= old}
-
-    def _emitted(self) -> int:
-        """Frames received when the frame deciding now (``_now - 1``) was released."""
-        return self._waits.get(self._now - 1, self._now) if self._waits else self._now
 
     def _push(self, F):
         fresh = self._ring.k < 0
@@ -433,100 +375,6 @@ class RepetitionCounter(Stateful):
         if self._final and k >= self._ring.k:
             return self.n_seen_
         return max(0, k * self._ring.dec - self._lag)
-
-    # --- end of stream ---------------------------------------------------------------------
-
-    def finish(self) -> list[RepEvent]:
-        """The stream has ended: the repetition its last frames still hold, if any.
-
-        In a set, the last loop counts when it came back within ``end_return_ratio`` (cut at
-        its rest, at most ``pause_s / 2`` in, or at the end), or, with ``extend_edges``, when
-        the frames after the last cut align with the last repetition. Looking for a set, the
-        same for a loop after a closed one.
-        """
-        self._events = []
-        if self._bridge is not None:  # the frames still waiting for a lost joint
-            self._learn(self._features(None, final=True))
-        flushed, self._events = self._events, []
-        if self._ring.Z is None or self._ring.k < 1:
-            return flushed
-        self._final = True
-        self._now = self.n_seen_
-        cfg = self.config
-        t = self._ring.k
-        n = self._na[0]
-        if not self._search and self._cur is not None:
-            loop = self._last_loop(0, t, True)
-            r = None if loop is None else self._ring.dissimilarity(self._last(), loop)
-            if r is not None and r <= cfg.max_dissimilarity:
-                self._add(loop, r)
-            elif cfg.extend_edges:
-                piece = self._ring.edge_after(self._last(), int(self._st[0, 0]), t)
-                if piece is not None:
-                    self._add(*piece)
-            self._end_set("end")
-        elif self._search:
-            done = False
-            for i in range(n):
-                prev = self._cands.get(int(self._st[i, 0]))
-                loop = self._last_loop(i, t, False) if prev else None
-                if loop is None:
-                    continue
-                r = self._ring.dissimilarity(prev, loop)
-                self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
-                if r <= cfg.max_dissimilarity and self._alike_pair(prev, loop):
-                    self._start_set(prev, loop, r)
-                    done = True
-                    break
-            if not done and cfg.extend_edges:
-                for e in sorted(self._cands, reverse=True):
-                    prev = self._cands[e]
-                    if prev is None:
-                        continue
-                    piece = self._ring.edge_after(prev, e, t)
-                    if piece is not None and self._alike_pair(prev, piece[0]):
-                        self._start_set(prev, piece[0], piece[1])
-                        done = True
-                        break
-            if not done and cfg.extend_edges:  # one loop and the piece before it
-                for e in sorted(self._cands, reverse=True):
-                    prev = self._cands[e]
-                    if prev is None:
-                        continue
-                    piece = self._ring.edge_before(prev, self._origin)
-                    if piece is not None and self._alike_pair(piece[0], prev):
-                        self._start_set(piece[0], prev, piece[1])
-                        break
-            self._end_set("end")
-        return flushed + self._events
-
-    def _last_loop(self, i, t, in_set):
-        """Anchor ``i``'s loop at the end of the stream, leniently closed, or None."""
-        cfg = self.config
-        s = int(self._st[i, 0])
-        M, m = float(self._Mm[i, 0]), float(self._Mm[i, 1])
-        tM, tm = int(self._st[i, 1]), int(self._st[i, 2])
-        thr = cfg.min_amplitude
-        if in_set:
-            thr = max(thr, cfg.amplitude_ratio * float(np.median(self._cur[2][-5:])))
-        if M < thr or not m <= cfg.end_return_ratio * M:
-            return None
-        cut = t
-        if m <= cfg.return_ratio * M:
-            level = m + cfg.rest_level * (M - m)
-            d = np.linalg.norm(self._ring.rows(s, t) - self._ring.Z[s % self._ring.C], axis=1)
-            e, x = tm - s, tm - s
-            while e - 1 > tM - s and d[e - 1] <= level:
-                e -= 1
-            while x + 1 <= t - s and d[x + 1] <= level:
-                x += 1
-            if x >= t - s - 1:
-                cut = min(t, s + e + self._pause // 2)
-            else:
-                sp = np.linalg.norm(self._ring.rows(s + e + 1, s + x + 1)
-                                    - self._ring.rows(s + e - 1, s + x - 1), axis=1)
-                cut = s + e + int(np.argmin(sp))
-        return (s, cut, M)
 
 
 def warmup() -> None:

@@ -184,6 +184,21 @@ def _rep_label(obj):
     return v
 
 
+def _rep_measures(obj):
+    """A ``rep`` event's optional ``duration_s``, ``rom_deg``, ``rom_joint``, ``likeness``
+    (nil or absent: None)."""
+    out = []
+    for key in ("duration_s", "rom_deg"):
+        out.append(None if obj.get(key) is None else _num(obj, key, "rep", None))
+    joint = obj.get("rom_joint")
+    _need(joint is None or (isinstance(joint, str) and 0 < len(joint) <= 64), "rep",
+          "rom_joint", joint, "nil or a joint name", None)
+    like = obj.get("likeness")
+    _need(like is None or (type(like) in (int, float) and 0 <= like <= 1), "rep", "likeness",
+          like, "nil or a number in [0, 1]", None)
+    return (*out, joint, None if like is None else float(like))
+
+
 def _announce(obj):
     s = _stream(obj, "announce")
     fps = _num(obj, "fps", "announce", s)
@@ -327,7 +342,7 @@ _BUILDERS = {
                          _num(o, "time", "rep", None, finite=False),
                          _int(o, "emitted_at", "rep", None),
                          _rep_label(o), _int(o, "set_index", "rep", None) if "set_index" in o
-                         else 0),
+                         else 0, *_rep_measures(o)),
     "gap": lambda o: Gap(_stream(o, "gap"), _int(o, "expected", "gap", None),
                          _int(o, "got", "gap", None), _flag(o, "filled", "gap")),
     "error": _error,

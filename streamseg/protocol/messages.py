@@ -203,7 +203,11 @@ class Rep:
     """Event: a repetition in frames ``[start, end)``, the ``count``-th of the current set,
     found when frame ``emitted_at`` arrived; ``label`` is the action label of the segment it
     belongs to (None until a relabel covers it), ``set_index`` the set's index in the stream
-    (0-based; the count restarts at a new set)."""
+    (0-based; the count restarts at a new set). What a therapist or coach reads of it, as
+    ``segment --method rep --json`` gives it: ``duration_s`` (seconds), ``rom_deg`` (range of
+    motion of the set's most moving joint ``rom_joint`` in this repetition, degrees) and
+    ``likeness`` (to the repetition before it, 1 = the same, 0 = at the limit of alike); None
+    where the counter has none (feature rows without joints) or the sender is older."""
 
     stream: str
     start: int
@@ -213,6 +217,10 @@ class Rep:
     emitted_at: int = 0
     label: int | None = None
     set_index: int = 0
+    duration_s: float | None = None
+    rom_deg: float | None = None
+    rom_joint: str | None = None
+    likeness: float | None = None
     seq: int | None = _seq()
 
     type = "rep"
