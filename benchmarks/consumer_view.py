@@ -32,7 +32,10 @@ loopback instead, replays each recording at ``--speed`` times real time, and tak
 events as a subscriber receives them, on each event's ``emitted_at``-free clock: the stream
 frame the sender had sent when the event arrived (slower; wall time decides).
 
-Run: .venv/bin/python benchmarks/consumer_view.py [--sets cmu,cmu02,hdm] [--chosen-on a,b]
+Sets: those of ``data/`` (:mod:`streamseg.evaluation.labelled_sets`) and ``heldout``, the CMU
+takes of ``heldout/cmu`` that nothing is chosen on.
+
+Run: .venv/bin/python benchmarks/consumer_view.py [--sets cmu,cmu02,hdm,heldout] [--chosen-on a,b]
      [--lag 0.5] [--source sim|daemon] [--delay S] [--early S] [--settle S] [--focus S]
 """
 
@@ -60,7 +63,8 @@ def _algorithms(args):
     from streamseg.daemon.pipeline import Algorithms
 
     lof = LOFConfig(**_lof_overrides(args))
-    return Algorithms(lof_config=lof, memory_config=LabelMemoryConfig(), **_settle_kw(args))
+    return Algorithms(lof_config=lof, memory_config=LabelMemoryConfig(), **_settle_kw(args),
+                      **({"alternations": False} if args.no_alternations else {}))
 
 
 def _lof_overrides(args) -> dict:
@@ -450,7 +454,10 @@ def _saved(path) -> dict:
 
 def run(args) -> list:
     sets = tuple(args.sets.split(","))
-    items = labelled(sets)
+    items = labelled(tuple(s for s in sets if s != "heldout")) if set(sets) - {"heldout"} \
+        else []
+    if "heldout" in sets:
+        items += heldout()
     if args.only:
         keep = set(args.only.split(","))
         items = [i for i in items if i.name in keep]
@@ -490,6 +497,19 @@ def run(args) -> list:
             print(item.name, {k: v for k, v in res.items() if k != "latency"},
                   file=sys.stderr, flush=True)
     return rows
+
+
+def heldout() -> list:
+    """The held-out CMU takes of ``heldout/cmu`` (86_09, 13_29, 13_30, 13_31: nothing is
+    chosen on them), set ``heldout``."""
+    from _common import ROOT
+
+    from streamseg.evaluation.corpus import discover
+
+    items = discover(ROOT / "heldout")
+    for item in items:
+        item.group = "heldout"
+    return items
 
 
 def table(rows, chosen=()) -> str:
@@ -544,6 +564,8 @@ def main(argv=None) -> None:
     p.add_argument("--settle", type=float, default=None)
     p.add_argument("--focus", type=float, default=None)
     p.add_argument("--radius", type=float, default=None)
+    p.add_argument("--no-alternations", action="store_true", help="publish HACA's labels "
+                   "as they are (no merged alternations, streamseg.daemon.alternation)")
     p.add_argument("--verbose", action="store_true")
     p.add_argument("--save", default="", help="append every event as JSON lines to this file")
     p.add_argument("--load", default="", help="score the events of a --save file instead")

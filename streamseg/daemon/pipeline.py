@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from streamseg.daemon.alternation import merge_alternations
 from streamseg.offline.identity import snap_to_cuts, stable_labels
 from streamseg.online.events import ConfirmEvent, WithdrawEvent
 from streamseg.online.rep_bridge import BRIDGE_S
@@ -71,6 +72,9 @@ class Algorithms:
     radius_s : float or None
         A relabel boundary within this many seconds of a provisional cut confirms it (None:
         :data:`RADIUS_S`).
+    alternations : bool
+        Merge a revision's alternations of two labels into one action before it is published
+        (:mod:`streamseg.daemon.alternation`; False: HACA's labels as they are).
     markers : MarkerSet or None
         A marker map of the user's own (:func:`streamseg.skeleton.marker_map.load_marker_map`,
         ``--markers MAP.toml``): a stream whose announced joints hold its markers is
@@ -79,7 +83,7 @@ class Algorithms:
 
     def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
                  rep_config=None, memory_config=None, gap_fill_s=None, settle_s=None,
-                 focus_s=None, radius_s=None, markers=None):
+                 focus_s=None, radius_s=None, markers=None, alternations=True):
         self.lof_config = lof_config
         self.aca_config = aca_config
         self._relabel = relabel
@@ -91,6 +95,7 @@ class Algorithms:
         self.focus_s = None if focus_s is None else float(focus_s)
         self.radius_s = None if radius_s is None else float(radius_s)
         self.markers = markers
+        self.alternations = bool(alternations)
 
     def settlement(self, fps: float):
         """A stream's :class:`~streamseg.daemon.settle.Settlement` (None: settling off)."""
@@ -742,6 +747,8 @@ def relabel(algorithms: Algorithms, features, frames, fps, previous, cuts=()) ->
         segs.append((int(frames[a_i]), int(frames[b_i - 1]) + 1, int(label)))
     radius = int(round(algorithms.relabel_config.min_len_s * fps))
     segs = snap_to_cuts(segs, [c for c in cuts if start < c < int(frames[-1])], radius)
+    if algorithms.alternations:
+        segs = merge_alternations(segs)
     k = int(getattr(window, "n_clusters", 0))
     stable = stable_labels(WindowSegmentation(start, int(frames[-1]) + 1, segs, k), previous)
     if mcfg is not None:
