@@ -478,14 +478,14 @@ def run(args) -> list:
         else:
             events, n = from_cli(item, args, 20000 + 10 * len(rows))
         if args.save and saved is None:
-            from streamseg import protocol
+            from streamseg import protocol, strict_json
 
             with open(args.save, "a") as fh:
                 for when, ev in events:
                     # events read from `listen --jsonl` are plain namespaces already
                     body = vars(ev) if isinstance(ev, SimpleNamespace) else protocol.to_json(ev)
-                    fh.write(json.dumps({"rec": item.name, "t": when, "n": n, "ev": body})
-                             + "\n")
+                    fh.write(strict_json.dumps({"rec": item.name, "t": when, "n": n,
+                                                "ev": body}) + "\n")
         fps = float(item.recording.fps)
         res = score_view(events, n, item.cuts, fps, args.tolerance)
         res["cuts"] = score_view(events, n, item.cuts, fps, args.tolerance, cuts_only=True)

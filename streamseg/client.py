@@ -17,6 +17,7 @@ import zmq
 from zmq.utils.monitor import recv_monitor_message
 
 from streamseg import protocol
+from streamseg.endpoints import ipv6
 
 __all__ = ["Refusal", "Subscription", "fetch_since", "handshake", "listen", "request", "takes",
            "sending_context", "subscribe", "subscriber"]
@@ -88,12 +89,6 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
         sock.close()
     raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
                        "the daemon running there? (with CURVE on it needs --curve-dir)")
-
-
-def ipv6(sock, endpoint: str) -> None:
-    """ZeroMQ's IPv6 on for a ``tcp://[addr]:port`` endpoint (before connect)."""
-    if endpoint.startswith("tcp://["):
-        sock.setsockopt(zmq.IPV6, 1)
 
 
 class Refusal:

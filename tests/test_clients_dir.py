@@ -321,11 +321,11 @@ def test_clients_refuse_keys_they_cannot_read(lang, tmp_path):
     assert done.stderr.startswith(f"--keys {tmp_path}: ") and "streamseg keys" in done.stderr
 
 
-@pytest.mark.parametrize("which", ["c", "js"])
+@pytest.mark.parametrize("which", ["python", "c", "js"])
 def test_listeners_fill_holes_from_the_event_log(which, serve_lossy, rec, request):
     """A burst of events (every other packet missing: 59 `gap` events at once) overflows a
-    publish queue of one message: the C and JavaScript listeners see the holes in the event
-    numbers, fetch the missing events with `since` and print every event of the stream once,
+    publish queue of one message: the Python, C and JavaScript listeners see the holes in the
+    event numbers, fetch the missing events with `since` and print every event of the stream once,
     in order, as the log holds them."""
     import zmq
 
@@ -333,7 +333,8 @@ def test_listeners_fill_holes_from_the_event_log(which, serve_lossy, rec, reques
     from streamseg.client import fetch_since
     from streamseg.commands.replay import announce_of
 
-    tool = request.getfixturevalue("c_clients" if which == "c" else "js_client")
+    tool = None if which == "python" else \
+        request.getfixturevalue("c_clients" if which == "c" else "js_client")
     ep, stream = serve_lossy, f"{which}-holes"
     proc = subprocess.Popen(_client(which, "listen", tool, tool) + [
         ep["publish"], stream, "--control", ep["control"]], stdout=subprocess.PIPE,

@@ -21,6 +21,7 @@ from streamseg.io import read
 from streamseg.io.gaps import fill_gaps
 from streamseg.online.lof import StreamingLOFSegmenter
 from tests.motion import lof_input
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -189,12 +190,8 @@ def test_late_listener_catches_up_from_control(start_daemon, rec):
         seen.append(e)
         if e.type == "segments" and e.end >= n1 - 2 * 120:
             break
-    deadline = time.time() + 10
-    while time.time() < deadline:  # the relabel of the last packets may still be running
-        state = request(ep["control"], "state", stream="late")
-        if state["frame"] == n1 and state["revision"] >= 1:
-            break
-        time.sleep(0.05)
+    wait_until(lambda: (st := request(ep["control"], "state", stream="late"))["frame"] == n1
+               and st["revision"] >= 1, f"frame {n1} taken and a relabel in the state")
     late = sub(ep, stream="late")
     state = request(ep["control"], "state", stream="late")
     assert state["ok"] and state["frame"] == n1
@@ -220,39 +217,52 @@ def test_late_listener_catches_up_from_control(start_daemon, rec):
 
 @pytest.mark.slow
 def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
-    spans = []
+    """A relabel that holds the GIL in pure Python until a cut is published: the cut comes
+    (ingest and the cut detector go on beside it), and the relabel then ends."""
+    serving, started, arrivals, during = threading.Event(), threading.Event(), [], []
 
     def slow_relabel(features, *, start_frame, fps, config, previous):
         from streamseg.config import ACAConfig
         from streamseg.offline import relabel_window
 
-        t0 = time.monotonic()
-        x = 0
-        while time.monotonic() - t0 < 0.8:  # pure Python: holds the GIL between switches
-            x += 1
-        out = relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
-                             previous=previous)
-        spans.append((t0, time.monotonic()))
-        return out
+        # the first job of the stream (not the daemon's warm-up call before it serves): it
+        # runs until a cut arrives meanwhile
+        if serving.is_set() and not started.is_set():
+            before = len(arrivals)
+            started.set()
+            deadline, x = time.monotonic() + 120, 0
+            while len(arrivals) == before and time.monotonic() < deadline:
+                x += 1  # pure Python: holds the GIL between switches
+            during.extend(arrivals[before:])
+        return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
+                              previous=previous)
 
     d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=1.0,
                          relabel_history=4.0)
+    serving.set()
     s = sub(ep, stream="slow")
-    arrivals = []
 
     def collect():
-        for e in listen(s, stream="slow", until_end=True, timeout=20):
+        for e in listen(s, stream="slow", until_end=True, timeout=60):
             if e.type == "cut" and e.provisional:  # the detector's, not a relabel's
-                arrivals.append((time.monotonic(), e.frame))
+                arrivals.append(e.frame)
 
     t = threading.Thread(target=collect)
     t.start()
-    replay(rec, ep["ingest"], stream="slow", speed=20, batch=4)  # ~1.9 s of stream
-    t.join(30)
-    assert spans, "no relabel ran"
-    assert [f for _, f in arrivals] == offline_cuts(rec)
-    during = [f for ts, f in arrivals if any(a < ts < b for a, b in spans)]
-    assert during, f"no cut arrived while a relabel ran: {spans} {arrivals}"
+    sock = push(ep)
+    sock.send_multipart(P.encode(announce_of(rec, "slow")))
+    split = 2400  # cuts at 2502, 3276 and 4066 come after it
+    for a in range(0, split, 20):
+        sock.send_multipart(P.encode(P.Frames("slow", a, 0.0, rec.positions[a:a + 20])))
+    assert started.wait(60), "no relabel ran"
+    for a in range(split, rec.n_frames, 20):  # sent while the first relabel runs
+        sock.send_multipart(P.encode(P.Frames("slow", a, 0.0, rec.positions[a:a + 20])))
+    sock.send_multipart(P.encode(P.End("slow")))
+    sock.close()
+    t.join(120)
+    assert not t.is_alive()
+    assert arrivals == offline_cuts(rec)
+    assert during, f"no cut arrived while the relabel ran: {arrivals}"
 
 
 def test_limits_max_streams_and_idle(start_daemon, rec):

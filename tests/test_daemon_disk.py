@@ -7,7 +7,6 @@ import os
 import shutil
 import subprocess
 import sys
-import time
 
 import pytest
 
@@ -15,6 +14,7 @@ from benchmarks.faults._machine import can_mount, fill
 from streamseg import protocol as P
 from streamseg.client import fetch_since, request, subscriber
 from tests.test_daemon_restart import Sender, config, wait_ping
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 SIZE_MB = 40
@@ -48,8 +48,8 @@ def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
         wait_ping(ep, proc)
         root = f"/proc/{proc.pid}/root{state}"
         sender.start()
-        while not request(ep["control"], "stats")["totals"].get("checkpoints_written"):
-            time.sleep(0.01)
+        wait_until(lambda: request(ep["control"], "stats")["totals"].get("checkpoints_written"),
+                   "a checkpoint written")
         filler = f"{root}/fill"
         fill(filler)
         assert shutil.disk_usage(root).free < 1 << 20
@@ -70,8 +70,8 @@ def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
         # space again: the rounds resume, the checkpoints' WAL is emptied after each
         os.remove(filler)
         written = totals["checkpoints_written"]
-        while request(ep["control"], "stats")["totals"]["checkpoints_written"] < written + 5:
-            time.sleep(0.01)
+        wait_until(lambda: request(ep["control"], "stats")["totals"]["checkpoints_written"]
+                   >= written + 5, "five checkpoint rounds after the space came back")
         wal = f"{root}/checkpoints.sqlite-wal"
         assert os.path.getsize(wal) < 1 << 20
     finally:

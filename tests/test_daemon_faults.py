@@ -20,6 +20,7 @@ from streamseg.commands.replay import announce_of
 from streamseg.daemon.pipeline import Algorithms
 from streamseg.online.lof import StreamingLOFSegmenter
 from tests.motion import lof_input
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -184,14 +185,15 @@ def test_alternating_gaps_relabel_without_errors(start_daemon, rec):
 def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_path):
     """SIGTERM's path (Daemon.stop) while a relabel runs: the final cuts, a final segments
     and closed are published and logged."""
-    started = threading.Event()
+    serving, started, release = threading.Event(), threading.Event(), threading.Event()
 
     def slow_relabel(features, *, start_frame, fps, config, previous):
         from streamseg.config import ACAConfig
         from streamseg.offline import relabel_window
 
-        started.set()
-        time.sleep(1.0)
+        if serving.is_set():  # a job of the stream, not the warm-up call before serving
+            started.set()
+            release.wait(60)  # the first job runs until the stop was asked
         return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
                               previous=previous)
 
@@ -200,33 +202,34 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
     # may take more than the default 5 s bound, after which `closed` comes without them
     d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=2.0,
                          relabel_history=6.0, relabel_share=1.0, shutdown_relabel=60.0)
+    serving.set()
     s = subscribe(ep["publish"], ep["control"], stream="good")
     sock = push(ep)
     sock.send_multipart(P.encode(announce_of(rec, "good")))
     for a in range(0, 3000, 20):
         sock.send_multipart(P.encode(P.Frames("good", a, 0.0, rec.positions[a:a + 20])))
     assert started.wait(30)
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline:  # every frame taken, and a relabel running
+
+    def taken_while_busy():
         st = request(ep["control"], "streams")["streams"]
-        if st and st[0]["frame"] == 3000 and d.worker.busy_key is not None:
-            break
-        time.sleep(0.01)
+        return st and st[0]["frame"] == 3000 and d.worker.busy_key is not None
+
+    wait_until(taken_while_busy, "every frame taken, with the relabel running")
     d.stop()
+    release.set()
     events = list(listen(s, stream="good", until_end=True, timeout=30))
     assert events[-1].type == "closed" and events[-1].reason == "shutdown"
     assert [e for e in events if e.type == "segments" and e.final]
     assert events[-1].frames == 3000
     # the log file holds them (the daemon has stopped: read the SQLite file itself)
-    deadline = time.monotonic() + 20
-    while time.monotonic() < deadline:
+    def logged_types():
         con = sqlite3.connect(tmp_path / "state" / "events.sqlite")
         types = [r[0] for r in con.execute(
             "SELECT type FROM events WHERE stream = 'good' ORDER BY seq")]
         con.close()
-        if types and types[-1] == "closed":
-            break
-        time.sleep(0.05)
+        return types if types and types[-1] == "closed" else None
+
+    types = wait_until(logged_types, "the log file ends with the stream's closed")
     assert types[-len(events):] == [e.type for e in events]
 
 

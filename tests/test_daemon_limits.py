@@ -8,7 +8,6 @@ import os
 import stat
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -23,6 +22,7 @@ from streamseg.daemon.security import ClientKeys
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.protocol.auth import read_token, token_path
 from tests.motion import lof_input
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 
@@ -32,15 +32,6 @@ def want(rec):
     seg = StreamingLOFSegmenter(fps=rec.fps)
     ang = lof_input(rec.positions, rec.skeleton, rec.fps)
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
-
-
-def wait_until(check, what: str, timeout: float = 60.0):
-    """Poll a control-socket condition (each check is a request/reply: a handshake)."""
-    deadline = time.monotonic() + timeout
-    while not (v := check()):
-        assert time.monotonic() < deadline, f"never: {what}"
-        time.sleep(0.01)
-    return v
 
 
 def frame_of(ep, stream, **kw):

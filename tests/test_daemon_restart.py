@@ -21,6 +21,7 @@ from streamseg.commands.replay import announce_of
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
 from tests.motion import lof_input
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 
@@ -40,24 +41,20 @@ def serve(toml):
 
 
 def wait_ping(ep, proc, timeout=60):
-    deadline = time.time() + timeout
+    deadline = time.monotonic() + timeout
     while True:  # the daemon answers once its kernels are warm and the loop runs
         try:
             if request(ep["control"], "ping", timeout=1)["ok"]:
                 return
         except TimeoutError:
             assert proc.poll() is None, proc.stderr.read()
-            assert time.time() < deadline, "the daemon did not answer"
+            assert time.monotonic() < deadline, "the daemon did not answer"
 
 
 def wait_frame(ep, stream, frame, timeout=30):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        got = {s["stream"]: s["frame"] for s in request(ep["control"], "streams")["streams"]}
-        if got.get(stream) == frame:
-            return
-        time.sleep(0.01)
-    raise AssertionError(f"{stream} did not reach frame {frame}: {got}")
+    wait_until(lambda: {s["stream"]: s["frame"] for s in request(ep["control"], "streams")
+                        ["streams"]}.get(stream) == frame,
+               f"{stream} reached frame {frame}", timeout)
 
 
 def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
@@ -82,10 +79,14 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
              "--jsonl", "--until-end", "--timeout", "90"])))
         lis.start()
         printed = ""
-        while not printed.strip():  # subscribed, handshake done: its first line (the state)
+
+        def first_line():  # subscribed, handshake done: its first line (the state)
+            nonlocal printed
             assert lis.is_alive()
             printed += capsys.readouterr().out
-            time.sleep(0.01)
+            return printed.strip()
+
+        wait_until(first_line, "the listener printed the stream's state")
         ctx = zmq.Context.instance()
         push = ctx.socket(zmq.PUSH)
         push.connect(ep["ingest"])
@@ -214,8 +215,8 @@ def test_every_event_seen_live_is_in_the_log_after_kill9(tmp_path, rec):
         wait_ping(ep, proc)
         sender.start()
         # a checkpoint of the stream first, so each restart resumes it
-        while not request(ep["control"], "stats")["totals"].get("checkpoints_written"):
-            time.sleep(0.01)
+        wait_until(lambda: request(ep["control"], "stats")["totals"].get("checkpoints_written"),
+                   "a checkpoint written")
         for _ in range(3):
             want = int(rng.integers(1, 15))
             got = 0
@@ -308,8 +309,7 @@ def test_a_take_the_crash_ended_is_closed_at_restart(tmp_path, rec):
         for a in range(0, 2000, 100):
             push.send_multipart(P.encode(P.Frames("x", a, 0.0, rec.positions[a:a + 100])))
         wait_frame(ep, "x", 2000)
-        while not (before := fetch_since(ep["control"], "x", 0)):
-            time.sleep(0.01)  # a cut of the take is out
+        before = wait_until(lambda: fetch_since(ep["control"], "x", 0), "a cut of the take logged")
         proc.send_signal(signal.SIGKILL)
         proc.wait(10)
         proc = serve(toml)

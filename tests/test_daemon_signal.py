@@ -14,6 +14,7 @@ from streamseg import protocol as P
 from streamseg.client import listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 
@@ -31,13 +32,13 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().startswith("streamseg serve: ingest=")
-        deadline = time.time() + 30
+        deadline = time.monotonic() + 30
         while True:  # the daemon answers once its kernels are warm and the loop runs
             try:
                 if request(ep["control"], "ping", timeout=1)["ok"]:
                     break
             except TimeoutError:
-                assert time.time() < deadline
+                assert time.monotonic() < deadline
         s = subscribe(ep["publish"], ep["control"], stream="t")
         push = zmq.Context.instance().socket(zmq.PUSH)
         push.setsockopt(zmq.LINGER, 2000)
@@ -47,8 +48,8 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
         for a in range(0, n, 30):
             push.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a:a + 30])))
         push.close()
-        while request(ep["control"], "state", stream="t").get("frame", -1) < n:
-            time.sleep(0.05)
+        wait_until(lambda: request(ep["control"], "state", stream="t").get("frame", -1) >= n,
+                   f"the daemon took the {n} frames")
         proc.send_signal(signal.SIGTERM)
         events = list(listen(s, stream="t", until_end=True, timeout=20))
         assert proc.wait(20) == 0

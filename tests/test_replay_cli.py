@@ -15,6 +15,7 @@ import pytest
 from streamseg.client import listen, request, subscriber
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -64,14 +65,10 @@ def test_ctrl_c_and_sigterm_send_end(data_dir, sig):
                                            "cc"), stderr=subprocess.PIPE, text=True,
                                 env={**os.environ, "PYTHONFAULTHANDLER": "1"},
                                 preexec_fn=_default_sigint)
-        deadline = time.monotonic() + 60
         # the stream is open and has taken 2 s of frames: the replay is in its sending loop
         # (past imports and first-use compilation, which are slow on a fresh clone)
-        while time.monotonic() < deadline:
-            st = request(ep["control"], "streams")["streams"]
-            if st and st[0]["frame"] >= 240:
-                break
-            time.sleep(0.02)
+        wait_until(lambda: (st := request(ep["control"], "streams")["streams"])
+                   and st[0]["frame"] >= 240, "the replay's stream took 240 frames")
         proc.send_signal(sig)
         try:
             proc.wait(30)
@@ -93,7 +90,8 @@ def test_ctrl_c_and_sigterm_send_end(data_dir, sig):
 def slow_pull():
     """A PULL socket on a free loopback port that takes one message per 50 ms with the
     smallest queues, so a fast sender's packets wait in the sender's own queue; the
-    messages' types in arrival order (the list grows until 5 s pass without one)."""
+    messages' types in arrival order (the list grows until the ``end`` message arrives, or
+    nothing came for 120 s: a bound, the replay's start may be slow on a fresh clone)."""
     import zmq
 
     ctx = zmq.Context.instance()
@@ -104,9 +102,11 @@ def slow_pull():
     got = []
 
     def take():
-        while pull.poll(5000):
+        while pull.poll(120_000):
             got.append(pull.recv_multipart()[0].split(b"/")[0].decode())
-            time.sleep(0.05)
+            if got[-1] == "end":
+                break
+            time.sleep(0.05)  # the input: a consumer slower than the sender
         pull.close()
 
     reader = threading.Thread(target=take)

@@ -93,7 +93,7 @@ def build(args):
         overrides["subscribe"] = (*config.subscribe, *overrides["subscribe"])
     config = dataclasses.replace(config, **overrides)
     if not config.state_dir:  # the library default is none; a service keeps its log
-        from streamseg.daemon.eventlog import default_state_dir
+        from streamseg.daemon.state_files import default_state_dir
 
         config = dataclasses.replace(config, state_dir=str(default_state_dir()))
     elif config.state_dir == "none":

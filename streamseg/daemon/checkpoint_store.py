@@ -18,8 +18,8 @@ import time
 
 import msgpack
 
-from streamseg.daemon.eventlog import connect
 from streamseg.daemon.state_codec import load, packable, stored
+from streamseg.daemon.state_files import connect
 from streamseg.state import StateVersionError
 from streamseg.state_migrations import FORMAT, READS
 

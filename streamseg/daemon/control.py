@@ -13,7 +13,7 @@ import msgpack
 import zmq
 
 from streamseg import protocol
-from streamseg.daemon.eventlog import LogReadError
+from streamseg.daemon.state_files import LogReadError
 from streamseg.protocol.auth import matches
 
 CHANGING_OPS = protocol.CHANGING_OPS  # ops that change the daemon's state

@@ -21,15 +21,18 @@ and raised as :class:`LogReadError`, which names the file.
 from __future__ import annotations
 
 import collections
-import dataclasses
 import logging
-import os
 import sqlite3
 import threading
 import time
 from pathlib import Path
 
 from streamseg import protocol
+
+# moved out of this module; server.py still takes them from here
+from streamseg.daemon.numbering import Numbering as Numbering
+from streamseg.daemon.state_files import LogReadError as LogReadError
+from streamseg.daemon.state_files import connect, move_aside
 
 log = logging.getLogger("streamseg.daemon")
 
@@ -61,51 +64,12 @@ RESERVE_PAGES = 1024
 RETAIN_STEP = 20_000
 
 
-class LogReadError(RuntimeError):
-    """The event log could not be read (a damaged file); the message names the file."""
-
-
-def default_state_dir() -> Path:
-    """``$XDG_STATE_HOME/streamseg``, else ``~/.local/state/streamseg``."""
-    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local",
-                                                            "state")
-    return Path(base) / "streamseg"
-
-
 def open_log(config, notify=None) -> EventLog | None:
     """The daemon's event log under ``config.state_dir`` (None without a state directory)."""
     if not config.state_dir or config.state_dir == "none":
         return None
     return EventLog(config.state_dir, max_bytes=int(config.log_max_mb * 1e6),
                     max_age=config.log_max_days * 86400.0, notify=notify)
-
-
-def connect(path: Path, auto_vacuum: bool = False) -> sqlite3.Connection:
-    """A connection in WAL mode (readers never block the writer), autocommit off;
-    ``auto_vacuum``: incremental (takes effect on a new file only)."""
-    con = sqlite3.connect(str(path), timeout=30, check_same_thread=False,
-                          isolation_level=None)
-    if auto_vacuum:  # before WAL mode writes the file's first page
-        con.execute("PRAGMA auto_vacuum=INCREMENTAL")
-    con.execute("PRAGMA journal_mode=WAL")
-    # NORMAL in WAL: a commit survives a crash of the process (kill -9); only a power loss
-    # can take the last commits, and never corrupts the file
-    con.execute("PRAGMA synchronous=NORMAL")
-    return con
-
-
-def move_aside(path: Path, name: str) -> Path:
-    """Rename the SQLite file ``path`` (and its ``-wal``, ``-shm``) to ``<name>.corrupt-<time>
-    .sqlite`` beside it; returns the new path."""
-    stamp, k = int(time.time()), 0
-    while (aside := path.with_name(f"{name}.corrupt-{stamp}{f'-{k}' if k else ''}.sqlite")) \
-            .exists():
-        k += 1  # never over an earlier one
-    for suffix in ("", "-wal", "-shm"):
-        src = Path(str(path) + suffix)
-        if src.exists():
-            src.rename(str(aside) + suffix)
-    return aside
 
 
 class EventLog:
@@ -462,53 +426,3 @@ class EventLog:
         pages = self._w.execute("PRAGMA page_count").fetchone()[0]
         free = self._w.execute("PRAGMA freelist_count").fetchone()[0]
         return (pages - free) * self._w.execute("PRAGMA page_size").fetchone()[0]
-
-
-class Numbering:
-    """Gives each published event its stream's next sequence number and logs it.
-
-    Numbers are per stream id (``*`` for daemon-wide events), start at 1 and continue over
-    re-announcements and, with an event log, over restarts. ``stats`` heartbeats are not
-    numbered (each supersedes the last). Counters of ids without an open stream (e.g.
-    ``unknown_stream`` errors) are kept for the last ``MAX_IDS`` ids; with a log an evicted
-    counter is read back from it.
-    """
-
-    MAX_IDS = 100_000
-
-    def __init__(self, eventlog: EventLog | None):
-        self.log = eventlog
-        self.last: collections.OrderedDict = collections.OrderedDict()
-
-    def current(self, key: str) -> int:
-        """The last number given to ``key`` (0: none yet)."""
-        n = self.last.get(key)
-        if n is None:
-            try:
-                n = self.log.last_seq(key) if self.log is not None else 0
-            except LogReadError:  # counted by the log and reported: go on from memory
-                n = 0
-            if len(self.last) >= self.MAX_IDS:
-                self.last.popitem(last=False)
-            self.last[key] = n
-        else:
-            self.last.move_to_end(key)
-        return n
-
-    def next(self, key: str) -> int:
-        n = self.current(key) + 1
-        self.last[key] = n
-        return n
-
-    def encode(self, ev):
-        """``(numbered event, [topic, body])``; ``stats`` go out unnumbered and unlogged. With
-        a log the frames are queued with the row, for :meth:`EventLog.committed`."""
-        if ev.type == "stats":
-            return ev, protocol.encode(ev)
-        key = ev.stream if ev.stream is not None else protocol.DAEMON_WIDE
-        n = self.next(key)
-        ev = dataclasses.replace(ev, seq=n)
-        parts = protocol.encode(ev)
-        if self.log is not None:
-            self.log.append(key, n, ev.type, parts[1], parts)
-        return ev, parts

@@ -148,7 +148,7 @@ class Ingest:
     """
 
     def __init__(self, ctx: zmq.Context, config, secure):
-        from streamseg.daemon.security import ipv6
+        from streamseg.endpoints import ipv6
 
         self.bounds = IngestBounds.of(config)
         self.sock = ctx.socket(zmq.PULL)

@@ -26,6 +26,8 @@ import zmq
 import zmq.auth
 from zmq.auth.thread import ThreadAuthenticator
 
+# the daemon's modules took it from here before it was shared with the clients
+from streamseg.endpoints import ipv6 as ipv6
 from streamseg.exceptions import ParameterError
 
 DOMAIN = "streamseg"  # the ZAP domain of the daemon's sockets
@@ -213,13 +215,6 @@ def peer_of(frame) -> str | None:
         if v and v != "anonymous":
             return v
     return None
-
-
-def ipv6(sock: zmq.Socket, endpoint: str) -> None:
-    """Turn on ZeroMQ's IPv6 for a ``tcp://[addr]:port`` endpoint (off, binding ``[::1]``
-    fails with "No such device"); before bind or connect."""
-    if endpoint.startswith("tcp://[") or ";[" in endpoint:
-        sock.setsockopt(zmq.IPV6, 1)
 
 
 def control_token() -> tuple:

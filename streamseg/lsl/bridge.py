@@ -20,7 +20,8 @@ import numpy as np
 import zmq
 
 from streamseg import protocol
-from streamseg.client import ipv6, sending_context
+from streamseg.client import sending_context
+from streamseg.endpoints import ipv6
 from streamseg.exceptions import ParameterError
 from streamseg.lsl import pylsl
 from streamseg.lsl.meta import describe, stream_skeleton
