@@ -54,6 +54,9 @@ CLOSED_KEPT = 1000  # states of closed streams kept for late joiners
 # lost the stream's tail, `closed` included, learns it from any of them); CLOSED_KEPT at most
 CLOSED_LAST_SEQ_S = 30.0
 SWITCH_INTERVAL = 0.0005  # s: CPython's GIL switch interval while a daemon runs
+# takes that may wait for their final relabel at once: each holds its stream's state and a
+# snapshot of its history until the worker gets to it (docs/decisions.md, Ingest memory)
+FINAL_RELABELS_WAITING = 16
 
 
 def _bindable(endpoint: str) -> str:
@@ -444,11 +447,17 @@ class Daemon:
             self.error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
         self.notices(st)
         self.results(st, final, final_reps)
+        relabel = self.config.relabel_interval > 0
+        if relabel and len(self.closing) >= FINAL_RELABELS_WAITING:
+            relabel = False  # takes end faster than the worker relabels: memory stays bounded
+            self.error(st.stream, "relabel", f"final relabel skipped: "
+                       f"{len(self.closing)} ended takes already wait for theirs (the "
+                       f"relabel worker is behind); the live cuts stand")
         self.intake.remove(st)
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
             self.rounds.forget(st.stream)
-        if self.config.relabel_interval > 0 and self._submit(st, final=True):
+        if relabel and self._submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
         else:
             self.closed(st, reason)
