@@ -278,18 +278,26 @@ def test_takes_waiting_for_their_final_relabel_are_bounded(start_daemon, rec):
     part = rec.slice(0, 240)
     for k in range(n):
         replay(part, ep["ingest"], stream=f"t{k}", speed=0, batch=120)
-    events, closed = [], []
-    for e in listen(s, timeout=30):  # while the worker is held: only the skipped ones close
-        events.append(e)
-        if e.type == "closed":
-            closed.append(e.stream)
-            if len(closed) == n - cap:
+    try:
+        events, closed = [], []
+        deadline = time.monotonic() + 30  # heartbeats keep listen's own timeout from firing
+        for e in listen(s, timeout=30):  # while the worker is held: only the skipped ones close
+            events.append(e)
+            if time.monotonic() > deadline:
                 break
-    assert closed == [f"t{k}" for k in range(cap, n)]
-    assert len(d.closing) == cap
-    gate.set()
+            if e.type == "closed":
+                closed.append(e.stream)
+                if len(closed) == n - cap:
+                    break
+        assert closed == [f"t{k}" for k in range(cap, n)]
+        assert len(d.closing) == cap
+    finally:
+        gate.set()  # the worker goes on, pass or fail (the daemon must stop)
+    deadline = time.monotonic() + 30
     for e in listen(s, timeout=30):
         events.append(e)
+        if time.monotonic() > deadline:
+            break
         if e.type == "closed":
             closed.append(e.stream)
             if len(closed) == n:
