@@ -265,6 +265,66 @@ def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
     assert during, f"no cut arrived while the relabel ran: {arrivals}"
 
 
+def test_takes_waiting_for_their_final_relabel_are_bounded(start_daemon, rec):
+    """Takes that end faster than the worker relabels wait for their final relabel, each
+    holding its state and a history snapshot; beyond FINAL_RELABELS_WAITING a take closes at
+    once without it (its live cuts stand, an error says why): memory stays bounded."""
+    from streamseg.daemon.server import FINAL_RELABELS_WAITING as cap
+
+    gate = threading.Event()
+
+    def gated_relabel(features, *, start_frame, fps, config, previous):
+        from streamseg.config import ACAConfig
+        from streamseg.offline import relabel_window
+
+        gate.wait(60)  # the worker is behind until the test lets it go
+        return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
+                              previous=previous)
+
+    d, ep = start_daemon(Algorithms(relabel=gated_relabel), relabel_interval=60.0,
+                         relabel_history=2.0)
+    n = cap + 5
+    s = sub(ep)
+    part = rec.slice(0, 240)
+    for k in range(n):
+        replay(part, ep["ingest"], stream=f"t{k}", speed=0, batch=120)
+    try:
+        events, closed = [], []
+        deadline = time.monotonic() + 30  # heartbeats keep listen's own timeout from firing
+        for e in listen(s, timeout=30):  # while the worker is held: only the skipped ones close
+            events.append(e)
+            if time.monotonic() > deadline:
+                break
+            if e.type == "closed":
+                closed.append(e.stream)
+                if len(closed) == n - cap:
+                    break
+        assert closed == [f"t{k}" for k in range(cap, n)]
+        assert len(d.closing) == cap
+    finally:
+        gate.set()  # the worker goes on, pass or fail (the daemon must stop)
+    deadline = time.monotonic() + 30
+    for e in listen(s, timeout=30):
+        events.append(e)
+        if time.monotonic() > deadline:
+            break
+        if e.type == "closed":
+            closed.append(e.stream)
+            if len(closed) == n:
+                break
+    assert sorted(closed) == sorted(f"t{k}" for k in range(n))
+    for k in range(n):
+        mine = [e for e in events if getattr(e, "stream", None) == f"t{k}"]
+        final = [e for e in mine if e.type == "segments" and e.final]
+        skipped = [e for e in mine if e.type == "error" and e.reason == "relabel"]
+        assert mine[-1].type == "closed"
+        if k < cap:
+            assert len(final) == 1 and not skipped
+        else:
+            assert not final and len(skipped) == 1 and "final relabel skipped" in \
+                skipped[0].message
+
+
 def test_limits_max_streams_and_idle(start_daemon, rec):
     d, ep = start_daemon(max_streams=1, idle_timeout=0.5)
     s = sub(ep)

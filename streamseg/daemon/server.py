@@ -54,6 +54,9 @@ from streamseg.daemon.streams import ErrorBook, StreamState
 
 log = logging.getLogger("streamseg.daemon")
 SWITCH_INTERVAL = 0.0005  # s: CPython's GIL switch interval while a daemon runs
+# takes that may wait for their final relabel at once: each holds its stream's state and a
+# snapshot of its history until the worker gets to it (docs/decisions.md, Ingest memory)
+FINAL_RELABELS_WAITING = 16
 
 
 def _bindable(endpoint: str) -> str:
@@ -334,11 +337,17 @@ class Daemon:
             self.error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
         self.notices(st)
         self.results(st, final, final_reps)
+        relabel = self.config.relabel_interval > 0
+        if relabel and len(self.closing) >= FINAL_RELABELS_WAITING:
+            relabel = False  # takes end faster than the worker relabels: memory stays bounded
+            self.error(st.stream, "relabel", f"final relabel skipped: "
+                       f"{len(self.closing)} ended takes already wait for theirs (the "
+                       f"relabel worker is behind); the live cuts stand")
         self.intake.remove(st)
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
             self.rounds.forget(st.stream)
-        if self.config.relabel_interval > 0 and self.relabels.submit(st, final=True):
+        if relabel and self.relabels.submit(st, final=True):
             self.closing[(st.stream, st.gen)] = (st, reason)
         else:
             self.closed(st, reason)
