@@ -29,6 +29,17 @@ def test_random_tiling_respects_lengths():
         assert np.all((e - s >= 4) & (e - s <= 7))
 
 
+@pytest.mark.parametrize("w", [1, 2, 5, 15])
+def test_random_tiling_of_one_length_is_the_loops_and_draws_nothing(w):
+    from tests.naive import naive_random_tiling
+
+    for n in range(0, 4 * w + 3):
+        rng, ref = np.random.default_rng(n), np.random.default_rng(n)
+        got, want = random_tiling(n, w, w, rng), naive_random_tiling(n, w, w, ref)
+        assert all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in zip(got, want))
+        assert rng.bit_generator.state == ref.bit_generator.state
+
+
 def test_propagated_similarity_hand_example():
     # classes a b a b (n = 4), wmax = 1. kappa: same class -> (0,2), (1,3) and the diagonal.
     # d = 1: pairs (i1, i2) with c[i1] == c[i2] and c[i1-1] == c[i2-1]: (1, 3), (3, 1), (2, 2),

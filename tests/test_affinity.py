@@ -9,9 +9,13 @@ import pytest
 
 from streamseg._kernels.affinity import scale_both, symmetrized
 from streamseg.offline.aca_descent import candidate_table, descend, frame_ids
-from streamseg.offline.aca_init import _normalized_affinity, random_tiling
+from streamseg.offline.aca_init import (
+    _normalized_affinity,
+    propagated_similarity,
+    random_tiling,
+)
 from streamseg.offline.dtak import frame_kernel
-from tests.naive import naive_normalized_affinity
+from tests.naive import naive_normalized_affinity, naive_propagated_similarity
 
 
 def _matrices(m, rng):
@@ -46,6 +50,17 @@ def test_kernels_equal_numpy_in_either_dtype(dtype):
     want *= s[:, None]
     want *= s[None, :]
     assert np.array_equal(M, want)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_propagated_similarity_equals_the_numpy_loops(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 90))
+    classes = rng.choice([-3, 2, 7, 40][: int(rng.integers(1, 5))], n)  # any class values
+    wmax = int(rng.integers(1, 25))
+    got = propagated_similarity(classes, wmax)
+    assert got.dtype == np.bool_
+    assert np.array_equal(got, naive_propagated_similarity(classes, wmax))
 
 
 def _symbols(seed, n=240):

@@ -245,7 +245,10 @@ class ACA(Estimator):
         self._validate()
         rng = np.random.default_rng(self.random_state)
         if self.kernel == "precomputed":
-            K = np.ascontiguousarray(X, dtype=np.float64)
+            # a 0/1 kernel given as int8 (HACA's equality kernel) is kept: every pass over
+            # (n, n) reads 1 byte a cell instead of 8
+            K = np.asarray(X)
+            K = np.ascontiguousarray(K, dtype=np.int8 if K.dtype == np.int8 else np.float64)
             if K.ndim != 2 or K.shape[0] != K.shape[1] or K.shape[0] == 0:
                 raise ParameterError(f"precomputed kernel must be (n, n), got {K.shape}")
             if not np.allclose(np.diag(K), 1.0):
@@ -272,8 +275,7 @@ class ACA(Estimator):
         wmin = feasible_min_len(nr, wmin, wmax)
         k = self.n_clusters
         # the equality kernel is 0/1 by construction; a precomputed one is checked
-        binary = self.kernel == "equality" or (
-            self.kernel == "precomputed" and bool(np.all((K == 0.0) | (K == 1.0))))
+        binary = self.kernel == "equality" or (self.kernel == "precomputed" and _zero_one(K))
         K_dp = dp_kernel(K, binary)
         # a 0/1 kernel repeats frames (symbols): old segments of identical frames are
         # computed once in each DP step (exact); a float kernel's sums keep their order
@@ -336,6 +338,13 @@ class ACA(Estimator):
         bounds = np.concatenate([[0], cuts, [n]]).astype(np.int64)
         self.segments_ = [(int(s), int(e), int(frame[s])) for s, e in
                           zip(bounds[:-1], bounds[1:], strict=True)]
+
+def _zero_one(K) -> bool:
+    """Whether every entry of ``K`` is 0 or 1 (int8: one pass over its bytes)."""
+    if K.dtype == np.int8:
+        return bool(np.all(K.view(np.uint8) <= 1))
+    return bool(np.all((K == 0.0) | (K == 1.0)))
+
 
 def _explicit_init(init, runs, n, nr, k):
     segs = sorted((int(s), int(e), int(lab)) for s, e, lab in init)

@@ -113,7 +113,9 @@ class HACA(Estimator):
             Xr, rs, re = X, np.arange(n), np.arange(1, n + 1)
             classes = kmeans(X, 20, rng) if self.init == "propagated" else None
         nr = Xr.shape[0]
-        K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma))
+        # the equality kernel as int8 (exact 0/1): both levels read it, never widened
+        K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma,
+                                              binary_dtype=np.int8))
         scale = nr / n  # reduced frames per frame
         fine = ACA(self.fine_clusters, max(1, round(fmin * scale)),
                    max(1, round(fmax * scale)), n_init=self.n_init, max_iter=self.max_iter,
