@@ -740,3 +740,20 @@ def naive_random_tiling(n, wmin, wmax, rng):
     bounds.append(n)
     b = np.asarray(bounds, dtype=np.int64)
     return b[:-1], b[1:]
+
+
+def naive_identical_merged(starts, ends, labels, frame_ids):
+    """``streamseg.offline.aca_descent._identical_merged`` as a dictionary of segment keys."""
+    keep, counts, first = [], [], {}
+    ids = np.asarray(frame_ids)
+    for j, (s, e, lab) in enumerate(zip(starts.tolist(), ends.tolist(), labels.tolist())):
+        key = (e - s, lab, ids[s:e].tobytes())
+        at = first.get(key)
+        if at is None:
+            first[key] = len(keep)
+            keep.append(j)
+            counts.append(1)
+        else:
+            counts[at] += 1
+    keep = np.asarray(keep, dtype=np.int64)
+    return starts[keep], ends[keep], labels[keep], np.asarray(counts, dtype=np.int64)
