@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import re
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -35,41 +33,32 @@ def _header_end(lines: list[str]) -> tuple[int, str | None]:
     return len(lines), unit
 
 
-#: the bone name opening a line of a frame (a frame-number line opens with a digit)
-_NAME = re.compile(r"^[ \t]*([A-Za-z_][^\s]*)", re.MULTILINE)
-
-
 def _parse_fast(body: str, layout: list[tuple[str, int]]) -> np.ndarray | None:
     """All frames at once when every frame follows ``layout``; None when anything is off.
-
-    The names are checked line by line (every frame lists the layout's bones in order) and
-    then blanked, so numpy parses the numbers left (frame numbers and values) in C: 6x
-    faster than converting 280,000 Python strings (CMU 86_01).
 
     Returns
     -------
     ndarray, shape (n_frames, n_values) or None
     """
-    names = _NAME.findall(body)
-    if not names or len(names) % len(layout):
+    tokens = body.split()
+    width = 1 + sum(1 + n for _, n in layout)
+    if not tokens or len(tokens) % width:
         return None
-    n_frames = len(names) // len(layout)
-    if names != [name for name, _ in layout] * n_frames:
-        return None
-    width = 1 + sum(n for _, n in layout)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a token numpy cannot read ends the fast path
-        try:
-            numbers = np.fromstring(_NAME.sub(" ", body), dtype=np.float64, sep=" ")
-        except (ValueError, DeprecationWarning):
+    n_frames = len(tokens) // width
+    pos, value_cols = 1, []
+    for name, n in layout:
+        if tokens[pos::width] != [name] * n_frames:
             return None
-    if numbers.size != n_frames * width:
+        value_cols.extend(range(pos + 1, pos + 1 + n))
+        pos += 1 + n
+    try:
+        numbers = np.array(tokens[0::width], dtype=np.int64)
+        values = np.array([tokens[c::width] for c in value_cols], dtype=np.float64).T
+    except ValueError:
         return None
-    table = numbers.reshape(n_frames, width)
-    frame = table[:, 0]
-    if not (np.all(np.diff(frame) == 1) and np.all(frame == np.round(frame))):
+    if np.any(np.diff(numbers) != 1):
         return None
-    return np.ascontiguousarray(table[:, 1:])
+    return values.reshape(n_frames, len(value_cols))
 
 
 def _parse_checked(path, lines, first, layout, known):
