@@ -140,8 +140,10 @@ def reseed_empty(T: np.ndarray, labels: np.ndarray, k: int) -> np.ndarray:
         labels[int(np.argmax(dist))] = empty[0]
 
 
-class ACA(Estimator):
-    """Aligned Cluster Analysis of one sequence of frames.
+class ACAEngine(Estimator):
+    """Aligned Cluster Analysis of one sequence of frames, as the paper states it: lengths in
+    frames and a given number of clusters (the engine :class:`streamseg.offline.ACA` and the
+    relabeller run; :class:`streamseg.offline.ACA` takes an ``ACAConfig`` and ``fps``).
 
     Parameters
     ----------
