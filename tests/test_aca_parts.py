@@ -298,3 +298,21 @@ def test_aca_and_haca_take_a_config_and_fps_and_refuse_the_old_call(name):
         assert model.fine_segments_ == engine.fine_segments_
     else:
         assert model.restart_objectives_.shape == (3,)
+
+
+@pytest.mark.parametrize("n_segments", [70, 90])  # 900-odd units (dense eigh), 1,100+ (ARPACK)
+def test_propagated_first_restart_in_a_thread_gives_the_restarts_in_order(n_segments):
+    """Threaded restarts draw restarts 1.. while the propagated restart 0 runs (its draws
+    skipped ahead on a copy of the generator, then checked): the answer of n_jobs=1."""
+    from streamseg.evaluation.synthetic import synthetic_sequence
+    from streamseg.offline.dtak import frame_kernel
+
+    x, _ = synthetic_sequence(n_segments, 0.0, np.random.default_rng(n_segments))
+    K = frame_kernel(x, kernel="equality", binary_dtype=np.int8)
+    classes = kmeans(x[:, None], 6, np.random.default_rng(0))
+    fits = [ACAEngine(4, 10, 15, n_init=4, kernel="precomputed", init="propagated",
+                      random_state=3, n_jobs=jobs).fit(K, frame_classes=classes)
+            for jobs in (1, 2)]
+    assert K.shape[0] ** 2 * 15 >= 10_000_000  # large enough to run in threads
+    assert fits[0].segments_ == fits[1].segments_
+    assert np.array_equal(fits[0].restart_objectives_, fits[1].restart_objectives_)

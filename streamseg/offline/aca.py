@@ -49,7 +49,7 @@ from streamseg.offline.aca_descent import (  # noqa: F401  (NEG, dp_step, work_d
     frame_ids,
     work_dtype,
 )
-from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init
+from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init, skip_propagated_draws
 from streamseg.offline.dtak import KERNELS, _as_frames, frame_kernel
 from streamseg.segments import Estimator
 
@@ -284,9 +284,9 @@ class ACAEngine(Estimator):
         ids = frame_ids(K_dp) if binary else None
         shared = RandomInits(K, wmin, wmax)
 
-        def initial(r):
-            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
-                                 runs, n, shared)
+        def initial(r, generator=rng):
+            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax,
+                                 generator, runs, n, shared)
 
         def run(init):
             return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp,
@@ -298,8 +298,11 @@ class ACAEngine(Estimator):
                 # the kernels release the GIL: descents run in threads while this one draws
                 # the next initializations (in order, from the one generator)
                 with ThreadPoolExecutor(min(jobs, self.n_init)) as pool:
-                    futures = [pool.submit(run, initial(r)) for r in range(self.n_init)]
-                    results = [f.result() for f in futures]
+                    results = self._speculated(pool, run, initial, rng, classes, nr, k)
+                    if results is None:
+                        shared = RandomInits(K, wmin, wmax)  # none of the guessed draws
+                        futures = [pool.submit(run, initial(r)) for r in range(self.n_init)]
+                        results = [f.result() for f in futures]
             else:
                 results = [run(initial(r)) for r in range(self.n_init)]
         best = None
@@ -313,6 +316,30 @@ class ACAEngine(Estimator):
         self.n_iter_ = int(it)
         self.min_len_used_, self.max_len_used_ = int(wmin), int(wmax)
         return self
+
+    def _speculated(self, pool, run, initial, rng, classes, nr, k):
+        """Restarts when the first one is the propagated initialization of given unit
+        classes (HACA's coarse level: an eigenproblem over every unit, the longest step of
+        the fit): it runs in a worker thread while this one draws the others from a copy of
+        the generator advanced past what it will draw (:func:`skip_propagated_draws`).
+        The same results as in order, checked: the generator the first restart leaves must
+        be the copy's starting state. None when that does not hold (the restarts are then
+        drawn again in order) or the first restart is not of that kind."""
+        import copy
+
+        if self.init != "propagated" or classes is None:
+            return None
+        ahead = copy.deepcopy(rng)
+        skip_propagated_draws(ahead, nr, k)
+        expected = ahead.bit_generator.state
+        first = pool.submit(lambda: (initial(0, rng), rng.bit_generator.state))
+        later = [pool.submit(run, initial(r, ahead)) for r in range(1, self.n_init)]
+        init0, state = first.result()
+        if state != expected:
+            for f in later:
+                f.cancel()
+            return None
+        return [run(init0)] + [f.result() for f in later]
 
     def _initial(self, r, K, X, classes, k, wmin, wmax, rng, runs, n, shared):
         if isinstance(self.init, (list, tuple)) and r == 0:

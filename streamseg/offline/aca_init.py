@@ -237,6 +237,21 @@ def runs_to_segments(frame_labels, wmin: int, wmax: int):
     return starts, ends, labels
 
 
+def skip_propagated_draws(rng: np.random.Generator, n: int, k: int) -> None:
+    """Draw from ``rng`` what :func:`propagated_init` of ``n`` units into ``k`` clusters
+    draws when no k-means++ step meets an all-zero distance (the usual case): the ARPACK
+    start vector, k-means++'s first centre and one uniform per later centre. A caller that
+    runs later restarts from the generator so advanced, in parallel with the propagated one,
+    checks the real generator's state afterwards (:meth:`ACAEngine.fit`)."""
+    if n <= k:
+        return
+    if n > DENSE_EIGH_MAX:
+        rng.uniform(0.5, 1.0, n)
+    rng.integers(n)
+    for _ in range(1, k):
+        rng.random()
+
+
 def propagated_init(frame_classes, k: int, wmin: int, wmax: int, rng: np.random.Generator):
     """Section 4.2 initialization: spectral clustering of the eq. 10 similarity, then lengths
     forced into [wmin, wmax]. ``frame_classes``: (n,) k-means class of each frame."""
