@@ -1,7 +1,8 @@
 """The result type every segmenter returns, and the checks every estimator shares.
 
 The estimators (:class:`~streamseg.offline.LOFSegmenter`,
-:class:`~streamseg.offline.ACASegmenter`, :class:`~streamseg.offline.RepetitionSegmenter`)
+:class:`~streamseg.offline.ACASegmenter`, :class:`~streamseg.offline.ACA`,
+:class:`~streamseg.offline.HACA`, :class:`~streamseg.offline.RepetitionSegmenter`)
 follow one convention, spelled out in :class:`Estimator`: ``(config=None, fps=120.0)`` at
 construction, ``fit(X)`` returns the estimator, ``predict()`` (or ``fit_predict(X)``)
 returns a list of :class:`Segment` tiling the frames it was fitted on, and fitted attributes
@@ -75,13 +76,14 @@ class Estimator:
       frames.
 
     Anything else (e.g. ``LOFSegmenter``'s ``n_features``) comes after, as a keyword with a
-    default. ``LOFSegmenter``, ``ACASegmenter`` and ``RepetitionSegmenter`` follow it
-    (``tests/test_newcomer.py`` checks their signatures). :class:`~streamseg.offline.ACA` and
-    :class:`~streamseg.offline.HACA` are not estimators of this kind but the engines
-    ``ACASegmenter`` runs: lengths in frames and a fixed number of clusters, as the papers
-    state the algorithms (:func:`~streamseg.offline.model_selection.model_from_config`
-    builds them from an ``ACAConfig`` and ``fps``). Use ``ACASegmenter`` unless you need the
-    engine itself.
+    default. ``LOFSegmenter``, ``ACASegmenter``, ``ACA``, ``HACA`` and
+    ``RepetitionSegmenter`` follow it (``tests/test_newcomer.py`` checks their signatures;
+    the old ``ACA(n_clusters, min_len_frames, max_len_frames, ...)`` call is refused with a
+    message saying the new one). The engines they run,
+    :class:`~streamseg.offline.aca.ACAEngine` and :class:`~streamseg.offline.haca.HACAEngine`,
+    take lengths in frames and a fixed number of clusters, as the papers state the
+    algorithms (:func:`~streamseg.offline.model_selection.model_from_config` builds them
+    from an ``ACAConfig`` and ``fps``); use them only when you need the engine itself.
     """
 
     def __setattr__(self, name, value):

@@ -296,6 +296,29 @@ def naive_normalized_affinity(A, dtype=np.float32):
     return M
 
 
+def naive_propagated_similarity(frame_classes, wmax):
+    """Eq. 10 as numpy loops over the lag ``d`` (``streamseg._kernels.affinity.propagated``).
+
+    ``kappa[i, j] = 1`` for frames of one class; then for every pair ``(i1, i2)`` of the same
+    class whose frames ``d`` steps earlier (``1 <= d <= wmax``) also share a class, the
+    pairs ``(i1, i1-d)``, ``(i2, i2-d)``, ``(i1, i2-d)``, ``(i1-d, i2)`` become 1 (both orders).
+    """
+    c = np.asarray(frame_classes)
+    n = c.shape[0]
+    S = c[:, None] == c[None, :]
+    out = S.copy()
+    idx = np.arange(n)
+    for d in range(1, min(wmax, n - 1) + 1):
+        M = S[d:, d:] & S[:-d, :-d]  # M[a, b]: i1 = a + d, i2 = b + d
+        out[d:, :-d] |= M  # (i1, i2 - d)
+        out[:-d, d:] |= M  # (i1 - d, i2)
+        has = M.any(axis=1)  # i1 (and i1 itself as i2) matched: link (i1, i1 - d)
+        ii = idx[d:][has]
+        out[ii, ii - d] = True
+    out |= out.T
+    return out
+
+
 def naive_dist(K, seg, old_segs, old_labels, c):
     """dist_c of eq. 3 for segment ``seg`` = (s, e) against the centre of cluster c."""
     members = [sg for sg, lab in zip(old_segs, old_labels) if lab == c]
@@ -704,3 +727,33 @@ def naive_pose_bridge(P, hold, needed):
                 else:
                     out[i, j] = before
     return out
+
+
+def naive_random_tiling(n, wmin, wmax, rng):
+    """Random tiling of ``0..n`` one length at a time (``streamseg.offline.aca_init``)."""
+    bounds, pos = [0], 0
+    while n - pos > wmax:
+        rest = n - pos
+        hi = min(wmax, rest - wmin)
+        pos += int(rng.integers(wmin, hi + 1)) if hi >= wmin else min(wmax, rest - 1)
+        bounds.append(pos)
+    bounds.append(n)
+    b = np.asarray(bounds, dtype=np.int64)
+    return b[:-1], b[1:]
+
+
+def naive_identical_merged(starts, ends, labels, frame_ids):
+    """``streamseg.offline.aca_descent._identical_merged`` as a dictionary of segment keys."""
+    keep, counts, first = [], [], {}
+    ids = np.asarray(frame_ids)
+    for j, (s, e, lab) in enumerate(zip(starts.tolist(), ends.tolist(), labels.tolist())):
+        key = (e - s, lab, ids[s:e].tobytes())
+        at = first.get(key)
+        if at is None:
+            first[key] = len(keep)
+            keep.append(j)
+            counts.append(1)
+        else:
+            counts[at] += 1
+    keep = np.asarray(keep, dtype=np.int64)
+    return starts[keep], ends[keep], labels[keep], np.asarray(counts, dtype=np.int64)

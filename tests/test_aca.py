@@ -12,8 +12,8 @@ from streamseg._kernels.dtak import segment_kernel
 from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.exceptions import ParameterError
 from streamseg.offline.aca import (
-    ACA,
     NEG,
+    ACAEngine,
     cluster_stats,
     dp_step,
     feasible_min_len,
@@ -134,7 +134,7 @@ def test_min_len_one_equals_kernel_kmeans():
     for trial in range(3):
         init_lab = np.random.default_rng(trial).integers(0, 3, 60)
         init = [(i, i + 1, int(c)) for i, c in enumerate(init_lab)]
-        model = ACA(3, 1, 1, n_init=1, kernel="precomputed", init=init).fit(K)
+        model = ACAEngine(3, 1, 1, n_init=1, kernel="precomputed", init=init).fit(K)
         ref = naive_kernel_kmeans(K, init_lab, 3)
         np.testing.assert_array_equal(model.labels_, ref)
 
@@ -162,7 +162,7 @@ def _three_class_sequence(rng, n_segments=12):
 
 def test_aca_recovers_clean_warped_sequence():
     x, y = _three_class_sequence(np.random.default_rng(0))
-    model = ACA(3, 6, 9, n_init=5, kernel="equality", random_state=0).fit(x)
+    model = ACAEngine(3, 6, 9, n_init=5, kernel="equality", random_state=0).fit(x)
     acc, _ = matched_frame_accuracy(model.labels_, y)
     assert acc == 1.0
     # segments tile the sequence with lengths in range and per-frame labels agree
@@ -175,10 +175,10 @@ def test_aca_recovers_clean_warped_sequence():
 
 def test_restarts_keep_lowest_objective_and_descent_is_monotone():
     x, _ = _three_class_sequence(np.random.default_rng(1), 10)
-    objs = [ACA(3, 6, 9, n_init=1, kernel="equality", random_state=s).fit(x).objective_
+    objs = [ACAEngine(3, 6, 9, n_init=1, kernel="equality", random_state=s).fit(x).objective_
             for s in range(6)]
     # n_init=6 with seed 0 begins with exactly the restart of n_init=1 with seed 0
-    best = ACA(3, 6, 9, n_init=6, kernel="equality", random_state=0).fit(x)
+    best = ACAEngine(3, 6, 9, n_init=6, kernel="equality", random_state=0).fit(x)
     assert best.objective_ <= objs[0] + 1e-12
     # six restarts were run and the kept one is the lowest of them, whichever it was
     assert best.restart_objectives_.shape == (6,)
@@ -200,7 +200,7 @@ def test_restarts_keep_lowest_objective_and_descent_is_monotone():
 
 def test_empty_cluster_is_reseeded_not_a_crash():
     x, _ = _three_class_sequence(np.random.default_rng(2), 4)
-    model = ACA(6, 6, 9, n_init=3, kernel="equality", random_state=0).fit(x)
+    model = ACAEngine(6, 6, 9, n_init=3, kernel="equality", random_state=0).fit(x)
     assert set(model.labels_.tolist()) <= set(range(6))
     T = np.array([[1.0, 0.9, 0.1], [0.9, 1.0, 0.1], [0.1, 0.1, 1.0]])
     # cluster 1 empty: the segment farthest from its centre (index 2) moves there
@@ -210,7 +210,7 @@ def test_empty_cluster_is_reseeded_not_a_crash():
 def test_infeasible_lengths_fall_back_to_min_len_one():
     assert feasible_min_len(5, 3, 4) == 1
     assert feasible_min_len(7, 3, 4) == 3
-    model = ACA(2, 3, 4, n_init=2, kernel="equality", random_state=0).fit(np.arange(5.0))
+    model = ACAEngine(2, 3, 4, n_init=2, kernel="equality", random_state=0).fit(np.arange(5.0))
     assert model.min_len_used_ == 1 and model.labels_.shape == (5,)
 
 
@@ -222,4 +222,4 @@ def test_infeasible_lengths_fall_back_to_min_len_one():
 def test_parameter_errors(kw, match):
     params = {"n_clusters": 2, "min_len_frames": 2, "max_len_frames": 4} | kw
     with pytest.raises(ParameterError, match=match):
-        ACA(**params).fit(np.arange(10.0))
+        ACAEngine(**params).fit(np.arange(10.0))

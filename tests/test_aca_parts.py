@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from streamseg.config import ACAConfig
 from streamseg.evaluation.metrics import matched_frame_accuracy
 from streamseg.exceptions import ParameterError
-from streamseg.offline import HACA, WindowSegmentation, relabel_window, warmup
-from streamseg.offline.aca import ACA
+from streamseg.offline import HACAEngine, WindowSegmentation, relabel_window, warmup
+from streamseg.offline.aca import ACAEngine
 from streamseg.offline.aca_init import (
     kmeans,
     propagated_similarity,
@@ -27,6 +29,17 @@ def test_random_tiling_respects_lengths():
         s, e = random_tiling(n, 4, 7, rng)
         assert s[0] == 0 and e[-1] == n and np.array_equal(s[1:], e[:-1])
         assert np.all((e - s >= 4) & (e - s <= 7))
+
+
+@pytest.mark.parametrize("w", [1, 2, 5, 15])
+def test_random_tiling_of_one_length_is_the_loops_and_draws_nothing(w):
+    from tests.naive import naive_random_tiling
+
+    for n in range(0, 4 * w + 3):
+        rng, ref = np.random.default_rng(n), np.random.default_rng(n)
+        got, want = random_tiling(n, w, w, rng), naive_random_tiling(n, w, w, ref)
+        assert all(np.array_equal(a, b) and a.dtype == b.dtype for a, b in zip(got, want))
+        assert rng.bit_generator.state == ref.bit_generator.state
 
 
 def test_propagated_similarity_hand_example():
@@ -84,11 +97,11 @@ def _blocks(rng, pattern, reps):
 
 def test_aca_with_reduction_and_propagated_init_on_blocks():
     X, y = _blocks(np.random.default_rng(0), [0, 1, 2, 0, 1], 3)
-    full = ACA(3, 30, 80, n_init=5, init="propagated", random_state=0).fit(X)
+    full = ACAEngine(3, 30, 80, n_init=5, init="propagated", random_state=0).fit(X)
     assert matched_frame_accuracy(full.labels_, y)[0] == 1.0
     # reduction squeezes actions unevenly (a run of one k-means class is one unit whatever its
     # duration), so it costs some accuracy here; chance level is about 0.4
-    model = ACA(3, 30, 80, n_init=5, k_reduce=20, reduce_cap=3, init="propagated",
+    model = ACAEngine(3, 30, 80, n_init=5, k_reduce=20, reduce_cap=3, init="propagated",
                 random_state=0).fit(X)
     assert model.labels_.shape == y.shape
     assert matched_frame_accuracy(model.labels_, y)[0] > 0.85
@@ -102,22 +115,21 @@ def test_aca_with_reduction_and_propagated_init_on_blocks():
 def test_explicit_init_with_reduction_and_errors():
     X, y = _blocks(np.random.default_rng(3), [0, 1, 2], 2)
     truth_segments = [(0, 80, 0), (80, 160, 1), (160, 240, 2)]
-    model = ACA(3, 30, 80, n_init=1, k_reduce=12, reduce_cap=3, init=truth_segments,
+    model = ACAEngine(3, 30, 80, n_init=1, k_reduce=12, reduce_cap=3, init=truth_segments,
                 random_state=0).fit(X)
     assert model.labels_.shape == (240,)
     with pytest.raises(ParameterError, match="distinct labels"):
-        ACA(2, 30, 80, n_init=1, init=truth_segments).fit(X)
+        ACAEngine(2, 30, 80, n_init=1, init=truth_segments).fit(X)
     with pytest.raises(ParameterError, match="tile"):
-        ACA(3, 30, 80, n_init=1, init=[(0, 100, 0)]).fit(X)
+        ACAEngine(3, 30, 80, n_init=1, init=[(0, 100, 0)]).fit(X)
 
 
 def test_haca_on_blocks():
     X, y = _blocks(np.random.default_rng(1), [0, 1, 2, 1, 0], 3)
     accs = []
     for seed in range(3):
-        model = HACA(3, 40, 120, fine_clusters=6, fine_min_len_frames=8, fine_max_len_frames=20,
-                     n_init=5,
-                     random_state=seed).fit(X)
+        model = HACAEngine(3, 40, 120, fine_clusters=6, fine_min_len_frames=8,
+                           fine_max_len_frames=20, n_init=5, random_state=seed).fit(X)
         accs.append(matched_frame_accuracy(model.labels_, y)[0])
     # a single run can stop in a local minimum of the fine level; most runs are near perfect
     assert np.median(accs) > 0.95 and min(accs) > 0.8
@@ -235,9 +247,9 @@ def test_estimators_share_one_convention():
     import copy
 
     from streamseg.exceptions import NotFittedError
-    from streamseg.offline import HACA, ACASegmenter, LOFSegmenter, RepetitionSegmenter
+    from streamseg.offline import ACA, HACA, ACASegmenter, LOFSegmenter, RepetitionSegmenter
 
-    for cls in (ACASegmenter, LOFSegmenter, RepetitionSegmenter):
+    for cls in (ACA, HACA, ACASegmenter, LOFSegmenter, RepetitionSegmenter):
         for bad in (0, -1, float("nan")):
             with pytest.raises(ParameterError, match="fps"):
                 cls(fps=bad)
@@ -250,8 +262,8 @@ def test_estimators_share_one_convention():
     assert (seg.labels_ != -7).all()  # a copy
     with pytest.raises(AttributeError, match="no fitted attribute"):
         _ = seg.cuts_  # fitted, but not an attribute this estimator has
-    model = HACA(3, 20, 60, fine_clusters=4, fine_min_len_frames=5, fine_max_len_frames=15,
-                 n_init=2, random_state=0).fit(X)
+    model = HACAEngine(3, 20, 60, fine_clusters=4, fine_min_len_frames=5,
+                       fine_max_len_frames=15, n_init=2, random_state=0).fit(X)
     before = model.labels_
     fits = dict(model.fit_each(X, [2, 3]))
     assert len(set(fits[2].labels_.tolist())) == 2 and len(set(fits[3].labels_.tolist())) == 3
@@ -259,3 +271,48 @@ def test_estimators_share_one_convention():
     twin = copy.copy(model)
     twin.labels_ = np.zeros(180, dtype=np.int64)
     assert (model.labels_ == before).all()
+
+
+@pytest.mark.parametrize("name", ["ACA", "HACA"])
+def test_aca_and_haca_take_a_config_and_fps_and_refuse_the_old_call(name):
+    import streamseg.offline as offline
+    from streamseg.offline.model_selection import model_from_config
+
+    cls = getattr(offline, name)
+    for old in ((3, 30, 80), (3,)):
+        with pytest.raises(ParameterError, match=f"the old call: give {name}\\(ACAConfig"):
+            cls(*old)
+    with pytest.raises(ParameterError, match="the old call"):
+        cls(ACAConfig(), 30.0, min_len_frames=30)
+    X, y = _blocks(np.random.default_rng(2), [0, 1, 2, 1, 0], 3)
+    cfg = ACAConfig(n_clusters=3, min_len_s=1.0, max_len_s=80 / 30, n_init=3, k_reduce=None,
+                    fine_min_len_s=8 / 30, fine_max_len_s=20 / 30, fine_clusters=6)
+    model = cls(cfg, fps=30.0).fit(X)
+    # the engine built from the same config at the same rate gives the same segments
+    engine = model_from_config(replace(cfg, hierarchical=name == "HACA"), 30.0).fit(X)
+    assert model.segments_ == [tuple(int(v) for v in s) for s in engine.segments_]
+    assert [tuple(s) for s in model.predict()] == model.segments_
+    assert model.n_clusters_ == 3 and model.k_scores_ == {}
+    assert matched_frame_accuracy(model.labels_, y)[0] > 0.9
+    if name == "HACA":
+        assert model.fine_segments_ == engine.fine_segments_
+    else:
+        assert model.restart_objectives_.shape == (3,)
+
+
+@pytest.mark.parametrize("n_segments", [70, 90])  # 900-odd units (dense eigh), 1,100+ (ARPACK)
+def test_propagated_first_restart_in_a_thread_gives_the_restarts_in_order(n_segments):
+    """Threaded restarts draw restarts 1.. while the propagated restart 0 runs (its draws
+    skipped ahead on a copy of the generator, then checked): the answer of n_jobs=1."""
+    from streamseg.evaluation.synthetic import synthetic_sequence
+    from streamseg.offline.dtak import frame_kernel
+
+    x, _ = synthetic_sequence(n_segments, 0.0, np.random.default_rng(n_segments))
+    K = frame_kernel(x, kernel="equality", binary_dtype=np.int8)
+    classes = kmeans(x[:, None], 6, np.random.default_rng(0))
+    fits = [ACAEngine(4, 10, 15, n_init=4, kernel="precomputed", init="propagated",
+                      random_state=3, n_jobs=jobs).fit(K, frame_classes=classes)
+            for jobs in (1, 2)]
+    assert K.shape[0] ** 2 * 15 >= 10_000_000  # large enough to run in threads
+    assert fits[0].segments_ == fits[1].segments_
+    assert np.array_equal(fits[0].restart_objectives_, fits[1].restart_objectives_)

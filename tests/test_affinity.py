@@ -8,10 +8,18 @@ import numpy as np
 import pytest
 
 from streamseg._kernels.affinity import scale_both, symmetrized
-from streamseg.offline.aca_descent import candidate_table, descend, frame_ids
-from streamseg.offline.aca_init import _normalized_affinity, random_tiling
+from streamseg.offline.aca_descent import _identical_merged, candidate_table, descend, frame_ids
+from streamseg.offline.aca_init import (
+    _normalized_affinity,
+    propagated_similarity,
+    random_tiling,
+)
 from streamseg.offline.dtak import frame_kernel
-from tests.naive import naive_normalized_affinity
+from tests.naive import (
+    naive_identical_merged,
+    naive_normalized_affinity,
+    naive_propagated_similarity,
+)
 
 
 def _matrices(m, rng):
@@ -46,6 +54,17 @@ def test_kernels_equal_numpy_in_either_dtype(dtype):
     want *= s[:, None]
     want *= s[None, :]
     assert np.array_equal(M, want)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_propagated_similarity_equals_the_numpy_loops(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 90))
+    classes = rng.choice([-3, 2, 7, 40][: int(rng.integers(1, 5))], n)  # any class values
+    wmax = int(rng.integers(1, 25))
+    got = propagated_similarity(classes, wmax)
+    assert got.dtype == np.bool_
+    assert np.array_equal(got, naive_propagated_similarity(classes, wmax))
 
 
 def _symbols(seed, n=240):
@@ -85,6 +104,19 @@ def test_descent_with_merged_segments_is_the_same_descent(seed):
     for a, b in zip(plain[:3], merged[:3]):
         assert np.array_equal(a, b)
     assert plain[3] == merged[3] and plain[4] == merged[4]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_identical_segments_are_grouped_as_by_their_keys(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 200))
+    ids = rng.integers(0, int(rng.integers(1, 4)), n)
+    starts, ends = random_tiling(n, 1, int(rng.integers(1, 6)), rng)
+    labels = rng.integers(0, 3, starts.size).astype(np.int64)
+    order = np.lexsort((labels, starts - ends))  # as candidate_table sorts them
+    args = starts[order], ends[order], labels[order], ids
+    for got, want in zip(_identical_merged(*args), naive_identical_merged(*args)):
+        assert got.dtype == want.dtype and np.array_equal(got, want)
 
 
 def test_frame_ids_group_identical_rows():

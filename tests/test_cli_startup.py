@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -53,3 +54,15 @@ def test_every_command_parser_builds_on_its_own(command, capsys):
         main([command, "--help"])
     assert info.value.code == 0
     assert f"usage: streamseg {command}" in capsys.readouterr().out
+
+
+def test_segment_with_aca_loads_neither_the_cut_detector_nor_the_daemons_parts():
+    """What ``segment --method aca`` imports is what it runs: no LOF kernels, no sockets, no
+    Dask, no sklearn, no plotting (each would add to the command's start)."""
+    data = Path(__file__).resolve().parents[1] / "data" / "cmu86"
+    loaded = loaded_modules(["segment", str(data / "86_01.amc.gz"), "--skeleton",
+                             str(data / "86.asf"), "--method", "aca", "--json"])
+    assert "streamseg.offline.haca" in loaded  # it ran
+    unused = {"streamseg.offline.lof", "streamseg._kernels.lof", "zmq", "dask", "distributed",
+              "sklearn", "matplotlib", "aiohttp", "scipy.sparse"} & loaded
+    assert not unused

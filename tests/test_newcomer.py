@@ -118,7 +118,8 @@ def test_a_view_started_after_a_stream_closed_lists_it(start_daemon, rec):
     assert [(r["stream"], r["closed"]) for r in rows] == [("done", "end")]
 
 
-@pytest.mark.parametrize("name", ["LOFSegmenter", "ACASegmenter", "RepetitionSegmenter"])
+@pytest.mark.parametrize("name", ["LOFSegmenter", "ACASegmenter", "ACA", "HACA",
+                                  "RepetitionSegmenter"])
 def test_every_offline_estimator_takes_config_then_fps(name):
     """One constructor convention (``streamseg.segments.Estimator``): (config=None,
     fps=120.0), then keywords with defaults."""

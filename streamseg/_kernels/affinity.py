@@ -8,6 +8,7 @@ Private: arrays in and out, no validation (see ``streamseg.offline.aca_init``). 
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 #: tile side: two (TILE, TILE) float64 tiles stay in a 64 kB L1/L2 working set
@@ -51,3 +52,57 @@ def scale_both(M, s):
         row = M[i]
         for j in range(m):
             row[j] = (row[j] * si) * s[j]
+
+
+@njit(cache=True, nogil=True)
+def _buckets(key, n_keys, lo):
+    """Frames ``i >= lo`` grouped by ``key[i]`` in ``0..n_keys-1``: ``(first, members)``,
+    the frames of key ``g`` being ``members[first[g]:first[g + 1]]`` in increasing order."""
+    n = key.shape[0]
+    first = np.zeros(n_keys + 1, np.int64)
+    for i in range(lo, n):
+        first[key[i] + 1] += 1
+    for g in range(n_keys):
+        first[g + 1] += first[g]
+    members = np.empty(n - lo, np.int64)
+    fill = first[:-1].copy()
+    for i in range(lo, n):
+        members[fill[key[i]]] = i
+        fill[key[i]] += 1
+    return first, members
+
+
+@njit(cache=True, nogil=True)
+def propagated(classes, wmax, out):
+    """Eq. 10's propagated similarity of frame ``classes`` (n,) int64 in ``0..C-1`` into the
+    boolean ``out`` (n, n), which must come in all False; returns it.
+
+    The same entries as numpy's loop over the lag ``d`` (``tests/naive.py``,
+    ``naive_propagated_similarity``). The pairs ``(i1, i2)`` that lag ``d`` links are those
+    with equal ``(classes[i], classes[i - d])``: grouped by that key, only the linked pairs
+    are visited. Every pair is visited in both orders, so the entries set are already
+    symmetric (the closure ``out |= out.T`` adds nothing).
+    """
+    n = classes.shape[0]
+    n_classes = 0
+    for i in range(n):
+        if classes[i] + 1 > n_classes:
+            n_classes = classes[i] + 1
+    first, members = _buckets(classes, n_classes, 0)
+    for g in range(n_classes):
+        for a in range(first[g], first[g + 1]):
+            for b in range(first[g], first[g + 1]):
+                out[members[a], members[b]] = True
+    key = np.empty(n, np.int64)
+    for d in range(1, min(wmax, n - 1) + 1):
+        for i in range(d, n):
+            key[i] = classes[i] * n_classes + classes[i - d]
+        first, members = _buckets(key, n_classes * n_classes, d)
+        for g in range(n_classes * n_classes):
+            for a in range(first[g], first[g + 1]):
+                i1 = members[a]
+                for b in range(first[g], first[g + 1]):
+                    i2 = members[b]
+                    out[i1, i2 - d] = True
+                    out[i1 - d, i2] = True
+    return out

@@ -17,8 +17,6 @@ from pathlib import Path
 from streamseg.commands.output import evaluation, segmentation, warn
 from streamseg.config import LOFConfig
 from streamseg.exceptions import ParameterError
-from streamseg.offline.lof import lof_features
-from streamseg.offline.lof_report import lof_report
 from streamseg.recording import UP_AXES
 
 _D = LOFConfig()
@@ -129,6 +127,8 @@ def _angles(args, config: LOFConfig):
             raise ParameterError(f"{args.file} has {width} columns, not the cut detector's "
                                  f"features ({bone}, or {config.n_features} with the root "
                                  f"speeds; --inclinations off: 8 or 10){hint}")
+        from streamseg.offline.lof import lof_features  # here: segment --method aca needs none
+
         return lof_features(m, config), float(args.fps), config  # validates any other width
     if getattr(args, "up", None) and not config.inclinations:
         raise ParameterError("--up has no effect without the inclinations (--inclinations off "
@@ -161,6 +161,8 @@ def _run(args, angles, fps, config: LOFConfig, online: bool) -> dict:
         warn(args, f"the recording has {n} frame{'s' if n != 1 else ''} ({n / fps:.2f} s), "
              f"shorter than the cut detector's window of {window} frames "
              f"({window / fps:.2f} s): no cut can be found (a shorter --window would look at it)")
+    from streamseg.offline.lof_report import lof_report
+
     return lof_report(angles, fps, config, online)
 
 

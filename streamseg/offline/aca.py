@@ -49,7 +49,7 @@ from streamseg.offline.aca_descent import (  # noqa: F401  (NEG, dp_step, work_d
     frame_ids,
     work_dtype,
 )
-from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init
+from streamseg.offline.aca_init import RandomInits, kmeans, propagated_init, skip_propagated_draws
 from streamseg.offline.dtak import KERNELS, _as_frames, frame_kernel
 from streamseg.segments import Estimator
 
@@ -140,8 +140,10 @@ def reseed_empty(T: np.ndarray, labels: np.ndarray, k: int) -> np.ndarray:
         labels[int(np.argmax(dist))] = empty[0]
 
 
-class ACA(Estimator):
-    """Aligned Cluster Analysis of one sequence of frames.
+class ACAEngine(Estimator):
+    """Aligned Cluster Analysis of one sequence of frames, as the paper states it: lengths in
+    frames and a given number of clusters (the engine :class:`streamseg.offline.ACA` and the
+    relabeller run; :class:`streamseg.offline.ACA` takes an ``ACAConfig`` and ``fps``).
 
     Parameters
     ----------
@@ -245,7 +247,10 @@ class ACA(Estimator):
         self._validate()
         rng = np.random.default_rng(self.random_state)
         if self.kernel == "precomputed":
-            K = np.ascontiguousarray(X, dtype=np.float64)
+            # a 0/1 kernel given as int8 (HACA's equality kernel) is kept: every pass over
+            # (n, n) reads 1 byte a cell instead of 8
+            K = np.asarray(X)
+            K = np.ascontiguousarray(K, dtype=np.int8 if K.dtype == np.int8 else np.float64)
             if K.ndim != 2 or K.shape[0] != K.shape[1] or K.shape[0] == 0:
                 raise ParameterError(f"precomputed kernel must be (n, n), got {K.shape}")
             if not np.allclose(np.diag(K), 1.0):
@@ -272,17 +277,16 @@ class ACA(Estimator):
         wmin = feasible_min_len(nr, wmin, wmax)
         k = self.n_clusters
         # the equality kernel is 0/1 by construction; a precomputed one is checked
-        binary = self.kernel == "equality" or (
-            self.kernel == "precomputed" and bool(np.all((K == 0.0) | (K == 1.0))))
+        binary = self.kernel == "equality" or (self.kernel == "precomputed" and _zero_one(K))
         K_dp = dp_kernel(K, binary)
         # a 0/1 kernel repeats frames (symbols): old segments of identical frames are
         # computed once in each DP step (exact); a float kernel's sums keep their order
         ids = frame_ids(K_dp) if binary else None
         shared = RandomInits(K, wmin, wmax)
 
-        def initial(r):
-            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax, rng,
-                                 runs, n, shared)
+        def initial(r, generator=rng):
+            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax,
+                                 generator, runs, n, shared)
 
         def run(init):
             return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp,
@@ -294,8 +298,11 @@ class ACA(Estimator):
                 # the kernels release the GIL: descents run in threads while this one draws
                 # the next initializations (in order, from the one generator)
                 with ThreadPoolExecutor(min(jobs, self.n_init)) as pool:
-                    futures = [pool.submit(run, initial(r)) for r in range(self.n_init)]
-                    results = [f.result() for f in futures]
+                    results = self._speculated(pool, run, initial, rng, classes, nr, k)
+                    if results is None:
+                        shared = RandomInits(K, wmin, wmax)  # none of the guessed draws
+                        futures = [pool.submit(run, initial(r)) for r in range(self.n_init)]
+                        results = [f.result() for f in futures]
             else:
                 results = [run(initial(r)) for r in range(self.n_init)]
         best = None
@@ -309,6 +316,30 @@ class ACA(Estimator):
         self.n_iter_ = int(it)
         self.min_len_used_, self.max_len_used_ = int(wmin), int(wmax)
         return self
+
+    def _speculated(self, pool, run, initial, rng, classes, nr, k):
+        """Restarts when the first one is the propagated initialization of given unit
+        classes (HACA's coarse level: an eigenproblem over every unit, the longest step of
+        the fit): it runs in a worker thread while this one draws the others from a copy of
+        the generator advanced past what it will draw (:func:`skip_propagated_draws`).
+        The same results as in order, checked: the generator the first restart leaves must
+        be the copy's starting state. None when that does not hold (the restarts are then
+        drawn again in order) or the first restart is not of that kind."""
+        import copy
+
+        if self.init != "propagated" or classes is None:
+            return None
+        ahead = copy.deepcopy(rng)
+        skip_propagated_draws(ahead, nr, k)
+        expected = ahead.bit_generator.state
+        first = pool.submit(lambda: (initial(0, rng), rng.bit_generator.state))
+        later = [pool.submit(run, initial(r, ahead)) for r in range(1, self.n_init)]
+        init0, state = first.result()
+        if state != expected:
+            for f in later:
+                f.cancel()
+            return None
+        return [run(init0)] + [f.result() for f in later]
 
     def _initial(self, r, K, X, classes, k, wmin, wmax, rng, runs, n, shared):
         if isinstance(self.init, (list, tuple)) and r == 0:
@@ -336,6 +367,13 @@ class ACA(Estimator):
         bounds = np.concatenate([[0], cuts, [n]]).astype(np.int64)
         self.segments_ = [(int(s), int(e), int(frame[s])) for s, e in
                           zip(bounds[:-1], bounds[1:], strict=True)]
+
+def _zero_one(K) -> bool:
+    """Whether every entry of ``K`` is 0 or 1 (int8: one pass over its bytes)."""
+    if K.dtype == np.int8:
+        return bool(np.all(K.view(np.uint8) <= 1))
+    return bool(np.all((K == 0.0) | (K == 1.0)))
+
 
 def _explicit_init(init, runs, n, nr, k):
     segs = sorted((int(s), int(e), int(lab)) for s, e, lab in init)

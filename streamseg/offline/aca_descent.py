@@ -57,19 +57,23 @@ def _identical_merged(starts, ends, labels, frame_ids):
     """The old segments (sorted by length, then label) with each group of one length, label
     and frame ids kept once, in place of its first, and its size: ``(starts, ends, labels,
     counts)``; the order of (length, label) runs is unchanged."""
-    keep, counts, first = [], [], {}
     ids = np.asarray(frame_ids)
-    for j, (s, e, lab) in enumerate(zip(starts.tolist(), ends.tolist(), labels.tolist())):
-        key = (e - s, lab, ids[s:e].tobytes())
-        at = first.get(key)
-        if at is None:
-            first[key] = len(keep)
-            keep.append(j)
-            counts.append(1)
-        else:
-            counts[at] += 1
-    keep = np.asarray(keep, dtype=np.int64)
-    return starts[keep], ends[keep], labels[keep], np.asarray(counts, dtype=np.int64)
+    m = starts.shape[0]
+    lens = ends - starts
+    width = int(lens.max()) if m else 0
+    # one row per segment: length, label, its frames' ids (padded with -1); equal rows are
+    # one group, kept at its first segment (np.unique gives each group's first index)
+    rows = np.full((m, width + 2), -1, dtype=np.int64)
+    rows[:, 0] = lens
+    rows[:, 1] = labels
+    offset = np.arange(width)
+    inside = offset[None, :] < lens[:, None]
+    rows[:, 2:][inside] = ids[(starts[:, None] + offset[None, :])[inside]]
+    _, first, group = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    keep = first[order]
+    counts = np.bincount(group.reshape(-1), minlength=first.shape[0])[order]
+    return starts[keep], ends[keep], labels[keep], counts.astype(np.int64)
 
 
 def frame_ids(K) -> np.ndarray:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from streamseg._kernels.affinity import scale_both, symmetrized
+from streamseg._kernels.affinity import propagated, scale_both, symmetrized
 from streamseg._kernels.dtak import segment_kernel
 from streamseg._kernels.kmeans import lloyd
 
@@ -92,7 +92,10 @@ def _normalized_affinity(A) -> np.ndarray:
     matrix ARPACK multiplies, in three passes (``streamseg._kernels.affinity``); the same
     to the bit as the numpy expression in ``tests/naive.py``."""
     A = np.asarray(A)
-    A = A.view(np.uint8) if A.dtype == np.bool_ else A.astype(np.float64, copy=False)
+    if A.dtype == np.bool_:
+        A = A.view(np.uint8)
+    elif A.dtype not in (np.int8, np.uint8):  # a 0/1 kernel stays narrow: 1/8 of the reads
+        A = A.astype(np.float64, copy=False)
     M = symmetrized(np.ascontiguousarray(A), np.empty(A.shape, np.float32))
     inv = _inv_sqrt(M.sum(1, dtype=np.float64))  # numpy's own summation order
     scale_both(M, inv.astype(np.float32))
@@ -105,6 +108,10 @@ def random_tiling(n: int, wmin: int, wmax: int, rng: np.random.Generator):
     Keeps every length in range whenever ``n`` can be tiled that way; otherwise the last piece
     takes the remainder.
     """
+    if wmin == wmax:  # one length, no draw (integers(w, w + 1) consumes nothing): the
+        # loop's tiling and generator state without its n / w Python steps
+        b = np.append(np.arange(0, max(n, 1), wmax, dtype=np.int64), n)
+        return b[:-1].copy(), b[1:].copy()
     bounds = [0]
     pos = 0
     while n - pos > wmax:
@@ -127,10 +134,11 @@ def random_init(K, k: int, wmin: int, wmax: int, rng: np.random.Generator):
 
 def tiling_kernel(K, starts, ends) -> np.ndarray:
     """(m, m) DTAKs between the segments of a tiling of ``K`` (n, n); of one-frame segments
-    it is ``K`` itself (the DTAK of two single frames is their kernel value, exactly)."""
+    it is ``K`` itself (the DTAK of two single frames is their kernel value, exactly), in
+    K's own dtype when the tiling is every frame (a 0/1 int8 kernel is not widened)."""
     if np.all(ends - starts == 1):
         if starts.shape[0] == K.shape[0]:  # every frame: K itself, no copy of (n, n)
-            return np.asarray(K, dtype=np.float64)
+            return K if K.dtype in (np.int8, np.float64) else np.asarray(K, np.float64)
         return np.asarray(K)[np.ix_(starts, starts)].astype(np.float64)
     return segment_kernel(K, starts, ends)
 
@@ -193,21 +201,12 @@ def propagated_similarity(frame_classes, wmax: int) -> np.ndarray:
     ``kappa[i, j] = 1`` for frames of one class; then for every pair ``(i1, i2)`` of the same
     class whose frames ``d`` steps earlier (``1 <= d <= wmax``) also share a class, the
     pairs ``(i1, i1-d)``, ``(i2, i2-d)``, ``(i1, i2-d)``, ``(i1-d, i2)`` become 1 (both orders).
+    In ``streamseg._kernels.affinity.propagated``: only the linked pairs are visited.
     """
     c = np.asarray(frame_classes)
     n = c.shape[0]
-    S = c[:, None] == c[None, :]
-    out = S.copy()
-    idx = np.arange(n)
-    for d in range(1, min(wmax, n - 1) + 1):
-        M = S[d:, d:] & S[:-d, :-d]  # M[a, b]: i1 = a + d, i2 = b + d
-        out[d:, :-d] |= M  # (i1, i2 - d)
-        out[:-d, d:] |= M  # (i1 - d, i2)
-        has = M.any(axis=1)  # i1 (and i1 itself as i2) matched: link (i1, i1 - d)
-        ii = idx[d:][has]
-        out[ii, ii - d] = True
-    out |= out.T
-    return out
+    codes = np.unique(c, return_inverse=True)[1].reshape(n).astype(np.int64)
+    return propagated(codes, int(wmax), np.zeros((n, n), dtype=np.bool_))
 
 
 def runs_to_segments(frame_labels, wmin: int, wmax: int):
@@ -236,6 +235,21 @@ def runs_to_segments(frame_labels, wmin: int, wmax: int):
     ends = np.asarray([e for _, e in merged], dtype=np.int64)
     labels = np.asarray([np.bincount(lab[s:e]).argmax() for s, e in merged], dtype=np.int64)
     return starts, ends, labels
+
+
+def skip_propagated_draws(rng: np.random.Generator, n: int, k: int) -> None:
+    """Draw from ``rng`` what :func:`propagated_init` of ``n`` units into ``k`` clusters
+    draws when no k-means++ step meets an all-zero distance (the usual case): the ARPACK
+    start vector, k-means++'s first centre and one uniform per later centre. A caller that
+    runs later restarts from the generator so advanced, in parallel with the propagated one,
+    checks the real generator's state afterwards (:meth:`ACAEngine.fit`)."""
+    if n <= k:
+        return
+    if n > DENSE_EIGH_MAX:
+        rng.uniform(0.5, 1.0, n)
+    rng.integers(n)
+    for _ in range(1, k):
+        rng.random()
 
 
 def propagated_init(frame_classes, k: int, wmin: int, wmax: int, rng: np.random.Generator):

@@ -19,15 +19,15 @@ from __future__ import annotations
 import numpy as np
 
 from streamseg.exceptions import ParameterError
-from streamseg.offline.aca import ACA
+from streamseg.offline.aca import ACAEngine
 from streamseg.offline.aca_init import kmeans, tiling_kernel
 from streamseg.offline.dtak import _as_frames, frame_kernel
 from streamseg.offline.reduction import reduce_frames
 from streamseg.segments import Estimator
 
 
-class HACA(Estimator):
-    """Two-level ACA.
+class HACAEngine(Estimator):
+    """Two-level ACA with lengths in frames (the engine :class:`streamseg.offline.HACA` runs).
 
     Parameters
     ----------
@@ -38,7 +38,7 @@ class HACA(Estimator):
     coarse_kernel : {"labels", "dtak"}
         Kernel between primitives at the coarse level (module docstring).
     n_init, max_iter, kernel, sigma, init, k_reduce, reduce_cap, n_jobs, random_state
-        As in :class:`streamseg.offline.aca.ACA` (``init`` applies to the fine level). The
+        As in :class:`streamseg.offline.aca.ACAEngine` (``init`` applies to the fine level). The
         coarse level starts its first restart from the propagated initialization (eq. 10)
         with the fine labels as unit classes, the others from random ones.
 
@@ -86,7 +86,7 @@ class HACA(Estimator):
 
         The fine level (primitives) does not depend on the number of actions, so a search
         over K pays for it once. Each coarse fit starts from the same random state, so
-        ``fit_each(X, [k])`` gives exactly ``HACA(k, ...).fit(X)``.
+        ``fit_each(X, [k])`` gives exactly ``HACAEngine(k, ...).fit(X)``.
 
         Returns
         -------
@@ -113,9 +113,11 @@ class HACA(Estimator):
             Xr, rs, re = X, np.arange(n), np.arange(1, n + 1)
             classes = kmeans(X, 20, rng) if self.init == "propagated" else None
         nr = Xr.shape[0]
-        K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma))
+        # the equality kernel as int8 (exact 0/1): both levels read it, never widened
+        K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma,
+                                              binary_dtype=np.int8))
         scale = nr / n  # reduced frames per frame
-        fine = ACA(self.fine_clusters, max(1, round(fmin * scale)),
+        fine = ACAEngine(self.fine_clusters, max(1, round(fmin * scale)),
                    max(1, round(fmax * scale)), n_init=self.n_init, max_iter=self.max_iter,
                    kernel="precomputed", init=self.init, n_jobs=self.n_jobs,
                    random_state=rng).fit(
@@ -138,7 +140,7 @@ class HACA(Estimator):
         out = []
         for k in n_clusters:
             # first coarse restart: eq. 10 propagation over the primitives' labels
-            coarse = ACA(k, cmin, cmax, n_init=self.n_init, max_iter=self.max_iter,
+            coarse = ACAEngine(k, cmin, cmax, n_init=self.n_init, max_iter=self.max_iter,
                          kernel="precomputed", init="propagated", n_jobs=self.n_jobs,
                          random_state=copy.deepcopy(rng)).fit(T, frame_classes=fine_labels)
             fitted = copy.copy(self)

@@ -49,6 +49,8 @@ class Fitted:
         The kept model's objective (0 for one segment).
     reason : str
         Why the window was not clustered ("" when it was).
+    model : ACAEngine, HACAEngine or None
+        The kept fitted engine (None for one segment).
     """
 
     labels_: np.ndarray
@@ -57,6 +59,7 @@ class Fitted:
     scores_: dict = field(default_factory=dict)
     objective_: float = 0.0
     reason: str = ""
+    model: object = None
 
 
 class PieceSilhouette:
@@ -118,10 +121,10 @@ def _single(n: int, reason: str) -> Fitted:
 
 
 def model_from_config(config: ACAConfig, fps: float, n_jobs: int = 1):
-    """Unfitted ACA or HACA for ``config`` with its second-based lengths at ``fps``; restarts
+    """Unfitted ACA or HACA engine for ``config`` with its second-based lengths at ``fps``; restarts
     in ``n_jobs`` threads (-1: one per CPU)."""
-    from streamseg.offline.aca import ACA
-    from streamseg.offline.haca import HACA
+    from streamseg.offline.aca import ACAEngine
+    from streamseg.offline.haca import HACAEngine
 
     def frames(seconds):
         return max(1, int(round(seconds * fps)))
@@ -131,12 +134,12 @@ def model_from_config(config: ACAConfig, fps: float, n_jobs: int = 1):
                   reduce_cap=frames(config.reduce_cap), random_state=config.random_state,
                   n_jobs=n_jobs)
     if config.hierarchical:
-        return HACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
+        return HACAEngine(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
                     fine_clusters=config.fine_clusters,
                     fine_min_len_frames=frames(config.fine_min_len_s),
                     fine_max_len_frames=frames(config.fine_max_len_s),
                     coarse_kernel=config.coarse_kernel, **common)
-    return ACA(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
+    return ACAEngine(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
                init=config.init, **common)
 
 
@@ -200,7 +203,7 @@ def fit_aca(X, config: ACAConfig, fps: float, n_jobs: int = 1) -> Fitted:
         full = labels[np.cumsum(ok)[idx] - 1]
         labels = full
     return Fitted(labels, _runs(labels, model.segments_, ok), k, scores,
-                  float(model.objective_))
+                  float(model.objective_), model=model)
 
 
 def _runs(labels: np.ndarray, segments, ok: np.ndarray) -> list:

@@ -150,10 +150,10 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
 
 def warmup() -> None:
     """Compile or load the ACA kernels (call once at daemon start, off the hot path)."""
-    from streamseg.offline.aca import ACA
+    from streamseg.offline.aca import ACAEngine
 
     x = np.array([0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0])
-    ACA(2, 2, 3, n_init=1, kernel="equality", random_state=0).fit(x)
-    ACA(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, random_state=0).fit(x)
-    ACA(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, k_reduce=2,  # k-means kernel too
+    ACAEngine(2, 2, 3, n_init=1, kernel="equality", random_state=0).fit(x)
+    ACAEngine(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, random_state=0).fit(x)
+    ACAEngine(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, k_reduce=2,  # k-means kernel too
         random_state=0).fit(np.repeat(x, 3)[:, None])

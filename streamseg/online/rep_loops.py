@@ -48,14 +48,14 @@ class PoseRing(Stateful):
     """
 
     def __init__(self, config: RepetitionConfig, fps: float):
-        from scipy.signal import butter
+        from streamseg.online.lowpass import butter2_sos
 
         self.config = cfg = config
         self.dec = max(1, int(round(fps / cfg.rate_hz)))
         rate = fps / self.dec
         self.C = int(round(cfg.buffer_s * rate)) + 2
         self.cutoff = cutoff_hz(cfg, fps)
-        self._sos = butter(2, min(self.cutoff, 0.45 * fps), fs=fps, output="sos")
+        self._sos = butter2_sos(min(self.cutoff, 0.45 * fps), fps)
         self._state = None
         self.Z = None
         self.SP = np.zeros(self.C)
@@ -65,10 +65,10 @@ class PoseRing(Stateful):
         """Pose rows ``F`` (n, d) of stream frames ``first`` on: low-passed, every ``dec``-th
         kept."""
         if self._state is None:
-            from scipy.signal import sosfilt_zi
+            from streamseg.online.lowpass import sos_initial_state
 
             # start at rest on the first frame (no transient from zero)
-            self._state = sosfilt_zi(self._sos)[:, :, None] * F[0][None, None, :]
+            self._state = sos_initial_state(self._sos)[:, :, None] * F[0][None, None, :]
             self.Z = np.zeros((self.C, F.shape[1]))
         Y = np.empty_like(F)
         K.sos_filter(F, self._sos, self._state, Y)

@@ -23,10 +23,10 @@ OCTAVE_S = 102.0  # the authors' code under Octave on this machine, 4,609 frames
 def _fit(n_segments):
     from streamseg.evaluation.metrics import matched_frame_accuracy
     from streamseg.evaluation.synthetic import synthetic_sequence
-    from streamseg.offline.aca import ACA
+    from streamseg.offline.aca import ACAEngine
 
     x, truth = synthetic_sequence(n_segments, 0.0, np.random.default_rng(n_segments))
-    model = ACA(4, 10, 15, n_init=10, kernel="equality", random_state=0, n_jobs=-1)
+    model = ACAEngine(4, 10, 15, n_init=10, kernel="equality", random_state=0, n_jobs=-1)
     return x, lambda: model.fit(x), lambda: matched_frame_accuracy(model.labels_, truth)[0]
 
 
@@ -37,9 +37,9 @@ class Synthetic:
     number = repeat = rounds = 1
 
     def setup_cache(self):
-        from streamseg.offline.aca import ACA
+        from streamseg.offline.aca import ACAEngine
 
-        ACA(2, 2, 3, n_init=1, kernel="equality").fit(np.arange(12.0) % 3)  # kernels loaded
+        ACAEngine(2, 2, 3, n_init=1, kernel="equality").fit(np.arange(12.0) % 3)  # kernels loaded
         out = {}
         for n in SIZES:
             x, fit, accuracy = _fit(int(round(n / 12.5)))
