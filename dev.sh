@@ -28,6 +28,7 @@ case "${1:-}" in
         ensure_env test,plot,dev,docs
         shift
         .venv/bin/ruff check .
+        .venv/bin/ruff format --check --quiet .
         # the documentation site, strictly: a broken link or reference fails the run
         NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --quiet
         set +e

@@ -37,10 +37,18 @@ from streamseg.skeleton import quaternion_features
 DATA = Path(__file__).resolve().parents[1] / "data"
 RECORDINGS = [
     ("86_01", DATA / "cmu86/86_01.amc.gz", DATA / "cmu86/86.asf", DATA / "cmu86/labels_86_01.csv"),
-    ("14_14", DATA / "cmu_exercise/14_14.amc.gz", DATA / "cmu86/86.asf",
-     DATA / "cmu_exercise/labels.csv"),
-    ("14_20", DATA / "cmu_exercise/14_20.amc.gz", DATA / "cmu86/86.asf",
-     DATA / "cmu_exercise/labels.csv"),
+    (
+        "14_14",
+        DATA / "cmu_exercise/14_14.amc.gz",
+        DATA / "cmu86/86.asf",
+        DATA / "cmu_exercise/labels.csv",
+    ),
+    (
+        "14_20",
+        DATA / "cmu_exercise/14_20.amc.gz",
+        DATA / "cmu86/86.asf",
+        DATA / "cmu_exercise/labels.csv",
+    ),
 ]
 
 
@@ -49,8 +57,10 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=5)
     args = ap.parse_args()
     model_from_config(ACAConfig(), 120.0).fit(np.random.default_rng(0).normal(size=(300, 4)))
-    print(f"{'recording':>9} {'frames':>6} {'k':>2} {'method':>6} {'mean acc':>8} {'min acc':>8} "
-          f"{'max acc':>8} {'median s':>8}")
+    print(
+        f"{'recording':>9} {'frames':>6} {'k':>2} {'method':>6} {'mean acc':>8} {'min acc':>8} "
+        f"{'max acc':>8} {'median s':>8}"
+    )
     for name, amc, asf, csv in RECORDINGS:
         rec = read(amc, asf)
         X = quaternion_features(rec)
@@ -58,8 +68,11 @@ def main() -> None:
         truth = frame_labels(segs, rec.n_frames)
         keep = truth >= 0
         k = len({s.label for s in segs})
-        for method, extra in (("ACA", {"hierarchical": False}), ("HACA", {"hierarchical": True}),
-                              ("HACA-l", {"hierarchical": True, "coarse_kernel": "labels"})):
+        for method, extra in (
+            ("ACA", {"hierarchical": False}),
+            ("HACA", {"hierarchical": True}),
+            ("HACA-l", {"hierarchical": True, "coarse_kernel": "labels"}),
+        ):
             accs, secs = [], []
             for seed in range(args.seeds):
                 cfg = dataclasses.replace(ACAConfig(), n_clusters=k, random_state=seed, **extra)
@@ -67,8 +80,10 @@ def main() -> None:
                 model = model_from_config(cfg, rec.fps).fit(X)
                 secs.append(time.perf_counter() - t0)
                 accs.append(matched_frame_accuracy(model.labels_[keep], truth[keep])[0])
-            print(f"{name:>9} {rec.n_frames:6d} {k:2d} {method:>6} {np.mean(accs):8.3f} "
-                  f"{np.min(accs):8.3f} {np.max(accs):8.3f} {np.median(secs):8.2f}")
+            print(
+                f"{name:>9} {rec.n_frames:6d} {k:2d} {method:>6} {np.mean(accs):8.3f} "
+                f"{np.min(accs):8.3f} {np.max(accs):8.3f} {np.median(secs):8.2f}"
+            )
 
 
 if __name__ == "__main__":

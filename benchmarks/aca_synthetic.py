@@ -37,9 +37,26 @@ from streamseg.evaluation.synthetic import synthetic_sequence
 
 
 def run_cli(path, min_len, max_len, seed, k=4):
-    argv = ["segment", str(path), "--method", "aca", "--fps", "1", "--flat", "--kernel", "equality",
-            "--min-len", str(min_len), "--max-len", str(max_len), "--restarts", "10",
-            "--seed", str(seed), "--json"] + (["--clusters", str(k)] if k else [])
+    argv = [
+        "segment",
+        str(path),
+        "--method",
+        "aca",
+        "--fps",
+        "1",
+        "--flat",
+        "--kernel",
+        "equality",
+        "--min-len",
+        str(min_len),
+        "--max-len",
+        str(max_len),
+        "--restarts",
+        "10",
+        "--seed",
+        str(seed),
+        "--json",
+    ] + (["--clusters", str(k)] if k else [])
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         code = cli_main(argv)
@@ -53,12 +70,15 @@ def main() -> None:
     ap.add_argument("--sequences", type=int, default=10)
     ap.add_argument("--segments", type=int, default=20)
     args = ap.parse_args()
-    print(f"{'p_noise':>7} {'min_len':>7} {'max_len':>7} {'K':>7} {'mean acc':>9} "
-          f"{'min acc':>8} {'K found':>22} {'frames':>7} {'s/seq':>7}")
+    print(
+        f"{'p_noise':>7} {'min_len':>7} {'max_len':>7} {'K':>7} {'mean acc':>9} "
+        f"{'min acc':>8} {'K found':>22} {'frames':>7} {'s/seq':>7}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for p in (0.0, 0.1, 0.2, 0.3):
-            for max_len, k in [(m, k) for m in sorted({15, round(15 * (1 + p))})
-                               for k in (4, None)]:
+            for max_len, k in [
+                (m, k) for m in sorted({15, round(15 * (1 + p))}) for k in (4, None)
+            ]:
                 accs, times, frames, found = [], [], [], []
                 for i in range(args.sequences):
                     rng = np.random.default_rng(1000 * int(p * 10) + i)
@@ -70,15 +90,18 @@ def main() -> None:
                     times.append(time.perf_counter() - t0)
                     labels = np.empty(len(x), dtype=np.int64)
                     for s in res["segments"]:
-                        labels[s["start"]:s["end"]] = s["label"]
+                        labels[s["start"] : s["end"]] = s["label"]
                     accs.append(matched_frame_accuracy(labels, truth)[0])
                     frames.append(len(x))
                     found.append(res["n_clusters"])
-                counts = "-" if k else " ".join(f"{v}:{found.count(v)}"
-                                                 for v in sorted(set(found)))
-                print(f"{p:7.1f} {10:7d} {max_len:7d} {k or 'found':>7} {np.mean(accs):9.3f} "
-                      f"{np.min(accs):8.3f} {counts:>22} {np.mean(frames):7.0f} "
-                      f"{np.mean(times):7.3f}", flush=True)
+                counts = "-" if k else " ".join(f"{v}:{found.count(v)}" for v in sorted(set(found)))
+                print(
+                    f"{p:7.1f} {10:7d} {max_len:7d} {k or 'found':>7} {np.mean(accs):9.3f} "
+                    f"{np.min(accs):8.3f} {counts:>22} {np.mean(frames):7.0f} "
+                    f"{np.mean(times):7.3f}",
+                    flush=True,
+                )
+
 
 if __name__ == "__main__":
     main()

@@ -57,14 +57,19 @@ DELAYS = (1.0, 3.0, 10.0)
 
 # --- the events -------------------------------------------------------------------------------
 
+
 def _algorithms(args):
     from streamseg.config import LOFConfig
     from streamseg.config.memory import LabelMemoryConfig
     from streamseg.daemon.pipeline import Algorithms
 
     lof = LOFConfig(**_lof_overrides(args))
-    return Algorithms(lof_config=lof, memory_config=LabelMemoryConfig(), **_settle_kw(args),
-                      **({"alternations": False} if args.no_alternations else {}))
+    return Algorithms(
+        lof_config=lof,
+        memory_config=LabelMemoryConfig(),
+        **_settle_kw(args),
+        **({"alternations": False} if args.no_alternations else {}),
+    )
 
 
 def _lof_overrides(args) -> dict:
@@ -98,9 +103,16 @@ def _cut_event(stream, frame, score, emitted, kind, settled=None, revision=None)
     from streamseg import protocol
 
     if kind in ("cut", "pending", "found"):
-        return protocol.Cut(stream, frame, 0.0, score, emitted, kind != "found",
-                            True if kind == "pending" else None,
-                            **({"revision": revision} if revision is not None else {}))
+        return protocol.Cut(
+            stream,
+            frame,
+            0.0,
+            score,
+            emitted,
+            kind != "found",
+            True if kind == "pending" else None,
+            **({"revision": revision} if revision is not None else {}),
+        )
     if kind in ("confirm", "confirmed"):
         extra = {"settled": settled, "revision": revision} if kind == "confirmed" else {}
         return protocol.Confirm(stream, frame, 0.0, score, emitted, **extra)
@@ -118,12 +130,18 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
     rec = item.recording
     fps, n = float(rec.fps), rec.n_frames
     sk = rec.skeleton
-    pipe = StreamPipeline(skeleton_from(sk.names, sk.parents, sk.units, sk.up), fps,
-                          algorithms, history)
+    pipe = StreamPipeline(
+        skeleton_from(sk.names, sk.parents, sk.units, sk.up), fps, algorithms, history
+    )
     settling = hasattr(pipe, "relabel_due")
     lag = int(round(lag_s * fps))
-    state = {"next": int(round(interval * fps)), "job": None, "due": False, "rev": 0,
-             "work": [[0, 0.0], [0, 0.0]]}  # [count, seconds] of the cadence's, the focused
+    state = {
+        "next": int(round(interval * fps)),
+        "job": None,
+        "due": False,
+        "rev": 0,
+        "work": [[0, 0.0], [0, 0.0]],
+    }  # [count, seconds] of the cadence's, the focused
     out = []
 
     def cuts_at(t, cuts):
@@ -154,8 +172,14 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
         ready, result, final, focused = state["job"]
         state["job"] = None
         state["rev"] += 1
-        out.append((t, protocol.Segments("s", state["rev"], result.start, result.end,
-                                         result.segments, final, 0.0)))
+        out.append(
+            (
+                t,
+                protocol.Segments(
+                    "s", state["rev"], result.start, result.end, result.segments, final, 0.0
+                ),
+            )
+        )
         if settling:
             for c in pipe.relabelled(result, final, t, focused):
                 out.append((t, _cut_event("s", *c, state["rev"])))
@@ -163,7 +187,7 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
             pipe.previous = result.window
 
     for i in range(0, n, packet):
-        cuts, _, _ = pipe.push(rec.positions[i:i + packet], i)
+        cuts, _, _ = pipe.push(rec.positions[i : i + packet], i)
         t = min(i + packet, n)
         cuts_at(t, cuts)
         if state["job"] is not None and t >= state["job"][0]:
@@ -200,8 +224,14 @@ def from_daemon(item, algorithms, history, interval, speed):
     from streamseg.daemon import Daemon
 
     loop = "tcp://127.0.0.1:0"
-    cfg = DaemonConfig(ingest=loop, publish=loop, control=loop, relabel_history=history,
-                       relabel_interval=interval, heartbeat=0)
+    cfg = DaemonConfig(
+        ingest=loop,
+        publish=loop,
+        control=loop,
+        relabel_history=history,
+        relabel_interval=interval,
+        heartbeat=0,
+    )
     d = Daemon(cfg, algorithms)
     ep = d.bind()
     th = threading.Thread(target=d.run, daemon=True)
@@ -238,7 +268,7 @@ def from_daemon(item, algorithms, history, interval, speed):
         wait = t0 + i / (fps * speed) - time.perf_counter()
         if wait > 0:
             time.sleep(wait)
-        pos = rec.positions[i:i + step]
+        pos = rec.positions[i : i + step]
         push.send_multipart(protocol.encode(protocol.Frames("s", i, i / fps, pos)))
         sent[0] = i + pos.shape[0]
     push.send_multipart(protocol.encode(protocol.End("s")))
@@ -265,9 +295,23 @@ def from_cli(item, args, port0):
     exe = os.path.join(os.path.dirname(sys.executable), "streamseg")
     ing, pub, ctl = (f"tcp://127.0.0.1:{port0 + i}" for i in range(3))
     state = tempfile.mkdtemp(prefix="consumer-view-")
-    serve = subprocess.Popen([exe, "serve", "--ingest", ing, "--publish", pub, "--control",
-                              ctl, "--state-dir", state, *_serve_flags(args)],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    serve = subprocess.Popen(
+        [
+            exe,
+            "serve",
+            "--ingest",
+            ing,
+            "--publish",
+            pub,
+            "--control",
+            ctl,
+            "--state-dir",
+            state,
+            *_serve_flags(args),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
         deadline = time.monotonic() + 600
         while True:  # ready once control answers (the kernels are warm)
@@ -277,18 +321,46 @@ def from_cli(item, args, port0):
             except Exception:
                 if time.monotonic() > deadline or serve.poll() is not None:
                     raise RuntimeError("streamseg serve did not start") from None
-        listen = subprocess.Popen([exe, "listen", "--from", pub, "--control", ctl,
-                                   "--stream", "s", "--jsonl", "--until-end", "--timeout",
-                                   "600"], stdout=subprocess.PIPE, text=True,
-                                  env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        listen = subprocess.Popen(
+            [
+                exe,
+                "listen",
+                "--from",
+                pub,
+                "--control",
+                ctl,
+                "--stream",
+                "s",
+                "--jsonl",
+                "--until-end",
+                "--timeout",
+                "600",
+            ],
+            stdout=subprocess.PIPE,
+            text=True,
+            env=dict(os.environ, PYTHONUNBUFFERED="1"),
+        )
         assert json.loads(listen.stdout.readline())["type"] == "state"
         rec = item.recording
         fps, n = float(rec.fps), rec.n_frames
         path = os.path.join(state, "take.npz")  # a joined sequence has no file of its own
         write_npz(path, rec)
-        replay = subprocess.Popen([exe, "replay", path, "--to", ing, "--speed",
-                                   str(args.speed), "--stream", "s", "--batch", "4"],
-                                  stdout=subprocess.DEVNULL)
+        replay = subprocess.Popen(
+            [
+                exe,
+                "replay",
+                path,
+                "--to",
+                ing,
+                "--speed",
+                str(args.speed),
+                "--stream",
+                "s",
+                "--batch",
+                "4",
+            ],
+            stdout=subprocess.DEVNULL,
+        )
         raw = []
         for line in listen.stdout:
             now = time.monotonic()
@@ -320,6 +392,7 @@ def _serve_flags(args) -> list:
 
 # --- the view ---------------------------------------------------------------------------------
 
+
 class Views:
     """The view after each event, looked up by time (``events`` sorted by time)."""
 
@@ -328,7 +401,7 @@ class Views:
         self.views = [frozenset()]
         for i in range(len(events)):
             if i + 1 == len(events) or self.times[i + 1] != self.times[i]:
-                self.views.append(frozenset(view_at(events[:i + 1], float("inf"), cuts_only)))
+                self.views.append(frozenset(view_at(events[: i + 1], float("inf"), cuts_only)))
             else:
                 self.views.append(None)
         # the view after the last event published at or before each time
@@ -372,8 +445,9 @@ def view_at(events, t: float, cuts_only: bool = False) -> list:
 def _triples(segments) -> list:
     """``(start, end, label)`` of a ``segments`` event's list (``listen --jsonl`` writes each
     as a map)."""
-    return [(s["start"], s["end"], s["label"]) if isinstance(s, dict) else tuple(s)
-            for s in segments]
+    return [
+        (s["start"], s["end"], s["label"]) if isinstance(s, dict) else tuple(s) for s in segments
+    ]
 
 
 def _near(frames, targets, tol) -> np.ndarray:
@@ -440,6 +514,7 @@ def unresolved(events) -> int:
 
 # --- the table --------------------------------------------------------------------------------
 
+
 def _saved(path) -> dict:
     """Recording name -> (events, n) of a ``--save`` file."""
     out = {}
@@ -454,8 +529,7 @@ def _saved(path) -> dict:
 
 def run(args) -> list:
     sets = tuple(args.sets.split(","))
-    items = labelled(tuple(s for s in sets if s != "heldout")) if set(sets) - {"heldout"} \
-        else []
+    items = labelled(tuple(s for s in sets if s != "heldout")) if set(sets) - {"heldout"} else []
     if "heldout" in sets:
         items += heldout()
     if args.only:
@@ -471,8 +545,9 @@ def run(args) -> list:
                 continue
             events, n = saved[item.name]
         elif args.source == "sim":
-            events, n = simulate(item, algorithms, args.history, args.interval, args.lag,
-                                 args.packet)
+            events, n = simulate(
+                item, algorithms, args.history, args.interval, args.lag, args.packet
+            )
         elif args.source == "daemon":
             events, n = from_daemon(item, algorithms, args.history, args.interval, args.speed)
         else:
@@ -484,8 +559,9 @@ def run(args) -> list:
                 for when, ev in events:
                     # events read from `listen --jsonl` are plain namespaces already
                     body = vars(ev) if isinstance(ev, SimpleNamespace) else protocol.to_json(ev)
-                    fh.write(strict_json.dumps({"rec": item.name, "t": when, "n": n,
-                                                "ev": body}) + "\n")
+                    fh.write(
+                        strict_json.dumps({"rec": item.name, "t": when, "n": n, "ev": body}) + "\n"
+                    )
         fps = float(item.recording.fps)
         res = score_view(events, n, item.cuts, fps, args.tolerance)
         res["cuts"] = score_view(events, n, item.cuts, fps, args.tolerance, cuts_only=True)
@@ -494,8 +570,12 @@ def run(args) -> list:
         res["seconds"] = time.perf_counter() - t
         rows.append(res)
         if args.verbose:
-            print(item.name, {k: v for k, v in res.items() if k != "latency"},
-                  file=sys.stderr, flush=True)
+            print(
+                item.name,
+                {k: v for k, v in res.items() if k != "latency"},
+                file=sys.stderr,
+                flush=True,
+            )
     return rows
 
 
@@ -513,9 +593,11 @@ def heldout() -> list:
 
 
 def table(rows, chosen=()) -> str:
-    header = ["set", "recordings"] + [f"{lab} {m}" for lab in ("1 s", "3 s", "10 s", "end")
-                                      for m in ("R", "P", "F1")] + ["latency med s",
-                                                                     "unresolved"]
+    header = (
+        ["set", "recordings"]
+        + [f"{lab} {m}" for lab in ("1 s", "3 s", "10 s", "end") for m in ("R", "P", "F1")]
+        + ["latency med s", "unresolved"]
+    )
     work = any(r["name"] in WORK for r in rows)
     if work:
         header += ["relabels (focused)", "relabel s (focused)"]
@@ -538,8 +620,7 @@ def table(rows, chosen=()) -> str:
         if work:
             w = [WORK.get(r["name"], [[0, 0.0], [0, 0.0]]) for r in rs]
             cells.append(f"{sum(x[0][0] + x[1][0] for x in w)} ({sum(x[1][0] for x in w)})")
-            cells.append(f"{sum(x[0][1] + x[1][1] for x in w):.1f} "
-                         f"({sum(x[1][1] for x in w):.1f})")
+            cells.append(f"{sum(x[0][1] + x[1][1] for x in w):.1f} ({sum(x[1][1] for x in w):.1f})")
         out.append(cells)
     return markdown_table(header, out)
 
@@ -548,11 +629,18 @@ def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--sets", default="cmu,cmu02,hdm")
     p.add_argument("--only", default="", help="comma-separated recording names")
-    p.add_argument("--chosen-on", default="", help="recordings left out of the table (the "
-                   "parameters were chosen on them)")
+    p.add_argument(
+        "--chosen-on",
+        default="",
+        help="recordings left out of the table (the parameters were chosen on them)",
+    )
     p.add_argument("--source", choices=("sim", "daemon", "cli"), default="sim")
-    p.add_argument("--lag", type=float, default=0.5, help="stream seconds from a relabel's "
-                   "submission to its result (sim)")
+    p.add_argument(
+        "--lag",
+        type=float,
+        default=0.5,
+        help="stream seconds from a relabel's submission to its result (sim)",
+    )
     p.add_argument("--speed", type=float, default=2.0, help="replay speed (daemon)")
     p.add_argument("--packet", type=int, default=4, help="frames per packet (sim)")
     p.add_argument("--history", type=float, default=60.0)
@@ -564,8 +652,12 @@ def main(argv=None) -> None:
     p.add_argument("--settle", type=float, default=None)
     p.add_argument("--focus", type=float, default=None)
     p.add_argument("--radius", type=float, default=None)
-    p.add_argument("--no-alternations", action="store_true", help="publish HACA's labels "
-                   "as they are (no merged alternations, streamseg.daemon.alternation)")
+    p.add_argument(
+        "--no-alternations",
+        action="store_true",
+        help="publish HACA's labels "
+        "as they are (no merged alternations, streamseg.daemon.alternation)",
+    )
     p.add_argument("--verbose", action="store_true")
     p.add_argument("--save", default="", help="append every event as JSON lines to this file")
     p.add_argument("--load", default="", help="score the events of a --save file instead")

@@ -44,10 +44,8 @@ def pick(cases: list, wanted: str | None) -> list:
     if not wanted:
         return cases
     keys = [w.strip() for w in wanted.split(",") if w.strip()]
-    chosen = [(m, fn) for m, fn in cases if any(k in (m, name_of(fn), fn.__name__)
-                                                for k in keys)]
-    unknown = [k for k in keys if not any(k in (m, name_of(fn), fn.__name__)
-                                          for m, fn in cases)]
+    chosen = [(m, fn) for m, fn in cases if any(k in (m, name_of(fn), fn.__name__) for k in keys)]
+    unknown = [k for k in keys if not any(k in (m, name_of(fn), fn.__name__) for m, fn in cases)]
     if unknown:
         sys.exit(f"daemon_faults: no case or module {', '.join(unknown)} (--list shows them)")
     return chosen
@@ -61,8 +59,12 @@ def run(fn) -> dict:
             r = fn(Path(tmp))
         except Exception as err:  # the table still gets its row
             traceback.print_exc()
-            r = {"case": name_of(fn), "result": f"the case failed: {type(err).__name__}: "
-                 f"{err}", "figure": "", "passed": False}
+            r = {
+                "case": name_of(fn),
+                "result": f"the case failed: {type(err).__name__}: {err}",
+                "figure": "",
+                "passed": False,
+            }
         r["wall"] = time.monotonic() - t0
     return r
 
@@ -81,11 +83,20 @@ def main() -> int:
     for _, fn in pick(cases, args.cases):
         rows.append(run(fn))
         r = rows[-1]
-        print(f"{r['case']}: {'pass' if r['passed'] else 'FAIL'} ({r['wall']:.0f} s): "
-              f"{r['result']}; {r['figure']}", file=sys.stderr)
-    print(markdown_table(["case", "result", "figure", "pass"],
-                         [(r["case"], r["result"], r["figure"],
-                           "pass" if r["passed"] else "**FAIL**") for r in rows]))
+        print(
+            f"{r['case']}: {'pass' if r['passed'] else 'FAIL'} ({r['wall']:.0f} s): "
+            f"{r['result']}; {r['figure']}",
+            file=sys.stderr,
+        )
+    print(
+        markdown_table(
+            ["case", "result", "figure", "pass"],
+            [
+                (r["case"], r["result"], r["figure"], "pass" if r["passed"] else "**FAIL**")
+                for r in rows
+            ],
+        )
+    )
     return 0 if all(r["passed"] for r in rows) else 1
 
 

@@ -66,8 +66,11 @@ def live(rec, stream, speed, config, algorithms=None, revisions=None):
     events = []
 
     def collect():
-        events.extend(e for e in listen(sub, stream=stream, until_end=True, timeout=120)
-                      if getattr(e, "stream", None) == stream)
+        events.extend(
+            e
+            for e in listen(sub, stream=stream, until_end=True, timeout=120)
+            if getattr(e, "stream", None) == stream
+        )
 
     t = threading.Thread(target=collect, daemon=True)
     t.start()
@@ -81,7 +84,7 @@ def live(rec, stream, speed, config, algorithms=None, revisions=None):
     revs = [e for e in events if e.type == "segments"]
     for ev in revs:
         for a, b, c in ev.segments:
-            lab[a:min(b, n)] = c
+            lab[a : min(b, n)] = c
         segs = [(int(a), min(int(b), n), int(c)) for a, b, c in ev.segments if a < n]
         if revisions is not None and segs:
             revisions.append((min(a for a, _, _ in segs), max(b for _, b, _ in segs), segs))
@@ -102,8 +105,12 @@ def main():
     ap.add_argument("--only", default="")
     ap.add_argument("--history", type=float, default=None)
     ap.add_argument("--interval", type=float, default=None)
-    ap.add_argument("--label-memory", action=argparse.BooleanOptionalAction, default=None,
-                    help="the daemon's exemplar memory (default: DaemonConfig's)")
+    ap.add_argument(
+        "--label-memory",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="the daemon's exemplar memory (default: DaemonConfig's)",
+    )
     args = ap.parse_args()
     speeds = [float(s) for s in args.speeds.split(",")]
     loop = "tcp://127.0.0.1:0"
@@ -118,10 +125,14 @@ def main():
     recs = recordings()
     if args.only:
         recs = {k: v for k, v in recs.items() if k in args.only.split(",")}
-    print(f"daemon: relabel every {config.relabel_interval:g} s over the last "
-          f"{config.relabel_history:g} s; label memory {config.label_memory}; ACA: {ACAConfig()}")
-    print("| recording | speed | live acc | live ari | offline HACA acc (K found) | ari | "
-          "HACA acc (K true) | K live / found / true | revisions | relabel s med |")
+    print(
+        f"daemon: relabel every {config.relabel_interval:g} s over the last "
+        f"{config.relabel_history:g} s; label memory {config.label_memory}; ACA: {ACAConfig()}"
+    )
+    print(
+        "| recording | speed | live acc | live ari | offline HACA acc (K found) | ari | "
+        "HACA acc (K true) | K live / found / true | revisions | relabel s med |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     from streamseg.skeleton import bone_angles
 
@@ -139,27 +150,40 @@ def main():
             lab, n_rev, times = live(rec, name, speed, config)
             ok = keep & (lab >= 0)
             a_live = matched_frame_accuracy(lab[keep], truth[keep])[0]
-            row = dict(name=name, speed=speed, live=a_live, live_ari=ari(truth[ok], lab[ok]),
-                       off=a_off, off_ari=ari(truth[keep], off[keep]), true=a_true,
-                       k_live=int(np.unique(lab[lab >= 0]).size), k_off=int(np.unique(off).size),
-                       k_true=k_true)
+            row = dict(
+                name=name,
+                speed=speed,
+                live=a_live,
+                live_ari=ari(truth[ok], lab[ok]),
+                off=a_off,
+                off_ari=ari(truth[keep], off[keep]),
+                true=a_true,
+                k_live=int(np.unique(lab[lab >= 0]).size),
+                k_off=int(np.unique(off).size),
+                k_true=k_true,
+            )
             rows.append(row)
             med = f"{np.median(times):.2f}" if times else "-"
-            print(f"| {name} | {speed:g}x | {a_live:.3f} | {row['live_ari']:.3f} | {a_off:.3f} | "
-                  f"{row['off_ari']:.3f} | {a_true:.3f} | {row['k_live']} / {row['k_off']} / "
-                  f"{k_true} | {n_rev} | {med} |", flush=True)
+            print(
+                f"| {name} | {speed:g}x | {a_live:.3f} | {row['live_ari']:.3f} | {a_off:.3f} | "
+                f"{row['off_ari']:.3f} | {a_true:.3f} | {row['k_live']} / {row['k_off']} / "
+                f"{k_true} | {n_rev} | {med} |",
+                flush=True,
+            )
     print()
     for speed in speeds:
         r = [x for x in rows if x["speed"] == speed]
         gap = [x["off"] - x["live"] for x in r]
         kgap = [x["true"] - x["off"] for x in r]
-        print(f"{speed:g}x: mean live acc {np.mean([x['live'] for x in r]):.3f}, offline HACA "
-              f"(K found) {np.mean([x['off'] for x in r]):.3f}, HACA (K true) "
-              f"{np.mean([x['true'] for x in r]):.3f}; live within 0.03 of offline on "
-              f"{sum(g <= 0.03 for g in gap)}/{len(r)} (worst gap {max(gap):.3f}); K found "
-              f"within 0.03 of K true on {sum(g <= 0.03 for g in kgap)}/{len(r)} (worst "
-              f"{max(kgap):.3f}); K found == K true on "
-              f"{sum(x['k_off'] == x['k_true'] for x in r)}/{len(r)}")
+        print(
+            f"{speed:g}x: mean live acc {np.mean([x['live'] for x in r]):.3f}, offline HACA "
+            f"(K found) {np.mean([x['off'] for x in r]):.3f}, HACA (K true) "
+            f"{np.mean([x['true'] for x in r]):.3f}; live within 0.03 of offline on "
+            f"{sum(g <= 0.03 for g in gap)}/{len(r)} (worst gap {max(gap):.3f}); K found "
+            f"within 0.03 of K true on {sum(g <= 0.03 for g in kgap)}/{len(r)} (worst "
+            f"{max(kgap):.3f}); K found == K true on "
+            f"{sum(x['k_off'] == x['k_true'] for x in r)}/{len(r)}"
+        )
 
 
 if __name__ == "__main__":

@@ -48,8 +48,14 @@ def labelled_recordings() -> list[LabelledRecording]:
     items = discover(DATA, skeleton=DATA / "cmu86/86.asf")
     for name, trials in CMU02_SEQUENCES.items():
         rec, cuts = cmu02_sequence(DATA, trials)
-        items.append(LabelledRecording(name, rec, segments_from_cuts(cuts, rec.n_frames),
-                                       "CMU 02 clips joined: abrupt joins"))
+        items.append(
+            LabelledRecording(
+                name,
+                rec,
+                segments_from_cuts(cuts, rec.n_frames),
+                "CMU 02 clips joined: abrupt joins",
+            )
+        )
     return items
 
 
@@ -76,8 +82,11 @@ PELT_JUMP = 10  # frames between candidate change points: keeps Pelt's rbf cost 
 def pelt(x, pen, fps):
     import ruptures
 
-    return Prediction(cuts=ruptures.Pelt(model="rbf", min_size=int(fps), jump=PELT_JUMP)
-                      .fit(x).predict(pen=pen)[:-1])
+    return Prediction(
+        cuts=ruptures.Pelt(model="rbf", min_size=int(fps), jump=PELT_JUMP)
+        .fit(x)
+        .predict(pen=pen)[:-1]
+    )
 
 
 def fluss(signal, n_cuts, fps):
@@ -85,8 +94,7 @@ def fluss(signal, n_cuts, fps):
 
     m = int(fps)  # one-second subsequences
     mp = stumpy.stump(signal, m)
-    _, regimes = stumpy.fluss(mp[:, 1].astype(np.int64), L=m, n_regimes=n_cuts + 1,
-                              excl_factor=1)
+    _, regimes = stumpy.fluss(mp[:, 1].astype(np.int64), L=m, n_regimes=n_cuts + 1, excl_factor=1)
     return Prediction(cuts=sorted(int(r) for r in np.atleast_1d(regimes)))
 
 
@@ -129,8 +137,9 @@ def clasp(x, fps):
 def clasp_stream(signal, fps):
     from claspy.streaming.segmentation import StreamingClaSPSegmentation
 
-    model = StreamingClaSPSegmentation(n_timepoints=int(30 * fps), n_warmup=int(5 * fps),
-                                       log_cps=True)
+    model = StreamingClaSPSegmentation(
+        n_timepoints=int(30 * fps), n_warmup=int(5 * fps), log_cps=True
+    )
     cuts, lat = [], []
     for t, v in enumerate(signal):
         model.update(float(v))
@@ -167,20 +176,25 @@ def main() -> None:
     t0 = time.perf_counter()
     pen = choose(train, fps, lambda x, v: pelt(x, v, fps), [1, 2, 5, 10, 20, 50, 80, 120])
     trace = floss_trace(first_pc(angles(train)), fps)
-    thr = choose(train, fps, lambda x, v: floss(trace, v, fps),
-                 [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
-    print(f"chosen on {TRAIN}: Pelt penalty {pen}, FLOSS threshold {thr} "
-          f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+    thr = choose(train, fps, lambda x, v: floss(trace, v, fps), [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
+    print(
+        f"chosen on {TRAIN}: Pelt penalty {pen}, FLOSS threshold {thr} "
+        f"({time.perf_counter() - t0:.0f} s)",
+        file=sys.stderr,
+    )
     methods = {f"streamseg {k}": v for k, v in STREAMSEG_METHODS.items()}
-    methods.update({
-        "ruptures KernelCPD (n=true)": lambda it, f: kernelcpd(angles(it), len(it.cuts), f),
-        f"ruptures Pelt (pen={pen})": lambda it, f: pelt(angles(it), pen, f),
-        "stumpy FLUSS (n=true)": lambda it, f: fluss(first_pc(angles(it)), len(it.cuts), f),
-        f"stumpy FLOSS (thr={thr})": lambda it, f: floss(floss_trace(first_pc(angles(it)), f),
-                                                         thr, f),
-        "claspy ClaSP": lambda it, f: clasp(angles(it), f),
-        "claspy streaming ClaSP": lambda it, f: clasp_stream(first_pc(angles(it)), f),
-    })
+    methods.update(
+        {
+            "ruptures KernelCPD (n=true)": lambda it, f: kernelcpd(angles(it), len(it.cuts), f),
+            f"ruptures Pelt (pen={pen})": lambda it, f: pelt(angles(it), pen, f),
+            "stumpy FLUSS (n=true)": lambda it, f: fluss(first_pc(angles(it)), len(it.cuts), f),
+            f"stumpy FLOSS (thr={thr})": lambda it, f: floss(
+                floss_trace(first_pc(angles(it)), f), thr, f
+            ),
+            "claspy ClaSP": lambda it, f: clasp(angles(it), f),
+            "claspy streaming ClaSP": lambda it, f: clasp_stream(first_pc(angles(it)), f),
+        }
+    )
     if args.only:
         methods = {k: v for k, v in methods.items() if any(o in k for o in args.only)}
     rows, preds = evaluate_all(items, methods, args.runs)
@@ -191,11 +205,19 @@ def main() -> None:
     if args.plot:
         from streamseg.plotting.timeline import timeline
 
-        shown = [(m, preds[(TRAIN, m)].cuts, preds[(TRAIN, m)].labels) for m in methods
-                 if not preds[(TRAIN, m)].error]
-        timeline(args.plot, train.recording.n_frames, fps,
-                 [(s.start, s.end, s.label) for s in train.segments], shown,
-                 title=f"CMU {TRAIN}: human labels and each method's cuts")
+        shown = [
+            (m, preds[(TRAIN, m)].cuts, preds[(TRAIN, m)].labels)
+            for m in methods
+            if not preds[(TRAIN, m)].error
+        ]
+        timeline(
+            args.plot,
+            train.recording.n_frames,
+            fps,
+            [(s.start, s.end, s.label) for s in train.segments],
+            shown,
+            title=f"CMU {TRAIN}: human labels and each method's cuts",
+        )
 
 
 if __name__ == "__main__":

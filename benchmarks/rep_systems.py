@@ -39,10 +39,18 @@ SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 #: The subjects any parameter for these systems was chosen on; every other is held out.
 CHOSEN_ON = {"vicon": ("s01",), "kinect": ("s01",), "repcount": ("stu1",)}
 SIZES = (2, 3, 4, 6, 10)
-EXERCISES = {"m01": "deep squat", "m02": "hurdle step", "m03": "inline lunge",
-             "m04": "side lunge", "m05": "sit to stand", "m06": "straight leg raise",
-             "m07": "shoulder abduction", "m08": "shoulder extension",
-             "m09": "shoulder rotation", "m10": "shoulder scaption"}
+EXERCISES = {
+    "m01": "deep squat",
+    "m02": "hurdle step",
+    "m03": "inline lunge",
+    "m04": "side lunge",
+    "m05": "sit to stand",
+    "m06": "straight leg raise",
+    "m07": "shoulder abduction",
+    "m08": "shoulder extension",
+    "m09": "shoulder rotation",
+    "m10": "shoulder scaption",
+}
 
 
 def _summary(rows):
@@ -51,8 +59,13 @@ def _summary(rows):
     c = np.array([r[1] for r in rows], float)
     pos = k > 0
     nmae = float(np.mean(np.abs(c[pos] - k[pos]) / k[pos])) if pos.any() else float("nan")
-    return (len(rows), float(np.mean(c == k)), float(np.mean(np.abs(c - k) <= 1)), nmae,
-            float(np.mean([r[2] for r in rows])))
+    return (
+        len(rows),
+        float(np.mean(c == k)),
+        float(np.mean(np.abs(c - k) <= 1)),
+        nmae,
+        float(np.mean([r[2] for r in rows])),
+    )
 
 
 def _row(name, rows):
@@ -96,11 +109,21 @@ def run_uiprmd(data, modality, cfg, sizes=SIZES, log=None):
             seg = _segment(rec.slice(0, truth[-1][1]), cfg)
             found = [s["repetitions"] for s in seg.sets_]
             count, alpha = _score_set(found, truth)
-            out.append({"file": file, "subject": subj, "movement": mov, "execution": exe,
-                        "size": n, "count": count, "alpha": alpha, "n_sets": len(found),
-                        "reason": seg.reason_})
+            out.append(
+                {
+                    "file": file,
+                    "subject": subj,
+                    "movement": mov,
+                    "execution": exe,
+                    "size": n,
+                    "count": count,
+                    "alpha": alpha,
+                    "n_sets": len(found),
+                    "reason": seg.reason_,
+                }
+            )
         if log:
-            log(f"{file}: " + " ".join(f"{r['count']}/{r['size']}" for r in out[-len(sizes):]))
+            log(f"{file}: " + " ".join(f"{r['count']}/{r['size']}" for r in out[-len(sizes) :]))
     return out
 
 
@@ -108,8 +131,7 @@ def _score_set(found, truth):
     """(count, alpha) of the found set that holds most of the true repetitions' frames."""
     if not found:
         return 0, 0.0
-    inside = [sum(max(0, min(b, truth[-1][1]) - max(a, truth[0][0])) for a, b in s)
-              for s in found]
+    inside = [sum(max(0, min(b, truth[-1][1]) - max(a, truth[0][0])) for a, b in s) for s in found]
     best = found[int(np.argmax(inside))]
     return len(best), matched_repetition_accuracy(best, truth)
 
@@ -118,27 +140,35 @@ def uiprmd_table(results, system, modality):
     chosen = CHOSEN_ON[modality]
     held = [r for r in results if r["subject"] not in chosen]
     rows = lambda rs: [(r["size"], r["count"], r["alpha"]) for r in rs]  # noqa: E731
-    lines = [f"\n{system}", "", "| rows | sets | exact | OBO | nMAE | alpha |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"\n{system}",
+        "",
+        "| rows | sets | exact | OBO | nMAE | alpha |",
+        "|---|---|---|---|---|---|",
+    ]
     for k in sorted({r["size"] for r in held}):
         lines.append(_row(f"held-out, {k} repetitions", rows([r for r in held if r["size"] == k])))
     for m in sorted({r["movement"] for r in held}):
-        lines.append(_row(f"held-out, {m} {EXERCISES[m]}",
-                          rows([r for r in held if r["movement"] == m])))
+        lines.append(
+            _row(f"held-out, {m} {EXERCISES[m]}", rows([r for r in held if r["movement"] == m]))
+        )
     for e in ("correct", "incorrect"):
-        lines.append(_row(f"held-out, {e} executions",
-                          rows([r for r in held if r["execution"] == e])))
+        lines.append(
+            _row(f"held-out, {e} executions", rows([r for r in held if r["execution"] == e]))
+        )
     for s in sorted({r["subject"] for r in held}):
         lines.append(_row(f"held-out subject {s}", rows([r for r in held if r["subject"] == s])))
-    lines.append(_row(f"**held-out ({', '.join(sorted({r['subject'] for r in held}))})**",
-                      rows(held)))
+    lines.append(
+        _row(f"**held-out ({', '.join(sorted({r['subject'] for r in held}))})**", rows(held))
+    )
     mine = [r for r in results if r["subject"] in chosen]
     if mine:
         lines.append(_row(f"{', '.join(chosen)} (parameters chosen here)", rows(mine)))
     split = sum(r["n_sets"] > 1 for r in held)
     zero = sum(r["count"] == 0 for r in held)
-    lines.append(f"\nheld-out sets found split into several sets: {split} of {len(held)}; "
-                 f"counted 0: {zero}")
+    lines.append(
+        f"\nheld-out sets found split into several sets: {split} of {len(held)}; counted 0: {zero}"
+    )
     return "\n".join(lines)
 
 
@@ -147,8 +177,9 @@ def repcount_videos(data):
     vids = {}
     with open(data / "repcount_pose" / "repetitions.csv", newline="") as fh:
         for r in csv.DictReader(fh):
-            v = vids.setdefault(r["file"], (Path(r["file"]).stem.split("_")[0], r["class"],
-                                            int(r["count"]), []))
+            v = vids.setdefault(
+                r["file"], (Path(r["file"]).stem.split("_")[0], r["class"], int(r["count"]), [])
+            )
             if r["start_frame"]:
                 v[3].append((int(r["start_frame"]) - 1, int(r["end_frame"])))
     return vids
@@ -164,9 +195,19 @@ def run_repcount(data, cfg, log=None):
         found = [r for s in seg.sets_ for r in s["repetitions"]]
         alpha = matched_repetition_accuracy(found, reps) if reps else float(not found)
         nan = float(np.mean(~np.isfinite(rec.positions).all(axis=(1, 2))))
-        out.append({"file": file, "subject": person, "class": cls, "true": count,
-                    "count": len(found), "alpha": alpha, "n_sets": len(seg.sets_),
-                    "no_person": nan, "reason": seg.reason_})
+        out.append(
+            {
+                "file": file,
+                "subject": person,
+                "class": cls,
+                "true": count,
+                "count": len(found),
+                "alpha": alpha,
+                "n_sets": len(seg.sets_),
+                "no_person": nan,
+                "reason": seg.reason_,
+            }
+        )
         if log:
             log(f"{file} {cls}: {len(found)}/{count} in {len(seg.sets_)} sets")
     return out
@@ -176,18 +217,27 @@ def repcount_table(results):
     chosen = CHOSEN_ON["repcount"]
     held = [r for r in results if r["subject"] not in chosen]
     rows = lambda rs: [(r["true"], r["count"], r["alpha"]) for r in rs]  # noqa: E731
-    lines = ["\nRepCount-A test videos, MediaPipe pose", "",
-             "| rows | videos | exact | OBO | nMAE | alpha |", "|---|---|---|---|---|---|"]
+    lines = [
+        "\nRepCount-A test videos, MediaPipe pose",
+        "",
+        "| rows | videos | exact | OBO | nMAE | alpha |",
+        "|---|---|---|---|---|---|",
+    ]
     for c in sorted({r["class"] for r in held}):
         lines.append(_row(f"held-out, {c}", rows([r for r in held if r["class"] == c])))
-    lines.append(_row("held-out, > 20% frames without a person",
-                      rows([r for r in held if r["no_person"] > 0.2])) if any(
-        r["no_person"] > 0.2 for r in held) else "| held-out, > 20% frames without a person "
-        "| 0 | | | | |")
+    lines.append(
+        _row(
+            "held-out, > 20% frames without a person",
+            rows([r for r in held if r["no_person"] > 0.2]),
+        )
+        if any(r["no_person"] > 0.2 for r in held)
+        else "| held-out, > 20% frames without a person | 0 | | | | |"
+    )
     for s in sorted({r["subject"] for r in held}):
         lines.append(_row(f"held-out person {s}", rows([r for r in held if r["subject"] == s])))
-    lines.append(_row(f"**held-out ({', '.join(sorted({r['subject'] for r in held}))})**",
-                      rows(held)))
+    lines.append(
+        _row(f"**held-out ({', '.join(sorted({r['subject'] for r in held}))})**", rows(held))
+    )
     mine = [r for r in results if r["subject"] in chosen]
     if mine:
         lines.append(_row(f"{', '.join(chosen)} (parameters chosen here)", rows(mine)))
@@ -205,12 +255,19 @@ class ChosenOn:
 
         from streamseg.io import read
 
-        self.uiprmd = {m: [(read_take(data, f, m), t[3]) for f, t in
-                           sorted(uiprmd_takes(data, m).items()) if t[0] in CHOSEN_ON[m]]
-                       for m in ("vicon", "kinect")}
-        self.repcount = [(read(data / "repcount_pose" / f, fps=30.0, joints="blazepose"), v[2],
-                          v[3]) for f, v in sorted(repcount_videos(data).items())
-                         if v[0] in CHOSEN_ON["repcount"]]
+        self.uiprmd = {
+            m: [
+                (read_take(data, f, m), t[3])
+                for f, t in sorted(uiprmd_takes(data, m).items())
+                if t[0] in CHOSEN_ON[m]
+            ]
+            for m in ("vicon", "kinect")
+        }
+        self.repcount = [
+            (read(data / "repcount_pose" / f, fps=30.0, joints="blazepose"), v[2], v[3])
+            for f, v in sorted(repcount_videos(data).items())
+            if v[0] in CHOSEN_ON["repcount"]
+        ]
         self.hdm05 = H.Material(actors=(H.CHOOSE_ON,))
 
     def objective(self, cfg) -> tuple:
@@ -225,15 +282,19 @@ class ChosenOn:
             for rec, reps in takes:
                 for n in SIZES:
                     seg = _segment(rec.slice(0, reps[n - 1][1]), cfg)
-                    rows.append((n, *_score_set([x["repetitions"] for x in seg.sets_],
-                                                reps[:n])))
+                    rows.append((n, *_score_set([x["repetitions"] for x in seg.sets_], reps[:n])))
             out[m] = _summary(rows)
             total += out[m][1] + out[m][4]
         rows = []
         for rec, count, reps in self.repcount:
             found = [r for st in _segment(rec, cfg).sets_ for r in st["repetitions"]]
-            rows.append((count, len(found), matched_repetition_accuracy(found, reps) if reps
-                         else float(not found)))
+            rows.append(
+                (
+                    count,
+                    len(found),
+                    matched_repetition_accuracy(found, reps) if reps else float(not found),
+                )
+            )
         out["repcount"] = _summary(rows)
         total += out["repcount"][2] - out["repcount"][3] + out["repcount"][4]
         bd = H.objective(*H.evaluate(self.hdm05, cfg, (H.CHOOSE_ON,)))
@@ -269,8 +330,10 @@ def choose(data, log=print):
                     best, cfg, changed = score, trial, True
     chosen = {k: getattr(cfg, k) for k in grid}
     now = {k: getattr(RepetitionConfig(), k) for k in grid}
-    log(f"chosen: {chosen} (objective {best:.4f}); "
-        f"{'the defaults' if chosen == now else 'NOT the defaults ' + str(now)}")
+    log(
+        f"chosen: {chosen} (objective {best:.4f}); "
+        f"{'the defaults' if chosen == now else 'NOT the defaults ' + str(now)}"
+    )
     return cfg
 
 
@@ -281,12 +344,18 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--data", type=Path, default=SHARED, help=f"default {SHARED}")
     ap.add_argument("--system", choices=("vicon", "kinect", "repcount", "all"), default="all")
-    ap.add_argument("--sizes", default=",".join(map(str, SIZES)),
-                    help="UI-PRMD set sizes (first N repetitions of each take)")
+    ap.add_argument(
+        "--sizes",
+        default=",".join(map(str, SIZES)),
+        help="UI-PRMD set sizes (first N repetitions of each take)",
+    )
     ap.add_argument("-v", "--verbose", action="store_true", help="one line per take")
-    ap.add_argument("--choose", action="store_true",
-                    help="re-run the choice of the defaults on every system's chosen-on "
-                         "recordings first (about ten minutes)")
+    ap.add_argument(
+        "--choose",
+        action="store_true",
+        help="re-run the choice of the defaults on every system's chosen-on "
+        "recordings first (about ten minutes)",
+    )
     args = ap.parse_args(argv)
     if args.choose:
         choose(args.data)

@@ -52,10 +52,16 @@ START = {"return_ratio": 0.55, "max_dissimilarity": 0.7, "lowpass_hz": 3.0}
 #: ascent, each value of each parameter in turn, a change kept when it raises the objective,
 #: two rounds, from START and from the defaults, the better kept; objective: exact + alpha on
 #: its sets of 2-6 + the share of its routine sets counted right).
-GRID = {"return_ratio": (0.45, 0.55, 0.65, 0.75), "max_dissimilarity": (0.5, 0.6, 0.7),
-        "min_amplitude": (0.6, 0.8, 1.0), "spread_ratio": (0.75, 0.85, 0.9),
-        "lowpass_hz": (2.0, 3.0, 4.0, 5.0), "amplitude_ratio": (0.4, 0.5, 0.6),
-        "rise_ratio": (0.25, 0.35, 0.45), "end_return_ratio": (0.5, 0.6, 0.7)}
+GRID = {
+    "return_ratio": (0.45, 0.55, 0.65, 0.75),
+    "max_dissimilarity": (0.5, 0.6, 0.7),
+    "min_amplitude": (0.6, 0.8, 1.0),
+    "spread_ratio": (0.75, 0.85, 0.9),
+    "lowpass_hz": (2.0, 3.0, 4.0, 5.0),
+    "amplitude_ratio": (0.4, 0.5, 0.6),
+    "rise_ratio": (0.25, 0.35, 0.45),
+    "end_return_ratio": (0.5, 0.6, 0.7),
+}
 
 
 def count_sets(X, fps, cfg):
@@ -86,8 +92,7 @@ def score_set(found, reps):
     """(count, alpha) of the found set that holds most of the true repetitions' frames."""
     if not found:
         return 0, 0.0
-    inside = [sum(max(0, min(b, reps[-1][1]) - max(a, reps[0][0])) for a, b in s)
-              for s in found]
+    inside = [sum(max(0, min(b, reps[-1][1]) - max(a, reps[0][0])) for a, b in s) for s in found]
     best = found[int(np.argmax(inside))]
     return len(best), matched_repetition_accuracy(best, reps)
 
@@ -108,15 +113,26 @@ def summary(rows):
     """exact, OBO, normalised MAE, alpha of [(true, found, alpha)]."""
     k = np.array([r[0] for r in rows], float)
     c = np.array([r[1] for r in rows], float)
-    return (len(rows), np.mean(c == k), np.mean(np.abs(c - k) <= 1),
-            np.mean(np.abs(c - k) / k), np.mean([r[2] for r in rows]))
+    return (
+        len(rows),
+        np.mean(c == k),
+        np.mean(np.abs(c - k) <= 1),
+        np.mean(np.abs(c - k) / k),
+        np.mean([r[2] for r in rows]),
+    )
 
 
 def evaluate(mat, cfg, actors):
-    sets = [(p, *score_set(count_sets(X, 120.0, cfg), reps), reps)
-            for p, X, reps, _ in mat.sets if p.actor in actors]
-    routines = [(p, score_routine(count_sets(X, 120.0, cfg), truth))
-                for p, X, truth, _ in mat.routines if p.actor in actors]
+    sets = [
+        (p, *score_set(count_sets(X, 120.0, cfg), reps), reps)
+        for p, X, reps, _ in mat.sets
+        if p.actor in actors
+    ]
+    routines = [
+        (p, score_routine(count_sets(X, 120.0, cfg), truth))
+        for p, X, truth, _ in mat.routines
+        if p.actor in actors
+    ]
     return sets, routines
 
 
@@ -130,14 +146,15 @@ def objective(sets, routines):
 def choose(mat, actor=CHOOSE_ON, verbose=True):
     """The better (on ``actor``'s objective) of two coordinate ascents over GRID, one from
     START, one from the defaults; returns the chosen config."""
-    runs = [_ascend(mat, actor, replace(RepetitionConfig(), **s), verbose)
-            for s in (START, {})]
+    runs = [_ascend(mat, actor, replace(RepetitionConfig(), **s), verbose) for s in (START, {})]
     best, cfg = max(runs, key=lambda r: r[0])
     chosen = {k: getattr(cfg, k) for k in GRID}
     defaults = {k: getattr(RepetitionConfig(), k) for k in GRID}
-    print(f"chosen on {actor}: {chosen} (objective {best:.4f}; the two ascents "
-          f"{runs[0][0]:.4f}, {runs[1][0]:.4f}); "
-          f"{'the defaults' if chosen == defaults else 'NOT the defaults ' + str(defaults)}")
+    print(
+        f"chosen on {actor}: {chosen} (objective {best:.4f}; the two ascents "
+        f"{runs[0][0]:.4f}, {runs[1][0]:.4f}); "
+        f"{'the defaults' if chosen == defaults else 'NOT the defaults ' + str(defaults)}"
+    )
     return cfg
 
 
@@ -146,7 +163,7 @@ def _ascend(mat, actor, cfg, verbose):
     objective, two rounds: (objective, config)."""
     best = objective(*evaluate(mat, cfg, (actor,)))
     if verbose:
-        print(f"  start {({k: getattr(cfg, k) for k in GRID})}: {best:.4f}", flush=True)
+        print(f"  start { ({k: getattr(cfg, k) for k in GRID}) }: {best:.4f}", flush=True)
     for rnd in range(2):
         for name, values in GRID.items():
             for v in values:
@@ -163,8 +180,12 @@ def _ascend(mat, actor, cfg, verbose):
 
 def rotate(mat):
     """The same choice on each actor in turn, scored on the other two (sets of 2-6)."""
-    lines = ["", "| parameters chosen on | held out | sets | exact | OBO | nMAE | alpha | "
-                 "routine sets counted right |", "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "",
+        "| parameters chosen on | held out | sets | exact | OBO | nMAE | alpha | "
+        "routine sets counted right |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     actors = ("bd", "bk", "dg")
     for actor in actors:
         cfg = choose(mat, actor, verbose=False)
@@ -172,8 +193,10 @@ def rotate(mat):
         sets, routines = evaluate(mat, cfg, others)
         n, e, o, m, a = summary([(len(r), c, al) for _, c, al, r in sets if len(r) <= 6])
         rep = [x for _, res in routines for x in res if x[1]]
-        lines.append(f"| {actor} | {', '.join(others)} | {n} | {e:.2f} | {o:.2f} | {m:.3f} | "
-                     f"{a:.3f} | {sum(x[3] for x in rep)} of {len(rep)} |")
+        lines.append(
+            f"| {actor} | {', '.join(others)} | {n} | {e:.2f} | {o:.2f} | {m:.3f} | "
+            f"{a:.3f} | {sum(x[3] for x in rep)} of {len(rep)} |"
+        )
     return lines
 
 
@@ -189,28 +212,38 @@ def table(sets, routines):
     for k in (2, 3, 4, 6, 10):
         row(f"held-out, {k} repetitions", [s for s in held if len(s[3]) == k])
     for cls in sorted({s[0].parts[0][0] for s in held}):
-        row(f"held-out, {cls} (2-6)", [s for s in held if s[0].parts[0][0] == cls
-                                        and len(s[3]) <= 6])
+        row(
+            f"held-out, {cls} (2-6)",
+            [s for s in held if s[0].parts[0][0] == cls and len(s[3]) <= 6],
+        )
     for actor in sorted({s[0].actor for s in held}):
-        row(f"held-out actor {actor} (2-6)", [s for s in held if s[0].actor == actor
-                                              and len(s[3]) <= 6])
+        row(
+            f"held-out actor {actor} (2-6)",
+            [s for s in held if s[0].actor == actor and len(s[3]) <= 6],
+        )
     row("**held-out, sets of 2-6**", [s for s in held if len(s[3]) <= 6])
-    row(f"{CHOOSE_ON} (parameters chosen here), 2-6",
-        [s for s in sets if s[0].actor == CHOOSE_ON and len(s[3]) <= 6])
-    lines += ["", "| routines | repetitive sets counted right | no set in action clips |",
-              "|---|---|---|"]
+    row(
+        f"{CHOOSE_ON} (parameters chosen here), 2-6",
+        [s for s in sets if s[0].actor == CHOOSE_ON and len(s[3]) <= 6],
+    )
+    lines += [
+        "",
+        "| routines | repetitive sets counted right | no set in action clips |",
+        "|---|---|---|",
+    ]
     by = defaultdict(list)
     for p, res in routines:
         by[p.actor] += res
     for actor in sorted(by) + ["held-out"]:
-        res = by[actor] if actor != "held-out" else [x for a in by if a != CHOOSE_ON
-                                                     for x in by[a]]
+        res = by[actor] if actor != "held-out" else [x for a in by if a != CHOOSE_ON for x in by[a]]
         rep = [x for x in res if x[1]]
         act = [x for x in res if not x[1]]
         name = f"{actor}{' (chosen here)' if actor == CHOOSE_ON else ''}"
-        lines.append(f"| {name} | {sum(x[3] for x in rep)} of {len(rep)} "
-                     f"({np.mean([x[3] for x in rep]):.0%}) | "
-                     f"{sum(x[3] for x in act)} of {len(act)} |")
+        lines.append(
+            f"| {name} | {sum(x[3] for x in rep)} of {len(rep)} "
+            f"({np.mean([x[3] for x in rep]):.0%}) | "
+            f"{sum(x[3] for x in act)} of {len(act)} |"
+        )
     return "\n".join(lines)
 
 
@@ -222,8 +255,9 @@ def live(mat, cfg):
     for _, X, _, rec in mat.sets + mat.routines:
         offline = count_sets(X, 120.0, cfg)
         for chunk in (1, 30, 120):
-            events = stream_events(RepetitionCounter(cfg, rec.fps, rec.skeleton),
-                                   rec.positions, chunk)
+            events = stream_events(
+                RepetitionCounter(cfg, rec.fps, rec.skeleton), rec.positions, chunk
+            )
             total += 1
             equal += sets_of(events) == offline
             if chunk == 30:
@@ -235,16 +269,19 @@ def live(mat, cfg):
                         later.append(within[-1])
     n_sets = sum(len(count_sets(X, 120.0, cfg)) for _, X, _, _ in mat.sets + mat.routines)
     d = np.array(delays)
-    return ["", "| live | value |", "|---|---|",
-            f"| runs (recordings x 1, 30, 120 frames a call) with the offline sets exactly | "
-            f"{equal} of {total} |",
-            f"| sets (offline) | {n_sets} |",
-            f"| rep events | {len(d)} |",
-            f"| delay from a repetition's end, median / 90% / max | {np.median(d):.2f} / "
-            f"{np.percentile(d, 90):.2f} / {d.max():.2f} s |",
-            f"| events within the repetition's duration + 0.5 s | {np.mean(within):.1%} |",
-            f"| the same, the third and later of a set | {np.mean(later):.1%} "
-            f"({len(later)} events) |"]
+    return [
+        "",
+        "| live | value |",
+        "|---|---|",
+        f"| runs (recordings x 1, 30, 120 frames a call) with the offline sets exactly | "
+        f"{equal} of {total} |",
+        f"| sets (offline) | {n_sets} |",
+        f"| rep events | {len(d)} |",
+        f"| delay from a repetition's end, median / 90% / max | {np.median(d):.2f} / "
+        f"{np.percentile(d, 90):.2f} / {d.max():.2f} s |",
+        f"| events within the repetition's duration + 0.5 s | {np.mean(within):.1%} |",
+        f"| the same, the third and later of a set | {np.mean(later):.1%} ({len(later)} events) |",
+    ]
 
 
 def cmu(cfg, plots=None):
@@ -254,10 +291,10 @@ def cmu(cfg, plots=None):
     blocks = defaultdict(list)
     with open(DATA / "cmu_exercise" / "labels.csv", newline="") as fh:
         for row in csv.DictReader(fh):
-            blocks[row["sequence"]].append((int(row["start_frame"]) - 1, int(row["end_frame"]),
-                                            row["action_label"]))
-    lines = ["", "| CMU block | seconds | sets inside (count, s per repetition) |",
-             "|---|---|---|"]
+            blocks[row["sequence"]].append(
+                (int(row["start_frame"]) - 1, int(row["end_frame"]), row["action_label"])
+            )
+    lines = ["", "| CMU block | seconds | sets inside (count, s per repetition) |", "|---|---|---|"]
     for seq in sorted(blocks):
         rec = read(DATA / "cmu_exercise" / f"{seq}.amc.gz", skeleton=DATA / "cmu86" / "86.asf")
         seg = RepetitionSegmenter(cfg).fit(rec)
@@ -268,8 +305,13 @@ def cmu(cfg, plots=None):
             plot_repetitions(Path(plots) / f"rep_{seq}.png", seg, title_file=seq)
         for s, e, name in blocks[seq]:
             inside = [st for st in seg.sets_ if s <= (st["start"] + st["end"]) // 2 < e]
-            desc = ", ".join(f"{st['count']} ({st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f})"
-                             for st in inside) or "none"
+            desc = (
+                ", ".join(
+                    f"{st['count']} ({st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f})"
+                    for st in inside
+                )
+                or "none"
+            )
             lines.append(f"| {seq} {name} | {s / rec.fps:.1f}-{e / rec.fps:.1f} | {desc} |")
     return lines
 
@@ -287,24 +329,29 @@ def speed(cfg):
             c = RepetitionCounter(cfg, rec.fps, rec.skeleton)
             t = time.process_time()
             for i in range(0, rec.n_frames, chunk):
-                c.learn_many(rec.positions[i:i + chunk])
+                c.learn_many(rec.positions[i : i + chunk])
             c.finish()
             runs.append((time.process_time() - t) / rec.n_frames * 1e6)
-        lines.append(f"| {chunk} frame{'s' if chunk > 1 else ''} a call | "
-                     f"{np.median(runs):.1f} |")
+        lines.append(f"| {chunk} frame{'s' if chunk > 1 else ''} a call | {np.median(runs):.1f} |")
     return lines
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--choose", action="store_true", help="re-run the choice on bd first")
-    ap.add_argument("--rotate", action="store_true",
-                    help="also choose on bk and on dg, each scored on the other two actors")
+    ap.add_argument(
+        "--rotate",
+        action="store_true",
+        help="also choose on bk and on dg, each scored on the other two actors",
+    )
     ap.add_argument("--plots", metavar="DIR", help="write the CMU pictures there")
     ap.add_argument("--speed", action="store_true", help="add the CPU per frame")
-    ap.add_argument("--systems", action="store_true",
-                    help="add the UI-PRMD Vicon and Kinect and RepCount-A pose tables "
-                         "(benchmarks/rep_systems.py, data in ../shared/data; 2 minutes)")
+    ap.add_argument(
+        "--systems",
+        action="store_true",
+        help="add the UI-PRMD Vicon and Kinect and RepCount-A pose tables "
+        "(benchmarks/rep_systems.py, data in ../shared/data; 2 minutes)",
+    )
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     mat = Material()

@@ -89,10 +89,15 @@ class Load:
             part = self.rec.slice(a, a + rng.randrange(240, 600))
             realtime = rng.random() < 0.3
             try:
-                n = replay(part, self.d.ep["ingest"], stream=self._id("rp"),
-                           speed=1.0 if realtime else 0.0,
-                           batch=4 if realtime else rng.choice([1, 20, 120, 240]),
-                           dtype=rng.choice([np.float32, np.float64]), wait=5.0)
+                n = replay(
+                    part,
+                    self.d.ep["ingest"],
+                    stream=self._id("rp"),
+                    speed=1.0 if realtime else 0.0,
+                    batch=4 if realtime else rng.choice([1, 20, 120, 240]),
+                    dtype=rng.choice([np.float32, np.float64]),
+                    wait=5.0,
+                )
             except NoDaemon:  # killed while it sent: a live sender loses these frames
                 continue
             self._count(n)
@@ -117,8 +122,9 @@ class Load:
                         push.send_multipart(P.encode(announce_of(rec, stream)))
                     first = (k - half if half is not None and k >= half else k) * size
                     idx = (np.arange(size) + k * size) % rec.n_frames
-                    push.send_multipart(P.encode(P.Frames(stream, first, 0.0,
-                                                          rec.positions[idx].astype(dtype))))
+                    push.send_multipart(
+                        P.encode(P.Frames(stream, first, 0.0, rec.positions[idx].astype(dtype)))
+                    )
                     self._count(size)
                 push.send_multipart(P.encode(P.End(stream)))
             except zmq.Again:  # the daemon is down (killed): a live sender loses these
@@ -170,9 +176,16 @@ class Load:
             self.stopping.wait(0.02)
 
     def start(self) -> None:
-        for fn in (self.replayer, self.replayer, self.raw_sender, self.raw_sender,
-                   self.full_subscriber, self.slow_subscriber, self.vanishing_subscribers,
-                   self.controller):
+        for fn in (
+            self.replayer,
+            self.replayer,
+            self.raw_sender,
+            self.raw_sender,
+            self.full_subscriber,
+            self.slow_subscriber,
+            self.vanishing_subscribers,
+            self.controller,
+        ):
             self.spawn(fn)
 
     def stop(self) -> None:
@@ -191,9 +204,15 @@ def run_soak(seconds: float, tmp: Path, seed: int = 1, kill_every: float = 60.0)
 
     def close_run():
         tot = d.request("stats", timeout=10.0)["totals"]
-        runs.append({"frames": tot["frames"], "rss_mb": d.rss_peak_mb(),
-                     "p50": tot.get("latency_p50_ms"), "p99": tot.get("latency_p99_ms"),
-                     "streams": tot["streams"]})
+        runs.append(
+            {
+                "frames": tot["frames"],
+                "rss_mb": d.rss_peak_mb(),
+                "p50": tot.get("latency_p50_ms"),
+                "p99": tot.get("latency_p99_ms"),
+                "streams": tot["streams"],
+            }
+        )
 
     deaths, kills = [], 0
     start = time.monotonic()
@@ -219,13 +238,20 @@ def run_soak(seconds: float, tmp: Path, seed: int = 1, kill_every: float = 60.0)
     finally:
         load.stopping.set()
         d.stop()
-    return {"seconds": round(time.monotonic() - start, 1), "kills": kills, "deaths": deaths,
-            "sent": load.sent, "taken": sum(r["frames"] for r in runs),
-            "seen_live": len(load.seen), "missing_from_log": len(missing),
-            "rss_peak_mb": max(r["rss_mb"] for r in runs),
-            "streams_max": max(r["streams"] for r in runs),
-            "p50_ms": [r["p50"] for r in runs], "p99_ms": [r["p99"] for r in runs],
-            "load_errors": load.errors}
+    return {
+        "seconds": round(time.monotonic() - start, 1),
+        "kills": kills,
+        "deaths": deaths,
+        "sent": load.sent,
+        "taken": sum(r["frames"] for r in runs),
+        "seen_live": len(load.seen),
+        "missing_from_log": len(missing),
+        "rss_peak_mb": max(r["rss_mb"] for r in runs),
+        "streams_max": max(r["streams"] for r in runs),
+        "p50_ms": [r["p50"] for r in runs],
+        "p99_ms": [r["p99"] for r in runs],
+        "load_errors": load.errors,
+    }
 
 
 def main(argv=None) -> int:
@@ -242,14 +268,20 @@ def main(argv=None) -> int:
         ("duration", f"{r['seconds']} s, {r['kills']} SIGKILLs and restarts"),
         ("deaths besides the kills", f"{len(r['deaths'])} {r['deaths'] or ''}".strip()),
         ("frames sent / taken", f"{r['sent']:,} / {r['taken']:,}"),
-        ("events seen live missing from the log", f"{r['missing_from_log']} of "
-                                                  f"{r['seen_live']:,}"),
-        ("RSS peak", f"{r['rss_peak_mb']:.0f} MiB (ingest_bytes {INGEST_BYTES >> 20} MiB; "
-                     f"at most {r['streams_max']} streams open at a kill)"),
-        ("packet latency p50 / p99 per run", f"{', '.join(f'{x:.1f}' for x in p50)} / "
-                                             f"{', '.join(f'{x:.1f}' for x in p99)} ms"),
-        ("errors in the load's own threads", f"{len(r['load_errors'])} "
-                                             f"{r['load_errors'][:3] or ''}".strip()),
+        ("events seen live missing from the log", f"{r['missing_from_log']} of {r['seen_live']:,}"),
+        (
+            "RSS peak",
+            f"{r['rss_peak_mb']:.0f} MiB (ingest_bytes {INGEST_BYTES >> 20} MiB; "
+            f"at most {r['streams_max']} streams open at a kill)",
+        ),
+        (
+            "packet latency p50 / p99 per run",
+            f"{', '.join(f'{x:.1f}' for x in p50)} / {', '.join(f'{x:.1f}' for x in p99)} ms",
+        ),
+        (
+            "errors in the load's own threads",
+            f"{len(r['load_errors'])} {r['load_errors'][:3] or ''}".strip(),
+        ),
     ]
     print("| what | figure |\n|---|---|")
     for k, v in rows:

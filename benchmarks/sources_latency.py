@@ -39,19 +39,34 @@ def _free_port() -> int:
 
 def _lsl_config(folder: Path) -> Path:
     cfg = folder / "lsl_api.cfg"
-    cfg.write_text(f"[ports]\nIPv6 = disable\nMulticastPort = {_free_port()}\n"
-                   f"BasePort = {_free_port()}\nPortRange = 64\n[multicast]\n"
-                   "ResolveScope = machine\nMachineAddresses = {127.0.0.1}\n"
-                   "ListenAddress = 127.0.0.1\n[lab]\n"
-                   f"SessionID = bench-{uuid.uuid4().hex[:10]}\nKnownPeers = {{127.0.0.1}}\n"
-                   "[log]\nlevel = -3\n")
+    cfg.write_text(
+        f"[ports]\nIPv6 = disable\nMulticastPort = {_free_port()}\n"
+        f"BasePort = {_free_port()}\nPortRange = 64\n[multicast]\n"
+        "ResolveScope = machine\nMachineAddresses = {127.0.0.1}\n"
+        "ListenAddress = 127.0.0.1\n[lab]\n"
+        f"SessionID = bench-{uuid.uuid4().hex[:10]}\nKnownPeers = {{127.0.0.1}}\n"
+        "[log]\nlevel = -3\n"
+    )
     return cfg
 
 
 def _serve():
-    cmd = [sys.executable, "-m", "streamseg.cli", "serve", "--ingest", "tcp://127.0.0.1:0",
-           "--publish", "tcp://127.0.0.1:0", "--control", "tcp://127.0.0.1:0",
-           "--state-dir", "none", "--relabel-interval", "0"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "streamseg.cli",
+        "serve",
+        "--ingest",
+        "tcp://127.0.0.1:0",
+        "--publish",
+        "tcp://127.0.0.1:0",
+        "--control",
+        "tcp://127.0.0.1:0",
+        "--state-dir",
+        "none",
+        "--relabel-interval",
+        "0",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     line = proc.stdout.readline()
     return proc, dict(kv.split("=", 1) for kv in line.split(": ", 1)[1].split())
@@ -98,8 +113,14 @@ def run_zmq(rec, ep, speed, stream):
     sock.connect(ep["ingest"])
     sock.send_multipart(protocol.encode(announce_of(rec, stream)))
     pos = rec.positions
-    pushed = _paced(rec.n_frames, rec.fps, speed, lambda i: sock.send_multipart(
-        protocol.encode(protocol.Frames(stream, i, time.time(), pos[i:i + 1]))))
+    pushed = _paced(
+        rec.n_frames,
+        rec.fps,
+        speed,
+        lambda i: sock.send_multipart(
+            protocol.encode(protocol.Frames(stream, i, time.time(), pos[i : i + 1]))
+        ),
+    )
     sock.send_multipart(protocol.encode(protocol.End(stream)))
     cuts.join(120)
     sock.close()
@@ -111,21 +132,40 @@ def run_lsl(rec, ep, speed, stream, env):
 
     from streamseg.lsl.meta import add_channels
 
-    info = pylsl.StreamInfo("bench", "MoCap", 3 * rec.skeleton.n_joints, rec.fps,
-                            pylsl.cf_double64, stream)
+    info = pylsl.StreamInfo(
+        "bench", "MoCap", 3 * rec.skeleton.n_joints, rec.fps, pylsl.cf_double64, stream
+    )
     add_channels(info.desc(), rec.skeleton.names)
     out = pylsl.StreamOutlet(info)
     cuts = Cuts(ep, stream)
     cuts.start()
-    bridge = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "lsl", "--to",
-                               ep["ingest"], "--source-id", stream, "--up", "y"],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    bridge = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "lsl",
+            "--to",
+            ep["ingest"],
+            "--source-id",
+            stream,
+            "--up",
+            "y",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=env,
+    )
     while not out.wait_for_consumers(0.5):
         pass
     flat = rec.positions.reshape(rec.n_frames, -1)
     t_lsl = pylsl.local_clock()
-    pushed = _paced(rec.n_frames, rec.fps, speed, lambda i: out.push_sample(
-        flat[i].tolist(), t_lsl + i / rec.fps))
+    pushed = _paced(
+        rec.n_frames,
+        rec.fps,
+        speed,
+        lambda i: out.push_sample(flat[i].tolist(), t_lsl + i / rec.fps),
+    )
     from streamseg.client import request
 
     deadline = time.monotonic() + 60
@@ -152,20 +192,24 @@ def latency(runs: int, speed: float) -> None:
     try:
         for r in range(runs):
             rows["replay over ZeroMQ (1 frame/packet)"] += run_zmq(rec, ep, speed, f"z{r}")
-            rows["LSL outlet -> streamseg lsl"] += run_lsl(rec, ep, speed,
-                                                           f"lsl-{uuid.uuid4().hex[:6]}", env)
+            rows["LSL outlet -> streamseg lsl"] += run_lsl(
+                rec, ep, speed, f"lsl-{uuid.uuid4().hex[:6]}", env
+            )
     finally:
         proc.terminate()
         proc.wait(30)
-    print(f"{'transport (86_01 at x' + format(speed, 'g') + ')':<40}{'n':>4}"
-          f"{'p50 ms':>9}{'p99 ms':>9}{'max ms':>9}")
+    print(
+        f"{'transport (86_01 at x' + format(speed, 'g') + ')':<40}{'n':>4}"
+        f"{'p50 ms':>9}{'p99 ms':>9}{'max ms':>9}"
+    )
     base = None
     for name, lat in rows.items():
         ms = np.array(lat) * 1000
         p50, p99 = np.percentile(ms, 50), np.percentile(ms, 99)
         base = base or p50
-        print(f"{name:<40}{len(ms):>4}{p50:>9.2f}{p99:>9.2f}{ms.max():>9.2f}"
-              f"  (p50 x{p50 / base:.2f})")
+        print(
+            f"{name:<40}{len(ms):>4}{p50:>9.2f}{p99:>9.2f}{ms.max():>9.2f}  (p50 x{p50 / base:.2f})"
+        )
 
 
 def main() -> None:

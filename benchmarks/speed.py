@@ -54,8 +54,10 @@ def load(path: Path) -> dict:
 
 
 def runs() -> list:
-    return sorted((load(p) for p in RESULTS.glob("*.json") if p.name != "machine.json"),
-                  key=lambda r: r["date"])
+    return sorted(
+        (load(p) for p in RESULTS.glob("*.json") if p.name != "machine.json"),
+        key=lambda r: r["date"],
+    )
 
 
 def units() -> dict:
@@ -96,16 +98,27 @@ def fmt(v) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--bench", help="only the benchmarks matching this regular expression")
-    ap.add_argument("--against", help="compare with this commit's results (default: the "
-                    "newest run of another commit)")
+    ap.add_argument(
+        "--against",
+        help="compare with this commit's results (default: the newest run of another commit)",
+    )
     ap.add_argument("--no-run", action="store_true", help="compare the newest results only")
     args = ap.parse_args(argv)
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=HERE, check=True,
-                            capture_output=True, text=True).stdout.strip()
+    commit = subprocess.run(
+        ["git", "rev-parse", "HEAD"], cwd=HERE, check=True, capture_output=True, text=True
+    ).stdout.strip()
     if not args.no_run:
         asv("machine", "--machine", MACHINE, "--yes")
-        asv("run", "--python=same", "--set-commit-hash", commit, "--machine", MACHINE,
-            "--show-stderr", *(["--bench", args.bench] if args.bench else []))
+        asv(
+            "run",
+            "--python=same",
+            "--set-commit-hash",
+            commit,
+            "--machine",
+            MACHINE,
+            "--show-stderr",
+            *(["--bench", args.bench] if args.bench else []),
+        )
     done = runs()
     new = next((r for r in reversed(done) if r["commit"] == commit), None) or done[-1]
     if args.against:
@@ -115,16 +128,22 @@ def main(argv=None) -> int:
     else:
         old = next((r for r in reversed(done) if r["commit"] != new["commit"]), None)
     rows, worse = compare(new, old, units())
-    print(f"\nspeed suite at {new['commit'][:10]}, against "
-          f"{old['commit'][:10] if old else 'nothing recorded'}")
+    print(
+        f"\nspeed suite at {new['commit'][:10]}, against "
+        f"{old['commit'][:10] if old else 'nothing recorded'}"
+    )
     print("| benchmark | param | value | unit | recorded | ratio | |")
     print("|---|---|---|---|---|---|---|")
     for name, param, value, unit, before, ratio, flag in rows:
-        print(f"| {name} | {param} | {fmt(value)} | {unit} | {fmt(before)} | "
-              f"{'-' if ratio is None else f'{ratio:.2f}'} | {flag} |")
+        print(
+            f"| {name} | {param} | {fmt(value)} | {unit} | {fmt(before)} | "
+            f"{'-' if ratio is None else f'{ratio:.2f}'} | {flag} |"
+        )
     if worse:
-        print(f"\n{len(worse)} figure(s) more than {TOLERANCE:.0%} worse than recorded: "
-              + ", ".join(f"{n}[{p}]" if p else n for n, p in worse))
+        print(
+            f"\n{len(worse)} figure(s) more than {TOLERANCE:.0%} worse than recorded: "
+            + ", ".join(f"{n}[{p}]" if p else n for n, p in worse)
+        )
         return 1
     return 0
 

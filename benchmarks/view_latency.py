@@ -48,8 +48,16 @@ from streamseg.io import read
 from streamseg.view.server import ViewThread
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "cmu86"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 LOOP = "tcp://127.0.0.1:0"
 
 
@@ -114,7 +122,7 @@ def capacity(browser, n_streams: int, n_events: int) -> dict:
     try:
         page.goto(url + "?trace=1#stream=probe")
         frame = 0
-        while not page.query_selector('#cut-layer line.cut'):  # handshake: the chain works
+        while not page.query_selector("#cut-layer line.cut"):  # handshake: the chain works
             pub.send_multipart(P.encode(P.Cut("probe", frame, 0.0, 1.0, frame)))
             frame += 1
             page.wait_for_timeout(20)
@@ -136,14 +144,21 @@ def capacity(browser, n_streams: int, n_events: int) -> dict:
         while hub.applied - base < total:
             time.sleep(0.001)
         elapsed = time.perf_counter() - t0
-        page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut')"
-                               f".length >= {frame + len(sends)}", timeout=120_000)
+        page.wait_for_function(
+            f"() => document.querySelectorAll('#cut-layer line.cut')"
+            f".length >= {frame + len(sends)}",
+            timeout=120_000,
+        )
         sent = view.server.sent - sent0
         shown = {f: t for s, kind, f, t in page_trace(page) if kind == "cut" and s == "probe"}
         lat = [shown[f] - sends[f] for f in sends]
         span = (time.time() * 1000 - w0) / 1000
-        return {"events_s": total / elapsed, "page_msgs_s": sent / span,
-                "p50_ms": pct(lat, 50), "p95_ms": pct(lat, 95)}
+        return {
+            "events_s": total / elapsed,
+            "page_msgs_s": sent / span,
+            "p50_ms": pct(lat, 50),
+            "p95_ms": pct(lat, 95),
+        }
     finally:
         page.close()
         view.stop()
@@ -151,8 +166,16 @@ def capacity(browser, n_streams: int, n_events: int) -> dict:
 
 
 def daemon_to_dom(browser, rec, n_streams: int, speed: float) -> dict:
-    daemon = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=1.0,
-                                 relabel_interval=0, max_streams=max(100, n_streams)))
+    daemon = Daemon(
+        DaemonConfig(
+            ingest=LOOP,
+            publish=LOOP,
+            control=LOOP,
+            heartbeat=1.0,
+            relabel_interval=0,
+            max_streams=max(100, n_streams),
+        )
+    )
     ep = daemon.bind()
     dt = threading.Thread(target=daemon.run, daemon=True)
     dt.start()
@@ -183,7 +206,8 @@ def daemon_to_dom(browser, rec, n_streams: int, speed: float) -> dict:
         heard.wait(30)  # the daemon's heartbeat reached the listener
         page.goto(url + "?trace=1#stream=s000")
         page.wait_for_function(
-            "() => /\\b[1-9][0-9]* events/.test(document.querySelector('#totals').textContent)")
+            "() => /\\b[1-9][0-9]* events/.test(document.querySelector('#totals').textContent)"
+        )
         push = zmq.Context.instance().socket(zmq.PUSH)
         push.connect(ep["ingest"])
         for name in names:
@@ -195,20 +219,24 @@ def daemon_to_dom(browser, rec, n_streams: int, speed: float) -> dict:
             wait = t0 + a / (rec.fps * speed) - time.perf_counter()
             if wait > 0:
                 time.sleep(wait)
-            chunk = rec.positions[a:a + batch]
+            chunk = rec.positions[a : a + batch]
             now = time.time()
             for name in names:
                 push.send_multipart(P.encode(P.Frames(name, a, now, chunk)))
         for name in names:
             push.send_multipart(P.encode(P.End(name)))
         push.close()
-        page.wait_for_function(f"() => document.querySelector('#count').textContent"
-                               f".startsWith('{n_streams} streams (0 open)')", timeout=300_000)
+        page.wait_for_function(
+            f"() => document.querySelector('#count').textContent"
+            f".startsWith('{n_streams} streams (0 open)')",
+            timeout=300_000,
+        )
         busy = (page.evaluate("() => window.viewBusyMs") - busy0) / 1000
         span = time.perf_counter() - t0
         n0 = counts.get("s000", 0)
-        page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut')"
-                               f".length >= {n0}", timeout=60_000)
+        page.wait_for_function(
+            f"() => document.querySelectorAll('#cut-layer line.cut').length >= {n0}", timeout=60_000
+        )
         trace = page_trace(page)
         dom = {f: t for s, kind, f, t in trace if kind == "cut" and s == "s000"}
         timeline = [dom[f] - t for (s, _), (t, f) in got.items() if s == "s000" and f in dom]
@@ -218,9 +246,16 @@ def daemon_to_dom(browser, rec, n_streams: int, speed: float) -> dict:
                 for j in range(1, k + 1):
                     first_row.setdefault((s, j), t)
         rows = [first_row[key] - t for key, (t, _) in got.items() if key in first_row]
-        return {"cuts": len(got), "busy": busy / span, "timeline_p50_ms": pct(timeline, 50),
-                "timeline_p95_ms": pct(timeline, 95), "list_p50_ms": pct(rows, 50),
-                "list_p95_ms": pct(rows, 95), "list_n": len(rows), "timeline_n": len(timeline)}
+        return {
+            "cuts": len(got),
+            "busy": busy / span,
+            "timeline_p50_ms": pct(timeline, 50),
+            "timeline_p95_ms": pct(timeline, 95),
+            "list_p50_ms": pct(rows, 50),
+            "list_p95_ms": pct(rows, 95),
+            "list_n": len(rows),
+            "timeline_n": len(timeline),
+        }
     finally:
         page.close()
         view.stop()
@@ -246,12 +281,20 @@ def main() -> None:
     try:
         with sync_playwright() as pw:
             browser = pw.chromium.launch_persistent_context(
-                profile, executable_path=shutil.which("chromium"), args=ARGS, headless=True,
-                viewport={"width": 1400, "height": 800})
-            print(f"1. forwarding capacity: {args.events} cut events published as fast as "
-                  f"possible, one page open; median of {args.runs} runs")
-            print("| streams | bare SUB + decode (events/s) | applied by the view (events/s) | "
-                  "ratio | page messages/s | probe latency p50 / p95 (ms) |")
+                profile,
+                executable_path=shutil.which("chromium"),
+                args=ARGS,
+                headless=True,
+                viewport={"width": 1400, "height": 800},
+            )
+            print(
+                f"1. forwarding capacity: {args.events} cut events published as fast as "
+                f"possible, one page open; median of {args.runs} runs"
+            )
+            print(
+                "| streams | bare SUB + decode (events/s) | applied by the view (events/s) | "
+                "ratio | page messages/s | probe latency p50 / p95 (ms) |"
+            )
             print("|---:|---:|---:|---:|---:|---:|")
             for n in counts:
                 rs, base = [], []
@@ -259,23 +302,33 @@ def main() -> None:
                     base.append(bare(n, args.events))
                     rs.append(capacity(browser, n, args.events))
                 view_rate = med(r["events_s"] for r in rs)
-                print(f"| {n} | {med(base):,.0f} | {view_rate:,.0f} | "
-                      f"{view_rate / med(base):.2f} | {med(r['page_msgs_s'] for r in rs):.1f} | "
-                      f"{med(r['p50_ms'] for r in rs):.0f} / {med(r['p95_ms'] for r in rs):.0f}"
-                      " |", flush=True)
-            print(f"\n2. daemon event -> page DOM: S x CMU 86_01 at {args.speed:g}x real time, "
-                  f"LOF cuts; median of {args.runs} runs")
-            print("| streams | cuts published | timeline p50 / p95 (ms) | list row p50 / p95 "
-                  "(ms) | page script busy |")
+                print(
+                    f"| {n} | {med(base):,.0f} | {view_rate:,.0f} | "
+                    f"{view_rate / med(base):.2f} | {med(r['page_msgs_s'] for r in rs):.1f} | "
+                    f"{med(r['p50_ms'] for r in rs):.0f} / {med(r['p95_ms'] for r in rs):.0f}"
+                    " |",
+                    flush=True,
+                )
+            print(
+                f"\n2. daemon event -> page DOM: S x CMU 86_01 at {args.speed:g}x real time, "
+                f"LOF cuts; median of {args.runs} runs"
+            )
+            print(
+                "| streams | cuts published | timeline p50 / p95 (ms) | list row p50 / p95 "
+                "(ms) | page script busy |"
+            )
             print("|---:|---:|---:|---:|---:|")
             for n in counts:
                 rs = [daemon_to_dom(browser, rec, n, args.speed) for _ in range(args.runs)]
-                print(f"| {n} | {med(r['cuts'] for r in rs):.0f} | "
-                      f"{med(r['timeline_p50_ms'] for r in rs):.0f} / "
-                      f"{med(r['timeline_p95_ms'] for r in rs):.0f} | "
-                      f"{med(r['list_p50_ms'] for r in rs):.0f} / "
-                      f"{med(r['list_p95_ms'] for r in rs):.0f} | "
-                      f"{100 * med(r['busy'] for r in rs):.1f}% |", flush=True)
+                print(
+                    f"| {n} | {med(r['cuts'] for r in rs):.0f} | "
+                    f"{med(r['timeline_p50_ms'] for r in rs):.0f} / "
+                    f"{med(r['timeline_p95_ms'] for r in rs):.0f} | "
+                    f"{med(r['list_p50_ms'] for r in rs):.0f} / "
+                    f"{med(r['list_p95_ms'] for r in rs):.0f} | "
+                    f"{100 * med(r['busy'] for r in rs):.1f}% |",
+                    flush=True,
+                )
             browser.close()
     finally:
         shutil.rmtree(profile, ignore_errors=True)

@@ -17,8 +17,16 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
 
 def main() -> None:
@@ -37,43 +45,66 @@ def main() -> None:
     ap.add_argument("--at", type=float, default=0.75, help="fraction of the stream shown")
     args = ap.parse_args()
     loop = "tcp://127.0.0.1:0"
-    daemon = Daemon(DaemonConfig(ingest=loop, publish=loop, control=loop, repetitions=True,
-                                 relabel_interval=5.0))
+    daemon = Daemon(
+        DaemonConfig(
+            ingest=loop, publish=loop, control=loop, repetitions=True, relabel_interval=5.0
+        )
+    )
     ep = daemon.bind()
     threading.Thread(target=daemon.run, daemon=True).start()
     daemon.ready.wait()
     view = ViewThread(ep["publish"], ep["control"])
     url = view.start()
-    plays = [(DATA / "cmu86" / "86_01.amc.gz", DATA / "cmu86" / "86.asf",
-              DATA / "cmu86" / "labels_86_01.csv"),
-             (DATA / "cmu_exercise" / "14_14.amc.gz", DATA / "cmu86" / "86.asf",
-              DATA / "cmu_exercise" / "labels.csv")]
-    plays += [(DATA / "cmu02" / f"02_0{i}.amc.gz", DATA / "cmu02" / "02.asf", None)
-              for i in (1, 3, 4, 5)]
+    plays = [
+        (
+            DATA / "cmu86" / "86_01.amc.gz",
+            DATA / "cmu86" / "86.asf",
+            DATA / "cmu86" / "labels_86_01.csv",
+        ),
+        (
+            DATA / "cmu_exercise" / "14_14.amc.gz",
+            DATA / "cmu86" / "86.asf",
+            DATA / "cmu_exercise" / "labels.csv",
+        ),
+    ]
+    plays += [
+        (DATA / "cmu02" / f"02_0{i}.amc.gz", DATA / "cmu02" / "02.asf", None) for i in (1, 3, 4, 5)
+    ]
     n = {}
     senders = []
     for f, sk, labels in plays:
         rec = read(f, skeleton=sk)
         name = f.name.split(".")[0]
         n[name] = rec.n_frames
-        senders.append(threading.Thread(target=replay, args=(rec, ep["ingest"]), daemon=True,
-                                        kwargs=dict(stream=name, speed=args.speed, batch=4,
-                                                    labels=labels)))
+        senders.append(
+            threading.Thread(
+                target=replay,
+                args=(rec, ep["ingest"]),
+                daemon=True,
+                kwargs=dict(stream=name, speed=args.speed, batch=4, labels=labels),
+            )
+        )
     for s in senders:
         s.start()
     profile = tempfile.mkdtemp()
     try:
         with sync_playwright() as pw:
             ctx = pw.chromium.launch_persistent_context(
-                profile, executable_path=shutil.which("chromium"), args=ARGS, headless=True,
-                viewport={"width": 1500, "height": 640})
+                profile,
+                executable_path=shutil.which("chromium"),
+                args=ARGS,
+                headless=True,
+                viewport={"width": 1500, "height": 640},
+            )
             page = ctx.new_page()
             page.goto(url + f"#stream={args.stream}")
             page.select_option("#window", "120")
             frame = int(n[args.stream] * args.at)
             page.wait_for_function(
                 f"() => {{ const d = document.querySelector('#health dd[data-k=\"frame\"]');"
-                f" return d && parseInt(d.textContent) >= {frame}; }}", timeout=300_000)
+                f" return d && parseInt(d.textContent) >= {frame}; }}",
+                timeout=300_000,
+            )
             Path(args.out).parent.mkdir(parents=True, exist_ok=True)
             page.screenshot(path=args.out)
             ctx.close()

@@ -18,7 +18,10 @@ if TYPE_CHECKING:  # what documentation tools and type checkers read
     from streamseg.io import read
     from streamseg.recording import Recording, Skeleton
 
-_EXPORTS = {"read": "streamseg.io", "Recording": "streamseg.recording",
-            "Skeleton": "streamseg.recording"}
+_EXPORTS = {
+    "read": "streamseg.io",
+    "Recording": "streamseg.recording",
+    "Skeleton": "streamseg.recording",
+}
 __all__ = ["Recording", "Skeleton", "__version__", "read"]
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -33,8 +33,12 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if ("default" not in text and action.default not in (None, False, argparse.SUPPRESS)
-                and action.option_strings and not isinstance(action.default, bool)):
+        if (
+            "default" not in text
+            and action.default not in (None, False, argparse.SUPPRESS)
+            and action.option_strings
+            and not isinstance(action.default, bool)
+        ):
             text += " (default: %(default)s)"
         return text
 
@@ -79,18 +83,24 @@ def _failure(args, err: BaseException) -> int:
         return 2
     zmq = sys.modules.get("zmq")  # only a command that imported it can fail with its errors
     if zmq is not None and isinstance(err, zmq.ZMQError):
-        hint = ("another process uses the port: choose other ports (e.g. tcp://127.0.0.1:0 "
-                "for a free one) or stop that process"
-                if err.errno == zmq.EADDRINUSE else
-                "endpoints look like tcp://127.0.0.1:5560" if err.errno == zmq.EINVAL else
-                "check the endpoints and that the daemon runs")
+        hint = (
+            "another process uses the port: choose other ports (e.g. tcp://127.0.0.1:0 "
+            "for a free one) or stop that process"
+            if err.errno == zmq.EADDRINUSE
+            else "endpoints look like tcp://127.0.0.1:5560"
+            if err.errno == zmq.EINVAL
+            else "check the endpoints and that the daemon runs"
+        )
         print(f"{where}: error: {err.strerror}: {hint}", file=sys.stderr)
         return 2 if err.errno == zmq.EINVAL else 1  # a malformed endpoint is a usage error
     if isinstance(err, (StreamsegError, OSError)):
         print(f"{where}: error: {err}", file=sys.stderr)
         return 1
-    print(f"{where}: internal error: {type(err).__name__}: {err} (please report it; "
-          "STREAMSEG_DEBUG=1 shows the traceback)", file=sys.stderr)
+    print(
+        f"{where}: internal error: {type(err).__name__}: {err} (please report it; "
+        "STREAMSEG_DEBUG=1 shows the traceback)",
+        file=sys.stderr,
+    )
     return 1
 
 

@@ -19,8 +19,18 @@ from zmq.utils.monitor import recv_monitor_message
 from streamseg import protocol
 from streamseg.endpoints import ipv6
 
-__all__ = ["Refusal", "Subscription", "fetch_since", "handshake", "listen", "request", "takes",
-           "sending_context", "subscribe", "subscriber"]
+__all__ = [
+    "Refusal",
+    "Subscription",
+    "fetch_since",
+    "handshake",
+    "listen",
+    "request",
+    "takes",
+    "sending_context",
+    "subscribe",
+    "subscriber",
+]
 
 
 @contextlib.contextmanager
@@ -40,8 +50,7 @@ def sending_context(ctx: zmq.Context | None = None):
         own.term()
 
 
-def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
-            **fields) -> dict:
+def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None, **fields) -> dict:
     """One control request (``ping``, ``streams``, ``state``, ``since``, ``stats``,
     ``shutdown``); ``curve``: :class:`~streamseg.daemon.security.ClientKeys`. Without
     ``curve``, a state-changing op carries the control token of this user
@@ -87,8 +96,10 @@ def request(endpoint: str, op: str, ctx=None, timeout: float = 5.0, curve=None,
         sock.disable_monitor()
         monitor.close(linger=0)
         sock.close()
-    raise TimeoutError(f"no reply from control endpoint {endpoint} in {timeout} s: is "
-                       "the daemon running there? (with CURVE on it needs --curve-dir)")
+    raise TimeoutError(
+        f"no reply from control endpoint {endpoint} in {timeout} s: is "
+        "the daemon running there? (with CURVE on it needs --curve-dir)"
+    )
 
 
 class Refusal:
@@ -101,8 +112,12 @@ class Refusal:
     handshake in between that succeeded, are a refusal.
     """
 
-    EVENTS = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
-              | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL | zmq.EVENT_HANDSHAKE_SUCCEEDED)
+    EVENTS = (
+        zmq.EVENT_HANDSHAKE_FAILED_AUTH
+        | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+        | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL
+        | zmq.EVENT_HANDSHAKE_SUCCEEDED
+    )
     TEARS = 3
 
     def __init__(self, endpoint: str, curve=None):
@@ -121,12 +136,17 @@ class Refusal:
             raise ConnectionRefusedError(
                 f"the daemon at {self.endpoint} refused this client's CURVE key: copy the "
                 "client's public key (client.key of --curve-dir) into the daemon's "
-                "authorized/ folder")
+                "authorized/ folder"
+            )
         raise ConnectionRefusedError(
-            f"the daemon at {self.endpoint} refused the security handshake: " +
-            ("it has no CURVE keys or other ones (check --curve-dir: its server.key must be "
-             "the daemon's)" if self.curve is not None else
-             "it has CURVE on: give --curve-dir DIR with keys made by `streamseg keys`"))
+            f"the daemon at {self.endpoint} refused the security handshake: "
+            + (
+                "it has no CURVE keys or other ones (check --curve-dir: its server.key must be "
+                "the daemon's)"
+                if self.curve is not None
+                else "it has CURVE on: give --curve-dir DIR with keys made by `streamseg keys`"
+            )
+        )
 
 
 def subscriber(endpoint: str, stream=None, kind=None, ctx=None, curve=None, monitor=None):
@@ -181,9 +201,11 @@ class _ConnectWait:
             more = "" if self.limit is None else f" (giving up after {self.limit:g} s)"
             self.on_waiting(f"waiting for a daemon at {self.endpoint}{more}")
         if self.limit is not None and waited >= self.limit:
-            raise TimeoutError(f"no daemon at {self.endpoint} for {self.limit:g} s: is "
-                               "`streamseg serve` running, and is this its publish endpoint? "
-                               "(--timeout waits longer)")
+            raise TimeoutError(
+                f"no daemon at {self.endpoint} for {self.limit:g} s: is "
+                "`streamseg serve` running, and is this its publish endpoint? "
+                "(--timeout waits longer)"
+            )
 
 
 def handshake(sock, control: str, ctx=None, timeout: float = 30.0, curve=None) -> list:
@@ -213,8 +235,10 @@ def handshake(sock, control: str, ctx=None, timeout: float = 30.0, curve=None) -
                 if frames[0] == prefix:
                     return pending
                 pending.append(frames)
-        raise TimeoutError(f"no hello from the daemon's publisher in {timeout} s: is "
-                           "the publish endpoint the one of the daemon at the control endpoint?")
+        raise TimeoutError(
+            f"no hello from the daemon's publisher in {timeout} s: is "
+            "the publish endpoint the one of the daemon at the control endpoint?"
+        )
     finally:
         sock.setsockopt(zmq.UNSUBSCRIBE, prefix)
 
@@ -231,8 +255,9 @@ class Subscription:
         self.sock.close()
 
 
-def subscribe(endpoint: str, control: str, stream=None, kind=None, ctx=None,
-              timeout: float = 30.0, curve=None) -> Subscription:
+def subscribe(
+    endpoint: str, control: str, stream=None, kind=None, ctx=None, timeout: float = 30.0, curve=None
+) -> Subscription:
     """:func:`subscriber` then :func:`handshake`: events published after this returns reach
     the subscription (no sleep, no slow-joiner loss)."""
     sock = subscriber(endpoint, stream, kind, ctx, curve=curve)
@@ -256,8 +281,16 @@ def takes(events) -> list:
     return out + ([cur] if cur else [])
 
 
-def fetch_since(endpoint: str, stream: str, seq: int, ctx=None, upto=None, curve=None,
-                on_range=None, skipped=None) -> list:
+def fetch_since(
+    endpoint: str,
+    stream: str,
+    seq: int,
+    ctx=None,
+    upto=None,
+    curve=None,
+    on_range=None,
+    skipped=None,
+) -> list:
     """The logged events of ``stream`` with sequence numbers in ``(seq, upto)`` (all after
     ``seq`` when ``upto`` is None) from the control op ``since``, page by page; raises
     LookupError when the daemon keeps no log. ``on_range(first, last)`` is called with the
@@ -288,9 +321,23 @@ def count_in(ranges, lo: int, hi: int) -> int:
     return sum(max(0, min(b, hi) - max(a, lo) + 1) for a, b in ranges)
 
 
-def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, since=None,
-           backlog=(), on_hole=None, pending=(), monitor=None, on_monitor=None,
-           connect_timeout=None, on_waiting=None, endpoint="the daemon"):
+def listen(
+    sock,
+    *,
+    stream=None,
+    count=None,
+    until_end=False,
+    timeout=None,
+    since=None,
+    backlog=(),
+    on_hole=None,
+    pending=(),
+    monitor=None,
+    on_monitor=None,
+    connect_timeout=None,
+    on_waiting=None,
+    endpoint="the daemon",
+):
     """Yield decoded events from a SUB socket until a stop condition.
 
     ``since`` is a control ``state`` reply: segments of revision <= its revision and cuts at
@@ -349,8 +396,9 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
         else:
             now = time.monotonic()
             ends = [t for t in (idle_end, wait and wait.next_check()) if t is not None]
-            ready = dict(poller.poll(None if not ends else max(0, int((min(ends) - now)
-                                                                     * 1000)) + 1))
+            ready = dict(
+                poller.poll(None if not ends else max(0, int((min(ends) - now) * 1000)) + 1)
+            )
             if wait is not None:
                 wait.check()
             if not ready:
@@ -376,8 +424,9 @@ def listen(sock, *, stream=None, count=None, until_end=False, timeout=None, sinc
         if ev.type == "hello":
             continue
         if since is not None and getattr(ev, "stream", None) == since.get("stream"):
-            if (ev.type == "segments" and ev.revision <= rev) or \
-                    (ev.type == "cut" and ev.frame <= last_cut):
+            if (ev.type == "segments" and ev.revision <= rev) or (
+                ev.type == "cut" and ev.frame <= last_cut
+            ):
                 continue
             if ev.type == "closed":
                 since = None  # a re-announced stream starts its revisions and frames over

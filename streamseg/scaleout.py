@@ -19,13 +19,15 @@ def require_distributed():
     try:
         import distributed
     except ImportError:
-        raise ParameterError(f"the Dask backend needs dask[distributed], which is not "
-                             f"installed: {INSTALL_HINT}") from None
+        raise ParameterError(
+            f"the Dask backend needs dask[distributed], which is not installed: {INSTALL_HINT}"
+        ) from None
     return distributed
 
 
-def local_cluster(n_workers: int | None = None, processes: bool = True,
-                  threads_per_worker: int = 1):
+def local_cluster(
+    n_workers: int | None = None, processes: bool = True, threads_per_worker: int = 1
+):
     """A :class:`distributed.LocalCluster` on 127.0.0.1 (random ports, no dashboard).
 
     Parameters
@@ -39,9 +41,15 @@ def local_cluster(n_workers: int | None = None, processes: bool = True,
     """
     distributed = require_distributed()
     n = n_workers or os.cpu_count() or 1
-    return distributed.LocalCluster(n_workers=n, threads_per_worker=threads_per_worker,
-                                    processes=processes, host="127.0.0.1", protocol="tcp://",
-                                    dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+    return distributed.LocalCluster(
+        n_workers=n,
+        threads_per_worker=threads_per_worker,
+        processes=processes,
+        host="127.0.0.1",
+        protocol="tcp://",
+        dashboard_address="127.0.0.1:0",
+        silence_logs=logging.ERROR,
+    )
 
 
 def connect(address: str, timeout: float = 10.0):
@@ -51,7 +59,9 @@ def connect(address: str, timeout: float = 10.0):
     try:
         return distributed.Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError) as err:
-        raise ParameterError(f"cannot reach the Dask scheduler at {address} within "
-                             f"{timeout:g} s ({type(err).__name__}: {err}); start one with "
-                             "`dask scheduler` or leave out --scheduler for a local "
-                             "cluster") from None
+        raise ParameterError(
+            f"cannot reach the Dask scheduler at {address} within "
+            f"{timeout:g} s ({type(err).__name__}: {err}); start one with "
+            "`dask scheduler` or leave out --scheduler for a local "
+            "cluster"
+        ) from None

@@ -39,18 +39,25 @@ class Stateful:
         names = [n for c in cls.__mro__ for n in getattr(c, "__slots__", ())]
         names += list(getattr(self, "__dict__", ()))
         skip = set(cls._transient)
-        return {"version": cls.STATE_VERSION,
-                "fields": {n: getattr(self, n) for n in dict.fromkeys(names)
-                           if n not in skip and hasattr(self, n)}}
+        return {
+            "version": cls.STATE_VERSION,
+            "fields": {
+                n: getattr(self, n)
+                for n in dict.fromkeys(names)
+                if n not in skip and hasattr(self, n)
+            },
+        }
 
     @classmethod
     def from_state(cls, state: dict):
         """The component a :meth:`to_state` of this version described (an earlier version:
         :func:`streamseg.state_migrations.upgrade`)."""
         if state["version"] != cls.STATE_VERSION:
-            raise StateVersionError(f"{cls.__qualname__} state version {state['version']!r}: "
-                                    f"from_state reads version {cls.STATE_VERSION}; an earlier "
-                                    "one goes through streamseg.state_migrations.upgrade")
+            raise StateVersionError(
+                f"{cls.__qualname__} state version {state['version']!r}: "
+                f"from_state reads version {cls.STATE_VERSION}; an earlier "
+                "one goes through streamseg.state_migrations.upgrade"
+            )
         fields = state["fields"]
         out = cls.__new__(cls)
         for name, value in fields.items():

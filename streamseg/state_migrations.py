@@ -56,7 +56,8 @@ def _counter_3(fields: dict) -> dict:
 
         bridge = PoseBridge(len(K.POINTS), bridge_frames(fields["fps"]), range(4))
         bridge.n_in = bridge.n_out = fields["n_seen_"] + sum(
-            p.shape[0] for p in fields.get("_pending", []))
+            p.shape[0] for p in fields.get("_pending", [])
+        )
         fields.setdefault("_bridge", bridge)
     fields.setdefault("_bridge", None)
     fields.setdefault("_waits", {})
@@ -100,13 +101,15 @@ def migrate(cls, version, fields: dict) -> dict:
     """Today's fields of a ``cls`` state stored at ``version``; raises StateVersionError."""
     name, now = name_of(cls), cls.STATE_VERSION
     if type(version) is not int or version > now or version < 1:
-        raise StateVersionError(f"{cls.__qualname__} state version {version!r}: this release "
-                                f"reads versions 1 to {now}")
+        raise StateVersionError(
+            f"{cls.__qualname__} state version {version!r}: this release reads versions 1 to {now}"
+        )
     while version < now:
         step = MIGRATIONS.get((name, version))
         if step is None:
-            raise StateVersionError(f"{cls.__qualname__} state version {version}: no "
-                                    f"migration to version {version + 1}")
+            raise StateVersionError(
+                f"{cls.__qualname__} state version {version}: no migration to version {version + 1}"
+            )
         fields = step(fields)
         version += 1
     return fields

@@ -31,8 +31,13 @@ def bd_squats(data_dir):
     from streamseg.recording import Recording
 
     asf = data_dir / "hdm05_reps" / "asf" / "HDM_bd.asf"
-    recs = [read(data_dir / "hdm05_reps" / "squat1Reps" / f"HDM_bd_squat1Reps_{t}_120.amc.gz",
-                 skeleton=asf) for t in ("001", "002", "003", "004")]
+    recs = [
+        read(
+            data_dir / "hdm05_reps" / "squat1Reps" / f"HDM_bd_squat1Reps_{t}_120.amc.gz",
+            skeleton=asf,
+        )
+        for t in ("001", "002", "003", "004")
+    ]
     pos = np.concatenate([r.positions for r in recs])
     ends = np.cumsum([r.n_frames for r in recs])
     truth = list(zip([0, *ends[:-1].tolist()], ends.tolist()))

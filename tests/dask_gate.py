@@ -25,8 +25,9 @@ def gated_relabel(gate_dir, features, *, start_frame, fps, config, previous):
         deadline = time.monotonic() + 120
         while not (gate / "release").exists() and time.monotonic() < deadline:
             time.sleep(0.01)  # the job itself waits: this is the job being slow
-    return relabel_window(features, start_frame=start_frame, fps=fps, config=config,
-                          previous=previous)
+    return relabel_window(
+        features, start_frame=start_frame, fps=fps, config=config, previous=previous
+    )
 
 
 def started(gate_dir) -> list[int]:

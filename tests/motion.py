@@ -13,8 +13,12 @@ def cyclic_blocks(levels, seconds=3.0, seed=0, d=6):
     rng = np.random.default_rng(seed)
     n = int(seconds * FPS)
     t = np.arange(n)[:, None]
-    return np.concatenate([lv + 0.3 * np.sin(2 * np.pi * t / 60 + np.arange(d))
-                           + rng.normal(0, 0.02, (n, d)) for lv in levels])
+    return np.concatenate(
+        [
+            lv + 0.3 * np.sin(2 * np.pi * t / 60 + np.arange(d)) + rng.normal(0, 0.02, (n, d))
+            for lv in levels
+        ]
+    )
 
 
 def revisions(algorithms, X, fps=FPS, history=6.0, interval=1.0):

@@ -88,7 +88,7 @@ def naive_window_counts(angles, window, step, bins):
     out, nv = [], []
     w = 0
     while w * step + window <= n:
-        block = angles[w * step:w * step + window]
+        block = angles[w * step : w * step + window]
         block = block[np.isfinite(block).all(axis=1)]
         row = []
         for j in range(a):
@@ -122,10 +122,15 @@ def naive_cosine_lof(x, k, times=None, exclusion=0):
         cand.sort(key=lambda j: (d[i, j], j))
         nbrs.append(cand[:kk])
     kdist = np.array([d[i, nb[-1]] if nb else 0.0 for i, nb in enumerate(nbrs)])
-    lrd = np.array([1.0 / (np.mean([max(d[i, o], kdist[o]) for o in nb]) + 1e-10) if nb
-                    else 1e10 for i, nb in enumerate(nbrs)])
-    return np.array([np.mean([lrd[o] / lrd[i] for o in nb]) if nb else 1.0
-                     for i, nb in enumerate(nbrs)])
+    lrd = np.array(
+        [
+            1.0 / (np.mean([max(d[i, o], kdist[o]) for o in nb]) + 1e-10) if nb else 1e10
+            for i, nb in enumerate(nbrs)
+        ]
+    )
+    return np.array(
+        [np.mean([lrd[o] / lrd[i] for o in nb]) if nb else 1.0 for i, nb in enumerate(nbrs)]
+    )
 
 
 def naive_douglas_peucker(y, eps):
@@ -156,10 +161,10 @@ def naive_peak_windows(y, delay, tol, n_mads, min_score, min_gap):
         if y[w] < thr or (out and w - out[-1] < min_gap):
             continue
         lo, hi = max(0, w - delay), min(len(y) - 1, w + delay)
-        seg = y[lo:hi + 1]
+        seg = y[lo : hi + 1]
         if w in (lo, hi) or seg.max() <= seg.min():
             continue
-        if y[max(lo, w - min_gap):min(hi, w + min_gap) + 1].max() > y[w]:
+        if y[max(lo, w - min_gap) : min(hi, w + min_gap) + 1].max() > y[w]:
             continue  # a higher value within the gap wins
         keep = naive_douglas_peucker(seg, tol * (seg.max() - seg.min()))
         c = w - lo
@@ -187,7 +192,7 @@ def naive_refine_cut(angles, bins, centre, radius, window, n_avail, first=0):
 
     best, at = -1.0, centre
     for g in range(lo, hi + 1):
-        a, b = hist(angles[g - window:g]), hist(angles[g:g + window])
+        a, b = hist(angles[g - window : g]), hist(angles[g : g + window])
         den = np.sqrt(float(a @ a) * float(b @ b))
         dist = 1.0 if den == 0 else 1.0 - float(a @ b) / den
         if dist > best:
@@ -198,6 +203,7 @@ def naive_refine_cut(angles, bins, centre, radius, window, n_avail, first=0):
 def _sides_distance(left, right, bins):
     """``1 - cos`` between the per-angle histogram counts of two blocks of frames (frames
     without NaN only); -1 when a block has no valid frame."""
+
     def hist(block):
         block = block[np.isfinite(block).all(axis=1)]
         if len(block) == 0:
@@ -215,8 +221,11 @@ def naive_contrast(angles, bins, g, window, n_avail, oldest=0):
     and ``[g, g + window)``, each clipped to ``[oldest, n_avail)`` (frames without NaN only);
     -1 when a side has no valid frame."""
     angles = np.asarray(angles, dtype=float)
-    return _sides_distance(angles[max(oldest, g - window):min(g, n_avail)],
-                           angles[max(oldest, g):min(g + window, n_avail)], bins)
+    return _sides_distance(
+        angles[max(oldest, g - window) : min(g, n_avail)],
+        angles[max(oldest, g) : min(g + window, n_avail)],
+        bins,
+    )
 
 
 def naive_span_contrast(angles, bins, lo, g, hi):
@@ -247,6 +256,7 @@ def naive_sorted_neighbours(x, times=None, exclusion=0):
 
 def naive_robust_threshold(y, n_mads):
     """``median + n_mads * 1.4826 * MAD`` read off fully sorted copies (NaN sorts last)."""
+
     def med(v):
         w = np.sort(np.asarray(v, dtype=float))
         n = len(w)
@@ -345,8 +355,7 @@ def naive_dp(K, old_segs, old_labels, k, wmin, wmax):
     used = sorted(set(old_labels))
     best = float("inf")
     for tiling in all_tilings(K.shape[0], wmin, wmax):
-        cost = sum(min(naive_dist(K, seg, old_segs, old_labels, c) for c in used)
-                   for seg in tiling)
+        cost = sum(min(naive_dist(K, seg, old_segs, old_labels, c) for c in used) for seg in tiling)
         best = min(best, cost)
     return best
 
@@ -388,8 +397,11 @@ def naive_kernel_kmeans(K, labels, k, max_iter=100):
         for c in range(k):
             idx = np.flatnonzero(lab == c)
             if idx.size:
-                D[:, c] = (np.diag(K) - 2 * K[:, idx].sum(1) / idx.size
-                           + K[np.ix_(idx, idx)].sum() / idx.size**2)
+                D[:, c] = (
+                    np.diag(K)
+                    - 2 * K[:, idx].sum(1) / idx.size
+                    + K[np.ix_(idx, idx)].sum() / idx.size**2
+                )
         return D
 
     def reseed(lab):
@@ -422,8 +434,9 @@ def naive_lloyd(X, centres, n_iter):
     n, k = X.shape[0], centres.shape[0]
     labels = np.full(n, -1)
     for _ in range(n_iter):
-        dist = np.array([[float(np.sum((X[i] - centres[c]) ** 2)) for c in range(k)]
-                         for i in range(n)])
+        dist = np.array(
+            [[float(np.sum((X[i] - centres[c]) ** 2)) for c in range(k)] for i in range(n)]
+        )
         new = np.argmin(dist, axis=1)
         for c in range(k):
             if not np.any(new == c):
@@ -448,8 +461,7 @@ def naive_settle(pending, finals, g, n_frames):
     oldest pending cut whose window is within ``min_gap`` of ``w``, else it is a plain cut;
     then every pending cut whose window + ``min_gap`` <= ``w`` is withdrawn; then the early
     stage's cut of window ``s - early`` is pending. Returns ``(kind, frame, emitted_at)``."""
-    win, step, delay, early, tol = (g["window"], g["step"], g["delay"], g["early"],
-                                    g["min_gap"])
+    win, step, delay, early, tol = (g["window"], g["step"], g["delay"], g["early"], g["min_gap"])
 
     def seq_of(f):
         assert (f - (win - 1)) % step == 0
@@ -467,8 +479,11 @@ def naive_settle(pending, finals, g, n_frames):
                 out.append(("cut", c, at))
             else:
                 open_.remove(match[0])
-                out += ([("confirm", c, at)] if match[0][1] == c else
-                        [("moved", match[0][1], at), ("cut", c, at)])
+                out += (
+                    [("confirm", c, at)]
+                    if match[0][1] == c
+                    else [("moved", match[0][1], at), ("cut", c, at)]
+                )
         for p in [p for p in open_ if p[0] + tol <= w]:
             open_.remove(p)
             out.append(("withdraw", p[1], at))
@@ -495,8 +510,10 @@ def naive_root_speeds(pos, root, limbs, up, fps, lag, v_max, jump):
             ok = all(math.isfinite(v) for v in pos[0, root]) and scale > 0
             step = [0.0] * 3 if ok else [math.nan] * 3
         else:
-            step = [(pos[t, root, a] - pos[t - 1, root, a]) / scale if scale > 0 else math.nan
-                    for a in range(3)]
+            step = [
+                (pos[t, root, a] - pos[t - 1, root, a]) / scale if scale > 0 else math.nan
+                for a in range(3)
+            ]
         if math.sqrt(sum(v * v for v in step)) > jump:
             step = [0.0] * 3
         steps.append(step)
@@ -524,8 +541,9 @@ def naive_lof_columns(pos, points, up, fps, lag, speed_max, root=None):
     if root is not None:
         joint, limbs, v_max, jump = root
         up_ = np.zeros(3) if up is None else np.asarray(up, dtype=float)
-        feats = np.column_stack([feats, naive_root_speeds(pos, joint, limbs, up_, fps, lag,
-                                                          v_max, jump)])
+        feats = np.column_stack(
+            [feats, naive_root_speeds(pos, joint, limbs, up_, fps, lag, v_max, jump)]
+        )
         n_root = 2
     if speed_max <= 0:
         return feats
@@ -540,6 +558,7 @@ def naive_pose_features(P, idx, bones, up, scale):
     operations: the torso frame (x right hip -> left hip made orthogonal to y, y pelvis ->
     sternum, z = x cross y), each bone's unit direction in it, the trunk in the heading frame,
     the pelvis height / scale."""
+
     def unit(v):
         n = float(np.linalg.norm(v))
         return v / n if n > 1e-12 else v * 0.0
@@ -610,8 +629,9 @@ def naive_loop_step(Z, anchor, t, thr, rho, gamma, dabs, eta, pause):
     return 0, -1
 
 
-def naive_advance(Z, t0, t1, search, anchors, thr, timeout, rho, gamma, dabs, eta, pause,
-                  tmax, gap, kmax):
+def naive_advance(
+    Z, t0, t1, search, anchors, thr, timeout, rho, gamma, dabs, eta, pause, tmax, gap, kmax
+):
     """``rep_track.advance`` on full arrays (no ring): ``anchors`` a list of dicts, changed
     in place; returns (last frame, [(s, kind, cut, M), ...])."""
     sp = [0.0] + [float(np.linalg.norm(Z[u] - Z[u - 1])) for u in range(1, len(Z))]
@@ -654,8 +674,9 @@ def naive_dtw_mean(A, B):
     def best(i, j):
         if i == 0 and j == 0:
             return c(0, 0), 1
-        cands = [best(a, b) for a, b in ((i - 1, j - 1), (i - 1, j), (i, j - 1))
-                 if a >= 0 and b >= 0]
+        cands = [
+            best(a, b) for a, b in ((i - 1, j - 1), (i - 1, j), (i, j - 1)) if a >= 0 and b >= 0
+        ]
         tot, n = min(cands, key=lambda x: x[0])
         return tot + c(i, j), n + 1
 

@@ -56,9 +56,19 @@ def _dp(K, starts, ends, labels, k, wmin, wmax, variant):
     work = [np.empty((wmax + 1, n + 1), dtype) for _ in range(2)]
     acc = np.empty((wmax + 1, n + 1), np.float64 if dtype == np.float64 else np.int64)
     F = np.zeros((k, wmax + 1, n + 1))
-    candidate_sums(K.astype(dtype), starts[order], ends[order], labels[order],
-                   np.ones(starts.size, np.int64), wmin, wmax,
-                   *work, acc, F, NEG[dtype])
+    candidate_sums(
+        K.astype(dtype),
+        starts[order],
+        ends[order],
+        labels[order],
+        np.ones(starts.size, np.int64),
+        wmin,
+        wmax,
+        *work,
+        acc,
+        F,
+        NEG[dtype],
+    )
     return relax(F, n_c, const, wmin, wmax)
 
 
@@ -69,22 +79,27 @@ CASES = [(0, 9, 2, 2, 4), (1, 10, 3, 1, 3), (2, 11, 2, 3, 5), (3, 8, 3, 1, 8)]
 @pytest.mark.parametrize("seed,n,k,wmin,wmax", CASES)
 def test_dp_equals_brute_force(seed, n, k, wmin, wmax, variant):
     # integer work arrays are only used (and only exact) for a 0/1 frame kernel
-    K, starts, ends, labels = _problem(seed, n, k, wmin, wmax,
-                                       binary=variant in ("int16", "int8"))
+    K, starts, ends, labels = _problem(seed, n, k, wmin, wmax, binary=variant in ("int16", "int8"))
     ns, ne, nl, cost = _dp(K, starts, ends, labels, k, wmin, wmax, variant)
     old = list(zip(starts.tolist(), ends.tolist(), strict=True))
     assert cost == pytest.approx(naive_dp(K, old, labels.tolist(), k, wmin, wmax), abs=1e-9)
     # the returned segmentation tiles 0..n within the lengths and costs what the DP says
     assert ns[0] == 0 and ne[-1] == n and np.array_equal(ns[1:], ne[:-1])
     assert np.all((ne - ns >= wmin) & (ne - ns <= wmax))
-    again = sum(naive_dist(K, (s, e), old, labels.tolist(), c)
-                for s, e, c in zip(ns, ne, nl, strict=True))
+    again = sum(
+        naive_dist(K, (s, e), old, labels.tolist(), c) for s, e, c in zip(ns, ne, nl, strict=True)
+    )
     assert again == pytest.approx(cost, abs=1e-9)
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 10**6), n=st.integers(6, 40), k=st.integers(1, 4),
-       wmin=st.integers(1, 4), extra=st.integers(0, 5))
+@given(
+    seed=st.integers(0, 10**6),
+    n=st.integers(6, 40),
+    k=st.integers(1, 4),
+    wmin=st.integers(1, 4),
+    extra=st.integers(0, 5),
+)
 def test_dp_never_worse_than_a_random_segmentation(seed, n, k, wmin, extra):
     wmax = wmin + extra
     wmin = feasible_min_len(n, wmin, wmax)
@@ -128,8 +143,9 @@ def test_dp_step_equals_the_forward_recursion(binary, long_old):
 
 def test_min_len_one_equals_kernel_kmeans():
     rng = np.random.default_rng(3)
-    X = np.concatenate([rng.normal(0, 1, (20, 2)), rng.normal(3, 1, (20, 2)),
-                        rng.normal((0, 4), 1, (20, 2))])
+    X = np.concatenate(
+        [rng.normal(0, 1, (20, 2)), rng.normal(3, 1, (20, 2)), rng.normal((0, 4), 1, (20, 2))]
+    )
     K = frame_kernel(X, sigma=1.5)
     for trial in range(3):
         init_lab = np.random.default_rng(trial).integers(0, 3, 60)
@@ -175,8 +191,10 @@ def test_aca_recovers_clean_warped_sequence():
 
 def test_restarts_keep_lowest_objective_and_descent_is_monotone():
     x, _ = _three_class_sequence(np.random.default_rng(1), 10)
-    objs = [ACAEngine(3, 6, 9, n_init=1, kernel="equality", random_state=s).fit(x).objective_
-            for s in range(6)]
+    objs = [
+        ACAEngine(3, 6, 9, n_init=1, kernel="equality", random_state=s).fit(x).objective_
+        for s in range(6)
+    ]
     # n_init=6 with seed 0 begins with exactly the restart of n_init=1 with seed 0
     best = ACAEngine(3, 6, 9, n_init=6, kernel="equality", random_state=0).fit(x)
     assert best.objective_ <= objs[0] + 1e-12
@@ -192,8 +210,9 @@ def test_restarts_keep_lowest_objective_and_descent_is_monotone():
 
     for _ in range(5):
         s0, e0, l0 = random_init(K, 3, 6, 9, rng)
-        before = objective(segment_kernel(K, s0, e0), reseed_empty(
-            segment_kernel(K, s0, e0), l0, 3), 3)
+        before = objective(
+            segment_kernel(K, s0, e0), reseed_empty(segment_kernel(K, s0, e0), l0, 3), 3
+        )
         *_, after, _ = descend(K, s0, e0, l0, 3, 6, 9, 50)
         assert after <= before + 1e-12
 
@@ -214,11 +233,15 @@ def test_infeasible_lengths_fall_back_to_min_len_one():
     assert model.min_len_used_ == 1 and model.labels_.shape == (5,)
 
 
-@pytest.mark.parametrize("kw,match", [({"n_clusters": 0}, "n_clusters"),
-                                      ({"min_len_frames": 5, "max_len_frames": 3},
-                                       "max_len_frames"),
-                                      ({"kernel": "cosine"}, "kernel"),
-                                      ({"init": "kmeans"}, "init")])
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        ({"n_clusters": 0}, "n_clusters"),
+        ({"min_len_frames": 5, "max_len_frames": 3}, "max_len_frames"),
+        ({"kernel": "cosine"}, "kernel"),
+        ({"init": "kmeans"}, "init"),
+    ],
+)
 def test_parameter_errors(kw, match):
     params = {"n_clusters": 2, "min_len_frames": 2, "max_len_frames": 4} | kw
     with pytest.raises(ParameterError, match=match):

@@ -42,10 +42,28 @@ def test_read_matrix_npy_csv_and_errors(tmp_path):
 def test_segment_matrix_json(tmp_path, capsys):
     x, truth = _sequence()
     np.save(tmp_path / "seq.npy", x)
-    code = main(["segment", str(tmp_path / "seq.npy"), "--method", "aca", "--fps", "1",
-                 "--flat",
-                 "--clusters", "3", "--kernel", "equality", "--min-len", "4", "--max-len", "6",
-                 "--restarts", "10", "--json"])
+    code = main(
+        [
+            "segment",
+            str(tmp_path / "seq.npy"),
+            "--method",
+            "aca",
+            "--fps",
+            "1",
+            "--flat",
+            "--clusters",
+            "3",
+            "--kernel",
+            "equality",
+            "--min-len",
+            "4",
+            "--max-len",
+            "6",
+            "--restarts",
+            "10",
+            "--json",
+        ]
+    )
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_frames"] == 60 and out["fps"] == 1.0 and out["method"] == "aca"
@@ -67,10 +85,28 @@ def test_eval_matrix_prints_accuracy_and_confusion(tmp_path, capsys):
     for i, name in enumerate(["a", "b", "c", "a", "b", "c"]):
         rows.append(f"seq,{i * 10 + 1},{i * 10 + 10},{name}")
     (tmp_path / "labels.csv").write_text("\n".join(rows) + "\n")
-    code = main(["eval", str(tmp_path / "seq.csv"), "--method", "aca", "--fps", "1",
-                 "--flat",
-                 "--clusters", "3", "--kernel", "equality", "--min-len", "4", "--max-len", "6",
-                 "--json", "--labels", str(tmp_path / "labels.csv")])
+    code = main(
+        [
+            "eval",
+            str(tmp_path / "seq.csv"),
+            "--method",
+            "aca",
+            "--fps",
+            "1",
+            "--flat",
+            "--clusters",
+            "3",
+            "--kernel",
+            "equality",
+            "--min-len",
+            "4",
+            "--max-len",
+            "6",
+            "--json",
+            "--labels",
+            str(tmp_path / "labels.csv"),
+        ]
+    )
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["accuracy"] == 1.0
@@ -81,9 +117,23 @@ def test_eval_matrix_prints_accuracy_and_confusion(tmp_path, capsys):
 
 def test_segment_recording_with_plot(data_dir, tmp_path, capsys):
     png = tmp_path / "aca.png"
-    code = main(["segment", str(data_dir / "cmu86/86_01.amc.gz"), "--skeleton",
-                 str(data_dir / "cmu86/86.asf"), "--method", "aca", "--clusters", "4",
-                 "--restarts", "2", "--json", "--plot", str(png)])
+    code = main(
+        [
+            "segment",
+            str(data_dir / "cmu86/86_01.amc.gz"),
+            "--skeleton",
+            str(data_dir / "cmu86/86.asf"),
+            "--method",
+            "aca",
+            "--clusters",
+            "4",
+            "--restarts",
+            "2",
+            "--json",
+            "--plot",
+            str(png),
+        ]
+    )
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_frames"] == 4579 and out["fps"] == 120.0
@@ -93,9 +143,20 @@ def test_segment_recording_with_plot(data_dir, tmp_path, capsys):
 
 def test_bad_lengths_are_reported(tmp_path, capsys):
     np.save(tmp_path / "s.npy", np.arange(20.0))
-    code = main(["segment", str(tmp_path / "s.npy"), "--method", "aca", "--fps", "1",
-                 "--min-len", "5",
-                 "--max-len", "2"])
+    code = main(
+        [
+            "segment",
+            str(tmp_path / "s.npy"),
+            "--method",
+            "aca",
+            "--fps",
+            "1",
+            "--min-len",
+            "5",
+            "--max-len",
+            "2",
+        ]
+    )
     assert code == 2
     assert "max_len" in capsys.readouterr().err
 
@@ -103,26 +164,64 @@ def test_bad_lengths_are_reported(tmp_path, capsys):
 def test_k_is_found_without_clusters_and_long_matrices_are_reduced(tmp_path, capsys):
     x, _ = _sequence()
     np.save(tmp_path / "short.npy", x.astype(float)[:, None])
-    assert main(["segment", str(tmp_path / "short.npy"), "--method", "aca", "--fps", "1",
-                 "--min-len", "4",
-                 "--max-len", "6", "--json"]) == 0
+    assert (
+        main(
+            [
+                "segment",
+                str(tmp_path / "short.npy"),
+                "--method",
+                "aca",
+                "--fps",
+                "1",
+                "--min-len",
+                "4",
+                "--max-len",
+                "6",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["k_found"] and out["params"]["n_clusters"] is None
     assert out["n_clusters"] == int(max(out["k_scores"], key=out["k_scores"].get))
     assert out["params"]["k_reduce"] is None  # 60 rows: no reduction
     np.save(tmp_path / "long.npy", np.tile(x, 20).astype(float)[:, None])  # 1,200 rows
-    assert main(["segment", str(tmp_path / "long.npy"), "--method", "aca", "--fps", "1",
-                 "--clusters", "3",
-                 "--restarts", "1", "--min-len", "4", "--max-len", "6", "--json"]) == 0
+    assert (
+        main(
+            [
+                "segment",
+                str(tmp_path / "long.npy"),
+                "--method",
+                "aca",
+                "--fps",
+                "1",
+                "--clusters",
+                "3",
+                "--restarts",
+                "1",
+                "--min-len",
+                "4",
+                "--max-len",
+                "6",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["params"]["k_reduce"] == 20 and not out["k_found"] and out["n_clusters"] == 3
 
 
 def test_a_still_recording_is_one_segment_with_a_note(tmp_path, capsys):
     np.save(tmp_path / "still.npy", np.ones((300, 4)))
-    assert main(["segment", str(tmp_path / "still.npy"), "--method", "aca", "--fps", "30",
-                 "--json"]) == 0
+    assert (
+        main(["segment", str(tmp_path / "still.npy"), "--method", "aca", "--fps", "30", "--json"])
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
-    assert out["segments"] == [{"start": 0, "end": 300, "label": 0, "start_s": 0.0,
-                                "end_s": 10.0}] and out["cuts"] == []
+    assert (
+        out["segments"] == [{"start": 0, "end": 300, "label": 0, "start_s": 0.0, "end_s": 10.0}]
+        and out["cuts"] == []
+    )
     assert out["n_clusters"] == 1 and "no motion" in out["note"]

@@ -28,8 +28,12 @@ def plain_descend(K, starts, ends, labels, k, wmin, wmax, max_iter):
         labels = reseed_empty(T, labels, k)
         n_c, const = cluster_stats(T, labels, k)
         ns, ne, nl, _ = dp_step(K, starts, ends, labels, n_c, const, wmin, wmax)
-        if (ns.shape == starts.shape and np.array_equal(ns, starts)
-                and np.array_equal(ne, ends) and np.array_equal(nl, labels)):
+        if (
+            ns.shape == starts.shape
+            and np.array_equal(ns, starts)
+            and np.array_equal(ne, ends)
+            and np.array_equal(nl, labels)
+        ):
             break
         starts, ends, labels = ns, ne, nl
         T = segment_kernel(K, starts, ends)
@@ -64,11 +68,9 @@ def test_one_frame_tiling_kernel_is_the_frame_kernel():
     rng = np.random.default_rng(3)
     K = frame_kernel(rng.normal(size=(40, 3)), sigma=1.0)
     idx = np.arange(40)
-    np.testing.assert_array_equal(tiling_kernel(K, idx, idx + 1),
-                                  segment_kernel(K, idx, idx + 1))
+    np.testing.assert_array_equal(tiling_kernel(K, idx, idx + 1), segment_kernel(K, idx, idx + 1))
     sub = np.array([1, 5, 9, 30])
-    np.testing.assert_array_equal(tiling_kernel(K, sub, sub + 1),
-                                  segment_kernel(K, sub, sub + 1))
+    np.testing.assert_array_equal(tiling_kernel(K, sub, sub + 1), segment_kernel(K, sub, sub + 1))
 
 
 def test_short_tilings_are_initialized_exactly_as_random_init():

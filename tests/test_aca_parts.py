@@ -78,15 +78,18 @@ def test_reduction_merges_runs_with_cap_and_maps_back():
     assert s.tolist() == [0, 4, 7, 10] and e.tolist() == [4, 7, 10, 12]
     np.testing.assert_array_equal(Xr, [[0, 0], [0, 0], [1, 1], [0, 0]])
     assert classes[0] == classes[1] == classes[3] != classes[2]
-    np.testing.assert_array_equal(expand_labels([5, 6, 7, 8], (s, e), 12),
-                                  [5] * 4 + [6] * 3 + [7] * 3 + [8] * 2)
+    np.testing.assert_array_equal(
+        expand_labels([5, 6, 7, 8], (s, e), 12), [5] * 4 + [6] * 3 + [7] * 3 + [8] * 2
+    )
 
 
 def _blocks(rng, pattern, reps):
     """Sequence of actions, each a noisy repetition of a 2-D cyclic pattern."""
-    shapes = {0: lambda t: np.c_[np.sin(t), np.cos(t)],
-              1: lambda t: np.c_[3 + np.sin(2 * t), t * 0],
-              2: lambda t: np.c_[t * 0 - 3, np.cos(3 * t)]}
+    shapes = {
+        0: lambda t: np.c_[np.sin(t), np.cos(t)],
+        1: lambda t: np.c_[3 + np.sin(2 * t), t * 0],
+        2: lambda t: np.c_[t * 0 - 3, np.cos(3 * t)],
+    }
     xs, ys = [], []
     for c in pattern:
         t = np.linspace(0, 2 * np.pi * reps, 40 * reps, endpoint=False)
@@ -101,8 +104,9 @@ def test_aca_with_reduction_and_propagated_init_on_blocks():
     assert matched_frame_accuracy(full.labels_, y)[0] == 1.0
     # reduction squeezes actions unevenly (a run of one k-means class is one unit whatever its
     # duration), so it costs some accuracy here; chance level is about 0.4
-    model = ACAEngine(3, 30, 80, n_init=5, k_reduce=20, reduce_cap=3, init="propagated",
-                random_state=0).fit(X)
+    model = ACAEngine(
+        3, 30, 80, n_init=5, k_reduce=20, reduce_cap=3, init="propagated", random_state=0
+    ).fit(X)
     assert model.labels_.shape == y.shape
     assert matched_frame_accuracy(model.labels_, y)[0] > 0.85
     segs = model.segments_
@@ -115,8 +119,9 @@ def test_aca_with_reduction_and_propagated_init_on_blocks():
 def test_explicit_init_with_reduction_and_errors():
     X, y = _blocks(np.random.default_rng(3), [0, 1, 2], 2)
     truth_segments = [(0, 80, 0), (80, 160, 1), (160, 240, 2)]
-    model = ACAEngine(3, 30, 80, n_init=1, k_reduce=12, reduce_cap=3, init=truth_segments,
-                random_state=0).fit(X)
+    model = ACAEngine(
+        3, 30, 80, n_init=1, k_reduce=12, reduce_cap=3, init=truth_segments, random_state=0
+    ).fit(X)
     assert model.labels_.shape == (240,)
     with pytest.raises(ParameterError, match="distinct labels"):
         ACAEngine(2, 30, 80, n_init=1, init=truth_segments).fit(X)
@@ -128,8 +133,16 @@ def test_haca_on_blocks():
     X, y = _blocks(np.random.default_rng(1), [0, 1, 2, 1, 0], 3)
     accs = []
     for seed in range(3):
-        model = HACAEngine(3, 40, 120, fine_clusters=6, fine_min_len_frames=8,
-                           fine_max_len_frames=20, n_init=5, random_state=seed).fit(X)
+        model = HACAEngine(
+            3,
+            40,
+            120,
+            fine_clusters=6,
+            fine_min_len_frames=8,
+            fine_max_len_frames=20,
+            n_init=5,
+            random_state=seed,
+        ).fit(X)
         accs.append(matched_frame_accuracy(model.labels_, y)[0])
     # a single run can stop in a local minimum of the fine level; most runs are near perfect
     assert np.median(accs) > 0.95 and min(accs) > 0.8
@@ -205,13 +218,12 @@ def test_relabel_window_with_a_cluster_born_after_the_overlap():
     rng = np.random.default_rng(0)
     block = [np.full((30, 2), v) for v in ([0, 0], [5, 0], [0, 0], [5, 0], [0, 5], [0, 5])]
     X = np.concatenate(block) + rng.normal(0, 0.05, (180, 2))
-    previous = WindowSegmentation(0, 120, [(0, 30, 7), (30, 60, 4), (60, 90, 7),
-                                           (90, 120, 4)])
+    previous = WindowSegmentation(0, 120, [(0, 30, 7), (30, 60, 4), (60, 90, 7), (90, 120, 4)])
     config = ACAConfig(n_clusters=3, min_len_s=10, max_len_s=30, k_reduce=None, n_init=5)
     out = relabel_window(X[60:], start_frame=60, fps=1.0, config=config, previous=previous)
     labels = out.frame_labels()
-    assert labels[0] == 7 and labels[45] == 4          # matched over frames 60-119
-    assert labels[-1] not in (4, 7)                     # the new cluster gets a fresh id
+    assert labels[0] == 7 and labels[45] == 4  # matched over frames 60-119
+    assert labels[-1] not in (4, 7)  # the new cluster gets a fresh id
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -262,8 +274,16 @@ def test_estimators_share_one_convention():
     assert (seg.labels_ != -7).all()  # a copy
     with pytest.raises(AttributeError, match="no fitted attribute"):
         _ = seg.cuts_  # fitted, but not an attribute this estimator has
-    model = HACAEngine(3, 20, 60, fine_clusters=4, fine_min_len_frames=5,
-                       fine_max_len_frames=15, n_init=2, random_state=0).fit(X)
+    model = HACAEngine(
+        3,
+        20,
+        60,
+        fine_clusters=4,
+        fine_min_len_frames=5,
+        fine_max_len_frames=15,
+        n_init=2,
+        random_state=0,
+    ).fit(X)
     before = model.labels_
     fits = dict(model.fit_each(X, [2, 3]))
     assert len(set(fits[2].labels_.tolist())) == 2 and len(set(fits[3].labels_.tolist())) == 3
@@ -285,8 +305,16 @@ def test_aca_and_haca_take_a_config_and_fps_and_refuse_the_old_call(name):
     with pytest.raises(ParameterError, match="the old call"):
         cls(ACAConfig(), 30.0, min_len_frames=30)
     X, y = _blocks(np.random.default_rng(2), [0, 1, 2, 1, 0], 3)
-    cfg = ACAConfig(n_clusters=3, min_len_s=1.0, max_len_s=80 / 30, n_init=3, k_reduce=None,
-                    fine_min_len_s=8 / 30, fine_max_len_s=20 / 30, fine_clusters=6)
+    cfg = ACAConfig(
+        n_clusters=3,
+        min_len_s=1.0,
+        max_len_s=80 / 30,
+        n_init=3,
+        k_reduce=None,
+        fine_min_len_s=8 / 30,
+        fine_max_len_s=20 / 30,
+        fine_clusters=6,
+    )
     model = cls(cfg, fps=30.0).fit(X)
     # the engine built from the same config at the same rate gives the same segments
     engine = model_from_config(replace(cfg, hierarchical=name == "HACA"), 30.0).fit(X)
@@ -310,9 +338,19 @@ def test_propagated_first_restart_in_a_thread_gives_the_restarts_in_order(n_segm
     x, _ = synthetic_sequence(n_segments, 0.0, np.random.default_rng(n_segments))
     K = frame_kernel(x, kernel="equality", binary_dtype=np.int8)
     classes = kmeans(x[:, None], 6, np.random.default_rng(0))
-    fits = [ACAEngine(4, 10, 15, n_init=4, kernel="precomputed", init="propagated",
-                      random_state=3, n_jobs=jobs).fit(K, frame_classes=classes)
-            for jobs in (1, 2)]
+    fits = [
+        ACAEngine(
+            4,
+            10,
+            15,
+            n_init=4,
+            kernel="precomputed",
+            init="propagated",
+            random_state=3,
+            n_jobs=jobs,
+        ).fit(K, frame_classes=classes)
+        for jobs in (1, 2)
+    ]
     assert K.shape[0] ** 2 * 15 >= 10_000_000  # large enough to run in threads
     assert fits[0].segments_ == fits[1].segments_
     assert np.array_equal(fits[0].restart_objectives_, fits[1].restart_objectives_)

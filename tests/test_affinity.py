@@ -99,8 +99,9 @@ def test_descent_with_merged_segments_is_the_same_descent(seed):
     starts, ends = random_tiling(n, 5, 9, rng)
     labels = rng.integers(0, 3, starts.size).astype(np.int64)
     plain = descend(K, starts, ends, labels, 3, 5, 9, 50, binary=True)
-    merged = descend(K, starts, ends, labels, 3, 5, 9, 50, binary=True,
-                     ids=frame_ids(K.astype(np.int8)))
+    merged = descend(
+        K, starts, ends, labels, 3, 5, 9, 50, binary=True, ids=frame_ids(K.astype(np.int8))
+    )
     for a, b in zip(plain[:3], merged[:3]):
         assert np.array_equal(a, b)
     assert plain[3] == merged[3] and plain[4] == merged[4]

@@ -13,16 +13,37 @@ def _changes(segs) -> list:
 
 
 def test_two_labels_alternating_in_single_segments_are_one_run():
-    segs = [(0, 100, 1), (100, 300, 7), (300, 420, 3), (420, 550, 7), (550, 700, 3),
-            (700, 900, 6), (900, 1000, 6)]
+    segs = [
+        (0, 100, 1),
+        (100, 300, 7),
+        (300, 420, 3),
+        (420, 550, 7),
+        (550, 700, 3),
+        (700, 900, 6),
+        (900, 1000, 6),
+    ]
     out = merge_alternations(segs)
     # 7, 3, 7, 3 (each 3 a single segment) is one run of 7; 1 and 6 stay apart
-    assert out == [(0, 100, 1), (100, 300, 7), (300, 420, 7), (420, 550, 7), (550, 700, 7),
-                   (700, 900, 6), (900, 1000, 6)]
+    assert out == [
+        (0, 100, 1),
+        (100, 300, 7),
+        (300, 420, 7),
+        (420, 550, 7),
+        (550, 700, 7),
+        (700, 900, 6),
+        (900, 1000, 6),
+    ]
     assert _changes(out) == [100, 700]
     # ... ending on A, and longer A runs in between
-    segs = [(0, 10, 1), (10, 20, 2), (20, 40, 1), (40, 50, 1), (50, 60, 2), (60, 70, 1),
-            (70, 80, 5)]
+    segs = [
+        (0, 10, 1),
+        (10, 20, 2),
+        (20, 40, 1),
+        (40, 50, 1),
+        (50, 60, 2),
+        (60, 70, 1),
+        (70, 80, 5),
+    ]
     assert _changes(merge_alternations(segs)) == [70]
 
 
@@ -41,10 +62,11 @@ def _relabel_take(rec, merge: bool):
     """The daemon's relabel of a whole take (one window, no previous revision)."""
     sk = rec.skeleton
     algorithms = Algorithms(settle_s=0, alternations=merge)
-    pipe = StreamPipeline(skeleton_from(sk.names, sk.parents, sk.units, sk.up), rec.fps,
-                          algorithms, 60.0)
+    pipe = StreamPipeline(
+        skeleton_from(sk.names, sk.parents, sk.units, sk.up), rec.fps, algorithms, 60.0
+    )
     for i in range(0, rec.n_frames, 240):
-        pipe.push(rec.positions[i:i + 240], i)
+        pipe.push(rec.positions[i : i + 240], i)
     feats, frames = pipe.snapshot()
     return relabel(algorithms, feats, frames, rec.fps, None, tuple(pipe.cut_frames)).segments
 

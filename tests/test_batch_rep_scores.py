@@ -24,8 +24,7 @@ def routine(data_dir, tmp_path):
     recs = [read(clips["bd", "squat1Reps"][t], skeleton=asf) for t in range(3)]
     recs.append(read(clips["bd", "throwBasketball"][0], skeleton=asf))
     take = tmp_path / "take.npz"
-    write_npz(take, Recording(120.0, recs[0].skeleton,
-                              np.concatenate([r.positions for r in recs])))
+    write_npz(take, Recording(120.0, recs[0].skeleton, np.concatenate([r.positions for r in recs])))
     ends = np.cumsum([r.n_frames for r in recs])
     rows = ["sequence,start_frame,end_frame,action_label"]
     for i, (a, b) in enumerate(zip([0, *ends[:-1]], ends)):
@@ -41,12 +40,33 @@ def test_batch_scores_a_take_as_eval_does(routine, tmp_path, capsys):
     assert main(["eval", str(take), "--method", "rep", "--labels", str(labels), "--json"]) == 0
     said = json.loads(capsys.readouterr().out)
     out = tmp_path / "o.jsonl"
-    assert main(["batch", str(take), "--method", "rep", "--labels", str(labels),
-                 "--workers", "1", "--output", str(out)]) == 0
+    assert (
+        main(
+            [
+                "batch",
+                str(take),
+                "--method",
+                "rep",
+                "--labels",
+                str(labels),
+                "--workers",
+                "1",
+                "--output",
+                str(out),
+            ]
+        )
+        == 0
+    )
     scores = json.loads(out.read_text().splitlines()[0])["scores"]
     assert said["true_count"] == 3 and said["exact_sets"] == "1 of 1"
-    for key in ("alpha", "count", "true_count", "count_error", "exact_sets",
-                "actions_counted_zero"):
+    for key in (
+        "alpha",
+        "count",
+        "true_count",
+        "count_error",
+        "exact_sets",
+        "actions_counted_zero",
+    ):
         assert scores[key] == pytest.approx(said[key]), key
     assert [s["true_count"] for s in scores["sets"]] == [3, 0]
 
@@ -55,11 +75,18 @@ def test_a_missed_repetition_shifts_no_other(tmp_path):
     # true repetitions of 100 frames; the first one is missed, the other two found exactly:
     # matched by overlap each found one is its true one (alpha 1); paired i-th with i-th,
     # the found second would be scored against the true first
-    (tmp_path / "l.csv").write_text("sequence,start_frame,end_frame,action_label\n"
-                                    "t,1,100,squat\nt,101,220,squat\nt,221,300,squat\n")
+    (tmp_path / "l.csv").write_text(
+        "sequence,start_frame,end_frame,action_label\n"
+        "t,1,100,squat\nt,101,220,squat\nt,221,300,squat\n"
+    )
     found = [{"start": 100, "end": 220}, {"start": 220, "end": 300}]
-    obj = {"n_frames": 300, "fps": 120.0, "count": 2, "repetitions": found,
-           "sets": [{"start": 100, "end": 300, "count": 2, "repetitions": found}]}
+    obj = {
+        "n_frames": 300,
+        "fps": 120.0,
+        "count": 2,
+        "repetitions": found,
+        "sets": [{"start": 100, "end": 300, "count": 2, "repetitions": found}],
+    }
     scores = score_object(obj, str(tmp_path / "l.csv"), "t")
     assert scores["alpha"] == pytest.approx(1.0)
     assert (scores["count"], scores["true_count"], scores["count_error"]) == (2, 3, -1)

@@ -38,15 +38,29 @@ def test_rerun_with_other_options_is_refused(tmp_path, capsys, clips):
     assert all(o["batch_options"]["method"] == "lof" for o in _lines(out))
     capsys.readouterr()
     before = out.read_text()
-    assert main(["batch", *files, "--method", "aca", "--workers", "1", "--output",
-                 str(out)]) == 2
+    assert main(["batch", *files, "--method", "aca", "--workers", "1", "--output", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "made with other options" in err[0], err
     assert "--method 'lof' (now 'aca')" in err[0]
     assert out.read_text() == before  # nothing written
     # a LOF option changed is as much another result as another method
-    assert main(["batch", *files, "--method", "lof", "--delay", "2", "--workers", "1",
-                 "--output", str(out)]) == 2
+    assert (
+        main(
+            [
+                "batch",
+                *files,
+                "--method",
+                "lof",
+                "--delay",
+                "2",
+                "--workers",
+                "1",
+                "--output",
+                str(out),
+            ]
+        )
+        == 2
+    )
     assert "--delay default (now 2.0)" in capsys.readouterr().err
     # the same options resume it: nothing to run
     assert main(["batch", *files, "--method", "lof", "--workers", "1", "--output", str(out)]) == 0
@@ -64,8 +78,7 @@ def test_retried_recording_replaces_its_error_line(tmp_path, capsys, clips):
     assert main(["batch", *files, "--workers", "1", "--output", str(out)]) == 0  # skipped
     assert sum("error" in o and o["skipped"] for o in _lines(out)) == 1
     shutil.move(saved, good)  # the recording is repaired
-    assert main(["batch", *files, "--retry-failed", "--workers", "1", "--output",
-                 str(out)]) == 0
+    assert main(["batch", *files, "--retry-failed", "--workers", "1", "--output", str(out)]) == 0
     capsys.readouterr()
     lines = _lines(out)
     assert sorted(o["file"] for o in lines) == files  # one line per recording

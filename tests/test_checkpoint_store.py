@@ -61,7 +61,7 @@ def through_sqlite(tmp_path, st, algorithms):
     store.put([(st.stream, st.next_seq, snapshot(st))])
     assert store.wait()
     store.close()
-    (name, state), = CheckpointStore(tmp_path).read_all()
+    ((name, state),) = CheckpointStore(tmp_path).read_all()
     back = state["pipeline"]
     back.algorithms, back.plan = algorithms, algorithms.prepare(back.skeleton)
     return name, state
@@ -104,7 +104,7 @@ def test_a_round_stores_only_the_chunks_that_changed(tmp_path, rec, algorithms):
     con.close()
     assert rows == [("s", len(stored))] and stored == store._stored["s"]
     store.close()
-    (_, state), = CheckpointStore(tmp_path).read_all()
+    ((_, state),) = CheckpointStore(tmp_path).read_all()
     np.testing.assert_array_equal(state["pipeline"]._feat, st.pipeline._feat)
 
 
@@ -136,8 +136,9 @@ def test_stray_chunks_go_at_open_and_a_damaged_row_is_skipped(tmp_path, rec, alg
     con = sqlite3.connect(tmp_path / "checkpoints.sqlite")
     with con:
         con.execute("INSERT INTO chunks VALUES ('gone', x'00', x'01')")  # no checkpoint row
-        con.execute("DELETE FROM chunks WHERE rowid = (SELECT min(rowid) FROM chunks "
-                    "WHERE stream = 's')")
+        con.execute(
+            "DELETE FROM chunks WHERE rowid = (SELECT min(rowid) FROM chunks WHERE stream = 's')"
+        )
     con.close()
     store = CheckpointStore(tmp_path)
     assert [s for s, _ in chunk_rows(store.path)] == ["s"]
@@ -159,8 +160,9 @@ def test_a_damaged_file_is_moved_aside_and_the_store_starts_empty(tmp_path, rec,
 
 
 @pytest.mark.daemon
-def test_rounds_space_out_when_they_cost_more_than_the_cpu_budget(tmp_path, rec, start_daemon,
-                                                                  monkeypatch):
+def test_rounds_space_out_when_they_cost_more_than_the_cpu_budget(
+    tmp_path, rec, start_daemon, monkeypatch
+):
     """Once a round is written, the next one waits for that round's own cost / CPU_BUDGET
     after it began (at least the configured interval), and ``stats`` says the spacing in
     force."""

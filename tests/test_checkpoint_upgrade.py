@@ -26,8 +26,7 @@ RESUMED_AT = 2000
 
 
 def test_checkpoints_of_the_previous_release_restore(tmp_path, rec):
-    ep, state, toml = config(tmp_path, relabel_interval=2.0, relabel_history=8.0,
-                             heartbeat=0)
+    ep, state, toml = config(tmp_path, relabel_interval=2.0, relabel_history=8.0, heartbeat=0)
     shutil.copytree(FIXTURE, state)
     proc = serve(toml)
     try:
@@ -37,7 +36,7 @@ def test_checkpoints_of_the_previous_release_restore(tmp_path, rec):
         push = zmq.Context.instance().socket(zmq.PUSH)
         push.connect(ep["ingest"])
         for a in range(RESUMED_AT, rec.n_frames, 20):
-            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + 20])))
+            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + 20])))
         push.send_multipart(P.encode(P.End("k")))
         deadline = time.monotonic() + 120
         events = []

@@ -72,12 +72,15 @@ def test_fps_must_be_a_finite_positive_number(capsys, tmp_path, value):
     assert f"--fps: '{value}'" in line and "finite number > 0" in line
 
 
-@pytest.mark.parametrize("argv, said", [
-    (["--stream", "walk/1"], "not a valid stream id"),
-    (["--stream", ""], "not a valid stream id"),
-    (["--wait", "0"], "--wait 0 is invalid"),
-    (["--labels", "nosuch.csv"], "--labels nosuch.csv: no such file"),
-])
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["--stream", "walk/1"], "not a valid stream id"),
+        (["--stream", ""], "not a valid stream id"),
+        (["--wait", "0"], "--wait 0 is invalid"),
+        (["--labels", "nosuch.csv"], "--labels nosuch.csv: no such file"),
+    ],
+)
 def test_replay_refuses_what_the_daemon_would_drop(capsys, amc, argv, said):
     # checked before connecting: the port is not a daemon, so nothing would ever be sent
     line = _one_line(capsys, ["replay", *amc, "--to", "tcp://127.0.0.1:9", *argv])
@@ -85,8 +88,17 @@ def test_replay_refuses_what_the_daemon_would_drop(capsys, amc, argv, said):
 
 
 def test_replay_labels_without_the_stream_sequence(capsys, amc, data_dir):
-    line = _one_line(capsys, ["replay", *amc, "--to", "tcp://127.0.0.1:9", "--labels",
-                              data_dir / "cmu_exercise" / "labels.csv"])
+    line = _one_line(
+        capsys,
+        [
+            "replay",
+            *amc,
+            "--to",
+            "tcp://127.0.0.1:9",
+            "--labels",
+            data_dir / "cmu_exercise" / "labels.csv",
+        ],
+    )
     assert "no rows for sequence '86_01'" in line
 
 
@@ -99,23 +111,31 @@ def test_default_stream_ids_are_ascii():
     assert stream_id("86_01.amc.gz") == "86_01"
 
 
-@pytest.mark.parametrize("argv, said", [
-    (["--control", "tcp://127.0.0.1:9", "--stream", "s", "--since", "-5"], "--since -5"),
-    (["--count", "0"], "--count 0"),
-    (["--timeout", "-1"], "--timeout -1"),
-    (["--idle", "0"], "--idle 0"),
-])
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["--control", "tcp://127.0.0.1:9", "--stream", "s", "--since", "-5"], "--since -5"),
+        (["--count", "0"], "--count 0"),
+        (["--timeout", "-1"], "--timeout -1"),
+        (["--idle", "0"], "--idle 0"),
+    ],
+)
 def test_listen_refuses_bad_numbers_before_connecting(capsys, argv, said):
     line = _one_line(capsys, ["listen", "--from", "tcp://127.0.0.1:9", *argv])
     assert said in line and "is invalid" in line
 
 
-def test_serve_refuses_a_state_dir_that_is_a_file_and_a_bad_http_before_binding(
-        capsys, tmp_path):
+def test_serve_refuses_a_state_dir_that_is_a_file_and_a_bad_http_before_binding(capsys, tmp_path):
     afile = tmp_path / "afile"
     afile.write_text("x")
-    free = ["--ingest", "tcp://127.0.0.1:0", "--publish", "tcp://127.0.0.1:0", "--control",
-            "tcp://127.0.0.1:0"]
+    free = [
+        "--ingest",
+        "tcp://127.0.0.1:0",
+        "--publish",
+        "tcp://127.0.0.1:0",
+        "--control",
+        "tcp://127.0.0.1:0",
+    ]
     line = _one_line(capsys, ["serve", *free, "--state-dir", afile / "sub"])
     assert "is a file, not a folder" in line
     out = capsys.readouterr().out
@@ -133,8 +153,26 @@ def test_too_many_clusters_is_said_not_silently_one(capsys, tmp_path):
     m = tmp_path / "two.npy"
     rng = np.random.default_rng(0)
     np.save(m, np.vstack([rng.normal(0, 0.1, (60, 3)), rng.normal(3, 0.1, (60, 3))]))
-    assert main(["segment", str(m), "--method", "aca", "--fps", "10", "--clusters", "50",
-                 "--min-len", "2", "--max-len", "4", "--json"]) == 0
+    assert (
+        main(
+            [
+                "segment",
+                str(m),
+                "--method",
+                "aca",
+                "--fps",
+                "10",
+                "--clusters",
+                "50",
+                "--min-len",
+                "2",
+                "--max-len",
+                "4",
+                "--json",
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
     out = json.loads(captured.out)
     assert out["n_clusters"] != 50
@@ -159,14 +197,43 @@ def test_aca_on_a_position_only_recording_runs_with_a_warning(capsys, tmp_path, 
 def test_rep_table_shows_each_set_count(capsys, tmp_path, rec):
     from streamseg.commands.output import format_segmentation
 
-    result = {"file": "t", "method": "rep", "n_frames": 200, "fps": 10.0, "cuts": [10],
-              "segments": [{"start": 0, "end": 10, "label": None, "start_s": 0, "end_s": 1},
-                           {"start": 10, "end": 200, "label": 1, "start_s": 1, "end_s": 20}],
-              "sets": [{"start": 10, "end": 200, "label": 1, "count": 4, "tempo_min_s": 4.5,
-                        "tempo_max_s": 5.25, "confidence": 0.8}], "count": 4}
+    result = {
+        "file": "t",
+        "method": "rep",
+        "n_frames": 200,
+        "fps": 10.0,
+        "cuts": [10],
+        "segments": [
+            {"start": 0, "end": 10, "label": None, "start_s": 0, "end_s": 1},
+            {"start": 10, "end": 200, "label": 1, "start_s": 1, "end_s": 20},
+        ],
+        "sets": [
+            {
+                "start": 10,
+                "end": 200,
+                "label": 1,
+                "count": 4,
+                "tempo_min_s": 4.5,
+                "tempo_max_s": 5.25,
+                "confidence": 0.8,
+            }
+        ],
+        "count": 4,
+    }
     lines = format_segmentation(result).splitlines()
-    assert lines[1].split() == ["set", "start", "s", "end", "s", "label", "count", "s", "per",
-                                "repetition", "confidence"]
+    assert lines[1].split() == [
+        "set",
+        "start",
+        "s",
+        "end",
+        "s",
+        "label",
+        "count",
+        "s",
+        "per",
+        "repetition",
+        "confidence",
+    ]
     assert lines[2].split() == ["0", "1.00", "20.00", "1", "4", "4.50-5.25", "0.80"]
 
 
@@ -183,9 +250,20 @@ def test_info_names_the_file_given(capsys, tmp_path, rec):
 def test_no_traceback_from_the_installed_command(tmp_path):
     """The console script itself, as a user runs it: one line, exit 2."""
     (tmp_path / "empty.npy").write_bytes(b"")
-    run = subprocess.run([sys.executable, "-m", "streamseg.cli", "segment",
-                          str(tmp_path / "empty.npy"), "--fps", "120"],
-                         capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "segment",
+            str(tmp_path / "empty.npy"),
+            "--fps",
+            "120",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 2 and run.stdout == ""
     assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr
 
@@ -197,8 +275,10 @@ def test_keys_refuses_fewer_than_one_client(capsys, tmp_path):
 
 
 def test_a_missing_skeleton_is_not_called_a_recording(capsys, data_dir, tmp_path):
-    line = _one_line(capsys, ["segment", data_dir / "cmu86" / "86_01.amc.gz", "--skeleton",
-                              tmp_path / "nosuch.asf"])
+    line = _one_line(
+        capsys,
+        ["segment", data_dir / "cmu86" / "86_01.amc.gz", "--skeleton", tmp_path / "nosuch.asf"],
+    )
     assert "nosuch.asf: found no such file" in line and "recording" not in line
 
 
@@ -210,12 +290,16 @@ def test_a_one_frame_warning_is_singular(capsys, tmp_path):
     assert any(w.startswith("the recording has 1 frame (") for w in out["warnings"])
 
 
-@pytest.mark.parametrize("url", ["tcp://127.0.0.1:99999", "tcp://127.0.0.1", "127.0.0.1:5560",
-                                 "tcp://:5560"])
+@pytest.mark.parametrize(
+    "url", ["tcp://127.0.0.1:99999", "tcp://127.0.0.1", "127.0.0.1:5560", "tcp://:5560"]
+)
 def test_an_endpoint_that_cannot_be_reached_is_refused_at_once(capsys, amc, url):
     """ZeroMQ accepts a port beyond 65535 and would wait for a daemon that cannot exist."""
-    for argv in (["replay", amc[0], *amc[1:], "--to", url], ["listen", "--from", url],
-                 ["listen", "--from", "tcp://127.0.0.1:5561", "--control", url]):
+    for argv in (
+        ["replay", amc[0], *amc[1:], "--to", url],
+        ["listen", "--from", url],
+        ["listen", "--from", "tcp://127.0.0.1:5561", "--control", url],
+    ):
         line = _one_line(capsys, argv)
         assert repr(url) in line and "tcp://HOST:PORT" in line
 
@@ -227,14 +311,17 @@ def test_labels_past_the_recordings_end_are_said(capsys, amc, data_dir, tmp_path
     longer = tmp_path / "labels.csv"
     longer.write_text(labels.read_text() + "86_01,4580,99999,walk,4500,4600\n")
     for method in ("lof", "aca"):
-        assert main(["eval", *map(str, amc), "--labels", str(longer), "--method", method,
-                     "--json"]) == 0
+        assert (
+            main(["eval", *map(str, amc), "--labels", str(longer), "--method", method, "--json"])
+            == 0
+        )
         out = json.loads(capsys.readouterr().out)
         said = [w for w in out["warnings"] if "past the recording" in w]
         assert len(said) == 1 and "reach frame 99999" in said[0] and "4579 frames" in said[0]
     assert main(["eval", *map(str, amc), "--labels", str(labels), "--json"]) == 0
-    assert not [w for w in json.loads(capsys.readouterr().out)["warnings"]
-                if "past the recording" in w]
+    assert not [
+        w for w in json.loads(capsys.readouterr().out)["warnings"] if "past the recording" in w
+    ]
 
 
 def test_listens_state_line_counts_runs_like_its_relabel_lines():
@@ -243,8 +330,13 @@ def test_listens_state_line_counts_runs_like_its_relabel_lines():
     from streamseg.commands.listen import _state_line, format_event
 
     pieces = [[0, 100, 1], [100, 200, 1], [200, 300, 2]]  # two cycles of action 1, then 2
-    state = {"stream": "s", "frame": 300, "revision": 2, "cuts": [],
-             "segments": {"start": 0, "end": 300, "segments": pieces}}
+    state = {
+        "stream": "s",
+        "frame": 300,
+        "revision": 2,
+        "cuts": [],
+        "segments": {"start": 0, "end": 300, "segments": pieces},
+    }
     ev = protocol.Segments("s", 2, 0, 300, [tuple(p) for p in pieces], 0.01, False)
     assert "2 runs of 2 labels over 0-300" in _state_line(state)
     assert "2 runs of 2 labels" in format_event(ev)
@@ -253,14 +345,14 @@ def test_listens_state_line_counts_runs_like_its_relabel_lines():
 def test_clusters_that_hold_no_segment_are_said(capsys, amc):
     """K = 40 on a take of four actions leaves clusters empty: the JSON's n_clusters is what
     was asked, the warning says how many hold a segment."""
-    assert main(["segment", *map(str, amc), "--method", "aca", "--clusters", "40",
-                 "--json"]) == 0
+    assert main(["segment", *map(str, amc), "--method", "aca", "--clusters", "40", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     used = len({s["label"] for s in out["segments"]})
     assert out["n_clusters"] == 40 and used < 40
-    assert out["warnings"] == [f"only {used} of the 40 clusters hold a segment: the frames "
-                               "separate into fewer actions than --clusters 40 (omit "
-                               "--clusters to have K found)"]
-    assert main(["segment", *map(str, amc), "--method", "aca", "--clusters", "4",
-                 "--json"]) == 0
+    assert out["warnings"] == [
+        f"only {used} of the 40 clusters hold a segment: the frames "
+        "separate into fewer actions than --clusters 40 (omit "
+        "--clusters to have K found)"
+    ]
+    assert main(["segment", *map(str, amc), "--method", "aca", "--clusters", "4", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["warnings"] == []

@@ -17,8 +17,9 @@ def test_every_daemon_option_is_described():
     assert not missing, f"DaemonConfig fields without a description: {missing}"
 
 
-@pytest.mark.parametrize("command", ["info", "segment", "eval", "serve", "replay", "listen",
-                                     "demo"])
+@pytest.mark.parametrize(
+    "command", ["info", "segment", "eval", "serve", "replay", "listen", "demo"]
+)
 def test_help(command, capsys):
     with pytest.raises(SystemExit) as info:
         main([command, "--help"])
@@ -45,8 +46,12 @@ def test_example_config_is_valid_and_spells_out_the_defaults():
 
     text = path.read_text()
     tables = dict(re.findall(r"^\[(\w+)\]\n(.*?)(?=^\[|\Z)", text, re.M | re.S))
-    for name, cls in (("daemon", DaemonConfig), ("lof", LOFConfig), ("aca", ACAConfig),
-                      ("repetitions", RepetitionConfig)):
+    for name, cls in (
+        ("daemon", DaemonConfig),
+        ("lof", LOFConfig),
+        ("aca", ACAConfig),
+        ("repetitions", RepetitionConfig),
+    ):
         keys = set(re.findall(r"^#? ?(\w+) =", tables[name], re.M))
         missing = {f.name for f in dataclasses.fields(cls)} - keys
         assert not missing, f"[{name}] lacks {sorted(missing)}"

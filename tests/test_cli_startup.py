@@ -25,8 +25,9 @@ print(json.dumps(sorted(sys.modules)), file=sys.stderr)
 
 
 def loaded_modules(argv) -> set:
-    run = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv)], capture_output=True,
-                         text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-c", PROBE.format(argv=argv)], capture_output=True, text=True, timeout=120
+    )
     return set(json.loads(run.stderr.strip().splitlines()[-1]))
 
 
@@ -60,9 +61,27 @@ def test_segment_with_aca_loads_neither_the_cut_detector_nor_the_daemons_parts()
     """What ``segment --method aca`` imports is what it runs: no LOF kernels, no sockets, no
     Dask, no sklearn, no plotting (each would add to the command's start)."""
     data = Path(__file__).resolve().parents[1] / "data" / "cmu86"
-    loaded = loaded_modules(["segment", str(data / "86_01.amc.gz"), "--skeleton",
-                             str(data / "86.asf"), "--method", "aca", "--json"])
+    loaded = loaded_modules(
+        [
+            "segment",
+            str(data / "86_01.amc.gz"),
+            "--skeleton",
+            str(data / "86.asf"),
+            "--method",
+            "aca",
+            "--json",
+        ]
+    )
     assert "streamseg.offline.haca" in loaded  # it ran
-    unused = {"streamseg.offline.lof", "streamseg._kernels.lof", "zmq", "dask", "distributed",
-              "sklearn", "matplotlib", "aiohttp", "scipy.sparse"} & loaded
+    unused = {
+        "streamseg.offline.lof",
+        "streamseg._kernels.lof",
+        "zmq",
+        "dask",
+        "distributed",
+        "sklearn",
+        "matplotlib",
+        "aiohttp",
+        "scipy.sparse",
+    } & loaded
     assert not unused

@@ -27,8 +27,9 @@ LOOP = "tcp://127.0.0.1:0"
 
 @pytest.fixture
 def daemon(warm_kernels):
-    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
-                            heartbeat=0))
+    d = Daemon(
+        DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0)
+    )
     ep = d.bind()
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
@@ -39,27 +40,57 @@ def daemon(warm_kernels):
 
 
 def files(data_dir):
-    return [str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
-            str(data_dir / "cmu86" / "86.asf")]
+    return [
+        str(data_dir / "cmu86" / "86_01.amc.gz"),
+        "--skeleton",
+        str(data_dir / "cmu86" / "86.asf"),
+    ]
 
 
 def _listener(daemon, *argv):
     """`streamseg listen --control` in its own process; returns it once its first line (the
     late-join state, written after the subscription handshake) is out."""
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "listen", "--from",
-                             daemon["publish"], "--control", daemon["control"], *argv],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "listen",
+            "--from",
+            daemon["publish"],
+            "--control",
+            daemon["control"],
+            *argv,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     first = proc.stdout.readline()
     assert first, proc.stderr.read()
     return proc, first
 
 
 def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
-    proc, first = _listener(daemon, "--stream", "x", "--jsonl", "--until-end", "--idle",
-                            "30")
+    proc, first = _listener(daemon, "--stream", "x", "--jsonl", "--until-end", "--idle", "30")
     assert json.loads(first) == {"type": "state", "stream": "x", "open": False}
-    assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
-                 "--batch", "50", "--stream", "x"]) == 0
+    assert (
+        main(
+            [
+                "replay",
+                *files(data_dir),
+                "--to",
+                daemon["ingest"],
+                "--speed",
+                "0",
+                "--batch",
+                "50",
+                "--stream",
+                "x",
+            ]
+        )
+        == 0
+    )
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert capsys.readouterr().out.startswith("streamseg replay: x: sent 4579 frames")
@@ -77,26 +108,38 @@ def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
     assert offline["cut_latency_frames"] == [e["emitted_at"] - e["frame"] for e in cuts]
     # every event is numbered: 1, 2, 3, ... in publication order, the closed event last
     assert [e["seq"] for e in events] == list(range(1, len(events) + 1))
-    assert events[-1] == {"type": "closed", "stream": "x", "reason": "end", "frames": 4579,
-                          "seq": len(events)}
+    assert events[-1] == {
+        "type": "closed",
+        "stream": "x",
+        "reason": "end",
+        "frames": 4579,
+        "seq": len(events),
+    }
     cut = next(e for e in events if e["type"] == "cut")
-    assert set(cut) == {"type", "stream", "frame", "time", "score", "emitted_at", "provisional",
-                        "seq"}
+    assert set(cut) == {
+        "type",
+        "stream",
+        "frame",
+        "time",
+        "score",
+        "emitted_at",
+        "provisional",
+        "seq",
+    }
 
 
 def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
     closed = subscribe(daemon["publish"], daemon["control"], stream="y", kind="closed")
-    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
-          "y"])
+    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream", "y"])
     capsys.readouterr()
     next(listen(closed, timeout=30))  # the daemon has taken the whole first take
     closed.close()
     # the stream is closed: the control endpoint still has its final state
-    proc, first = _listener(daemon, "--stream", "y", "--type", "cut", "--count", "2",
-                            "--idle", "20")
+    proc, first = _listener(
+        daemon, "--stream", "y", "--type", "cut", "--count", "2", "--idle", "20"
+    )
     assert first.startswith("[y] state    frame 4579  revision 0")
-    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream",
-          "y"])
+    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream", "y"])
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     cuts = [x for x in out.splitlines() if "] cut " in x]
@@ -105,11 +148,10 @@ def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
 
 def test_serve_options_toml_then_flags(tmp_path):
     toml = tmp_path / "d.toml"
-    toml.write_text('[daemon]\nmax_streams = 7\nrelabel_interval = 2.5\n[aca]\nn_clusters = 3\n')
+    toml.write_text("[daemon]\nmax_streams = 7\nrelabel_interval = 2.5\n[aca]\nn_clusters = 3\n")
     parser = __import__("argparse").ArgumentParser()
     serve.add_arguments(parser)
-    args = parser.parse_args(["--config", str(toml), "--relabel-interval", "1",
-                              "--repetitions"])
+    args = parser.parse_args(["--config", str(toml), "--relabel-interval", "1", "--repetitions"])
     config, algorithms = serve.build(args)
     assert config.max_streams == 7 and config.relabel_interval == 1.0 and config.repetitions
     assert algorithms.aca_config.n_clusters == 3 and algorithms.repetitions
@@ -135,12 +177,31 @@ def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
 
     script = Path(__file__).resolve().parents[1] / "clients" / "python" / "listener.py"
     assert "streamseg" not in "".join(
-        line for line in script.read_text().splitlines() if line.startswith(("import", "from")))
-    proc = subprocess.Popen([sys.executable, str(script), daemon["publish"], "m", "--control",
-                             daemon["control"]], stdout=subprocess.PIPE, text=True)
+        line for line in script.read_text().splitlines() if line.startswith(("import", "from"))
+    )
+    proc = subprocess.Popen(
+        [sys.executable, str(script), daemon["publish"], "m", "--control", daemon["control"]],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     assert proc.stdout.readline().startswith("listening on")  # after its hello handshake
-    assert main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0",
-                 "--batch", "60", "--stream", "m"]) == 0
+    assert (
+        main(
+            [
+                "replay",
+                *files(data_dir),
+                "--to",
+                daemon["ingest"],
+                "--speed",
+                "0",
+                "--batch",
+                "60",
+                "--stream",
+                "m",
+            ]
+        )
+        == 0
+    )
     out, _ = proc.communicate(timeout=60)
     lines = out.splitlines()
     assert lines, "the listener printed nothing"
@@ -173,7 +234,24 @@ def test_replay_and_segment_up_option_fix_a_z_up_file(daemon, data_dir, capsys, 
     assert main(["segment", str(f), "--json"]) == 0
     assert "--up z" in capsys.readouterr().err
     s = subscribe(daemon["publish"], daemon["control"], "zf")
-    assert main(["replay", str(f), "--to", daemon["ingest"], "--speed", "0", "--batch", "60",
-                 "--stream", "zf", "--up", "z"]) == 0
+    assert (
+        main(
+            [
+                "replay",
+                str(f),
+                "--to",
+                daemon["ingest"],
+                "--speed",
+                "0",
+                "--batch",
+                "60",
+                "--stream",
+                "zf",
+                "--up",
+                "z",
+            ]
+        )
+        == 0
+    )
     events = list(listen(s, stream="zf", until_end=True, timeout=30))
     assert [e.frame for e in events if e.type == "cut"] == want

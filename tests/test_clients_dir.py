@@ -41,10 +41,28 @@ def _serve(state_dir, *extra, curve=None):
     """``streamseg serve`` in its own process on free loopback ports, ready (it answers
     ``ping``); its endpoints. Stopped with SIGTERM at the end; it must exit 0."""
     loop = "tcp://127.0.0.1:0"
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "serve", "--ingest", loop,
-                             "--publish", loop, "--control", loop, "--state-dir",
-                             str(state_dir), "--log-level", "WARNING", *extra],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "serve",
+            "--ingest",
+            loop,
+            "--publish",
+            loop,
+            "--control",
+            loop,
+            "--state-dir",
+            str(state_dir),
+            "--log-level",
+            "WARNING",
+            *extra,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         line = proc.stdout.readline()
         assert line.startswith("streamseg serve: ingest="), proc.stderr.read()
@@ -81,8 +99,9 @@ def serve_curve(tmp_path):
 
     keys = tmp_path / "keys"
     assert main(["keys", str(keys)]) == 0
-    with _serve(tmp_path / "state", "--curve-dir", str(keys),
-                curve=ClientKeys.load(str(keys))) as ep:
+    with _serve(
+        tmp_path / "state", "--curve-dir", str(keys), curve=ClientKeys.load(str(keys))
+    ) as ep:
         yield {**ep, "keys": str(keys)}
 
 
@@ -90,8 +109,17 @@ def serve_curve(tmp_path):
 def serve_lossy(tmp_path):
     """A daemon whose publish queue holds one message per subscriber (``--hwm 1``): a burst
     of events overflows it, the subscribers see holes in the event numbers."""
-    with _serve(tmp_path / "state", "--hwm", "1", "--gap-events-per-s", "1000000",
-                "--heartbeat", "0.2", "--relabel-interval", "0") as ep:
+    with _serve(
+        tmp_path / "state",
+        "--hwm",
+        "1",
+        "--gap-events-per-s",
+        "1000000",
+        "--heartbeat",
+        "0.2",
+        "--relabel-interval",
+        "0",
+    ) as ep:
         yield ep
 
 
@@ -122,10 +150,28 @@ def take_csv(tmp_path_factory, data_dir):
 def _listen_jsonl(ep, stream):
     """``streamseg listen --jsonl --until-end`` on ``stream``, subscribed (handshake done)."""
     keys = ["--curve-dir", ep["keys"]] if "keys" in ep else []
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "listen", "--from",
-                             ep["publish"], "--control", ep["control"], "--stream", stream,
-                             "--jsonl", "--until-end", "--idle", "60", *keys],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "listen",
+            "--from",
+            ep["publish"],
+            "--control",
+            ep["control"],
+            "--stream",
+            stream,
+            "--jsonl",
+            "--until-end",
+            "--idle",
+            "60",
+            *keys,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert json.loads(proc.stdout.readline())["type"] == "state"
     return proc
 
@@ -157,9 +203,24 @@ def _check_listener(cmd, ep, take_csv, stream, ready="listening on"):
     first = proc.stdout.readline()
     assert first.startswith(ready), first + proc.stderr.read()
     keys = ["--keys", ep["keys"]] if "keys" in ep else []
-    subprocess.run([sys.executable, str(CLIENTS / "python" / "sender.py"), str(path), "--to",
-                    ep["ingest"], "--stream", stream, "--speed", "0", "--batch", "60", *keys],
-                   check=True, timeout=120)
+    subprocess.run(
+        [
+            sys.executable,
+            str(CLIENTS / "python" / "sender.py"),
+            str(path),
+            "--to",
+            ep["ingest"],
+            "--stream",
+            stream,
+            "--speed",
+            "0",
+            "--batch",
+            "60",
+            *keys,
+        ],
+        check=True,
+        timeout=120,
+    )
     out, err = proc.communicate(timeout=120)
     assert proc.returncode == 0, err
     lines = out.splitlines()
@@ -173,18 +234,37 @@ def _check_listener(cmd, ep, take_csv, stream, ready="listening on"):
 
 # Python ------------------------------------------------------------------------------------
 
+
 def test_python_clients_import_only_pyzmq_and_msgpack():
     for script in (CLIENTS / "python").glob("*.py"):
-        imports = {line.split()[1].split(".")[0] for line in script.read_text().splitlines()
-                   if line.startswith(("import ", "from "))}
+        imports = {
+            line.split()[1].split(".")[0]
+            for line in script.read_text().splitlines()
+            if line.startswith(("import ", "from "))
+        }
         allowed = {"csv", "math", "os", "statistics", "struct", "sys", "time", "msgpack", "zmq"}
         assert imports <= allowed, (script, imports)
 
 
 def test_python_sender_streams_a_csv_segmented_as_the_file(serve, take_csv):
-    _check_sender([sys.executable, str(CLIENTS / "python" / "sender.py"), str(take_csv[0]),
-                   "--to", serve["ingest"], "--stream", "py-send", "--speed", "0",
-                   "--batch", "50"], serve, take_csv, "py-send")
+    _check_sender(
+        [
+            sys.executable,
+            str(CLIENTS / "python" / "sender.py"),
+            str(take_csv[0]),
+            "--to",
+            serve["ingest"],
+            "--stream",
+            "py-send",
+            "--speed",
+            "0",
+            "--batch",
+            "50",
+        ],
+        serve,
+        take_csv,
+        "py-send",
+    )
 
 
 def test_python_sender_exits_only_once_every_packet_is_out(tmp_path, rec):
@@ -199,21 +279,45 @@ def test_python_sender_exits_only_once_every_packet_is_out(tmp_path, rec):
         for i, frame in enumerate(rec.positions):
             f.write(f"{i / rec.fps:.6f}," + ",".join(f"{v:.6f}" for v in frame.ravel()) + "\n")
     to, got, reader = slow_pull()
-    done = subprocess.run([sys.executable, str(CLIENTS / "python" / "sender.py"), str(path),
-                           "--to", to, "--speed", "0", "--batch", "60"],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(CLIENTS / "python" / "sender.py"),
+            str(path),
+            "--to",
+            to,
+            "--speed",
+            "0",
+            "--batch",
+            "60",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     reader.join()
     assert done.returncode == 0, done.stderr
     assert got == ["announce"] + ["frames"] * -(-rec.n_frames // 60) + ["end"]
 
 
 def test_python_listener_prints_what_the_daemon_published(serve, take_csv):
-    _check_listener([sys.executable, str(CLIENTS / "python" / "listener.py"),
-                     serve["publish"], "py-listen", "--control", serve["control"]],
-                    serve, take_csv, "py-listen")
+    _check_listener(
+        [
+            sys.executable,
+            str(CLIENTS / "python" / "listener.py"),
+            serve["publish"],
+            "py-listen",
+            "--control",
+            serve["control"],
+        ],
+        serve,
+        take_csv,
+        "py-listen",
+    )
 
 
 # C -----------------------------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def c_clients():
@@ -221,8 +325,9 @@ def c_clients():
     if shutil.which("cc") is None or shutil.which("make") is None:
         _missing("a C compiler and make", "apt-get install gcc make")
     if not (Path("/usr/include/zmq.h").exists() and Path("/usr/include/msgpack.h").exists()):
-        _missing("libzmq and msgpack-c headers",
-                 "apt-get install libzmq3-dev libmsgpack-dev pkg-config")
+        _missing(
+            "libzmq and msgpack-c headers", "apt-get install libzmq3-dev libmsgpack-dev pkg-config"
+        )
     done = subprocess.run(["make", "-C", str(CLIENTS / "c")], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "warning" not in done.stderr, done.stderr  # -Wall -Wextra -std=c99 -pedantic
@@ -230,26 +335,52 @@ def c_clients():
 
 
 def test_c_sender_streams_a_csv_segmented_as_the_file(serve, take_csv, c_clients):
-    _check_sender([str(c_clients / "streamseg-send"), str(take_csv[0]), "--to",
-                   serve["ingest"], "--stream", "c-send", "--speed", "0", "--batch", "50"],
-                  serve, take_csv, "c-send")
+    _check_sender(
+        [
+            str(c_clients / "streamseg-send"),
+            str(take_csv[0]),
+            "--to",
+            serve["ingest"],
+            "--stream",
+            "c-send",
+            "--speed",
+            "0",
+            "--batch",
+            "50",
+        ],
+        serve,
+        take_csv,
+        "c-send",
+    )
 
 
 def test_c_listener_prints_what_the_daemon_published(serve, take_csv, c_clients):
-    _check_listener([str(c_clients / "streamseg-listen"), serve["publish"], "c-listen",
-                     "--control", serve["control"]], serve, take_csv, "c-listen")
+    _check_listener(
+        [
+            str(c_clients / "streamseg-listen"),
+            serve["publish"],
+            "c-listen",
+            "--control",
+            serve["control"],
+        ],
+        serve,
+        take_csv,
+        "c-listen",
+    )
 
 
 def test_c_sender_refuses_a_csv_without_joint_columns(tmp_path, c_clients):
     bad = tmp_path / "bad.csv"
     bad.write_text("a,b\n1,2\n")
-    done = subprocess.run([str(c_clients / "streamseg-send"), str(bad)], capture_output=True,
-                          text=True, timeout=30)
+    done = subprocess.run(
+        [str(c_clients / "streamseg-send"), str(bad)], capture_output=True, text=True, timeout=30
+    )
     assert done.returncode == 2
     assert done.stderr.strip() == f"{bad}: no column is named <joint>_x / _y / _z"
 
 
 # JavaScript --------------------------------------------------------------------------------
+
 
 @pytest.fixture(scope="module")
 def js_client():
@@ -261,14 +392,40 @@ def js_client():
 
 
 def test_js_listener_prints_what_the_daemon_published(serve, take_csv, js_client):
-    _check_listener(["node", str(js_client / "listener.js"), serve["publish"], "js-listen",
-                     "--control", serve["control"]], serve, take_csv, "js-listen")
+    _check_listener(
+        [
+            "node",
+            str(js_client / "listener.js"),
+            serve["publish"],
+            "js-listen",
+            "--control",
+            serve["control"],
+        ],
+        serve,
+        take_csv,
+        "js-listen",
+    )
 
 
 def test_js_sender_streams_a_csv_segmented_as_the_file(serve, take_csv, js_client):
-    _check_sender(["node", str(js_client / "sender.js"), str(take_csv[0]), "--to",
-                   serve["ingest"], "--stream", "js-send", "--speed", "0", "--batch", "50"],
-                  serve, take_csv, "js-send")
+    _check_sender(
+        [
+            "node",
+            str(js_client / "sender.js"),
+            str(take_csv[0]),
+            "--to",
+            serve["ingest"],
+            "--stream",
+            "js-send",
+            "--speed",
+            "0",
+            "--batch",
+            "50",
+        ],
+        serve,
+        take_csv,
+        "js-send",
+    )
 
 
 def test_every_client_has_a_readme_and_the_protocol_links_them():
@@ -278,8 +435,8 @@ def test_every_client_has_a_readme_and_the_protocol_links_them():
         assert f"clients/{lang}/" in protocol, lang
 
 
-
 # CURVE and holes, every client ------------------------------------------------------------
+
 
 def _client(lang, role, c_clients=None, js_client=None):
     """The command of a client program: ``lang`` python, c or js; ``role`` send or listen."""
@@ -304,19 +461,42 @@ def test_clients_speak_curve(lang, serve_curve, take_csv):
     """With ``--keys DIR`` each sender's stream is segmented as the file is and each listener
     prints every cut and the close, on a daemon with CURVE on every socket."""
     ep, c, js = serve_curve, CLIENTS / "c", CLIENTS / "js"
-    _check_sender(_client(lang, "send", c, js) + [
-        str(take_csv[0]), "--to", ep["ingest"], "--stream", f"{lang}-curve-send", "--speed",
-        "0", "--batch", "50", "--keys", ep["keys"]], ep, take_csv, f"{lang}-curve-send")
-    _check_listener(_client(lang, "listen", c, js) + [
-        ep["publish"], f"{lang}-curve-listen", "--control", ep["control"], "--keys",
-        ep["keys"]], ep, take_csv, f"{lang}-curve-listen")
+    _check_sender(
+        _client(lang, "send", c, js)
+        + [
+            str(take_csv[0]),
+            "--to",
+            ep["ingest"],
+            "--stream",
+            f"{lang}-curve-send",
+            "--speed",
+            "0",
+            "--batch",
+            "50",
+            "--keys",
+            ep["keys"],
+        ],
+        ep,
+        take_csv,
+        f"{lang}-curve-send",
+    )
+    _check_listener(
+        _client(lang, "listen", c, js)
+        + [ep["publish"], f"{lang}-curve-listen", "--control", ep["control"], "--keys", ep["keys"]],
+        ep,
+        take_csv,
+        f"{lang}-curve-listen",
+    )
 
 
 def test_clients_refuse_keys_they_cannot_read(lang, tmp_path):
     c, js = CLIENTS / "c", CLIENTS / "js"
-    done = subprocess.run(_client(lang, "listen", c, js) + [
-        "tcp://127.0.0.1:1", "--keys", str(tmp_path)], capture_output=True, text=True,
-        timeout=30)
+    done = subprocess.run(
+        _client(lang, "listen", c, js) + ["tcp://127.0.0.1:1", "--keys", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert done.returncode == 2
     assert done.stderr.startswith(f"--keys {tmp_path}: ") and "streamseg keys" in done.stderr
 
@@ -333,19 +513,25 @@ def test_listeners_fill_holes_from_the_event_log(which, serve_lossy, rec, reques
     from streamseg.client import fetch_since
     from streamseg.commands.replay import announce_of
 
-    tool = None if which == "python" else \
-        request.getfixturevalue("c_clients" if which == "c" else "js_client")
+    tool = (
+        None
+        if which == "python"
+        else request.getfixturevalue("c_clients" if which == "c" else "js_client")
+    )
     ep, stream = serve_lossy, f"{which}-holes"
-    proc = subprocess.Popen(_client(which, "listen", tool, tool) + [
-        ep["publish"], stream, "--control", ep["control"]], stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        _client(which, "listen", tool, tool) + [ep["publish"], stream, "--control", ep["control"]],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert proc.stdout.readline().startswith("listening on")
     sock = zmq.Context.instance().socket(zmq.PUSH)
     sock.connect(ep["ingest"])
     sock.send_multipart(P.encode(announce_of(rec, stream)))
     for a in range(0, 2400, 20):
         if (a // 20) % 2 == 0:
-            sock.send_multipart(P.encode(P.Frames(stream, a, 0.0, rec.positions[a:a + 20])))
+            sock.send_multipart(P.encode(P.Frames(stream, a, 0.0, rec.positions[a : a + 20])))
     sock.send_multipart(P.encode(P.End(stream)))
     sock.close(linger=10_000)
     out, err = proc.communicate(timeout=120)

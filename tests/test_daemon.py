@@ -34,8 +34,6 @@ def offline_cuts(rec, positions=None):
     return [c.frame for c in seg.learn_many(ang) + seg.finish()]
 
 
-
-
 def sub(ep, **kw):
     return subscribe(ep["publish"], ep["control"], **kw)  # a handshake, not a sleep
 
@@ -107,8 +105,8 @@ def test_two_interleaved_streams(start_daemon, rec):
     for r, name in ((rec, "a"), (half, "b")):
         sock.send_multipart(P.encode(announce_of(r, name)))
     # packets of both streams alternate on one socket, with different packet sizes
-    pa = [(a, rec.positions[a:a + 5]) for a in range(0, rec.n_frames, 5)]
-    pb = [(a, half.positions[a:a + 12]) for a in range(0, half.n_frames, 12)]
+    pa = [(a, rec.positions[a : a + 5]) for a in range(0, rec.n_frames, 5)]
+    pb = [(a, half.positions[a : a + 12]) for a in range(0, half.n_frames, 12)]
     for i in range(max(len(pa), len(pb))):
         for name, packets in (("a", pa), ("b", pb)):
             if i < len(packets):
@@ -147,16 +145,16 @@ def test_garbage_between_good_packets(start_daemon, rec):
     for a in range(0, rec.n_frames, step):
         if a == 3000:
             continue  # a lost packet: frames 3000..3009 never arrive (a gap)
-        sock.send_multipart(P.encode(P.Frames("g", a, 0.0, pos[a:a + step])))
+        sock.send_multipart(P.encode(P.Frames("g", a, 0.0, pos[a : a + step])))
         if a % 500 == 0:
             for parts in garbage.values():
                 sock.send_multipart(parts)
             n_garbage += 1
-            wrong = P.Frames("g", a + step, 0.0, pos[a:a + step, :5])  # 5 joints, not 31
+            wrong = P.Frames("g", a + step, 0.0, pos[a : a + step, :5])  # 5 joints, not 31
             sock.send_multipart(P.encode(wrong))
             n_bad_arrays += 1
         if a % 700 == 0 and a:
-            sock.send_multipart(P.encode(P.Frames("g", a, 0.0, pos[a:a + step])))  # duplicate
+            sock.send_multipart(P.encode(P.Frames("g", a, 0.0, pos[a : a + step])))  # duplicate
             n_dups += 1
     sock.send_multipart(P.encode(P.End("g")))
     sock.close()
@@ -167,12 +165,22 @@ def test_garbage_between_good_packets(start_daemon, rec):
     assert report.gaps == [(2010, 2070)]
     assert cuts_of(events, "g") == offline_cuts(rec, ref)
     stats = request(ep["control"], "stats")["totals"]["errors_by_reason"]
-    assert stats == {"decode": n_garbage, "version": n_garbage, "field": 2 * n_garbage,
-                     "type": n_garbage, "unknown_stream": n_garbage, "array": n_bad_arrays,
-                     "duplicate": n_dups * step, "nan": len(nan_rows), "gap": 1}
+    assert stats == {
+        "decode": n_garbage,
+        "version": n_garbage,
+        "field": 2 * n_garbage,
+        "type": n_garbage,
+        "unknown_stream": n_garbage,
+        "array": n_bad_arrays,
+        "duplicate": n_dups * step,
+        "nan": len(nan_rows),
+        "gap": 1,
+    }
     gaps = [e for e in events if e.type == "gap"]
-    assert [(e.expected, e.got, e.filled) for e in gaps] == [(2010, 2070, False),
-                                                             (3000, 3010, True)]
+    assert [(e.expected, e.got, e.filled) for e in gaps] == [
+        (2010, 2070, False),
+        (3000, 3010, True),
+    ]
     errors = [e for e in events if e.type == "error" and e.stream == "g"]
     assert {e.reason for e in errors} >= {"array", "duplicate", "nan", "version", "field"}
 
@@ -184,30 +192,36 @@ def test_late_listener_catches_up_from_control(start_daemon, rec):
     sock.send_multipart(P.encode(announce_of(rec, "late")))
     n1 = 2600
     for a in range(0, n1, 20):
-        sock.send_multipart(P.encode(P.Frames("late", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("late", a, 0.0, rec.positions[a : a + 20])))
     seen = []
     for e in listen(early, timeout=20):
         seen.append(e)
         if e.type == "segments" and e.end >= n1 - 2 * 120:
             break
-    wait_until(lambda: (st := request(ep["control"], "state", stream="late"))["frame"] == n1
-               and st["revision"] >= 1, f"frame {n1} taken and a relabel in the state")
+    wait_until(
+        lambda: (
+            (st := request(ep["control"], "state", stream="late"))["frame"] == n1
+            and st["revision"] >= 1
+        ),
+        f"frame {n1} taken and a relabel in the state",
+    )
     late = sub(ep, stream="late")
     state = request(ep["control"], "state", stream="late")
     assert state["ok"] and state["frame"] == n1
     # the snapshot is the newest relabel with its revision, plus the cuts after it
     early_segs = [e for e in seen if e.type == "segments"]
-    while (not early_segs or early_segs[-1].revision < state["revision"]):
+    while not early_segs or early_segs[-1].revision < state["revision"]:
         e = next(listen(early, timeout=10))
         seen.append(e)
         early_segs = [x for x in seen if x.type == "segments"]
     same = [e for e in early_segs if e.revision == state["revision"]][0]
     assert state["segments"] == P.to_json(same)
-    assert [c["frame"] for c in state["cuts"]] == [e.frame for e in seen
-                                                 if e.type == "cut" and e.frame >= same.end]
+    assert [c["frame"] for c in state["cuts"]] == [
+        e.frame for e in seen if e.type == "cut" and e.frame >= same.end
+    ]
     # then it gets the updates: revisions continue from the snapshot's
     for a in range(n1, rec.n_frames, 20):
-        sock.send_multipart(P.encode(P.Frames("late", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("late", a, 0.0, rec.positions[a : a + 20])))
     sock.send_multipart(P.encode(P.End("late")))
     sock.close()
     later = list(listen(late, stream="late", until_end=True, timeout=20, since=state))
@@ -234,11 +248,13 @@ def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
             while len(arrivals) == before and time.monotonic() < deadline:
                 x += 1  # pure Python: holds the GIL between switches
             during.extend(arrivals[before:])
-        return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
-                              previous=previous)
+        return relabel_window(
+            features, start_frame=start_frame, fps=fps, config=ACAConfig(), previous=previous
+        )
 
-    d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=1.0,
-                         relabel_history=4.0)
+    d, ep = start_daemon(
+        Algorithms(relabel=slow_relabel), relabel_interval=1.0, relabel_history=4.0
+    )
     serving.set()
     s = sub(ep, stream="slow")
 
@@ -253,10 +269,10 @@ def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
     sock.send_multipart(P.encode(announce_of(rec, "slow")))
     split = 2400  # cuts at 2502, 3276 and 4066 come after it
     for a in range(0, split, 20):
-        sock.send_multipart(P.encode(P.Frames("slow", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("slow", a, 0.0, rec.positions[a : a + 20])))
     assert started.wait(60), "no relabel ran"
     for a in range(split, rec.n_frames, 20):  # sent while the first relabel runs
-        sock.send_multipart(P.encode(P.Frames("slow", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("slow", a, 0.0, rec.positions[a : a + 20])))
     sock.send_multipart(P.encode(P.End("slow")))
     sock.close()
     t.join(120)
@@ -278,11 +294,13 @@ def test_takes_waiting_for_their_final_relabel_are_bounded(start_daemon, rec):
         from streamseg.offline import relabel_window
 
         gate.wait(60)  # the worker is behind until the test lets it go
-        return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
-                              previous=previous)
+        return relabel_window(
+            features, start_frame=start_frame, fps=fps, config=ACAConfig(), previous=previous
+        )
 
-    d, ep = start_daemon(Algorithms(relabel=gated_relabel), relabel_interval=60.0,
-                         relabel_history=2.0)
+    d, ep = start_daemon(
+        Algorithms(relabel=gated_relabel), relabel_interval=60.0, relabel_history=2.0
+    )
     n = cap + 5
     s = sub(ep)
     part = rec.slice(0, 240)
@@ -321,8 +339,7 @@ def test_takes_waiting_for_their_final_relabel_are_bounded(start_daemon, rec):
         if k < cap:
             assert len(final) == 1 and not skipped
         else:
-            assert not final and len(skipped) == 1 and "final relabel skipped" in \
-                skipped[0].message
+            assert not final and len(skipped) == 1 and "final relabel skipped" in skipped[0].message
 
 
 def test_limits_max_streams_and_idle(start_daemon, rec):
@@ -399,7 +416,7 @@ def test_default_skeleton_opens_streams_on_first_packet(start_daemon, rec, data_
     s = sub(ep, stream="anon")
     sock = push(ep)
     for a in range(0, rec.n_frames, 40):  # no announce message
-        sock.send_multipart(P.encode(P.Frames("anon", a, 0.0, rec.positions[a:a + 40])))
+        sock.send_multipart(P.encode(P.Frames("anon", a, 0.0, rec.positions[a : a + 40])))
     sock.send_multipart(P.encode(P.End("anon")))
     sock.close()
     events = list(listen(s, stream="anon", until_end=True, timeout=30))
@@ -415,7 +432,7 @@ def test_default_skeleton_takes_the_configured_up_axis(start_daemon, rec, data_d
     s = sub(ep, stream="anon")
     sock = push(ep)
     for a in range(0, rec.n_frames, 60):
-        sock.send_multipart(P.encode(P.Frames("anon", a, 0.0, z_up[a:a + 60])))
+        sock.send_multipart(P.encode(P.Frames("anon", a, 0.0, z_up[a : a + 60])))
     sock.send_multipart(P.encode(P.End("anon")))
     sock.close()
     events = list(listen(s, stream="anon", until_end=True, timeout=30))
@@ -432,8 +449,10 @@ def test_failed_start_still_shuts_down():
         def warmup(self, relabel: bool = True) -> float:
             raise RuntimeError("warmup failed")
 
-    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP,
-                            relabel_interval=0, heartbeat=0), Broken())
+    d = Daemon(
+        DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0),
+        Broken(),
+    )
     d.bind()
     box = {}
 
@@ -463,7 +482,7 @@ def test_control_answers_while_a_lossy_burst_is_processed(start_daemon, rec):
     sock.send_multipart(P.encode(announce_of(rec, "lossy")))
     last = 4000
     for a in range(0, last, 2):
-        sock.send_multipart(P.encode(P.Frames("lossy", a, a / rec.fps, rec.positions[a:a + 1])))
+        sock.send_multipart(P.encode(P.Frames("lossy", a, a / rec.fps, rec.positions[a : a + 1])))
     sock.send_multipart(P.encode(P.End("lossy")))
     sock.close(linger=10_000)
     seen = []

@@ -25,10 +25,23 @@ def serve_on_tmpfs(toml, state):
     reaches the files through /proc/PID/root."""
     state.mkdir(exist_ok=True)
     proc = subprocess.Popen(
-        ["unshare", "-rm", "sh", "-c", 'mount -t tmpfs -o size="$1"m tmpfs "$2" && exec "$3" '
-         '-m streamseg.cli serve --config "$4" --log-level WARNING',
-         "sh", str(SIZE_MB), str(state), sys.executable, str(toml)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        [
+            "unshare",
+            "-rm",
+            "sh",
+            "-c",
+            'mount -t tmpfs -o size="$1"m tmpfs "$2" && exec "$3" '
+            '-m streamseg.cli serve --config "$4" --log-level WARNING',
+            "sh",
+            str(SIZE_MB),
+            str(state),
+            sys.executable,
+            str(toml),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert proc.stdout.readline().startswith("streamseg serve: ingest="), proc.stderr.read()
     return proc
 
@@ -39,8 +52,9 @@ def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
     their WAL stays truncated."""
     if not can_mount():
         pytest.skip("no tmpfs in a user namespace here (unshare -rm and mount refused)")
-    ep, state, toml = config(tmp_path, relabel_interval=1.0, relabel_history=8.0,
-                             heartbeat=0.2, checkpoint_interval=0.1)
+    ep, state, toml = config(
+        tmp_path, relabel_interval=1.0, relabel_history=8.0, heartbeat=0.2, checkpoint_interval=0.1
+    )
     proc = serve_on_tmpfs(toml, state)
     sub = subscriber(ep["publish"])
     sender = Sender(ep, rec)
@@ -48,8 +62,10 @@ def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
         wait_ping(ep, proc)
         root = f"/proc/{proc.pid}/root{state}"
         sender.start()
-        wait_until(lambda: request(ep["control"], "stats")["totals"].get("checkpoints_written"),
-                   "a checkpoint written")
+        wait_until(
+            lambda: request(ep["control"], "stats")["totals"].get("checkpoints_written"),
+            "a checkpoint written",
+        )
         filler = f"{root}/fill"
         fill(filler)
         assert shutil.disk_usage(root).free < 1 << 20
@@ -70,8 +86,10 @@ def test_a_full_disk_keeps_the_log_whole_and_pauses_checkpoints(tmp_path, rec):
         # space again: the rounds resume, the checkpoints' WAL is emptied after each
         os.remove(filler)
         written = totals["checkpoints_written"]
-        wait_until(lambda: request(ep["control"], "stats")["totals"]["checkpoints_written"]
-                   >= written + 5, "five checkpoint rounds after the space came back")
+        wait_until(
+            lambda: request(ep["control"], "stats")["totals"]["checkpoints_written"] >= written + 5,
+            "five checkpoint rounds after the space came back",
+        )
         wal = f"{root}/checkpoints.sqlite-wal"
         assert os.path.getsize(wal) < 1 << 20
     finally:

@@ -36,6 +36,7 @@ def start_daemon(start_daemon, tmp_path):
 def wait_closed(ep, stream, timeout=30):
     """The stream's closed state, once its `closed` event is in the log (published: events
     go out once committed, and `state` says closed as the event is queued)."""
+
     def closed():
         # a daemon still working through a burst answers late (7-9 s after 6,000 packets in
         # test_a_lost_tail_shows_in_the_heartbeat): the request's bound is the wait's
@@ -62,8 +63,13 @@ def test_events_are_numbered_and_logged(start_daemon, rec, tmp_path):
     assert [e.seq for e in tail] == list(range(6, len(live) + 1))
     # a re-announced stream keeps counting: numbers never repeat for one id
     s2 = subscribe(ep["publish"], ep["control"], stream="n1")
-    replay(dataclasses.replace(rec, positions=rec.positions[:600]), ep["ingest"],
-           stream="n1", speed=0, batch=20)
+    replay(
+        dataclasses.replace(rec, positions=rec.positions[:600]),
+        ep["ingest"],
+        stream="n1",
+        speed=0,
+        batch=20,
+    )
     again = list(listen(s2, stream="n1", until_end=True, timeout=30))
     assert again[0].seq == len(live) + 1
     # the file is a real SQLite database in WAL mode
@@ -98,7 +104,7 @@ def test_slow_subscriber_sees_the_hole_and_fills_it(start_daemon, rec):
     # every other packet is missing: a burst of gap events
     for a in range(0, 2400, 20):
         if (a // 20) % 2 == 0:
-            sock.send_multipart(P.encode(P.Frames("h", a, 0.0, rec.positions[a:a + 20])))
+            sock.send_multipart(P.encode(P.Frames("h", a, 0.0, rec.positions[a : a + 20])))
     sock.send_multipart(P.encode(P.End("h")))
     sock.close(linger=5000)
     wait_closed(ep, "h")
@@ -139,8 +145,23 @@ def test_listen_since_cli_and_hole_report(start_daemon, rec, capsys):
     replay(rec, ep["ingest"], stream="c1", speed=0, batch=50)
     wait_closed(ep, "c1")
     capsys.readouterr()
-    rc = main(["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "c1",
-               "--since", "2", "--jsonl", "--until-end", "--timeout", "20"])
+    rc = main(
+        [
+            "listen",
+            "--from",
+            ep["publish"],
+            "--control",
+            ep["control"],
+            "--stream",
+            "c1",
+            "--since",
+            "2",
+            "--jsonl",
+            "--until-end",
+            "--timeout",
+            "20",
+        ]
+    )
     assert rc == 0
     lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
     events = [x for x in lines if x["type"] != "state"]
@@ -162,10 +183,19 @@ def test_listen_since_without_stream_reads_every_streams_back(start_daemon, rec,
     listed = request(ep["control"], "logged")
     assert [r["stream"] for r in listed["streams"]] == ["zb", "ya"] and not listed["more"]
     logged = {s: fetch_since(ep["control"], s, 0) for s in ("zb", "ya")}
-    assert [(r["first"], r["last"]) for r in listed["streams"]] == \
-        [(1, logged[s][-1].seq) for s in ("zb", "ya")]
-    base = ["listen", "--from", ep["publish"], "--control", ep["control"], "--jsonl",
-            "--idle", "30"]
+    assert [(r["first"], r["last"]) for r in listed["streams"]] == [
+        (1, logged[s][-1].seq) for s in ("zb", "ya")
+    ]
+    base = [
+        "listen",
+        "--from",
+        ep["publish"],
+        "--control",
+        ep["control"],
+        "--jsonl",
+        "--idle",
+        "30",
+    ]
     capsys.readouterr()
     # the histories end closed: --until-end stops after them
     assert main(base + ["--since", "2", "--until-end"]) == 0
@@ -180,14 +210,18 @@ def test_listen_since_without_stream_reads_every_streams_back(start_daemon, rec,
     assert [(x["stream"], x["type"]) for x in lines[1:]] == [("zb", "closed"), ("ya", "closed")]
     # the back, then the live events of a new take, each once (a listener of its own
     # process: its first line comes once its subscription is live)
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", *base, "--since", "0"],
-                            stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "streamseg.cli", *base, "--since", "0"],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     got = []
     zb_last, ya_last = logged["zb"][-1].seq, logged["ya"][-1].seq
 
     def read_all() -> bool:  # ya's back whole and the new take's `closed` (either order)
-        return (any(g[:2] == ("ya", ya_last) for g in got)
-                and any(g[0] == "zb" and g[1] > zb_last and g[2] == "closed" for g in got))
+        return any(g[:2] == ("ya", ya_last) for g in got) and any(
+            g[0] == "zb" and g[1] > zb_last and g[2] == "closed" for g in got
+        )
 
     try:
         assert json.loads(proc.stdout.readline())["type"] == "streams"
@@ -208,7 +242,7 @@ def test_listen_since_without_stream_reads_every_streams_back(start_daemon, rec,
     n_zb = len(logged["zb"])
     assert got[:n_zb] == [("zb", e.seq) for e in logged["zb"]]
     ya_at = got.index(("ya", 1))
-    assert got[ya_at:ya_at + len(logged["ya"])] == [("ya", e.seq) for e in logged["ya"]]
+    assert got[ya_at : ya_at + len(logged["ya"])] == [("ya", e.seq) for e in logged["ya"]]
     capsys.readouterr()
     # beyond every stream's newest number: said in one line, then live events are followed
     newest = fetch_since(ep["control"], "zb", 0)[-1].seq
@@ -220,11 +254,27 @@ def test_listen_since_without_stream_reads_every_streams_back(start_daemon, rec,
 def test_listen_since_without_a_log_says_so_and_follows(start_daemon, capsys):
     d, ep = start_daemon(state_dir="none", heartbeat=0)
     assert request(ep["control"], "logged") == {
-        "ok": False, "v": P.PROTOCOL_VERSION,
-        "error": "this daemon keeps no event log (start it with --state-dir DIR)"}
+        "ok": False,
+        "v": P.PROTOCOL_VERSION,
+        "error": "this daemon keeps no event log (start it with --state-dir DIR)",
+    }
     capsys.readouterr()
-    assert main(["listen", "--from", ep["publish"], "--control", ep["control"], "--since", "0",
-                 "--idle", "0.5"]) == 1  # nothing to follow: the idle limit ends it
+    assert (
+        main(
+            [
+                "listen",
+                "--from",
+                ep["publish"],
+                "--control",
+                ep["control"],
+                "--since",
+                "0",
+                "--idle",
+                "0.5",
+            ]
+        )
+        == 1
+    )  # nothing to follow: the idle limit ends it
     err = capsys.readouterr().err
     assert "--since: this daemon keeps no event log (start it with --state-dir DIR)" in err
 
@@ -234,8 +284,18 @@ def test_listen_since_says_what_the_log_cannot_give(start_daemon, rec, capsys, t
     replay(rec, ep["ingest"], stream="c2", speed=0, batch=50)
     wait_closed(ep, "c2")
     last = fetch_since(ep["control"], "c2", 0)[-1].seq
-    base = ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "c2",
-            "--jsonl", "--idle", "0.5"]
+    base = [
+        "listen",
+        "--from",
+        ep["publish"],
+        "--control",
+        ep["control"],
+        "--stream",
+        "c2",
+        "--jsonl",
+        "--idle",
+        "0.5",
+    ]
     capsys.readouterr()
     # beyond the newest number: said, then the live events are followed (none come)
     assert main(base + ["--since", str(last + 100)]) == 1
@@ -263,8 +323,23 @@ def test_listen_until_end_on_a_closed_stream_stops_and_says_so(start_daemon, rec
     wait_closed(ep, "c3")
     capsys.readouterr()
     # a 30 s timeout: without the stop, listen would wait for it and return 1
-    assert main(["listen", "--from", ep["publish"], "--control", ep["control"], "--stream",
-                 "c3", "--until-end", "--timeout", "30"]) == 0
+    assert (
+        main(
+            [
+                "listen",
+                "--from",
+                ep["publish"],
+                "--control",
+                ep["control"],
+                "--stream",
+                "c3",
+                "--until-end",
+                "--timeout",
+                "30",
+            ]
+        )
+        == 0
+    )
     out, err = capsys.readouterr()
     assert "[c3] state" in out and "closed (end)" in out
     assert "stream c3 is already closed (end): nothing to wait for" in err
@@ -281,16 +356,33 @@ def test_late_joiner_gets_every_cut_of_the_stream(start_daemon, rec, capsys):
     sock.send_multipart(P.encode(announce_of(rec, "lj")))
     half = 2400
     for a in range(0, half, 20):
-        sock.send_multipart(P.encode(P.Frames("lj", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("lj", a, 0.0, rec.positions[a : a + 20])))
     seen = []
     for e in listen(early, timeout=20):  # until the first half's cuts are out
         seen.append(e)
         if e.type == "cut" and sum(x.type == "cut" for x in seen) >= 2:
             break
     out = {}
-    lis = threading.Thread(target=lambda: out.setdefault("rc", main(
-        ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "lj",
-         "--jsonl", "--until-end", "--timeout", "30"])))
+    lis = threading.Thread(
+        target=lambda: out.setdefault(
+            "rc",
+            main(
+                [
+                    "listen",
+                    "--from",
+                    ep["publish"],
+                    "--control",
+                    ep["control"],
+                    "--stream",
+                    "lj",
+                    "--jsonl",
+                    "--until-end",
+                    "--timeout",
+                    "30",
+                ]
+            ),
+        )
+    )
     lis.start()
     printed = ""
     deadline = time.monotonic() + 20
@@ -298,7 +390,7 @@ def test_late_joiner_gets_every_cut_of_the_stream(start_daemon, rec, capsys):
         printed += capsys.readouterr().out  # it has subscribed and printed the backlog
         time.sleep(0.01)
     for a in range(half, rec.n_frames, 20):
-        sock.send_multipart(P.encode(P.Frames("lj", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("lj", a, 0.0, rec.positions[a : a + 20])))
     sock.send_multipart(P.encode(P.End("lj")))
     sock.close(linger=5000)
     complete = seen + list(listen(early, stream="lj", until_end=True, timeout=30))
@@ -307,13 +399,15 @@ def test_late_joiner_gets_every_cut_of_the_stream(start_daemon, rec, capsys):
     lines = [json.loads(x) for x in (printed + capsys.readouterr().out).splitlines()]
     events = [x for x in lines if x["type"] != "state"]
     assert [e["seq"] for e in events] == [e.seq for e in complete]
-    assert [e["frame"] for e in events if e["type"] == "cut"] == \
-        [e.frame for e in complete if e.type == "cut"]
+    assert [e["frame"] for e in events if e["type"] == "cut"] == [
+        e.frame for e in complete if e.type == "cut"
+    ]
 
 
 def test_retention_by_size_and_age(tmp_path):
-    log = EventLog(tmp_path, max_bytes=200_000, max_age=3600, flush_interval=0.01,
-                   retention_interval=0.01)
+    log = EventLog(
+        tmp_path, max_bytes=200_000, max_age=3600, flush_interval=0.01, retention_interval=0.01
+    )
     body = b"x" * 1000
     for i in range(1, 2001):
         log.append("s", i, "cut", body)
@@ -354,7 +448,7 @@ def test_a_reannounced_stream_closes_before_the_new_take_publishes(start_daemon,
     for pos in (first, second):  # the second announce right behind the first take's frames
         sock.send_multipart(P.encode(announce_of(rec, "r")))
         for a in range(0, pos.shape[0], 50):
-            sock.send_multipart(P.encode(P.Frames("r", a, 0.0, pos[a:a + 50])))
+            sock.send_multipart(P.encode(P.Frames("r", a, 0.0, pos[a : a + 50])))
     sock.send_multipart(P.encode(P.End("r")))
     live = []
     for ev in listen(s, stream="r", timeout=60):
@@ -365,10 +459,8 @@ def test_a_reannounced_stream_closes_before_the_new_take_publishes(start_daemon,
     assert one[-1].reason == "reannounced" and two[-1].reason == "end"
     # each take's detector cuts are its own frames' (in the order a consumer applies them;
     # cuts a relabel announced are not provisional)
-    assert [e.frame for e in one if e.type == "cut" and e.provisional] == \
-        offline_cuts(rec, first)
-    assert [e.frame for e in two if e.type == "cut" and e.provisional] == \
-        offline_cuts(rec, second)
+    assert [e.frame for e in one if e.type == "cut" and e.provisional] == offline_cuts(rec, first)
+    assert [e.frame for e in two if e.type == "cut" and e.provisional] == offline_cuts(rec, second)
     assert [e for e in one if e.type == "segments"][-1].final
     finals = [e for e in two if e.type == "segments" and e.final]
     assert finals and finals[-1].end == second.shape[0]
@@ -432,7 +524,8 @@ def test_a_damaged_log_is_moved_aside_at_start(start_daemon, tmp_path, caplog):
     for suffix in ("", "-wal"):
         (state / f"events.sqlite{suffix}").unlink(missing_ok=True)
         (state / f"events.sqlite{suffix}").write_bytes(
-            (tmp_path / "w" / f"events.sqlite{suffix}").read_bytes())
+            (tmp_path / "w" / f"events.sqlite{suffix}").read_bytes()
+        )
     log.close()
     assert (state / "events.sqlite-wal").stat().st_size > 0
     damage(state / "events.sqlite")
@@ -443,8 +536,7 @@ def test_a_damaged_log_is_moved_aside_at_start(start_daemon, tmp_path, caplog):
         assert reply["ok"] and reply["events"] == [], reply
 
 
-def test_read_errors_name_the_file_and_retention_says_it_once(start_daemon, tmp_path,
-                                                               caplog):
+def test_read_errors_name_the_file_and_retention_says_it_once(start_daemon, tmp_path, caplog):
     """Pages damaged under a running daemon: `since` replies name the file (never "bad
     request"), an `error` event says it, the daemon goes on; retention's failures are
     logged once, not every pass."""
@@ -472,8 +564,11 @@ def test_read_errors_name_the_file_and_retention_says_it_once(start_daemon, tmp_
     while log.read_failed < 5:
         assert time.monotonic() < deadline
         time.sleep(0.01)
-    said = [r for r in caplog.records if "retention failed" in r.getMessage()
-            and str(log.path) in r.getMessage()]
+    said = [
+        r
+        for r in caplog.records
+        if "retention failed" in r.getMessage() and str(log.path) in r.getMessage()
+    ]
     assert len(said) == 1 and said[0].levelname == "ERROR"
     log.close()
 
@@ -486,8 +581,9 @@ def test_a_lost_tail_shows_in_the_heartbeat(start_daemon, rec):
     ctx = zmq.Context.instance()
     slow = ctx.socket(zmq.SUB)
     slow.setsockopt(zmq.RCVHWM, 1)
-    for prefix in P.subscriptions(stream="t") + P.subscriptions(stream="z") + \
-            [P.topic("stats", None)]:
+    for prefix in (
+        P.subscriptions(stream="t") + P.subscriptions(stream="z") + [P.topic("stats", None)]
+    ):
         slow.setsockopt(zmq.SUBSCRIBE, prefix)
     slow.connect(ep["publish"])
     pending = handshake(slow, ep["control"])
@@ -502,15 +598,14 @@ def test_a_lost_tail_shows_in_the_heartbeat(start_daemon, rec):
         holes.append((key, first, end))
         return fetch_since(ep["control"], key, first - 1, upto=end)
 
-    events = listen(slow, stream="t", until_end=True, timeout=20, pending=pending,
-                    on_hole=fill)
+    events = listen(slow, stream="t", until_end=True, timeout=20, pending=pending, on_hole=fill)
     head = next(e for e in events if getattr(e, "stream", None) == "t")
     assert head.type == "gap" and head.seq == 1  # received; from here on the SUB waits
     sock.send_multipart(P.encode(announce_of(rec, "z")))
     for a in range(0, 6000, 2):  # 3,000 gap events of another stream fill the queues
         sock.send_multipart(P.encode(P.Frames("z", a, 0.0, rec.positions[:1])))
     for a in range(4, 40, 2):  # the tail of stream t: gaps, then `closed`
-        sock.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a:a + 1])))
+        sock.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a : a + 1])))
     sock.send_multipart(P.encode(P.End("t")))
     sock.close(linger=5000)
     wait_closed(ep, "t")

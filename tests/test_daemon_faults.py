@@ -43,7 +43,7 @@ def good_stream(sock, rec, stream="good", step=20, between=None):
     """Send the recording as ``stream``; ``between(a)`` is called after each packet."""
     sock.send_multipart(P.encode(announce_of(rec, stream)))
     for a in range(0, rec.n_frames, step):
-        sock.send_multipart(P.encode(P.Frames(stream, a, 0.0, rec.positions[a:a + step])))
+        sock.send_multipart(P.encode(P.Frames(stream, a, 0.0, rec.positions[a : a + step])))
         if between is not None:
             between(a)
     sock.send_multipart(P.encode(P.End(stream)))
@@ -136,7 +136,7 @@ def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want)
     sock.send_multipart(P.encode(announce_of(rec, "holes")))
     for a in range(0, 2400, 10):
         if (a // 10) % 2 == 0:  # every other packet lost: 119 gaps
-            sock.send_multipart(P.encode(P.Frames("holes", a, 0.0, rec.positions[a:a + 10])))
+            sock.send_multipart(P.encode(P.Frames("holes", a, 0.0, rec.positions[a : a + 10])))
     sock.send_multipart(P.encode(P.End("holes")))
     good_stream(sock, rec)
     events = []
@@ -149,6 +149,7 @@ def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want)
     assert len(ghosts) < 50  # not one per id
     totals = request(ep["control"], "stats")["totals"]
     assert totals["errors_by_reason"]["unknown_stream"] == n_ids  # every one counted
+
     # the heartbeats' summaries (the loop beats between slices of the burst: one or more,
     # each with the count so far) come to every id that had no event of its own
     def pooled(e):
@@ -162,8 +163,7 @@ def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want)
     assert summed >= n_ids - len(ghosts)
     gaps = [e for e in events if e.type == "gap" and e.stream == "holes"]
     assert 1 <= len(gaps) < 119
-    gap_err = [e for e in events if e.type == "error" and e.stream == "holes"
-               and e.reason == "gap"]
+    gap_err = [e for e in events if e.type == "error" and e.stream == "holes" and e.reason == "gap"]
     assert gap_err and gap_err[-1].count == 119  # counted, summarised before `closed`
 
 
@@ -174,7 +174,7 @@ def test_alternating_gaps_relabel_without_errors(start_daemon, rec):
     sock.send_multipart(P.encode(announce_of(rec, "alt")))
     for a in range(0, rec.n_frames, 5):
         if (a // 5) % 2 == 0:
-            sock.send_multipart(P.encode(P.Frames("alt", a, 0.0, rec.positions[a:a + 5])))
+            sock.send_multipart(P.encode(P.Frames("alt", a, 0.0, rec.positions[a : a + 5])))
     sock.send_multipart(P.encode(P.End("alt")))
     events = list(listen(s, stream="alt", until_end=True, timeout=60))
     assert not [e for e in events if e.type == "error" and e.reason in ("relabel", "pipeline")]
@@ -194,20 +194,26 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
         if serving.is_set():  # a job of the stream, not the warm-up call before serving
             started.set()
             release.wait(60)  # the first job runs until the stop was asked
-        return relabel_window(features, start_frame=start_frame, fps=fps, config=ACAConfig(),
-                              previous=previous)
+        return relabel_window(
+            features, start_frame=start_frame, fps=fps, config=ACAConfig(), previous=previous
+        )
 
     # relabel_share = 1: no pause between jobs (with 0.25 the worker would rest 3x this job's
     # time); shutdown_relabel = 60: on a loaded machine the running job and the final one
     # may take more than the default 5 s bound, after which `closed` comes without them
-    d, ep = start_daemon(Algorithms(relabel=slow_relabel), relabel_interval=2.0,
-                         relabel_history=6.0, relabel_share=1.0, shutdown_relabel=60.0)
+    d, ep = start_daemon(
+        Algorithms(relabel=slow_relabel),
+        relabel_interval=2.0,
+        relabel_history=6.0,
+        relabel_share=1.0,
+        shutdown_relabel=60.0,
+    )
     serving.set()
     s = subscribe(ep["publish"], ep["control"], stream="good")
     sock = push(ep)
     sock.send_multipart(P.encode(announce_of(rec, "good")))
     for a in range(0, 3000, 20):
-        sock.send_multipart(P.encode(P.Frames("good", a, 0.0, rec.positions[a:a + 20])))
+        sock.send_multipart(P.encode(P.Frames("good", a, 0.0, rec.positions[a : a + 20])))
     assert started.wait(30)
 
     def taken_while_busy():
@@ -221,16 +227,18 @@ def test_stop_during_a_relabel_publishes_final_events(start_daemon, rec, tmp_pat
     assert events[-1].type == "closed" and events[-1].reason == "shutdown"
     assert [e for e in events if e.type == "segments" and e.final]
     assert events[-1].frames == 3000
+
     # the log file holds them (the daemon has stopped: read the SQLite file itself)
     def logged_types():
         con = sqlite3.connect(tmp_path / "state" / "events.sqlite")
-        types = [r[0] for r in con.execute(
-            "SELECT type FROM events WHERE stream = 'good' ORDER BY seq")]
+        types = [
+            r[0] for r in con.execute("SELECT type FROM events WHERE stream = 'good' ORDER BY seq")
+        ]
         con.close()
         return types if types and types[-1] == "closed" else None
 
     types = wait_until(logged_types, "the log file ends with the stream's closed")
-    assert types[-len(events):] == [e.type for e in events]
+    assert types[-len(events) :] == [e.type for e in events]
 
 
 def test_nan_and_garbage_keep_every_good_frame_with_the_log_on(start_daemon, rec, want):
@@ -266,7 +274,7 @@ def test_a_full_state_dir_is_reported_and_the_stream_goes_on(start_daemon, rec):
     sock.send_multipart(P.encode(announce_of(rec, "full")))
     for a in range(0, rec.n_frames, 5):  # every other packet lost: hundreds of gap events
         if (a // 5) % 2 == 0:
-            sock.send_multipart(P.encode(P.Frames("full", a, 0.0, rec.positions[a:a + 5])))
+            sock.send_multipart(P.encode(P.Frames("full", a, 0.0, rec.positions[a : a + 5])))
     seen = {}
     for ev in listen(errors, timeout=30):
         if ev.stream is None and ev.reason in ("event_log", "checkpoint"):

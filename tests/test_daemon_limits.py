@@ -35,8 +35,9 @@ def want(rec):
 
 
 def frame_of(ep, stream, **kw):
-    return {s["stream"]: s["frame"]
-            for s in request(ep["control"], "streams", **kw)["streams"]}.get(stream)
+    return {
+        s["stream"]: s["frame"] for s in request(ep["control"], "streams", **kw)["streams"]
+    }.get(stream)
 
 
 def test_the_control_token_is_private_and_its_file_mode_0600(start_daemon):
@@ -61,7 +62,7 @@ def test_another_local_user_cannot_stop_the_daemon_or_take_a_stream(start_daemon
     half = 2000
     own.send_multipart(P.encode(announce_of(rec, "mine")))
     for a in range(0, half, 20):
-        own.send_multipart(P.encode(P.Frames("mine", a, 0.0, rec.positions[a:a + 20])))
+        own.send_multipart(P.encode(P.Frames("mine", a, 0.0, rec.positions[a : a + 20])))
     wait_until(lambda: frame_of(ep, "mine") == half, "the first half taken")
 
     def stranger(ctx):
@@ -94,7 +95,7 @@ def test_another_local_user_cannot_stop_the_daemon_or_take_a_stream(start_daemon
     assert "belongs to the client that announced it" in refused[0].message
     assert not d._stop.is_set()
     for a in range(half, rec.n_frames, 20):
-        own.send_multipart(P.encode(P.Frames("mine", a, 0.0, rec.positions[a:a + 20])))
+        own.send_multipart(P.encode(P.Frames("mine", a, 0.0, rec.positions[a : a + 20])))
     own.send_multipart(P.encode(P.End("mine")))
     own.close(linger=20000)
     events += listen(sub.sock, stream="mine", until_end=True, timeout=60)
@@ -117,8 +118,9 @@ def test_a_killed_senders_stream_is_taken_over_by_this_users_replay(start_daemon
     first.close(linger=0)
     sub = subscribe(ep["publish"], ep["control"], stream="take")
     replay(rec, ep["ingest"], stream="take", speed=0, batch=50, wait=60)
-    events = list(listen(sub.sock, pending=sub.pending, stream="take", until_end=True,
-                         timeout=60))  # to the old take's `closed`
+    events = list(
+        listen(sub.sock, pending=sub.pending, stream="take", until_end=True, timeout=60)
+    )  # to the old take's `closed`
     events += listen(sub.sock, stream="take", until_end=True, timeout=60)
     closed = [e for e in events if e.type == "closed"]
     assert [e.reason for e in closed] == ["reannounced", "end"]
@@ -141,24 +143,28 @@ def test_one_process_announce_flood_leaves_room_for_another(start_daemon, rec, w
         return {}
 
     assert in_child(flood, other_user=False) == {}
-    wait_until(lambda: request(ep["control"], "stats")["totals"]["errors_by_reason"]
-               .get("quota", 0) == 9990, "the flood taken", timeout=300)
+    wait_until(
+        lambda: (
+            request(ep["control"], "stats")["totals"]["errors_by_reason"].get("quota", 0) == 9990
+        ),
+        "the flood taken",
+        timeout=300,
+    )
     sub = subscribe(ep["publish"], ep["control"], stream="good")
     replay(rec, ep["ingest"], stream="good", speed=0, batch=50, wait=60)
-    events = list(listen(sub.sock, pending=sub.pending, stream="good", until_end=True,
-                         timeout=60))
+    events = list(listen(sub.sock, pending=sub.pending, stream="good", until_end=True, timeout=60))
     assert [e.frame for e in events if e.type == "cut"] == want
     assert not [e for e in events if e.type == "error"]
     assert len(request(ep["control"], "streams")["streams"]) == 10
 
 
-def test_with_curve_a_second_key_cannot_end_the_first_keys_stream(start_daemon, tmp_path,
-                                                                  rec, capsys):
+def test_with_curve_a_second_key_cannot_end_the_first_keys_stream(
+    start_daemon, tmp_path, rec, capsys
+):
     assert main(["keys", str(tmp_path / "keys"), "--clients", "2"]) == 0
     capsys.readouterr()
     d, ep = start_daemon(curve_dir=str(tmp_path / "keys"))
-    me, other = ClientKeys.load(tmp_path / "keys"), ClientKeys.load(tmp_path / "keys",
-                                                                      "client2")
+    me, other = ClientKeys.load(tmp_path / "keys"), ClientKeys.load(tmp_path / "keys", "client2")
     sub = subscribe(ep["publish"], ep["control"], stream="k", curve=me)
     ctx = zmq.Context.instance()
     socks = {}
@@ -184,7 +190,7 @@ def test_with_curve_a_second_key_cannot_end_the_first_keys_stream(start_daemon, 
     me.apply(again)
     again.connect(ep["ingest"])
     for a in range(2000, rec.n_frames, 100):
-        again.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + 100])))
+        again.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + 100])))
     again.send_multipart(P.encode(P.End("k")))
     again.close(linger=20000)
     socks["other"].close(linger=0)
@@ -199,22 +205,42 @@ def test_ipv6_loopback(start_daemon, rec, want):
     assert ep["ingest"].startswith("tcp://[::1]:")
     sub = subscribe(ep["publish"], ep["control"], stream="six")
     replay(rec, ep["ingest"], stream="six", speed=0, batch=50, wait=60)
-    events = list(listen(sub.sock, pending=sub.pending, stream="six", until_end=True,
-                         timeout=60))
+    events = list(listen(sub.sock, pending=sub.pending, stream="six", until_end=True, timeout=60))
     assert [e.frame for e in events if e.type == "cut"] == want
 
 
 def _serve(tmp_path, *flags, tcp=False):
     """A `streamseg serve` subprocess on ipc endpoints (``tcp``: on TCP loopback, free ports,
     the default transport); ``(process, endpoints)``."""
-    ep = {k: "tcp://127.0.0.1:0" if tcp else f"ipc://{tmp_path}/{k}"
-          for k in ("ingest", "publish", "control")}
+    ep = {
+        k: "tcp://127.0.0.1:0" if tcp else f"ipc://{tmp_path}/{k}"
+        for k in ("ingest", "publish", "control")
+    }
     proc = subprocess.Popen(
-        [sys.executable, "-c", "import sys; from streamseg.cli import main; "
-         "sys.exit(main(sys.argv[1:]))", "serve", "--ingest", ep["ingest"], "--publish",
-         ep["publish"], "--control", ep["control"], "--state-dir", "none",
-         "--relabel-interval", "0", "--heartbeat", "0", "--log-level", "ERROR", *flags],
-        stdout=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-c",
+            "import sys; from streamseg.cli import main; sys.exit(main(sys.argv[1:]))",
+            "serve",
+            "--ingest",
+            ep["ingest"],
+            "--publish",
+            ep["publish"],
+            "--control",
+            ep["control"],
+            "--state-dir",
+            "none",
+            "--relabel-interval",
+            "0",
+            "--heartbeat",
+            "0",
+            "--log-level",
+            "ERROR",
+            *flags,
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     line = proc.stdout.readline()  # the endpoints line: bound (ports resolved)
     ep.update(kv.split("=", 1) for kv in line.split()[2:] if "=" in kv)
     return proc, ep
@@ -226,16 +252,18 @@ def _status(pid, key) -> int:
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/clear_refs"), reason="needs Linux /proc")
-def test_a_flood_of_large_valid_packets_keeps_memory_within_the_byte_budget(tmp_path, rec,
-                                                                           warm_kernels):
+def test_a_flood_of_large_valid_packets_keeps_memory_within_the_byte_budget(
+    tmp_path, rec, warm_kernels
+):
     """100 valid packets of 12,000 frames (8.9 MB each, 890 MB) sent as fast as the daemon
     takes them: its resident memory grows by at most the budget (160 MiB: ZeroMQ's queue and
     the loop's) plus the pipeline's working copies of one drain (a quarter of the budget
     and one packet, concatenated and converted: twice that). Before, the queue was bounded
     in packets (2,000) and held what the sender was ahead (60 packets: 355-380 MiB)."""
     budget, largest = 160 << 20, 16 << 20
-    proc, ep = _serve(tmp_path, "--ingest-bytes", str(budget), "--max-message-bytes",
-                      str(largest), tcp=True)
+    proc, ep = _serve(
+        tmp_path, "--ingest-bytes", str(budget), "--max-message-bytes", str(largest), tcp=True
+    )
     try:
         wait_until(lambda: _ping(ep), "the daemon answers", timeout=300)
         push = zmq.Context.instance().socket(zmq.PUSH)
@@ -250,10 +278,12 @@ def test_a_flood_of_large_valid_packets_keeps_memory_within_the_byte_budget(tmp_
         packets = 100
         for k in range(1, packets + 1):
             a = k * n
-            push.send_multipart(P.encode(P.Frames("big", a, 0.0,
-                                                  rec.positions[(a + idx) % rec.n_frames])))
-        wait_until(lambda: frame_of(ep, "big") == (packets + 1) * n, "every packet taken",
-                   timeout=600)
+            push.send_multipart(
+                P.encode(P.Frames("big", a, 0.0, rec.positions[(a + idx) % rec.n_frames]))
+            )
+        wait_until(
+            lambda: frame_of(ep, "big") == (packets + 1) * n, "every packet taken", timeout=600
+        )
         growth = _status(proc.pid, "VmHWM") - base
         totals = request(ep["control"], "stats")["totals"]
         push.close(linger=0)
@@ -271,8 +301,7 @@ def _ping(ep) -> bool:
         return False
 
 
-def test_many_large_senders_all_get_through_within_the_memory_bound(tmp_path, rec,
-                                                                    warm_kernels):
+def test_many_large_senders_all_get_through_within_the_memory_bound(tmp_path, rec, warm_kernels):
     """8 connections send 8.9 MB packets at once, as fast as the daemon takes them: every
     packet is taken (a bound lowered on the open connections once stalled them for good in
     libzmq 4.3.5, and changing it killed the daemon), and the daemon's resident memory grows
@@ -292,8 +321,10 @@ def test_many_large_senders_all_get_through_within_the_memory_bound(tmp_path, re
             s.connect(ep["ingest"])
             s.send_multipart(P.encode(announce_of(rec, f"big{k}")))
             socks.append(s)
-        wait_until(lambda: request(ep["control"], "stats")["totals"]["streams"] == senders,
-                   "every stream announced")
+        wait_until(
+            lambda: request(ep["control"], "stats")["totals"]["streams"] == senders,
+            "every stream announced",
+        )
         base = _status(proc.pid, "VmRSS")
         with open(f"/proc/{proc.pid}/clear_refs", "w") as fh:
             fh.write("5")  # VmHWM := VmRSS: the peak from here on
@@ -304,8 +335,14 @@ def test_many_large_senders_all_get_through_within_the_memory_bound(tmp_path, re
             size = pos.nbytes
             for k, s in enumerate(socks):
                 s.send_multipart(P.encode(P.Frames(f"big{k}", a, 0.0, pos)))
-        totals = wait_until(lambda: (t := request(ep["control"], "stats")["totals"])["frames"]
-                            == senders * packets * n and t, "every packet taken", timeout=600)
+        totals = wait_until(
+            lambda: (
+                (t := request(ep["control"], "stats")["totals"])["frames"] == senders * packets * n
+                and t
+            ),
+            "every packet taken",
+            timeout=600,
+        )
         growth = _status(proc.pid, "VmHWM") - base
         for s in socks:
             s.close(linger=0)
@@ -318,8 +355,9 @@ def test_many_large_senders_all_get_through_within_the_memory_bound(tmp_path, re
     assert growth <= bound, f"grew {growth >> 20} MiB, bound {bound >> 20} MiB"
 
 
-def test_senders_that_close_right_after_large_packets_do_not_kill_the_daemon(tmp_path, rec,
-                                                                             warm_kernels):
+def test_senders_that_close_right_after_large_packets_do_not_kill_the_daemon(
+    tmp_path, rec, warm_kernels
+):
     """60 connections one after the other, each a take of 500 frames in 100-frame packets
     (74 kB), its end, and the connection closed at once, as `streamseg replay --batch 100`
     does. The daemon died of SIGSEGV here (2 runs of 5 of the whole suite) while it changed
@@ -335,12 +373,16 @@ def test_senders_that_close_right_after_large_packets_do_not_kill_the_daemon(tmp
             s.connect(ep["ingest"])
             s.send_multipart(P.encode(announce_of(rec, f"s{k}")))
             for a in range(0, frames, step):
-                s.send_multipart(P.encode(P.Frames(f"s{k}", a, 0.0,
-                                                   rec.positions[a:a + step])))
+                s.send_multipart(P.encode(P.Frames(f"s{k}", a, 0.0, rec.positions[a : a + step])))
             s.send_multipart(P.encode(P.End(f"s{k}")))
             s.close()  # its linger hands the packets over, then the connection ends
-        totals = wait_until(lambda: (t := request(ep["control"], "stats")["totals"])["frames"]
-                            == senders * frames and t, "every frame taken", timeout=300)
+        totals = wait_until(
+            lambda: (
+                (t := request(ep["control"], "stats")["totals"])["frames"] == senders * frames and t
+            ),
+            "every frame taken",
+            timeout=300,
+        )
         assert proc.poll() is None
     finally:
         proc.terminate()

@@ -45,8 +45,9 @@ def test_chunking_and_gaps_keep_stream_frames(rec):
     got += [(f, e) for f, _, e, _ in p.finish()]
     assert got == want
     feats, frames = p.snapshot()
-    assert feats.shape == (600, 17) and np.array_equal(frames, np.arange(rec.n_frames - 600,
-                                                                        rec.n_frames))
+    assert feats.shape == (600, 17) and np.array_equal(
+        frames, np.arange(rec.n_frames - 600, rec.n_frames)
+    )
     assert np.allclose(feats, ref[-600:, :17], atol=1e-6)  # float32 ring, no root speeds
 
 
@@ -62,9 +63,11 @@ def test_nan_frames_are_skipped_in_the_ring_and_mapped_back(rec):
 
     def fake(features, *, start_frame, fps, config, previous):
         n = features.shape[0]  # rows, not frames: two segments split at row 100
-        return WindowSegmentation(start_frame, start_frame + n,
-                                  [(start_frame, start_frame + 100, 0),
-                                   (start_frame + 100, start_frame + n, 1)])
+        return WindowSegmentation(
+            start_frame,
+            start_frame + n,
+            [(start_frame, start_frame + 100, 0), (start_frame + 100, start_frame + n, 1)],
+        )
 
     out = relabel(Algorithms(relabel=fake), feats, frames, 120.0, None)
     assert (out.start, out.end) == (0, 400)
@@ -87,13 +90,13 @@ def test_labels_stay_stable_across_missing_frames():
 
     def one_cluster(features, *, start_frame, fps, config, previous):
         n = features.shape[0]
-        return WindowSegmentation(start_frame, start_frame + n, [(start_frame, start_frame + n,
-                                                                  0)])
+        return WindowSegmentation(start_frame, start_frame + n, [(start_frame, start_frame + n, 0)])
 
     algorithms = Algorithms(relabel=one_cluster)
     frames1 = np.concatenate([np.arange(0, 100), np.arange(200, 300)])
-    first = relabel(algorithms, np.zeros((200, 8)), frames1, 120.0,
-                    WindowSegmentation(0, 300, [(0, 300, 5)]))
+    first = relabel(
+        algorithms, np.zeros((200, 8)), frames1, 120.0, WindowSegmentation(0, 300, [(0, 300, 5)])
+    )
     assert {lab for _, _, lab in first.segments} == {5}
     second = relabel(algorithms, np.zeros((200, 8)), np.arange(200, 400), 120.0, first.window)
     assert second.segments == ((200, 400, 5),)
@@ -150,11 +153,19 @@ def test_warmup_compiles_everything_a_stream_runs(data_dir):
     import sys
     from pathlib import Path
 
-    out = subprocess.run([sys.executable, "-c", _WARM_THEN_STREAM,
-                          str(data_dir / "cmu86" / "86_01.amc.gz"),
-                          str(data_dir / "cmu86" / "86.asf")],
-                         capture_output=True, text=True, cwd=Path(__file__).parents[1],
-                         check=True)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            _WARM_THEN_STREAM,
+            str(data_dir / "cmu86" / "86_01.amc.gz"),
+            str(data_dir / "cmu86" / "86.asf"),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=Path(__file__).parents[1],
+        check=True,
+    )
     got = json.loads(out.stdout.splitlines()[-1])
     assert got["cuts"] > 0, "the take has cuts: the cut path ran"
     assert got["after"] == got["before"]

@@ -33,9 +33,21 @@ def offline_cuts(rec, positions):
 
 
 def serve(toml):
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "serve", "--config",
-                             str(toml), "--log-level", "WARNING"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "serve",
+            "--config",
+            str(toml),
+            "--log-level",
+            "WARNING",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert proc.stdout.readline().startswith("streamseg serve: ingest=")
     return proc
 
@@ -52,9 +64,16 @@ def wait_ping(ep, proc, timeout=60):
 
 
 def wait_frame(ep, stream, frame, timeout=30):
-    wait_until(lambda: {s["stream"]: s["frame"] for s in request(ep["control"], "streams")
-                        ["streams"]}.get(stream) == frame,
-               f"{stream} reached frame {frame}", timeout)
+    wait_until(
+        lambda: (
+            {s["stream"]: s["frame"] for s in request(ep["control"], "streams")["streams"]}.get(
+                stream
+            )
+            == frame
+        ),
+        f"{stream} reached frame {frame}",
+        timeout,
+    )
 
 
 def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
@@ -62,10 +81,12 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
     ep = {k: f"ipc://{tmp_path}/{k}" for k in ("ingest", "publish", "control")}
     state = tmp_path / "state"
     toml = tmp_path / "d.toml"
-    toml.write_text(f'[daemon]\ningest = "{ep["ingest"]}"\npublish = "{ep["publish"]}"\n'
-                    f'control = "{ep["control"]}"\nrelabel_interval = 2.0\n'
-                    f'relabel_history = 8.0\nheartbeat = 0\nstate_dir = "{state}"\n'
-                    'checkpoint_interval = 0.5\n')
+    toml.write_text(
+        f'[daemon]\ningest = "{ep["ingest"]}"\npublish = "{ep["publish"]}"\n'
+        f'control = "{ep["control"]}"\nrelabel_interval = 2.0\n'
+        f'relabel_history = 8.0\nheartbeat = 0\nstate_dir = "{state}"\n'
+        "checkpoint_interval = 0.5\n"
+    )
     first = serve(toml)
     second = None
     listened = {}
@@ -74,9 +95,26 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         s = subscriber(ep["publish"], stream="k")
         # a listener that stays on across the crash: it must end with every logged event
         capsys.readouterr()
-        lis = threading.Thread(target=lambda: listened.setdefault("rc", main(
-            ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "k",
-             "--jsonl", "--until-end", "--timeout", "90"])))
+        lis = threading.Thread(
+            target=lambda: listened.setdefault(
+                "rc",
+                main(
+                    [
+                        "listen",
+                        "--from",
+                        ep["publish"],
+                        "--control",
+                        ep["control"],
+                        "--stream",
+                        "k",
+                        "--jsonl",
+                        "--until-end",
+                        "--timeout",
+                        "90",
+                    ]
+                ),
+            )
+        )
         lis.start()
         printed = ""
 
@@ -93,11 +131,11 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         push.send_multipart(P.encode(announce_of(rec, "k")))
         step, mid, crash = 20, 2000, 2400
         for a in range(0, mid, step):
-            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + step])))
+            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + step])))
         wait_frame(ep, "k", mid)
         assert request(ep["control"], "checkpoint")["ok"]
         for a in range(mid, crash, step):
-            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + step])))
+            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + step])))
         wait_frame(ep, "k", crash)
         before = []
         while s.poll(500):  # every event of the first daemon has been published by now
@@ -114,7 +152,7 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         assert restored["k"]["frame"] == ckpt  # resumed, no re-announce needed
         t_restart = time.monotonic()
         for a in range(crash, rec.n_frames, step):  # the same sender keeps sending
-            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + step])))
+            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + step])))
         push.send_multipart(P.encode(P.End("k")))
         # the second daemon's events from its log, once `closed` is there (the SUB socket's
         # reconnection to the new process is ZeroMQ's business and may come late: a listener
@@ -132,8 +170,9 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         # lost, except the first daemon's cuts decided after the checkpoint
         ref = rec.positions.copy()
         ref[ckpt:crash] = np.nan
-        got = [e.frame for e in before if e.type == "cut" and e.emitted_at < ckpt] + \
-              [e.frame for e in after if e.type == "cut"]
+        got = [e.frame for e in before if e.type == "cut" and e.emitted_at < ckpt] + [
+            e.frame for e in after if e.type == "cut"
+        ]
         assert got == offline_cuts(rec, ref)
         segs = [e for e in after if e.type == "segments"]
         assert segs and segs[-1].final and segs[-1].end == rec.n_frames
@@ -142,7 +181,7 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
         # the log holds both daemons' events; the closed stream's checkpoint is gone
         logged = fetch_since(ep["control"], "k", 0)
-        assert [e.seq for e in logged][-len(after):] == [e.seq for e in after]
+        assert [e.seq for e in logged][-len(after) :] == [e.seq for e in after]
         # the listener: every logged event once, in order, and the restart's skip said as
         # numbers never logged (not as events it failed to fetch)
         lis.join(60)
@@ -168,8 +207,11 @@ def config(tmp_path, **extra):
     ep = {k: f"ipc://{tmp_path}/{k}" for k in ("ingest", "publish", "control")}
     state = tmp_path / "state"
     toml = tmp_path / "d.toml"
-    lines = [f'{k} = "{v}"' for k, v in ep.items()] + [f'state_dir = "{state}"'] + \
-        [f"{k} = {v}" for k, v in extra.items()]
+    lines = (
+        [f'{k} = "{v}"' for k, v in ep.items()]
+        + [f'state_dir = "{state}"']
+        + [f"{k} = {v}" for k, v in extra.items()]
+    )
     toml.write_text("[daemon]\n" + "\n".join(lines) + "\n")
     return ep, state, toml
 
@@ -192,8 +234,9 @@ class Sender(threading.Thread):
         while not self.stopping.is_set():
             idx = np.arange(a, a + 20) % n
             try:
-                push.send_multipart(P.encode(P.Frames(self.stream, a, 0.0,
-                                                      self.rec.positions[idx])))
+                push.send_multipart(
+                    P.encode(P.Frames(self.stream, a, 0.0, self.rec.positions[idx]))
+                )
                 a += 20
             except zmq.Again:  # the daemon is down: the packet is lost, as a sender's is
                 a += 20
@@ -204,8 +247,9 @@ class Sender(threading.Thread):
 def test_every_event_seen_live_is_in_the_log_after_kill9(tmp_path, rec):
     """kill -9 right after a subscriber received an event, three times: each event it saw
     is in the log afterwards, with its number (events are published once committed)."""
-    ep, state, toml = config(tmp_path, relabel_interval=1.0, relabel_history=8.0,
-                             heartbeat=0, checkpoint_interval=0.2)
+    ep, state, toml = config(
+        tmp_path, relabel_interval=1.0, relabel_history=8.0, heartbeat=0, checkpoint_interval=0.2
+    )
     rng = np.random.default_rng(37)
     sub = subscriber(ep["publish"])
     sender = Sender(ep, rec)
@@ -215,8 +259,10 @@ def test_every_event_seen_live_is_in_the_log_after_kill9(tmp_path, rec):
         wait_ping(ep, proc)
         sender.start()
         # a checkpoint of the stream first, so each restart resumes it
-        wait_until(lambda: request(ep["control"], "stats")["totals"].get("checkpoints_written"),
-                   "a checkpoint written")
+        wait_until(
+            lambda: request(ep["control"], "stats")["totals"].get("checkpoints_written"),
+            "a checkpoint written",
+        )
         for _ in range(3):
             want = int(rng.integers(1, 15))
             got = 0
@@ -248,8 +294,7 @@ def test_every_event_seen_live_is_in_the_log_after_kill9(tmp_path, rec):
 def quiet_daemon(tmp_path, rec, stream):
     """``(endpoints, toml, process, PUSH socket)``: a daemon without relabels or heartbeats
     whose periodic checkpoint does not come in a test's time, ``stream`` announced."""
-    ep, state, toml = config(tmp_path, relabel_interval=0, heartbeat=0,
-                             checkpoint_interval=60.0)
+    ep, state, toml = config(tmp_path, relabel_interval=0, heartbeat=0, checkpoint_interval=60.0)
     proc = serve(toml)
     wait_ping(ep, proc)
     push = zmq.Context.instance().socket(zmq.PUSH)
@@ -276,19 +321,35 @@ def test_listen_since_0_says_numbers_skipped_at_a_restart(tmp_path, rec, capsys)
         # libzmq 4.3.5 can crash on that as this connection ends (docs/decisions.md, Ingest
         # memory: an open defect, reproduced by benchmarks/daemon_faults.py)
         for a in range(200, rec.n_frames, 50):
-            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + 50])))
+            push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + 50])))
         push.send_multipart(P.encode(P.End("k")))
         push.close(linger=5000)
         deadline = time.monotonic() + 60
-        while not (logged := fetch_since(ep["control"], "k", 0)) or \
-                logged[-1].type != "closed":
+        while not (logged := fetch_since(ep["control"], "k", 0)) or logged[-1].type != "closed":
             assert time.monotonic() < deadline
             time.sleep(0.02)
         assert logged[0].seq == P.SEQ_SKIP + 1 and logged[-1].type == "closed"
         capsys.readouterr()
-        assert main(["listen", "--from", ep["publish"], "--control", ep["control"],
-                     "--stream", "k", "--since", "0", "--until-end", "--jsonl",
-                     "--timeout", "30"]) == 0
+        assert (
+            main(
+                [
+                    "listen",
+                    "--from",
+                    ep["publish"],
+                    "--control",
+                    ep["control"],
+                    "--stream",
+                    "k",
+                    "--since",
+                    "0",
+                    "--until-end",
+                    "--jsonl",
+                    "--timeout",
+                    "30",
+                ]
+            )
+            == 0
+        )
         out, err = capsys.readouterr()
         assert f"numbers 1..{P.SEQ_SKIP} of stream k were skipped at a restart" in err, err
         assert "retention" not in err
@@ -307,7 +368,7 @@ def test_a_take_the_crash_ended_is_closed_at_restart(tmp_path, rec):
     ep, toml, proc, push = quiet_daemon(tmp_path, rec, "x")
     try:
         for a in range(0, 2000, 100):
-            push.send_multipart(P.encode(P.Frames("x", a, 0.0, rec.positions[a:a + 100])))
+            push.send_multipart(P.encode(P.Frames("x", a, 0.0, rec.positions[a : a + 100])))
         wait_frame(ep, "x", 2000)
         before = wait_until(lambda: fetch_since(ep["control"], "x", 0), "a cut of the take logged")
         proc.send_signal(signal.SIGKILL)

@@ -39,10 +39,12 @@ def secure_daemon(keys, start_daemon):
 
 def handshake(sock, endpoint) -> int:
     """Connect ``sock`` and return the first handshake outcome its monitor reports."""
-    mon = sock.get_monitor_socket(zmq.EVENT_HANDSHAKE_SUCCEEDED
-                                  | zmq.EVENT_HANDSHAKE_FAILED_AUTH
-                                  | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
-                                  | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL)
+    mon = sock.get_monitor_socket(
+        zmq.EVENT_HANDSHAKE_SUCCEEDED
+        | zmq.EVENT_HANDSHAKE_FAILED_AUTH
+        | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+        | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL
+    )
     sock.connect(endpoint)
     try:
         assert mon.poll(20000), "no handshake event"
@@ -96,13 +98,51 @@ def test_curve_end_to_end_and_a_stranger_is_refused(secure_daemon, keys, rec, tm
 
 def test_cli_replay_and_listen_take_keys(secure_daemon, keys, data_dir, capsys, tmp_path):
     d, ep = secure_daemon(state_dir=str(tmp_path / "state"))
-    files = [str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
-             str(data_dir / "cmu86" / "86.asf")]
-    assert main(["replay", *files, "--to", ep["ingest"], "--speed", "0", "--batch", "50",
-                 "--stream", "k", "--curve-dir", str(keys)]) == 0
-    assert main(["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "k",
-                 "--since", "0", "--curve-dir", str(keys), "--until-end", "--timeout",
-                 "30"]) == 0
+    files = [
+        str(data_dir / "cmu86" / "86_01.amc.gz"),
+        "--skeleton",
+        str(data_dir / "cmu86" / "86.asf"),
+    ]
+    assert (
+        main(
+            [
+                "replay",
+                *files,
+                "--to",
+                ep["ingest"],
+                "--speed",
+                "0",
+                "--batch",
+                "50",
+                "--stream",
+                "k",
+                "--curve-dir",
+                str(keys),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "listen",
+                "--from",
+                ep["publish"],
+                "--control",
+                ep["control"],
+                "--stream",
+                "k",
+                "--since",
+                "0",
+                "--curve-dir",
+                str(keys),
+                "--until-end",
+                "--timeout",
+                "30",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     assert "sent 4579 frames" in printed and "closed   (end)" in printed
     assert "] cut " in printed
@@ -123,8 +163,22 @@ def test_non_loopback_bind_needs_curve_or_insecure(keys):
 
 
 def test_cli_refuses_a_public_bind_in_one_line(capsys):
-    assert main(["serve", "--ingest", "tcp://0.0.0.0:0", "--publish", LOOP, "--control",
-                 LOOP, "--state-dir", "none"]) == 2
+    assert (
+        main(
+            [
+                "serve",
+                "--ingest",
+                "tcp://0.0.0.0:0",
+                "--publish",
+                LOOP,
+                "--control",
+                LOOP,
+                "--state-dir",
+                "none",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--insecure" in err[0]
 
@@ -171,12 +225,22 @@ def test_the_view_follows_a_curve_daemon_with_keys(secure_daemon, keys, rec):
     view = ViewThread(ep["publish"], ep["control"], poll=0.2, curve=me)
     url = view.start()
     try:
-        replay(rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]), ep["ingest"],
-               stream="seen", speed=0, batch=50, curve=me, wait=20, end=False)
+        replay(
+            rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]),
+            ep["ingest"],
+            stream="seen",
+            speed=0,
+            batch=50,
+            curve=me,
+            wait=20,
+            end=False,
+        )
         deadline = time.monotonic() + 30
         while True:  # the page's stream list, as a browser polls it
-            rows = {r["stream"]: r for r in
-                    json.load(urllib.request.urlopen(url + "api/streams"))["rows"]}
+            rows = {
+                r["stream"]: r
+                for r in json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
+            }
             if rows.get("seen", {}).get("frame") == 600:
                 break
             assert time.monotonic() < deadline, f"the view never saw the stream: {rows}"
@@ -185,31 +249,57 @@ def test_the_view_follows_a_curve_daemon_with_keys(secure_daemon, keys, rec):
         view.stop()
 
 
-def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, tmp_path,
-                                            capsys):
+def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, tmp_path, capsys):
     d, ep = secure_daemon()
     generate(tmp_path / "stranger")
     stranger = tmp_path / "stranger"
     (stranger / "server.key").write_bytes((keys / "server.key").read_bytes())
-    args = ["listen", "--from", ep["publish"], "--control", ep["control"], "--stream", "x",
-            "--count", "1"]
-    for extra, why in (([], "it has CURVE on"),
-                       (["--curve-dir", str(stranger)], "refused this client's CURVE key")):
+    args = [
+        "listen",
+        "--from",
+        ep["publish"],
+        "--control",
+        ep["control"],
+        "--stream",
+        "x",
+        "--count",
+        "1",
+    ]
+    for extra, why in (
+        ([], "it has CURVE on"),
+        (["--curve-dir", str(stranger)], "refused this client's CURVE key"),
+    ):
         assert main(args + extra) == 1
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0], err
     # without --control only the SUB socket is there to notice: it says so too, at once
     # (before, it waited for events: here until the timeout, with the timeout's message)
     sub_only = ["listen", "--from", ep["publish"], "--count", "1", "--timeout", "30"]
-    for extra, why in (([], "it has CURVE on"),
-                       (["--curve-dir", str(stranger)], "refused this client's CURVE key")):
+    for extra, why in (
+        ([], "it has CURVE on"),
+        (["--curve-dir", str(stranger)], "refused this client's CURVE key"),
+    ):
         assert main(sub_only + extra) == 1
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and why in err[0], err
     # CURVE keys given to a daemon without CURVE
     _, plain = start_daemon(heartbeat=0)
-    assert main(["listen", "--from", plain["publish"], "--control", plain["control"],
-                 "--count", "1", "--curve-dir", str(keys)]) == 1
+    assert (
+        main(
+            [
+                "listen",
+                "--from",
+                plain["publish"],
+                "--control",
+                plain["control"],
+                "--count",
+                "1",
+                "--curve-dir",
+                str(keys),
+            ]
+        )
+        == 1
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "refused the security handshake" in err[0], err
     assert not d._stop.is_set()
@@ -236,8 +326,7 @@ class _RefusedFirstContext(zmq.Context):
     _socket_class = _RefusedFirst
 
 
-def test_a_key_refused_before_the_request_is_sent_is_said_at_once(secure_daemon, keys,
-                                                                    tmp_path):
+def test_a_key_refused_before_the_request_is_sent_is_said_at_once(secure_daemon, keys, tmp_path):
     """The refusal of a stranger's key can come before :func:`request` sends (a loaded
     machine): it is still said, not waited out as a timeout (a blocking send did that: the
     refused connection takes no message, and the monitor that said why was not read)."""

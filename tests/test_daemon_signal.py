@@ -24,12 +24,26 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
     rec = read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     ep = {k: f"ipc://{tmp_path}/{k}" for k in ("ingest", "publish", "control")}
     toml = tmp_path / "d.toml"
-    toml.write_text(f'[daemon]\ningest = "{ep["ingest"]}"\npublish = "{ep["publish"]}"\n'
-                    f'control = "{ep["control"]}"\nrelabel_interval = 2.0\n'
-                    'relabel_history = 8.0\nheartbeat = 0.5\n')
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "serve", "--config",
-                             str(toml), "--log-level", "WARNING"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    toml.write_text(
+        f'[daemon]\ningest = "{ep["ingest"]}"\npublish = "{ep["publish"]}"\n'
+        f'control = "{ep["control"]}"\nrelabel_interval = 2.0\n'
+        "relabel_history = 8.0\nheartbeat = 0.5\n"
+    )
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "serve",
+            "--config",
+            str(toml),
+            "--log-level",
+            "WARNING",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert proc.stdout.readline().startswith("streamseg serve: ingest=")
         deadline = time.monotonic() + 30
@@ -46,10 +60,12 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
         push.send_multipart(P.encode(announce_of(rec, "t")))
         n = 3000  # mid-stream: no end message
         for a in range(0, n, 30):
-            push.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a:a + 30])))
+            push.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a : a + 30])))
         push.close()
-        wait_until(lambda: request(ep["control"], "state", stream="t").get("frame", -1) >= n,
-                   f"the daemon took the {n} frames")
+        wait_until(
+            lambda: request(ep["control"], "state", stream="t").get("frame", -1) >= n,
+            f"the daemon took the {n} frames",
+        )
         proc.send_signal(signal.SIGTERM)
         events = list(listen(s, stream="t", until_end=True, timeout=20))
         assert proc.wait(20) == 0

@@ -47,9 +47,15 @@ def wait_subscribers(pub, n: int) -> None:
 
 def events_until_closed(ep, stream):
     """The stream's events from the log, once its ``closed`` is there."""
-    return wait_until(lambda: (events := fetch_since(ep["control"], stream, 0))
-                      and events[-1].type == "closed" and events, f"{stream} closed",
-                      timeout=120)
+    return wait_until(
+        lambda: (
+            (events := fetch_since(ep["control"], stream, 0))
+            and events[-1].type == "closed"
+            and events
+        ),
+        f"{stream} closed",
+        timeout=120,
+    )
 
 
 def test_a_publisher_started_after_the_daemon_gives_the_offline_cuts(start_daemon, rec, tmp_path):
@@ -66,7 +72,8 @@ def test_a_publisher_started_after_the_daemon_gives_the_offline_cuts(start_daemo
 
 
 def test_a_daemon_joining_a_running_publisher_starts_at_the_first_frame_it_sees(
-        start_daemon, rec, tmp_path):
+    start_daemon, rec, tmp_path
+):
     """The publisher runs before any daemon subscribes: the daemon opens the stream at the
     next periodic announce, and the take starts at the first frame it receives (no `gap` for
     what came before it joined); its cuts are those of that part of the take."""
@@ -76,8 +83,7 @@ def test_a_daemon_joining_a_running_publisher_starts_at_the_first_frame_it_sees(
 
     def publisher():
         started.set()
-        done["n"] = publish(rec, endpoint, stream="late", speed=4.0, batch=10, sock=pub,
-                            settle=0.0)
+        done["n"] = publish(rec, endpoint, stream="late", speed=4.0, batch=10, sock=pub, settle=0.0)
 
     t = threading.Thread(target=publisher, daemon=True)
     t.start()
@@ -96,9 +102,9 @@ def test_a_daemon_joining_a_running_publisher_starts_at_the_first_frame_it_sees(
 
 def test_two_daemons_on_one_publisher_give_the_same_cuts(start_daemon, rec, tmp_path):
     pub, endpoint = xpub()
-    (d1, ep1), (d2, ep2) = (start_daemon(subscribe=(endpoint,),
-                                         state_dir=str(tmp_path / f"state{k}"))
-                            for k in range(2))
+    (d1, ep1), (d2, ep2) = (
+        start_daemon(subscribe=(endpoint,), state_dir=str(tmp_path / f"state{k}")) for k in range(2)
+    )
     wait_subscribers(pub, 2)
     publish(rec, endpoint, stream="two", speed=0, batch=30, sock=pub, settle=0.0)
     a, b = events_until_closed(ep1, "two"), events_until_closed(ep2, "two")
@@ -112,12 +118,19 @@ def test_a_flooding_publisher_s_drops_show_as_gaps_with_counts(start_daemon, rec
     either taken or counted lost."""
     pub, endpoint = xpub(hwm=2)  # it drops beyond 2 packets queued for a subscriber
     # a daemon that holds one packet at a time: the backlog is the publisher's, which drops
-    d, ep = start_daemon(subscribe=(endpoint,), gap_events_per_s=1000.0, subscribe_hwm=1,
-                         drain_frames=120, state_dir=str(tmp_path / "state"))
+    d, ep = start_daemon(
+        subscribe=(endpoint,),
+        gap_events_per_s=1000.0,
+        subscribe_hwm=1,
+        drain_frames=120,
+        state_dir=str(tmp_path / "state"),
+    )
     wait_subscribers(pub, 1)
     positions = np.concatenate([rec.positions] * 20)
-    packets = [P.encode(P.Frames("flood", a, 0.0, positions[a:a + 120]))
-               for a in range(0, positions.shape[0], 120)]  # encoded first: sent at once
+    packets = [
+        P.encode(P.Frames("flood", a, 0.0, positions[a : a + 120]))
+        for a in range(0, positions.shape[0], 120)
+    ]  # encoded first: sent at once
     pub.send_multipart(P.encode(announce_of(rec, "flood")))
     for parts in packets:
         pub.send_multipart(parts)
@@ -141,13 +154,21 @@ def test_a_flooding_publisher_s_drops_show_as_gaps_with_counts(start_daemon, rec
     assert events[-1].frames == st["frame"]
 
 
-@pytest.mark.parametrize("where", [[], ["--to", "tcp://127.0.0.1:1", "--publish",
-                                        "tcp://127.0.0.1:2"]])
+@pytest.mark.parametrize(
+    "where", [[], ["--to", "tcp://127.0.0.1:1", "--publish", "tcp://127.0.0.1:2"]]
+)
 def test_replay_takes_to_or_publish_and_says_so(where, data_dir, capsys):
     from streamseg.cli import main
 
-    rc = main(["replay", str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
-               str(data_dir / "cmu86" / "86.asf"), *where])
+    rc = main(
+        [
+            "replay",
+            str(data_dir / "cmu86" / "86_01.amc.gz"),
+            "--skeleton",
+            str(data_dir / "cmu86" / "86.asf"),
+            *where,
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "give --to ENDPOINT" in err and "--publish ENDPOINT" in err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1

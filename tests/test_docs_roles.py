@@ -14,8 +14,9 @@ ROOT = Path(__file__).resolve().parents[1]
 @pytest.fixture(scope="module")
 def package():
     ext = griffe.load_extensions(f"{ROOT / 'docs' / 'api' / 'sphinx_roles.py'}:SphinxRoles")
-    return griffe.load("streamseg", search_paths=[str(ROOT)], extensions=ext,
-                       docstring_parser="numpy")
+    return griffe.load(
+        "streamseg", search_paths=[str(ROOT)], extensions=ext, docstring_parser="numpy"
+    )
 
 
 def _docstrings(obj, seen=None):
@@ -43,7 +44,9 @@ def test_no_role_is_left_as_text(package):
 def test_roles_resolve_to_full_paths_relative_names_included(package):
     lof = package["offline.lof.LOFSegmenter"].docstring.value
     # ``:meth:`fit``` in the class's docstring names its own method
-    assert ('<autoref identifier="streamseg.offline.lof.LOFSegmenter.fit" optional><code>fit'
-            '</code></autoref>') in lof
+    assert (
+        '<autoref identifier="streamseg.offline.lof.LOFSegmenter.fit" optional><code>fit'
+        "</code></autoref>"
+    ) in lof
     text = "\n".join(t for _, t in _docstrings(package))
     assert text.count("<autoref identifier=") >= 300

@@ -52,8 +52,9 @@ def test_segment_kernel_matches_recursion_and_properties():
     T = segment_kernel(K, starts, ends)
     for i in range(5):
         for j in range(5):
-            assert T[i, j] == pytest.approx(naive_dtak(K, starts[i], ends[i], starts[j], ends[j]),
-                                            abs=1e-12)
+            assert T[i, j] == pytest.approx(
+                naive_dtak(K, starts[i], ends[i], starts[j], ends[j]), abs=1e-12
+            )
     np.testing.assert_allclose(np.diag(T), 1.0)  # unit diagonal kernel -> self-DTAK is 1
     np.testing.assert_array_equal(T, T.T)
     assert np.all((T >= 0) & (T <= 1 + 1e-12))
@@ -68,8 +69,11 @@ def test_segment_kernel_within_keeps_only_same_label_pairs():
     T = segment_kernel_within(K, starts, ends, labels)
     for i in range(5):
         for j in range(5):
-            want = (naive_dtak(K, starts[i], ends[i], starts[j], ends[j])
-                    if labels[i] == labels[j] else 0.0)
+            want = (
+                naive_dtak(K, starts[i], ends[i], starts[j], ends[j])
+                if labels[i] == labels[j]
+                else 0.0
+            )
             assert T[i, j] == pytest.approx(want, abs=1e-12)
 
 

@@ -39,10 +39,14 @@ def test_discover_reads_recording_and_labels(labelled):
 
 
 def test_discover_names_a_sequence_without_recording(tmp_path):
-    (tmp_path / "labels.csv").write_text("sequence,start_frame,end_frame,action_label\n"
-                                         "99_01,1,10,walk\n")
-    with pytest.raises(RecordingError, match=r"labels.csv: found sequence '99_01' without a "
-                                             r"recording"):
+    (tmp_path / "labels.csv").write_text(
+        "sequence,start_frame,end_frame,action_label\n99_01,1,10,walk\n"
+    )
+    with pytest.raises(
+        RecordingError,
+        match=r"labels.csv: found sequence '99_01' without a "
+        r"recording",
+    ):
         discover(tmp_path)
 
 
@@ -67,8 +71,10 @@ def test_score_by_hand():
 
 def test_table_reports_errors_and_means():
     item = _item()
-    rows = [("toy", "a", score(item, Prediction(cuts=[40, 70]), 10.0)),
-            ("toy", "b", score(item, Prediction(error="ImportError: no claspy"), 10.0))]
+    rows = [
+        ("toy", "a", score(item, Prediction(cuts=[40, 70]), 10.0)),
+        ("toy", "b", score(item, Prediction(error="ImportError: no claspy"), 10.0)),
+    ]
     text = format_table(rows)
     assert "| toy | b | could not run: ImportError: no claspy |" in text
     assert "| **mean (1)** | a | 1.000 | 1.000 | 1.000 |" in text
@@ -77,12 +83,18 @@ def test_table_reports_errors_and_means():
 @pytest.mark.slow
 def test_eval_all_cli(labelled, capsys):
     assert main(["eval", "--all", str(labelled), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out,
-                     parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
+    out = json.loads(
+        capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}")
+    )
     assert out["schema"] == 1 and out["command"] == "eval --all"
     rows = {r["method"]: r for r in out["rows"]}
-    assert set(rows) == {"LOF offline", "LOF streaming", "ACA (K=true)", "HACA (K=true)",
-                         "HACA (K found)"}
+    assert set(rows) == {
+        "LOF offline",
+        "LOF streaming",
+        "ACA (K=true)",
+        "HACA (K=true)",
+        "HACA (K found)",
+    }
     for r in rows.values():
         assert "error" not in r, r
         assert r["recording"] == "86_01"

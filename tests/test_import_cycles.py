@@ -35,8 +35,9 @@ def import_graph() -> dict:
                 if node.level:
                     up = package.split(".")[: len(package.split(".")) - node.level + 1]
                     base = ".".join(up + ([base] if base else []))
-                targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in mods else base
-                           for a in node.names]
+                targets = [
+                    f"{base}.{a.name}" if f"{base}.{a.name}" in mods else base for a in node.names
+                ]
             else:
                 continue
             for target in targets:
@@ -104,6 +105,9 @@ def test_the_package_has_no_import_circles():
 
 def test_commands_never_import_the_cli():
     graph = import_graph()
-    offenders = sorted(m for m, edges in graph.items()
-                       if m.startswith("streamseg.commands") and "streamseg.cli" in edges)
+    offenders = sorted(
+        m
+        for m, edges in graph.items()
+        if m.startswith("streamseg.commands") and "streamseg.cli" in edges
+    )
     assert offenders == []

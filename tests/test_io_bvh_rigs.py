@@ -39,20 +39,80 @@ def test_a_real_bvh_segments(data_dir, capsys):
     assert len(json.loads(capsys.readouterr().out)["segments"]) >= 1
 
 
-@pytest.mark.parametrize("names", [
-    [f"mixamorig:{n}" for n in ("Hips", "Spine", "Spine1", "Spine2", "Neck", "LeftShoulder",
-                                "LeftArm", "LeftForeArm", "LeftHand", "RightShoulder",
-                                "RightArm", "RightForeArm", "RightHand", "LeftUpLeg",
-                                "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot")],
-    [f"Bip01 {n}" for n in ("Pelvis", "Spine", "Spine1", "Spine2", "Neck", "L Clavicle",
-                            "L UpperArm",
-                            "L Forearm", "L Hand", "R Clavicle", "R UpperArm", "R Forearm",
-                            "R Hand", "L Thigh", "L Calf", "L Foot", "R Thigh", "R Calf",
-                            "R Foot")],
-    ["hip", "abdomen", "chest", "neck", "head", "lCollar", "lShldr", "lForeArm", "lHand",
-     "rCollar", "rShldr", "rForeArm", "rHand", "lThigh", "lShin", "lFoot", "rThigh", "rShin",
-     "rFoot"],
-])
+@pytest.mark.parametrize(
+    "names",
+    [
+        [
+            f"mixamorig:{n}"
+            for n in (
+                "Hips",
+                "Spine",
+                "Spine1",
+                "Spine2",
+                "Neck",
+                "LeftShoulder",
+                "LeftArm",
+                "LeftForeArm",
+                "LeftHand",
+                "RightShoulder",
+                "RightArm",
+                "RightForeArm",
+                "RightHand",
+                "LeftUpLeg",
+                "LeftLeg",
+                "LeftFoot",
+                "RightUpLeg",
+                "RightLeg",
+                "RightFoot",
+            )
+        ],
+        [
+            f"Bip01 {n}"
+            for n in (
+                "Pelvis",
+                "Spine",
+                "Spine1",
+                "Spine2",
+                "Neck",
+                "L Clavicle",
+                "L UpperArm",
+                "L Forearm",
+                "L Hand",
+                "R Clavicle",
+                "R UpperArm",
+                "R Forearm",
+                "R Hand",
+                "L Thigh",
+                "L Calf",
+                "L Foot",
+                "R Thigh",
+                "R Calf",
+                "R Foot",
+            )
+        ],
+        [
+            "hip",
+            "abdomen",
+            "chest",
+            "neck",
+            "head",
+            "lCollar",
+            "lShldr",
+            "lForeArm",
+            "lHand",
+            "rCollar",
+            "rShldr",
+            "rForeArm",
+            "rHand",
+            "lThigh",
+            "lShin",
+            "lFoot",
+            "rThigh",
+            "rShin",
+            "rFoot",
+        ],
+    ],
+)
 def test_rig_conventions_reach_the_bones(names):
     points = tuple(dict.fromkeys(p for bone in BONES for p in bone))
     idx = resolve(names, points, POINTS)
@@ -71,11 +131,13 @@ def test_bare_names():
 
 def test_an_unknown_rig_gets_the_list_of_what_is_missing(tmp_path, capsys):
     bvh = tmp_path / "robot.bvh"
-    bvh.write_text("HIERARCHY\nROOT Base\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition "
-                   "Zposition Zrotation Xrotation Yrotation\n JOINT Link1\n {\n  OFFSET 0 1 0\n"
-                   "  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 1 0"
-                   "\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0 0 0 0 0 0 0\n"
-                   "0 0 0 0 0 0 0 0 0\n")
+    bvh.write_text(
+        "HIERARCHY\nROOT Base\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition "
+        "Zposition Zrotation Xrotation Yrotation\n JOINT Link1\n {\n  OFFSET 0 1 0\n"
+        "  CHANNELS 3 Zrotation Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 1 0"
+        "\n  }\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0 0 0 0 0 0 0\n"
+        "0 0 0 0 0 0 0 0 0\n"
+    )
     assert main(["segment", str(bvh)]) == 2
     err = capsys.readouterr().err
     assert "lacks joints the features need" in err and "l_elbow (any of" in err

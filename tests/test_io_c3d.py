@@ -37,17 +37,23 @@ def test_vicon_take_cuts_like_its_amc_and_bvh(c3d_dir, data_dir):
     c3d = read(c3d_dir / "cmu_01_01.c3d")
     assert c3d.metadata["marker_set"] == "plug-in-gait" and c3d.skeleton.up == "z"
     assert (c3d.n_frames, c3d.fps, c3d.metadata["manufacturer"]) == (2751, 120.0, "")
-    amc = read(data_dir / "sources" / "cmu01" / "01_01.amc.gz",
-               skeleton=data_dir / "sources" / "cmu01" / "01.asf")
+    amc = read(
+        data_dir / "sources" / "cmu01" / "01_01.amc.gz",
+        skeleton=data_dir / "sources" / "cmu01" / "01.asf",
+    )
     bvh = read(data_dir / "sources" / "bvh" / "cc_01_01.bvh.gz")
     a, b, c = cuts_s(amc), cuts_s(bvh), cuts_s(c3d)
     assert a and len(a) == len(b) == len(c)
     assert np.abs(np.subtract(a, c)).max() <= 0.25 and np.abs(np.subtract(a, b)).max() <= 0.25
 
 
-@pytest.mark.parametrize("name,system,units,n,fps", [
-    ("vicon_pig_stairs.c3d", "Vicon", "mm", 323, 120.0),
-    ("optitrack_tennis_serve.c3d", "OptiTrack", "m", 1092, 50.0)])
+@pytest.mark.parametrize(
+    "name,system,units,n,fps",
+    [
+        ("vicon_pig_stairs.c3d", "Vicon", "mm", 323, 120.0),
+        ("optitrack_tennis_serve.c3d", "OptiTrack", "m", 1092, 50.0),
+    ],
+)
 def test_plug_in_gait_full_body_of_two_systems(c3d_dir, name, system, units, n, fps):
     """Real Plug-in Gait full-body takes (LASI RASI LPSI RPSI, LKNE, LANK, LSHO, LELB,
     LWRA/LWRB ...): Vicon Nexus with its model outputs among the labels, and OptiTrack Motive
@@ -57,7 +63,11 @@ def test_plug_in_gait_full_body_of_two_systems(c3d_dir, name, system, units, n, 
     rec = read(c3d_dir / name)
     assert rec.metadata["marker_set"] == "plug-in-gait"
     assert (rec.metadata["manufacturer"], rec.skeleton.units, rec.n_frames, rec.fps) == (
-        system, units, n, fps)
+        system,
+        units,
+        n,
+        fps,
+    )
     assert rec.skeleton.up == "z" and np.isfinite(rec.positions).all()
     _, chosen, missing = best_set(rec.metadata["markers"])
     assert not missing and chosen["pelvis"] == ("LASI", "RASI", "LPSI", "RPSI")
@@ -95,18 +105,17 @@ def test_a_second_system_cuts_five_tennis_serves(c3d_dir, tmp_path, capsys):
 def test_labelled_segments_of_a_vicon_take_become_action_events(c3d_dir, tmp_path, capsys):
     out = tmp_path / "stairs_aca.c3d"
     src = c3d_dir / "vicon_pig_stairs.c3d"
-    assert main(["segment", str(src), "--method", "aca", "--json",
-                 "--write-events", str(out)]) == 0
+    assert main(["segment", str(src), "--method", "aca", "--json", "--write-events", str(out)]) == 0
     res = json.loads(capsys.readouterr().out)
     events = read_events(out)
     assert [e["label"] for e in events] == [f"Action {s['label']}" for s in res["segments"]]
     first = 694  # the capture's frame number of the file's first frame (Nexus)
-    assert [round(e["time"] * 120) - first for e in events] == [s["start"]
-                                                                 for s in res["segments"]]
+    assert [round(e["time"] * 120) - first for e in events] == [s["start"] for s in res["segments"]]
 
 
-@pytest.mark.parametrize("name,mset", [("qualisys_isb.c3d", "qualisys-isb"),
-                                       ("qualisys_sports.c3d", "qualisys-sports")])
+@pytest.mark.parametrize(
+    "name,mset", [("qualisys_isb.c3d", "qualisys-isb"), ("qualisys_sports.c3d", "qualisys-sports")]
+)
 def test_qualisys_sets(c3d_dir, name, mset):
     rec = read(c3d_dir / name)
     assert rec.metadata["marker_set"] == mset and rec.metadata["manufacturer"] == "Qualisys"
@@ -148,16 +157,16 @@ def test_a_set_no_map_names_is_refused_with_the_missing_markers(c3d_dir, capsys)
 
 def test_segment_writes_its_cuts_as_c3d_events(c3d_dir, tmp_path, capsys):
     out = tmp_path / "01_01_events.c3d"
-    assert main(["segment", str(c3d_dir / "cmu_01_01.c3d"), "--json",
-                 "--write-events", str(out)]) == 0
+    assert (
+        main(["segment", str(c3d_dir / "cmu_01_01.c3d"), "--json", "--write-events", str(out)]) == 0
+    )
     res = json.loads(capsys.readouterr().out)
     events = read_events(out)
     assert res["events_written"] == len(events) == len(res["cuts"]) > 0
     first = 39  # the capture's frame number of the file's first frame (0-based)
     frames = [round(e["time"] * res["fps"]) - first for e in events]
     assert frames == res["cuts"]
-    assert {e["label"] for e in events} == {"Cut"} and {e["context"] for e in events} == {
-        "General"}
+    assert {e["label"] for e in events} == {"Cut"} and {e["context"] for e in events} == {"General"}
     assert read(out).positions.shape == read(c3d_dir / "cmu_01_01.c3d").positions.shape
 
 
@@ -178,15 +187,26 @@ def test_labelled_segments_become_action_events(c3d_dir, tmp_path):
 
 def test_write_events_refuses_before_the_work(c3d_dir, data_dir, tmp_path, capsys):
     amc = data_dir / "cmu86" / "86_01.amc.gz"
-    assert main(["segment", str(amc), "--skeleton", str(data_dir / "cmu86" / "86.asf"),
-                 "--write-events", str(tmp_path / "x.c3d")]) == 2
+    assert (
+        main(
+            [
+                "segment",
+                str(amc),
+                "--skeleton",
+                str(data_dir / "cmu86" / "86.asf"),
+                "--write-events",
+                str(tmp_path / "x.c3d"),
+            ]
+        )
+        == 2
+    )
     assert "needs a .c3d input" in capsys.readouterr().err
 
 
 def test_truncated_c3d_keeps_the_frames_it_has(c3d_dir, tmp_path):
     data = (c3d_dir / "cmu_01_01.c3d").read_bytes()
     cut = tmp_path / "cut.c3d"
-    cut.write_bytes(data[:len(data) * 2 // 3])
+    cut.write_bytes(data[: len(data) * 2 // 3])
     with pytest.raises((TruncatedRecordingError, RecordingError)):
         read(cut)
     rec = read(cut, lenient=True)
@@ -219,7 +239,7 @@ def test_cut_off_is_judged_by_the_bytes_against_every_count_the_file_gives(c3d_d
     assert rec.n_frames == 340 and not rec.metadata["warnings"]
     data[8:10] = struct.pack("<H", last)
     cut = tmp_path / "cut.c3d"
-    cut.write_bytes(bytes(data[:len(data) - 200_000]))
+    cut.write_bytes(bytes(data[: len(data) - 200_000]))
     announced, held = _frames_in_file(cut)
     assert announced == 340 and 0 < held < 340
     rec = read(cut, lenient=True)
@@ -227,10 +247,13 @@ def test_cut_off_is_judged_by_the_bytes_against_every_count_the_file_gives(c3d_d
 
 
 @pytest.mark.daemon
-@pytest.mark.parametrize("name", ["cmu_01_01.c3d", "qualisys_isb.c3d",
-                                  "vicon_pig_stairs.c3d", "optitrack_tennis_serve.c3d"])
+@pytest.mark.parametrize(
+    "name",
+    ["cmu_01_01.c3d", "qualisys_isb.c3d", "vicon_pig_stairs.c3d", "optitrack_tennis_serve.c3d"],
+)
 def test_c3d_replayed_into_the_daemon_gives_the_cuts_of_segment_online(
-        name, c3d_dir, start_daemon, capsys, tmp_path):
+    name, c3d_dir, start_daemon, capsys, tmp_path
+):
     """A Vicon and a Qualisys C3D through `replay` (with dropouts cut into a copy: short
     ones filled, a long one skipped, the same way live as in the file): the daemon's cuts are
     `segment --online`'s on the file, and the skipped gap is a gap event."""
@@ -241,16 +264,15 @@ def test_c3d_replayed_into_the_daemon_gives_the_cuts_of_segment_online(
     rec = read(c3d_dir / name)
     pos = rec.positions.copy()
     n = rec.n_frames
-    pos[n // 3:n // 3 + 4, 5] = np.nan  # the left elbow lost for a few frames: filled
-    pos[n // 2:n // 2 + int(0.4 * rec.fps)] = np.nan  # 0.4 s without the body: skipped
+    pos[n // 3 : n // 3 + 4, 5] = np.nan  # the left elbow lost for a few frames: filled
+    pos[n // 2 : n // 2 + int(0.4 * rec.fps)] = np.nan  # 0.4 s without the body: skipped
     holes = tmp_path / "holes.npz"
     from dataclasses import replace
 
     write_npz(holes, replace(rec, positions=pos, metadata={}))
     assert main(["segment", str(holes), "--online", "--json"]) == 0
     want = json.loads(capsys.readouterr().out)
-    assert [(g["start"], g["end"]) for g in want["gaps"]] == [(n // 2, n // 2 +
-                                                               int(0.4 * rec.fps))]
+    assert [(g["start"], g["end"]) for g in want["gaps"]] == [(n // 2, n // 2 + int(0.4 * rec.fps))]
     _, ep = start_daemon()
     sub = subscribe(ep["publish"], ep["control"], stream="c3d")
     replay(read(holes, gap_fill=0), ep["ingest"], stream="c3d", speed=0, batch=7)

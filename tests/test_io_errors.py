@@ -152,18 +152,22 @@ def test_asf_hierarchy_names_undefined_bone(tmp_path, asf, data_dir):
 
 
 def test_asf_hierarchy_cycle_is_an_error_not_a_hang(tmp_path, asf, data_dir):
-    text = asf.read_text(encoding="latin-1").replace("    lhumerus lradius",
-                                                     "    lhumerus lradius\n    lradius lhumerus")
+    text = asf.read_text(encoding="latin-1").replace(
+        "    lhumerus lradius", "    lhumerus lradius\n    lradius lhumerus"
+    )
     f = tmp_path / "cycle.asf"
     f.write_text(text)
     with pytest.raises(RecordingError, match="reached twice in :hierarchy"):
         read(data_dir / "cmu86/86_01.amc.gz", skeleton=f)
 
 
-@pytest.mark.parametrize("old,new,match", [
-    ("length 0.45", "length 0", "length scale 0.0"),
-    ("     name lfemur", "     name", "'name' without a value"),
-])
+@pytest.mark.parametrize(
+    "old,new,match",
+    [
+        ("length 0.45", "length 0", "length scale 0.0"),
+        ("     name lfemur", "     name", "'name' without a value"),
+    ],
+)
 def test_asf_bad_values(tmp_path, asf, data_dir, old, new, match):
     f = tmp_path / "bad.asf"
     f.write_text(asf.read_text(encoding="latin-1").replace(old, new, 1))
@@ -171,8 +175,9 @@ def test_asf_bad_values(tmp_path, asf, data_dir, old, new, match):
         read(data_dir / "cmu86/86_01.amc.gz", skeleton=f)
 
 
-@pytest.mark.parametrize("old,new", [("Frames: 2", "Frames: nan"),
-                                     ("Frame Time: 0.033333", "Frame Time: nan")])
+@pytest.mark.parametrize(
+    "old,new", [("Frames: 2", "Frames: nan"), ("Frame Time: 0.033333", "Frame Time: nan")]
+)
 def test_bvh_non_finite_header(tmp_path, old, new):
     from pathlib import Path
 

@@ -41,13 +41,16 @@ def holes(rng, n, n_joints, count):
     pos = np.cumsum(rng.normal(size=(n, n_joints, 3)), axis=0)
     for _ in range(count):
         j, a, length = rng.integers(n_joints), rng.integers(n), rng.integers(1, 25)
-        pos[a:a + length, j] = np.nan
+        pos[a : a + length, j] = np.nan
     return pos
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**31), max_frames=st.integers(0, 15),
-       cuts=st.lists(st.integers(1, 299), max_size=12))
+@given(
+    seed=st.integers(0, 2**31),
+    max_frames=st.integers(0, 15),
+    cuts=st.lists(st.integers(1, 299), max_size=12),
+)
 def test_streamed_equals_whole_equals_naive(seed, max_frames, cuts):
     """Any packetisation of a stream gives the frames a whole file gets, bit for bit."""
     rng = np.random.default_rng(seed)
@@ -128,7 +131,7 @@ def take_with_gaps(tmp_path_factory, rec):
     rng = np.random.default_rng(7)
     for _ in range(40):  # short marker dropouts, at most 0.1 s
         j, a = rng.integers(pos.shape[1]), rng.integers(100, 4400)
-        pos[a:a + rng.integers(1, 13), j] = np.nan
+        pos[a : a + rng.integers(1, 13), j] = np.nan
     pos[1500:1620, :] = np.nan  # 1 s without any joint
     lk = rec.skeleton.index("lfemur")
     pos[3000:3100, lk] = np.nan  # the left knee lost for 0.83 s
@@ -163,9 +166,12 @@ def test_gap_fill_zero_fills_nothing(take_with_gaps):
 def test_truncated_take_keeps_its_good_frames_by_default(tmp_path, data_dir, capsys):
     import gzip
 
-    text = gzip.decompress((data_dir / "cmu86" / "86_01.amc.gz").read_bytes()).decode(
-        "latin-1").replace("\r\n", "\n")
-    cut = text[:text.index("\n2292\n") + 40]  # frame 2292 cut off mid-line
+    text = (
+        gzip.decompress((data_dir / "cmu86" / "86_01.amc.gz").read_bytes())
+        .decode("latin-1")
+        .replace("\r\n", "\n")
+    )
+    cut = text[: text.index("\n2292\n") + 40]  # frame 2292 cut off mid-line
     f = tmp_path / "cut.amc"
     f.write_text(cut)
     asf = str(data_dir / "cmu86" / "86.asf")
@@ -236,8 +242,7 @@ def test_the_daemon_gap_fill_is_a_setting(data_dir, start_daemon, tmp_path, caps
         flag = [] if fill is None else ["--gap-fill", str(fill)]
         assert main(["segment", str(holes), "--online", "--json", *flag]) == 0
         want = json.loads(capsys.readouterr().out)
-        assert [(g["start"], g["end"]) for g in want["gaps"]] == ([] if filled else
-                                                                   [(900, 948)])
+        assert [(g["start"], g["end"]) for g in want["gaps"]] == ([] if filled else [(900, 948)])
         _, ep = start_daemon(**({} if fill is None else {"gap_fill": fill}))
         sub = subscribe(ep["publish"], ep["control"], stream="g")
         replay(read(holes, gap_fill=0), ep["ingest"], stream="g", speed=0, batch=7)

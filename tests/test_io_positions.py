@@ -49,8 +49,7 @@ def test_an_asf_take_exported_as_positions_gives_the_cuts_of_the_take(rec, tmp_p
         for t, r in zip(times, rows):
             fh.write(f"{float(t)!r}," + ",".join(repr(float(v)) for v in r) + "\n")
     npz = tmp_path / "86_01_pos.npz"
-    np.savez(npz, positions=rec.positions, joint_names=np.array(rec.skeleton.names),
-             fps=rec.fps)
+    np.savez(npz, positions=rec.positions, joint_names=np.array(rec.skeleton.names), fps=rec.fps)
     want = cuts_of(rec)
     for path in (csv, npz):
         got = read(path)
@@ -79,12 +78,15 @@ def test_unnamed_positions_need_joints_and_say_so(rec, tmp_path, capsys):
         read(npy33, fps=30)
 
 
-@pytest.mark.parametrize("kind,pattern,joints", [
-    ("kinect", "kinect_{}.csv", "kinect"),
-    ("blazepose", "blazepose_{}.npy", "blazepose"),
-    ("coco17", "alphapose_coco17_{}.npy", "coco17"),
-    ("openpose", "openpose_coco18_{}.csv", None),
-])
+@pytest.mark.parametrize(
+    "kind,pattern,joints",
+    [
+        ("kinect", "kinect_{}.csv", "kinect"),
+        ("blazepose", "blazepose_{}.npy", "blazepose"),
+        ("coco17", "alphapose_coco17_{}.npy", "coco17"),
+        ("openpose", "openpose_coco18_{}.csv", None),
+    ],
+)
 def test_real_keypoint_recordings_segment(data_dir, kind, pattern, joints, capsys):
     folder = data_dir / "sources" / "keraal"
     recs = [read(folder / pattern.format(e), fps=30, joints=joints) for e in EXERCISES]

@@ -23,12 +23,15 @@ def walk(data_dir):
 def write_trc(path, names, xyz, rate, units="mm"):
     """OpenSim's layout: five header lines, then frame, time, x y z per point (tabs)."""
     n = xyz.shape[0]
-    lines = [f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
-             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
-             "OrigDataStartFrame\tOrigNumFrames",
-             f"{rate}\t{rate}\t{n}\t{len(names)}\t{units}\t{rate}\t1\t{n}",
-             "Frame#\tTime\t" + "\t\t\t".join(names) + "\t\t",
-             "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(len(names)) for a in "XYZ"), ""]
+    lines = [
+        f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+        "OrigDataStartFrame\tOrigNumFrames",
+        f"{rate}\t{rate}\t{n}\t{len(names)}\t{units}\t{rate}\t1\t{n}",
+        "Frame#\tTime\t" + "\t\t\t".join(names) + "\t\t",
+        "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(len(names)) for a in "XYZ"),
+        "",
+    ]
     for f in range(n):
         cells = ["" if np.isnan(v) else f"{v:.5f}" for v in xyz[f].ravel()]
         lines.append(f"{f + 1}\t{f / rate:.5f}\t" + "\t".join(cells))
@@ -42,8 +45,7 @@ def test_opencap_keypoints_in_3d_segment(walk, capsys):
     assert (rec.n_frames, rec.fps, rec.skeleton.units, rec.skeleton.up) == (222, 60.0, "m", "y")
     assert rec.metadata["format"] == "trc" and "marker_set" not in rec.metadata
     idx = resolve(rec.skeleton.names, tuple(POINTS), POINTS)
-    assert [rec.skeleton.names[i] for i in idx[:4]] == ["midHip", "spine", "LShoulder",
-                                                        "LElbow"]
+    assert [rec.skeleton.names[i] for i in idx[:4]] == ["midHip", "spine", "LShoulder", "LElbow"]
     assert np.isfinite(rec.positions).all()
     assert main(["segment", str(walk), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
@@ -73,7 +75,7 @@ def test_plug_in_gait_markers_as_trc_give_the_c3d_joints(data_dir, tmp_path):
 def test_a_cut_off_trc_keeps_its_whole_frames(walk, tmp_path, capsys):
     text = walk.read_text()
     cut = tmp_path / "cut.trc"
-    cut.write_text(text[:len(text) - 3000])
+    cut.write_text(text[: len(text) - 3000])
     with pytest.raises(TruncatedRecordingError):
         read(cut)
     assert main(["segment", str(cut), "--json"]) == 0

@@ -20,8 +20,14 @@ from streamseg.offline.model_selection import fit_aca
 def test_k_is_found_on_the_papers_synthetic_sequences(i):
     rng = np.random.default_rng(i)  # benchmarks/aca_synthetic.py's seed at p_noise 0
     x, truth = synthetic_sequence(20, 0.0, rng)
-    cfg = ACAConfig(kernel="equality", hierarchical=False, min_len_s=10, max_len_s=15,
-                    k_reduce=None, random_state=i)
+    cfg = ACAConfig(
+        kernel="equality",
+        hierarchical=False,
+        min_len_s=10,
+        max_len_s=15,
+        k_reduce=None,
+        random_state=i,
+    )
     fitted = fit_aca(x[:, None], cfg, fps=1.0)
     assert fitted.n_clusters_ == 4
     assert set(fitted.scores_) == set(range(2, cfg.k_max + 1))

@@ -26,7 +26,7 @@ def _stream_ids(X, memory, history=6.0, interval=1.0):
 
 def _block_id(lab, i, seconds=4.0):
     n = int(seconds * FPS)
-    part = lab[i * n:(i + 1) * n]
+    part = lab[i * n : (i + 1) * n]
     return np.bincount(part).argmax()
 
 
@@ -110,10 +110,20 @@ def test_memory_stays_bounded_over_many_actions():
     assert res.window.next_id >= 8  # eight actions, eight ids
 
 
-@pytest.mark.parametrize("field,value", [("max_ids", 0), ("per_id", 1.5), ("exemplar_s", 0),
-                                         ("rate_hz", -1), ("recall_ratio", float("nan")),
-                                         ("recall_margin", -0.1), ("recall_confirm", 3),
-                                         ("recall_pieces", 1), ("recall_within", 0)])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("max_ids", 0),
+        ("per_id", 1.5),
+        ("exemplar_s", 0),
+        ("rate_hz", -1),
+        ("recall_ratio", float("nan")),
+        ("recall_margin", -0.1),
+        ("recall_confirm", 3),
+        ("recall_pieces", 1),
+        ("recall_within", 0),
+    ],
+)
 def test_bad_memory_settings_are_refused(field, value):
     with pytest.raises(ParameterError, match=field):
         LabelMemoryConfig(**{field: value})
@@ -139,8 +149,9 @@ def _replay_in_steps(rec, endpoint, sub, stream, step):
         for a in range(0, rec.n_frames, step):
             b = min(a + step, rec.n_frames)
             for c in range(a, b, 60):
-                push.send_multipart(protocol.encode(
-                    protocol.Frames(stream, c, 0.0, pos[c:min(c + 60, b)])))
+                push.send_multipart(
+                    protocol.encode(protocol.Frames(stream, c, 0.0, pos[c : min(c + 60, b)]))
+                )
             if b - a < step:
                 break  # the last revision comes with the end of the stream
             for e in listen(sub, stream=stream, timeout=120):
@@ -149,8 +160,11 @@ def _replay_in_steps(rec, endpoint, sub, stream, step):
                     if e.end >= b:
                         break
         push.send_multipart(protocol.encode(protocol.End(stream)))
-        events += [e for e in listen(sub, stream=stream, until_end=True, timeout=120)
-                   if e.type == "segments"]
+        events += [
+            e
+            for e in listen(sub, stream=stream, until_end=True, timeout=120)
+            if e.type == "segments"
+        ]
     finally:
         push.close()
     return events
@@ -159,8 +173,7 @@ def _replay_in_steps(rec, endpoint, sub, stream, step):
 @pytest.mark.daemon
 @pytest.mark.slow
 @pytest.mark.parametrize("memory", [True, False])
-def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start_daemon,
-                                                                 memory):
+def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start_daemon, memory):
     """Real daemon over loopback, 15 s history: CMU 14_14's jumping jacks, jog, squats and
     knee raises (19 s), then the jumping jacks of another take (14_20), then punches (86_01,
     an action not seen before; abrupt joins). The returning jumping jacks start 15.4 s after
@@ -175,8 +188,13 @@ def test_daemon_keeps_the_id_of_an_action_back_after_the_history(data_dir, start
     cut = 2280  # 14_14 up to the end of its knee raises; 14_20 frames 0-431 are jumping jacks
     back_end = cut + 432
     rec = concatenate([_slice(a, 0, cut), _slice(b, 0, 432), _slice(c, 1980, 2500)])[0]
-    d, ep = start_daemon(relabel_interval=2.5, relabel_history=15.0, relabel_share=1.0,
-                         heartbeat=0.05, label_memory=memory)
+    d, ep = start_daemon(
+        relabel_interval=2.5,
+        relabel_history=15.0,
+        relabel_share=1.0,
+        heartbeat=0.05,
+        label_memory=memory,
+    )
     sub = subscriber(ep["publish"])
     try:
         next(e for e in listen(sub, timeout=30) if e.type == "stats")  # subscribed
@@ -216,23 +234,31 @@ def test_memory_survives_a_checkpoint(tmp_path):
     cfg = LabelMemoryConfig()
     rng = np.random.default_rng(1)
     feats = rng.random((1200, 17)).astype(np.float32)
-    mem = new_memory(cfg, FPS, 0).updated([(0, 10, 0), (10, 600, 1), (600, 1190, 2),
-                                           (1190, 1200, 0)], feats, np.arange(1200), cfg, FPS)
+    mem = new_memory(cfg, FPS, 0).updated(
+        [(0, 10, 0), (10, 600, 1), (600, 1190, 2), (1190, 1200, 0)],
+        feats,
+        np.arange(1200),
+        cfg,
+        FPS,
+    )
     mem = replace(mem, born={1: 0, 2: -1}, pending={2: 1}, revisions=3)  # recall's state
     w = WindowSegmentation(0, 1200, [(0, 600, 1), (600, 1200, 2)], 2, 3, memory=mem)
     store = CheckpointStore(tmp_path)  # the real SQLite file, chunks and all
     store.put([("s", 1200, dump(w))])
     assert store.wait()
     store.close()
-    (_, back), = CheckpointStore(tmp_path).read_all()
+    ((_, back),) = CheckpointStore(tmp_path).read_all()
     assert back.segments == w.segments and back.next_id == 3
     assert sorted(back.memory.exemplars) == sorted(mem.exemplars) == [1, 2]
     for i in mem.exemplars:
         for a, b in zip(mem.exemplars[i], back.memory.exemplars[i], strict=True):
             assert np.array_equal(a, b)
     assert back.memory.last_seen == mem.last_seen and back.memory.stride == mem.stride
-    assert (back.memory.born, back.memory.pending, back.memory.revisions) == ({1: 0, 2: -1},
-                                                                              {2: 1}, 3)
+    assert (back.memory.born, back.memory.pending, back.memory.revisions) == (
+        {1: 0, 2: -1},
+        {2: 1},
+        3,
+    )
 
 
 @pytest.mark.slow
@@ -240,8 +266,13 @@ def test_return_streams_bring_actions_back_after_the_history(data_dir):
     from streamseg.evaluation.datasets import return_streams
 
     streams = return_streams(data_dir)
-    assert set(streams) == {"ret_14_86_14", "ret_86_14_14_86", "ret_hdm_bd", "ret_hdm_bk",
-                            "ret_hdm_dg"}
+    assert set(streams) == {
+        "ret_14_86_14",
+        "ret_86_14_14_86",
+        "ret_hdm_bd",
+        "ret_hdm_bk",
+        "ret_hdm_dg",
+    }
     for name, (rec, names) in streams.items():
         assert names.shape == (rec.n_frames,) and (names != "").all(), name
         back = []
@@ -262,6 +293,11 @@ def test_a_memory_from_before_the_recall_state_still_relabels():
     for name in ("born", "pending", "revisions"):
         del old.__dict__[name]
     t = revs[9].end
-    res = relabel(Algorithms(memory_config=LabelMemoryConfig()), X[t - 720:t + 120],
-                  np.arange(t - 720, t + 120), FPS, revs[8].window)
+    res = relabel(
+        Algorithms(memory_config=LabelMemoryConfig()),
+        X[t - 720 : t + 120],
+        np.arange(t - 720, t + 120),
+        FPS,
+        revs[8].window,
+    )
     assert res.segments and res.window.memory.revisions == 1

@@ -18,14 +18,19 @@ def _free_port() -> int:
 
 def test_listen_without_a_daemon_says_so_and_gives_up():
     endpoint = f"tcp://127.0.0.1:{_free_port()}"
-    proc = subprocess.run([sys.executable, "-m", "streamseg.cli", "listen", "--from", endpoint,
-                           "--timeout", "1.5"], capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "streamseg.cli", "listen", "--from", endpoint, "--timeout", "1.5"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 1
     assert proc.stdout == ""
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 2, proc.stderr
-    assert lines[0] == (f"streamseg listen: waiting for a daemon at {endpoint} (giving up "
-                        "after 1.5 s)")
+    assert lines[0] == (
+        f"streamseg listen: waiting for a daemon at {endpoint} (giving up after 1.5 s)"
+    )
     assert lines[1].startswith(f"streamseg listen: no daemon at {endpoint} for 1.5 s")
     assert "Traceback" not in proc.stderr
 

@@ -34,14 +34,19 @@ def _live(angles, packet=120, config=None):
     det = StreamingLOFSegmenter(LOFConfig() if config is None else config, FPS)
     ev = []
     for i in range(0, len(angles), packet):
-        ev += det.learn_many(angles[i:i + packet])
+        ev += det.learn_many(angles[i : i + packet])
     return ev + det.finish()
 
 
 def _f1(cuts, truth, windows=None):
     half = int(0.5 * FPS)
-    return cut_scores(cuts, truth, windows=windows, tolerance=None if windows else half,
-                      margin=half if windows else 0)["f1"]
+    return cut_scores(
+        cuts,
+        truth,
+        windows=windows,
+        tolerance=None if windows else half,
+        margin=half if windows else 0,
+    )["f1"]
 
 
 def _angles(rec):
@@ -105,16 +110,32 @@ def test_offline_segment_equals_online(capsys, data_dir):
     amc, asf = data_dir / "cmu86/86_01.amc.gz", data_dir / "cmu86/86.asf"
     out = {}
     for mode in ([], ["--online"]):
-        assert cli.main(["segment", str(amc), "--skeleton", str(asf), "--method", "lof",
-                         "--json", *mode]) == 0
+        assert (
+            cli.main(
+                ["segment", str(amc), "--skeleton", str(asf), "--method", "lof", "--json", *mode]
+            )
+            == 0
+        )
         out[bool(mode)] = json.loads(capsys.readouterr().out)
     assert out[False]["cuts"] == out[True]["cuts"] and len(out[True]["cuts"]) >= 5
 
 
 def test_recording_shorter_than_a_window_is_said(capsys, data_dir):
     """CMU 02_03 (1.4 s) is shorter than the 1.75 s window: a warning, no cut, exit 0."""
-    assert cli.main(["segment", str(data_dir / "cmu02/02_03.amc.gz"), "--skeleton",
-                     str(data_dir / "cmu02/02.asf"), "--method", "lof", "--json"]) == 0
+    assert (
+        cli.main(
+            [
+                "segment",
+                str(data_dir / "cmu02/02_03.amc.gz"),
+                "--skeleton",
+                str(data_dir / "cmu02/02.asf"),
+                "--method",
+                "lof",
+                "--json",
+            ]
+        )
+        == 0
+    )
     cap = capsys.readouterr()
     assert json.loads(cap.out)["cuts"] == []
     assert "shorter than the cut detector's window" in cap.err
@@ -124,9 +145,23 @@ def test_json_is_strict_when_a_figure_is_undefined(capsys, data_dir, tmp_path):
     """No cut means no latency: the JSON says null, not NaN (strict readers reject NaN)."""
     labels = tmp_path / "labels.csv"
     labels.write_text("sequence,start_frame,end_frame,action_label\n02_03,1,173,run\n")
-    assert cli.main(["eval", str(data_dir / "cmu02/02_03.amc.gz"), "--skeleton",
-                     str(data_dir / "cmu02/02.asf"), "--labels", str(labels), "--method", "lof",
-                     "--online", "--json"]) == 0
+    assert (
+        cli.main(
+            [
+                "eval",
+                str(data_dir / "cmu02/02_03.amc.gz"),
+                "--skeleton",
+                str(data_dir / "cmu02/02.asf"),
+                "--labels",
+                str(labels),
+                "--method",
+                "lof",
+                "--online",
+                "--json",
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     out = json.loads(text, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
     assert out["cuts"] == [] and out["latency_median_frames"] is None

@@ -16,11 +16,13 @@ def test_cmu02_sequence_joins_clips_at_the_true_cuts(data_dir):
 
     trials = CMU02_SEQUENCES["02_walk_punch_sword_wash"]
     rec, cuts = cmu02_sequence(data_dir, trials)
-    parts = [io.read(data_dir / "cmu02" / f"02_{t}.amc.gz", skeleton=data_dir / "cmu02" / "02.asf")
-             for t in trials]
+    parts = [
+        io.read(data_dir / "cmu02" / f"02_{t}.amc.gz", skeleton=data_dir / "cmu02" / "02.asf")
+        for t in trials
+    ]
     lengths = [p.n_frames for p in parts]
     assert cuts == list(np.cumsum(lengths)[:-1]) and rec.n_frames == sum(lengths)
-    np.testing.assert_array_equal(rec.positions[cuts[1]:cuts[2]], parts[2].positions)
+    np.testing.assert_array_equal(rec.positions[cuts[1] : cuts[2]], parts[2].positions)
     assert rec.metadata["cuts"] == cuts
     with pytest.raises(ParameterError, match="fps"):
         concatenate([parts[0], parts[1].__class__(60.0, parts[1].skeleton, parts[1].positions)])
@@ -40,10 +42,15 @@ def test_cmu02_sequences_follow_the_single_action_rule(data_dir):
     )
 
     asf = data_dir / "cmu02" / "02.asf"
-    seconds = {t: io.read(data_dir / "cmu02" / f"02_{t}.amc.gz", skeleton=asf).n_frames / 120
-               for t in CMU02_TRIAL_ACTIONS}
-    ok = {t for t, acts in CMU02_TRIAL_ACTIONS.items()
-          if len(acts) == 1 and seconds[t] >= CMU02_MIN_SECONDS}
+    seconds = {
+        t: io.read(data_dir / "cmu02" / f"02_{t}.amc.gz", skeleton=asf).n_frames / 120
+        for t in CMU02_TRIAL_ACTIONS
+    }
+    ok = {
+        t
+        for t, acts in CMU02_TRIAL_ACTIONS.items()
+        if len(acts) == 1 and seconds[t] >= CMU02_MIN_SECONDS
+    }
     assert ok == {"01", "05", "07", "08", "09", "10"}
     orders = []
     for trials in CMU02_SEQUENCES.values():
@@ -60,9 +67,14 @@ def test_fit_recording_equals_fit_bone_angles(data_dir):
 
     rec = io.read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf")
     a = LOFSegmenter(LOFConfig(), rec.fps).fit(rec)
-    b = LOFSegmenter(LOFConfig(), rec.fps).fit(np.column_stack([
-        skeleton.bone_angles(rec.positions, rec.skeleton, inclinations=True),
-        root_speed_columns(rec.positions, rec.skeleton, rec.fps)]))
+    b = LOFSegmenter(LOFConfig(), rec.fps).fit(
+        np.column_stack(
+            [
+                skeleton.bone_angles(rec.positions, rec.skeleton, inclinations=True),
+                root_speed_columns(rec.positions, rec.skeleton, rec.fps),
+            ]
+        )
+    )
     np.testing.assert_array_equal(a.lof_, b.lof_)
     np.testing.assert_array_equal(a.predict(), b.predict())
     assert a.n_frames_ == rec.n_frames

@@ -37,14 +37,26 @@ class Buffer:
         self.next, self.size = 0, 0
 
     def _args(self):
-        return (self.vecs, self.norms, self.seqs, self.nn_idx, self.nn_d, self.nn_key,
-                self.nn_cnt, self.lrd, self.lof, self.mark, self.centres)
+        return (
+            self.vecs,
+            self.norms,
+            self.seqs,
+            self.nn_idx,
+            self.nn_d,
+            self.nn_key,
+            self.nn_cnt,
+            self.lrd,
+            self.lof,
+            self.mark,
+            self.centres,
+        )
 
     def insert(self, vec, t):
         slot = self.next % self.cap
         self.centres[slot] = t
-        n = inc_insert(*self._args(), slot, np.asarray(vec, dtype=np.int16), self.next,
-                       self.k, self.excl)
+        n = inc_insert(
+            *self._args(), slot, np.asarray(vec, dtype=np.int16), self.next, self.k, self.excl
+        )
         self.next += 1
         self.size += 1
         return n
@@ -59,10 +71,15 @@ class Buffer:
 
 
 @settings(max_examples=150, deadline=None)
-@given(data=st.data(), cap=st.integers(2, 14), k=st.integers(1, 5), d=st.integers(1, 6),
-       alphabet=st.integers(1, 4), excl=st.sampled_from([0, 0, 3]))
-def test_incremental_lof_equals_naive_after_every_insert_and_evict(data, cap, k, d, alphabet,
-                                                                    excl):
+@given(
+    data=st.data(),
+    cap=st.integers(2, 14),
+    k=st.integers(1, 5),
+    d=st.integers(1, 6),
+    alphabet=st.integers(1, 4),
+    excl=st.sampled_from([0, 0, 3]),
+)
+def test_incremental_lof_equals_naive_after_every_insert_and_evict(data, cap, k, d, alphabet, excl):
     # a small alphabet of counts makes duplicate vectors and distance ties common
     buf = Buffer(cap, k, d, excl)
     ops = data.draw(st.lists(st.booleans(), min_size=1, max_size=40))
@@ -97,8 +114,9 @@ def test_incremental_updates_touch_few_points_on_clustered_stream():
         vec = centres[(i // 150) % 6] + rng.integers(0, 3, 16)
         touched.append(buf.insert(vec, i))
     o = buf.order()
-    np.testing.assert_allclose(buf.lof[o], naive_cosine_lof(buf.vecs[o].astype(float), k),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        buf.lof[o], naive_cosine_lof(buf.vecs[o].astype(float), k), rtol=1e-12
+    )
     assert np.median(touched[-600:]) < cap / 4
 
 
@@ -113,14 +131,27 @@ class ExtBuffer(Buffer):
         self.trunc = np.zeros(cap, dtype=np.uint8)
 
     def _args(self):
-        return (self.vecs, self.norms, self.seqs, self.nn_idx, self.nn_d, self.nn_key,
-                self.nn_cnt, self.trunc, self.lrd, self.lof, self.mark, self.centres)
+        return (
+            self.vecs,
+            self.norms,
+            self.seqs,
+            self.nn_idx,
+            self.nn_d,
+            self.nn_key,
+            self.nn_cnt,
+            self.trunc,
+            self.lrd,
+            self.lof,
+            self.mark,
+            self.centres,
+        )
 
     def insert(self, vec, t):
         slot = self.next % self.cap
         self.centres[slot] = t
-        n = ext_insert(*self._args(), slot, np.asarray(vec, dtype=np.int16), self.next,
-                       self.k, self.excl)
+        n = ext_insert(
+            *self._args(), slot, np.asarray(vec, dtype=np.int16), self.next, self.k, self.excl
+        )
         self.next += 1
         self.size += 1
         return n
@@ -133,18 +164,27 @@ class ExtBuffer(Buffer):
 
 
 @settings(max_examples=150, deadline=None)
-@given(data=st.data(), cap=st.integers(2, 14), k=st.integers(1, 5), extra=st.integers(0, 6),
-       d=st.integers(1, 6), alphabet=st.integers(1, 4), excl=st.sampled_from([0, 0, 3]))
-def test_extended_candidate_lists_are_exact_and_change_no_value(data, cap, k, extra, d, alphabet,
-                                                                excl):
+@given(
+    data=st.data(),
+    cap=st.integers(2, 14),
+    k=st.integers(1, 5),
+    extra=st.integers(0, 6),
+    d=st.integers(1, 6),
+    alphabet=st.integers(1, 4),
+    excl=st.sampled_from([0, 0, 3]),
+)
+def test_extended_candidate_lists_are_exact_and_change_no_value(
+    data, cap, k, extra, d, alphabet, excl
+):
     """Lists of k + extra candidates: each list is the exact (distance, age) prefix of all
     eligible points, at least k long unless fewer are eligible, complete unless flagged
     truncated; the LOF equals the naive one and, bit for bit, the plain k-list kernels'. An
     eviction followed by an insert may update lrd/LOF once for both (``ext_evict``)."""
     ext = ExtBuffer(cap, k, k + extra, d, excl)
     plain = Buffer(cap, k, d, excl)
-    ops = data.draw(st.lists(st.sampled_from(["insert", "evict", "replace"]), min_size=1,
-                             max_size=40))
+    ops = data.draw(
+        st.lists(st.sampled_from(["insert", "evict", "replace"]), min_size=1, max_size=40)
+    )
     t = 0
     for op in ops:
         if op == "evict" and ext.size > 0:
@@ -186,16 +226,25 @@ def rebuilt(ext):
 
 
 @settings(max_examples=150, deadline=None)
-@given(data=st.data(), cap=st.integers(2, 14), k=st.integers(1, 5), extra=st.integers(0, 6),
-       d=st.integers(1, 6), alphabet=st.integers(1, 4), excl=st.sampled_from([0, 0, 3]))
-def test_a_rebuilt_buffer_equals_the_incremental_one_now_and_after(data, cap, k, extra, d,
-                                                                   alphabet, excl):
+@given(
+    data=st.data(),
+    cap=st.integers(2, 14),
+    k=st.integers(1, 5),
+    extra=st.integers(0, 6),
+    d=st.integers(1, 6),
+    alphabet=st.integers(1, 4),
+    excl=st.sampled_from([0, 0, 3]),
+)
+def test_a_rebuilt_buffer_equals_the_incremental_one_now_and_after(
+    data, cap, k, extra, d, alphabet, excl
+):
     """Rebuilt from the vectors alone at any point, the buffer has the same LOF and lrd bit
     for bit, the same k-neighbour lists, and stays equal through later inserts and evictions
     (its candidate lists beyond k are complete, the incremental ones may be truncated)."""
     live = ExtBuffer(cap, k, k + extra, d, excl)
-    ops = data.draw(st.lists(st.sampled_from(["insert", "evict", "rebuild"]), min_size=1,
-                             max_size=40))
+    ops = data.draw(
+        st.lists(st.sampled_from(["insert", "evict", "rebuild"]), min_size=1, max_size=40)
+    )
     twin, t = None, 0
     for op in ops:
         if op == "rebuild":
@@ -242,18 +291,24 @@ def test_extended_lists_on_a_clustered_stream_equal_plain_lists():
         plain.insert(vec, i)
     o = ext.order()
     np.testing.assert_array_equal(ext.lof[o], plain.lof[o])
-    np.testing.assert_allclose(ext.lof[o], naive_cosine_lof(ext.vecs[o].astype(float), k),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        ext.lof[o], naive_cosine_lof(ext.vecs[o].astype(float), k), rtol=1e-12
+    )
     assert (ext.nn_cnt[o] >= k).all()
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.sampled_from([0.5, 1.0, 1.0, 1.25, 2.0, 3.0]) | st.floats(0, 10), min_size=1,
-                max_size=60), st.floats(0, 3))
+@given(
+    st.lists(
+        st.sampled_from([0.5, 1.0, 1.0, 1.25, 2.0, 3.0]) | st.floats(0, 10), min_size=1, max_size=60
+    ),
+    st.floats(0, 3),
+)
 def test_robust_threshold_by_selection_equals_sorting(values, n_mads):
     y = np.array(values)
     assert robust_threshold(y, len(y), n_mads, np.empty(len(y))) == naive_robust_threshold(
-        y, n_mads)
+        y, n_mads
+    )
     y[len(y) // 2] = np.nan  # NaN: the sorting path, NaN last as before
     got = robust_threshold(y, len(y), n_mads, np.empty(len(y)))
     want = naive_robust_threshold(y, n_mads)
@@ -261,13 +316,14 @@ def test_robust_threshold_by_selection_equals_sorting(values, n_mads):
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.integers(0, 5).map(float) | st.floats(-5, 5), min_size=1, max_size=50),
-       st.data())
+@given(
+    st.lists(st.integers(0, 5).map(float) | st.floats(-5, 5), min_size=1, max_size=50), st.data()
+)
 def test_select_kth_partitions_like_a_sort(values, data):
     a = np.array(values)
     kth = data.draw(st.integers(0, len(a) - 1))
     w = a.copy()
     v = select_kth(w, len(w), kth)
     assert v == w[kth] == np.sort(a)[kth]
-    assert (w[:kth] <= v).all() and (w[kth + 1:] >= v).all()
+    assert (w[:kth] <= v).all() and (w[kth + 1 :] >= v).all()
     np.testing.assert_array_equal(np.sort(w), np.sort(a))

@@ -85,8 +85,9 @@ def test_lof_matches_naive_with_exclusion_zone():
     x = _clustered(rng, n=60)
     t = np.arange(60) * 5
     for excl in (0, 12, 40):
-        np.testing.assert_allclose(lof_scores(x, 4, t, excl), naive_cosine_lof(x, 4, t, excl),
-                                   rtol=1e-12)
+        np.testing.assert_allclose(
+            lof_scores(x, 4, t, excl), naive_cosine_lof(x, 4, t, excl), rtol=1e-12
+        )
 
 
 def test_window_histograms_match_naive_and_skip_nan():
@@ -111,9 +112,16 @@ def test_window_histograms_drop_windows_with_too_few_valid_frames():
 
 
 @settings(max_examples=60, deadline=None)
-@given(a=arrays(np.float64, st.tuples(st.integers(1, 80), st.just(8)),
-                elements=st.one_of(st.floats(0, np.pi), st.just(np.nan))),
-       window=st.integers(1, 30), step=st.integers(1, 10), bins=st.integers(2, 16))
+@given(
+    a=arrays(
+        np.float64,
+        st.tuples(st.integers(1, 80), st.just(8)),
+        elements=st.one_of(st.floats(0, np.pi), st.just(np.nan)),
+    ),
+    window=st.integers(1, 30),
+    step=st.integers(1, 10),
+    bins=st.integers(2, 16),
+)
 def test_histogram_invariant_each_angle_sums_to_one(a, window, step, bins):
     step = min(step, window)
     counts, _, nv = window_histograms(a, window, step, bins, min_valid=1)
@@ -123,8 +131,7 @@ def test_histogram_invariant_each_angle_sums_to_one(a, window, step, bins):
 
 
 @settings(max_examples=80, deadline=None)
-@given(y=arrays(np.float64, st.integers(3, 40), elements=st.floats(0, 10)),
-       eps=st.floats(0, 3))
+@given(y=arrays(np.float64, st.integers(3, 40), elements=st.floats(0, 10)), eps=st.floats(0, 3))
 def test_douglas_peucker_matches_naive(y, eps):
     keep = np.zeros(len(y), dtype=np.uint8)
     stack = np.zeros(4 * len(y) + 4, dtype=np.int64)
@@ -133,9 +140,13 @@ def test_douglas_peucker_matches_naive(y, eps):
 
 
 @settings(max_examples=80, deadline=None)
-@given(y=arrays(np.float64, st.integers(1, 60), elements=st.floats(0.5, 5)),
-       delay=st.integers(1, 6), tol=st.floats(0, 0.5), mads=st.floats(0, 4),
-       gap=st.integers(0, 8))
+@given(
+    y=arrays(np.float64, st.integers(1, 60), elements=st.floats(0.5, 5)),
+    delay=st.integers(1, 6),
+    tol=st.floats(0, 0.5),
+    mads=st.floats(0, 4),
+    gap=st.integers(0, 8),
+)
 def test_peak_rule_matches_naive(y, delay, tol, mads, gap):
     got = list(peak_windows(y, delay, tol, mads, 1.0, gap))
     assert got == naive_peak_windows(y, delay, tol, mads, 1.0, gap)
@@ -146,8 +157,12 @@ def test_segmenter_finds_cuts_between_synthetic_actions():
     rng = np.random.default_rng(5)
     t = np.arange(1500)[:, None]
     d = LOFConfig().n_features
-    parts = [np.clip(mu + 0.25 * np.sin(t / 9.0 + np.arange(d)) + rng.normal(0, 0.05, (1500, d)),
-                     0, np.pi) for mu in (0.6, 1.6, 2.4)]
+    parts = [
+        np.clip(
+            mu + 0.25 * np.sin(t / 9.0 + np.arange(d)) + rng.normal(0, 0.05, (1500, d)), 0, np.pi
+        )
+        for mu in (0.6, 1.6, 2.4)
+    ]
     seg = LOFSegmenter(LOFConfig(), fps=120).fit(np.concatenate(parts))
     cuts = seg.cuts_
     assert len(cuts) == 2
@@ -192,13 +207,24 @@ def test_config_validates_and_paper_preset():
 
 
 @settings(max_examples=80, deadline=None)
-@given(data=st.data(), n=st.integers(4, 120), window=st.integers(1, 25), radius=st.integers(0, 30),
-       bins=st.integers(2, 6))
-def test_refine_cut_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, window, radius,
-                                                                        bins):
+@given(
+    data=st.data(),
+    n=st.integers(4, 120),
+    window=st.integers(1, 25),
+    radius=st.integers(0, 30),
+    bins=st.integers(2, 6),
+)
+def test_refine_cut_matches_naive_and_reads_a_ring_like_the_whole_array(
+    data, n, window, radius, bins
+):
     # few bins and a small angle alphabet make ties (earliest maximum wins) common
-    a = data.draw(arrays(np.float64, (n, 8), elements=st.one_of(
-        st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan))))
+    a = data.draw(
+        arrays(
+            np.float64,
+            (n, 8),
+            elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
+        )
+    )
     centre = data.draw(st.integers(0, n))
     n_avail = data.draw(st.integers(0, n))
     first = data.draw(st.integers(-5, n))
@@ -212,9 +238,9 @@ def test_refine_cut_matches_naive_and_reads_a_ring_like_the_whole_array(data, n,
     ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
     for g in range(oldest, n_avail):
         ring[g % size], rv[g % size] = fb[g], valid[g]
-    assert refine_cut(ring, rv, size, centre, radius, window, bins, n_avail, oldest, first, left,
-                      right) == refine_cut(fb, valid, n, centre, radius, window, bins, n_avail,
-                                           oldest, first, left, right)
+    assert refine_cut(
+        ring, rv, size, centre, radius, window, bins, n_avail, oldest, first, left, right
+    ) == refine_cut(fb, valid, n, centre, radius, window, bins, n_avail, oldest, first, left, right)
 
 
 def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
@@ -240,8 +266,13 @@ def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
 @settings(max_examples=80, deadline=None)
 @given(data=st.data(), n=st.integers(1, 120), window=st.integers(1, 25), bins=st.integers(2, 6))
 def test_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, window, bins):
-    a = data.draw(arrays(np.float64, (n, 8), elements=st.one_of(
-        st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan))))
+    a = data.draw(
+        arrays(
+            np.float64,
+            (n, 8),
+            elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
+        )
+    )
     g = data.draw(st.integers(0, n))
     n_avail = data.draw(st.integers(0, n))
     fb, valid = frame_bins(a, bins)
@@ -253,16 +284,22 @@ def test_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, w
     ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
     for f in range(oldest, n_avail):
         ring[f % size], rv[f % size] = fb[f], valid[f]
-    assert contrast_at(ring, rv, size, g, window, bins, n_avail, oldest, left, right) == \
-        contrast_at(fb, valid, n, g, window, bins, n_avail, oldest, left, right)
+    assert contrast_at(
+        ring, rv, size, g, window, bins, n_avail, oldest, left, right
+    ) == contrast_at(fb, valid, n, g, window, bins, n_avail, oldest, left, right)
 
 
 @settings(max_examples=80, deadline=None)
 @given(data=st.data(), n=st.integers(1, 120), bins=st.integers(2, 6))
 def test_span_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, bins):
     """The novelty check's statistic: sides of any length, as the naive twin computes them."""
-    a = data.draw(arrays(np.float64, (n, 8), elements=st.one_of(
-        st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan))))
+    a = data.draw(
+        arrays(
+            np.float64,
+            (n, 8),
+            elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
+        )
+    )
     hi = data.draw(st.integers(0, n))
     g = data.draw(st.integers(0, hi))
     lo = data.draw(st.integers(0, g))
@@ -292,6 +329,6 @@ def test_contrast_hand_derived_values():
     # 1/8); a segment of 10 + 5 frames against the last 5 (angle 0: (10, 5) . (0, 5))
     assert span_contrast(fb, valid, 20, 5, 10, 20, 2, left, right) == pytest.approx(1 / 8)
     assert span_contrast(fb, valid, 20, 0, 15, 20, 2, left, right) == pytest.approx(
-        1 - (10 * 0 + 5 * 5 + 7 * 15 * 5) / np.sqrt((10 ** 2 + 5 ** 2 + 7 * 15 ** 2)
-                                                    * (5 ** 2 + 7 * 5 ** 2)))
+        1 - (10 * 0 + 5 * 5 + 7 * 15 * 5) / np.sqrt((10**2 + 5**2 + 7 * 15**2) * (5**2 + 7 * 5**2))
+    )
     assert span_contrast(fb, valid, 20, 10, 10, 20, 2, left, right) == -1.0

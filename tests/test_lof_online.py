@@ -22,9 +22,14 @@ D = LOFConfig().n_features  # 8 bone angles + 9 inclinations
 def _actions(seed=0, n=600, levels=(0.6, 1.6, 2.4, 1.1)):
     rng = np.random.default_rng(seed)
     t = np.arange(n)[:, None]
-    return np.concatenate([
-        np.clip(mu + 0.25 * np.sin(t / 7.0 + np.arange(D)) + rng.normal(0, 0.05, (n, D)), 0,
-                np.pi) for mu in levels])
+    return np.concatenate(
+        [
+            np.clip(
+                mu + 0.25 * np.sin(t / 7.0 + np.arange(D)) + rng.normal(0, 0.05, (n, D)), 0, np.pi
+            )
+            for mu in levels
+        ]
+    )
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +49,7 @@ def test_learn_one_equals_learn_many():
     many = StreamingLOFSegmenter(FAST, fps=100)
     ev2 = []
     for i in range(0, len(a), 37):  # ragged packets
-        ev2 += many.learn_many(a[i:i + 37])
+        ev2 += many.learn_many(a[i : i + 37])
     ev2 += many.finish()
     assert ev1 == ev2 and len(ev1) >= 3
     np.testing.assert_array_equal(one.buffer_lof(), many.buffer_lof())
@@ -178,29 +183,40 @@ def _naive_replay(angles, cfg=None):
     stack = np.zeros(8 * delay + 8, dtype=np.int64)
     replay, last, rejected, novel = [], -(1 << 40), 0, 0
     cols = lof_columns(angles, cfg, 120)  # what is histogrammed: features and speeds
-    cols = cols[:, :cfg.check_columns(angles.shape[1])]  # what the checks read: no root speeds
+    cols = cols[:, : cfg.check_columns(angles.shape[1])]  # what the checks read: no root speeds
     for w in range(m - delay):
         t = w + delay
-        y = lof_batch(off.counts_[:t + 1], cfg.k, off.centres_[:t + 1], 0)[0]
-        thr = max(cfg.min_score, robust_threshold(y, t + 1, cfg.threshold_mads,
-                                                  np.empty(t + 1)))
+        y = lof_batch(off.counts_[: t + 1], cfg.k, off.centres_[: t + 1], 0)[0]
+        thr = max(cfg.min_score, robust_threshold(y, t + 1, cfg.threshold_mads, np.empty(t + 1)))
         lo = max(0, w - delay)
-        if y[w] >= thr and w - last >= g["min_gap"] and dominates(
-                y, lo, t, w, g["min_gap"]) and is_peak(y, lo, t, w, cfg.dp_tolerance, keep, stack):
+        if (
+            y[w] >= thr
+            and w - last >= g["min_gap"]
+            and dominates(y, lo, t, w, g["min_gap"])
+            and is_peak(y, lo, t, w, cfg.dp_tolerance, keep, stack)
+        ):
             n_avail = int(off.centres_[t]) - g["window"] // 2 + g["window"]
             first = replay[-1] + g["min_gap"] * g["step"] if replay else 0
-            cut = naive_refine_cut(cols, cfg.bins, int(off.centres_[w]), g["refine"],
-                                   g["window"], n_avail, first)
+            cut = naive_refine_cut(
+                cols, cfg.bins, int(off.centres_[w]), g["refine"], g["window"], n_avail, first
+            )
             # the confirming two-sample contrast, with the frames seen at the decision
             since = replay[-1] if replay else 0  # the before side starts at the last cut
-            if cfg.min_contrast > 0 and (n_avail - cut < g["window"] or naive_contrast(
-                    cols, cfg.bins, cut, g["contrast"], n_avail, since) < cfg.min_contrast):
+            if cfg.min_contrast > 0 and (
+                n_avail - cut < g["window"]
+                or naive_contrast(cols, cfg.bins, cut, g["contrast"], n_avail, since)
+                < cfg.min_contrast
+            ):
                 rejected += 1
                 continue
             # novelty: the whole current segment, as far back as the frame ring holds
             ring_old = max(0, n_avail - g["history"])
-            if naive_span_contrast(cols, cfg.bins, max(since, ring_old), cut,
-                                   min(cut + g["contrast"], n_avail)) < cfg.novelty:
+            if (
+                naive_span_contrast(
+                    cols, cfg.bins, max(since, ring_old), cut, min(cut + g["contrast"], n_avail)
+                )
+                < cfg.novelty
+            ):
                 novel += 1
                 continue
             replay.append(cut)
@@ -225,8 +241,9 @@ def test_online_decisions_replay_offline_on_buffer_contents(angles_86_01, data_d
 
     online, replay, rejected, _ = _naive_replay(angles_86_01)
     assert online == replay and len(online) >= 5 and rejected >= 1
-    rec = io.read(data_dir / "cmu_exercise" / "14_14.amc.gz",
-                  skeleton=data_dir / "cmu86" / "86.asf")
+    rec = io.read(
+        data_dir / "cmu_exercise" / "14_14.amc.gz", skeleton=data_dir / "cmu86" / "86.asf"
+    )
     from streamseg.offline.lof import lof_features
 
     a = lof_features(rec)
@@ -251,7 +268,7 @@ def test_offline_cuts_are_the_live_decisions(angles_86_01):
     s = StreamingLOFSegmenter(cfg, fps=120)
     online = []
     for i in range(0, len(angles_86_01), 37):
-        online += s.learn_many(angles_86_01[i:i + 37])
+        online += s.learn_many(angles_86_01[i : i + 37])
     online += s.finish()
     off = LOFSegmenter(cfg, fps=120).fit(angles_86_01)
     assert [c.frame for c in online] == list(off.cuts_)

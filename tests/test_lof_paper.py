@@ -57,11 +57,11 @@ def _naive_paper_cuts(angles, cfg):
     cuts = []
     for w in range(m):
         t = min(w + d, m - 1)
-        y = lof_batch(off.counts_[:t + 1], cfg.k, off.centres_[:t + 1], 0)[0]
+        y = lof_batch(off.counts_[: t + 1], cfg.k, off.centres_[: t + 1], 0)[0]
         lo, rng = max(0, w - d), y.max() - y.min()
         if w in (lo, t) or rng <= 0:
             continue
-        seg = y[lo:t + 1]
+        seg = y[lo : t + 1]
         keep = naive_douglas_peucker(seg, cfg.dp_tolerance * rng)
         c = w - lo
         if c in keep and seg[keep[keep.index(c) - 1]] < seg[c] > seg[keep[keep.index(c) + 1]]:

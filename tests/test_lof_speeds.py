@@ -33,8 +33,9 @@ def test_kernel_equals_naive_twin(nan_rows):
     assert np.isnan(speeds[list(nan_rows)]).all() if nan_rows else np.isfinite(got).all()
     assert np.nanmax(speeds) <= np.pi and np.nanmin(speeds) >= 0
     off = LOFConfig(speed_max=1.5, speed_lag_s=0.1, root_speed_max=0)
-    np.testing.assert_allclose(lof_columns(a, off, FPS), naive_speed_columns(a, 12, 1.5, FPS),
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        lof_columns(a, off, FPS), naive_speed_columns(a, 12, 1.5, FPS), rtol=0, atol=1e-12
+    )
 
 
 def test_packets_do_not_change_the_columns():
@@ -42,8 +43,8 @@ def test_packets_do_not_change_the_columns():
     a[100:104] = np.nan
     cfg = LOFConfig()
     cols = SpeedColumns(cfg, FPS, a.shape[1])
-    parts = [cols(a[i:i + 1]) for i in range(3)]  # single frames
-    rest = [cols(a[i:i + 37]) for i in range(3, 700, 37)]  # then ragged packets
+    parts = [cols(a[i : i + 1]) for i in range(3)]  # single frames
+    rest = [cols(a[i : i + 37]) for i in range(3, 700, 37)]  # then ragged packets
     np.testing.assert_array_equal(np.vstack(parts + rest), lof_columns(a, cfg, FPS))
 
 

@@ -40,7 +40,7 @@ def _feed(cfg, angles, packet=120):
     det = StreamingLOFSegmenter(cfg, FPS)
     live = []
     for i in range(0, len(angles), packet):
-        live += det.learn_many(angles[i:i + packet])
+        live += det.learn_many(angles[i : i + packet])
     return det, live, det.finish()
 
 
@@ -98,10 +98,12 @@ def test_settling_matches_the_naive_twin(angles86, angles_cmu02):
         cfg = LOFConfig(delay_s=1.5, early_delay_s=early)
         _, live, _ = _feed(cfg, a)
         _, one_live, _ = _feed(LOFConfig(delay_s=1.5), a)
-        pending = [(e.frame, e.score, e.emitted_at) for e in live
-                   if isinstance(e, CutEvent) and e.pending]
-        want = naive_settle(pending, [(c.frame, c.score, c.emitted_at) for c in one_live],
-                            cfg.frames(FPS), len(a))
+        pending = [
+            (e.frame, e.score, e.emitted_at) for e in live if isinstance(e, CutEvent) and e.pending
+        ]
+        want = naive_settle(
+            pending, [(c.frame, c.score, c.emitted_at) for c in one_live], cfg.frames(FPS), len(a)
+        )
         got = [(cut_kind(e), e.frame, e.emitted_at) for e in live]
         assert got == want
         kinds |= {k for k, _, _ in got}
@@ -121,8 +123,7 @@ def test_early_delay_off_is_one_stage_and_bad_values_are_refused(angles86):
         StreamingLOFSegmenter(LOFConfig(step_s=0.5, early_delay_s=1.4), fps=10.0)
 
 
-def test_a_restored_stream_settles_its_pending_cut_as_the_original(tmp_path, rec,
-                                                                    warm_kernels):
+def test_a_restored_stream_settles_its_pending_cut_as_the_original(tmp_path, rec, warm_kernels):
     """Checkpointed with a pending cut: the restored stream withdraws it (and emits the
     moved cut) exactly as the uninterrupted stream does."""
     _, live, _ = _feed(TWO, lof_features(rec))
@@ -141,8 +142,7 @@ def test_a_restored_stream_settles_its_pending_cut_as_the_original(tmp_path, rec
     want = p.push(rest, n)[0] + p.finish()
     got = back.push(rest, n)[0] + back.finish()
     assert got == want
-    assert (first.frame, "moved" if settle.moved else "withdraw") in [(c[0], c[3])
-                                                                       for c in got]
+    assert (first.frame, "moved" if settle.moved else "withdraw") in [(c[0], c[3]) for c in got]
     # the relabel's cut list holds the final cuts only
     assert first.frame not in back.cut_frames
     assert list(back.cut_frames) == list(p.cut_frames)
@@ -153,10 +153,12 @@ def test_wire_fields_of_pending_cuts_confirm_and_withdraw():
     body = protocol.unpack_body(protocol.encode(plain)[1])
     assert "pending" not in body and protocol.decode(protocol.encode(plain)) == plain
     assert "pending" not in protocol.to_json(plain)
-    for ev in (protocol.Cut("s", 10, 1.0, 1.5, 20, True, True),
-               protocol.Confirm("s", 10, 1.0, 1.6, 30),
-               protocol.Withdraw("s", 10, 1.0, 30, True),
-               protocol.Withdraw("s", 11, 1.0, 31, False)):
+    for ev in (
+        protocol.Cut("s", 10, 1.0, 1.5, 20, True, True),
+        protocol.Confirm("s", 10, 1.0, 1.6, 30),
+        protocol.Withdraw("s", 10, 1.0, 30, True),
+        protocol.Withdraw("s", 11, 1.0, 31, False),
+    ):
         parts = protocol.encode(ev, seq=7)
         assert parts[0] == f"{ev.type}/s/".encode()
         back = protocol.decode(parts)
@@ -170,8 +172,9 @@ def test_wire_fields_of_pending_cuts_confirm_and_withdraw():
 
 
 @pytest.mark.daemon
-def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, data_dir, rec,
-                                                                  tmp_path):
+def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(
+    start_daemon, data_dir, rec, tmp_path
+):
     """A real daemon over loopback with the two-stage decision: the pending cut at 86_01's
     frame 1128 is withdrawn; `streamseg listen` and the minimal listener end with the final
     cuts (the offline cuts), without it; the event log holds the withdraw."""
@@ -184,17 +187,53 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, 
     final = [int(f) for f in LOFSegmenter(TWO, FPS).fit(a).cuts_]
     assert 1128 not in final
     script = Path(__file__).resolve().parents[1] / "clients" / "python" / "listener.py"
-    mini = subprocess.Popen([sys.executable, str(script), ep["publish"], "w", "--control",
-                             ep["control"]], stdout=subprocess.PIPE, text=True)
+    mini = subprocess.Popen(
+        [sys.executable, str(script), ep["publish"], "w", "--control", ep["control"]],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     assert mini.stdout.readline().startswith("listening on")
-    cli = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "listen", "--from",
-                            ep["publish"], "--control", ep["control"], "--stream", "w",
-                            "--jsonl", "--until-end", "--timeout", "60"],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    cli = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "listen",
+            "--from",
+            ep["publish"],
+            "--control",
+            ep["control"],
+            "--stream",
+            "w",
+            "--jsonl",
+            "--until-end",
+            "--timeout",
+            "60",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     assert json.loads(cli.stdout.readline())["type"] == "state"  # subscribed, handshaken
-    assert main(["replay", str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
-                 str(data_dir / "cmu86" / "86.asf"), "--to", ep["ingest"], "--speed", "0",
-                 "--batch", "60", "--stream", "w"]) == 0
+    assert (
+        main(
+            [
+                "replay",
+                str(data_dir / "cmu86" / "86_01.amc.gz"),
+                "--skeleton",
+                str(data_dir / "cmu86" / "86.asf"),
+                "--to",
+                ep["ingest"],
+                "--speed",
+                "0",
+                "--batch",
+                "60",
+                "--stream",
+                "w",
+            ]
+        )
+        == 0
+    )
     out, _ = mini.communicate(timeout=60)
     lines = out.splitlines()
     assert any("cut at frame 1128 " in x and "pending" in x for x in lines)
@@ -205,8 +244,9 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(start_daemon, 
     kinds = [r["type"] for r in rows]
     assert "withdraw" in kinds and "confirm" in kinds
     summary = [r for r in rows if r["type"] == "cuts"]
-    assert summary == [{"type": "cuts", "stream": "w", "frames": final,
-                        "withdrawn": len(withdrawn)}]
+    assert summary == [
+        {"type": "cuts", "stream": "w", "frames": final, "withdrawn": len(withdrawn)}
+    ]
     # numbered like every event, in the event log
     seqs = [r["seq"] for r in rows if "seq" in r]
     assert seqs == list(range(1, len(seqs) + 1))
@@ -254,11 +294,13 @@ def test_the_view_drops_a_withdrawn_cut_and_redraws():
     from streamseg.view.model import Hub
 
     hub = Hub(clock=lambda: 0.0)
-    for ev in (protocol.Cut("v", 100, 1.0, 1.4, 300, True, True),
-               protocol.Cut("v", 900, 8.0, 1.3, 1100, True, True),
-               protocol.Confirm("v", 100, 1.0, 1.5, 400),
-               protocol.Withdraw("v", 900, 8.0, 1200, True),
-               protocol.Cut("v", 930, 8.2, 1.3, 1200, True)):
+    for ev in (
+        protocol.Cut("v", 100, 1.0, 1.4, 300, True, True),
+        protocol.Cut("v", 900, 8.0, 1.3, 1100, True, True),
+        protocol.Confirm("v", 100, 1.0, 1.5, 400),
+        protocol.Withdraw("v", 900, 8.0, 1200, True),
+        protocol.Cut("v", 930, 8.2, 1.3, 1200, True),
+    ):
         hub.apply(ev)
     tl = hub.streams["v"].timeline()
     assert [c["frame"] for c in tl["cuts"]] == [100, 930]

@@ -61,8 +61,9 @@ def outlet_of(pylsl, rec, source_id: str, fmt=None):
     from streamseg.lsl.meta import add_channels
 
     n = rec.skeleton.n_joints
-    info = pylsl.StreamInfo("mocap-test", "MoCap", 3 * n, rec.fps, fmt or pylsl.cf_double64,
-                            source_id)
+    info = pylsl.StreamInfo(
+        "mocap-test", "MoCap", 3 * n, rec.fps, fmt or pylsl.cf_double64, source_id
+    )
     add_channels(info.desc(), rec.skeleton.names, "millimeters")
     return pylsl.StreamOutlet(info, chunk_size=0, max_buffered=600)
 
@@ -71,14 +72,26 @@ def push_take(out, positions, fps, t0, first=0, step=60):
     flat = positions.reshape(positions.shape[0], -1)
     for a in range(0, flat.shape[0], step):
         stamps = (t0 + (first + a + np.arange(min(step, flat.shape[0] - a))) / fps).tolist()
-        out.push_chunk(flat[a:a + step].tolist(), stamps)
+        out.push_chunk(flat[a : a + step].tolist(), stamps)
 
 
 def serve(*extra):
     """`streamseg serve` on free loopback ports; returns (process, endpoints)."""
-    cmd = [sys.executable, "-m", "streamseg.cli", "serve", "--ingest", "tcp://127.0.0.1:0",
-           "--publish", "tcp://127.0.0.1:0", "--control", "tcp://127.0.0.1:0",
-           "--state-dir", "none", *extra]
+    cmd = [
+        sys.executable,
+        "-m",
+        "streamseg.cli",
+        "serve",
+        "--ingest",
+        "tcp://127.0.0.1:0",
+        "--publish",
+        "tcp://127.0.0.1:0",
+        "--control",
+        "tcp://127.0.0.1:0",
+        "--state-dir",
+        "none",
+        *extra,
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
     assert line.startswith("streamseg serve: ingest="), line + proc.stderr.read()
@@ -132,8 +145,9 @@ def test_stream_description_to_joints(lsl):
         stream_skeleton(half.as_xml())
 
 
-def test_an_lsl_take_gives_the_cuts_of_the_file_and_lsl_markers(lsl, rec, data_dir, capsys,
-                                                               tmp_path):
+def test_an_lsl_take_gives_the_cuts_of_the_file_and_lsl_markers(
+    lsl, rec, data_dir, capsys, tmp_path
+):
     """86_01 played into an LSL outlet -> `streamseg lsl` -> `streamseg serve --lsl-markers`:
     the cuts of `segment --online` on the file, and every one of them on the marker stream,
     stamped with the LSL time of its frame."""
@@ -147,15 +161,28 @@ def test_an_lsl_take_gives_the_cuts_of_the_file_and_lsl_markers(lsl, rec, data_d
     bridge = None
     try:
         assert "LSL marker stream" in proc.stdout.readline()
-        found = lsl.resolve_bypred(f"type='Markers' and source_id='streamseg-events-"
-                                   f"{ep['publish']}'", 1, 20.0)
+        found = lsl.resolve_bypred(
+            f"type='Markers' and source_id='streamseg-events-{ep['publish']}'", 1, 20.0
+        )
         assert found, "the daemon's marker stream was not found"
         markers = lsl.StreamInlet(found[0], processing_flags=lsl.proc_clocksync)
         markers.open_stream(10.0)
         out = outlet_of(lsl, rec, source)
-        bridge = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "lsl", "--to",
-                                   ep["ingest"], "--source-id", source],
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        bridge = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "streamseg.cli",
+                "lsl",
+                "--to",
+                ep["ingest"],
+                "--source-id",
+                source,
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         assert "waiting for LSL streams" in bridge.stdout.readline()
         while not out.wait_for_consumers(0.5):
             assert bridge.poll() is None, bridge.stderr.read()
@@ -173,8 +200,11 @@ def test_an_lsl_take_gives_the_cuts_of_the_file_and_lsl_markers(lsl, rec, data_d
         proc.send_signal(signal.SIGTERM)
         proc.wait(30)
     # the detector's cuts (a relabel announces others, provisional false: Settled cuts)
-    cuts = [(e, t) for e, t in got if e["type"] == "cut" and e["stream"] == source
-            and e.get("provisional", True)]
+    cuts = [
+        (e, t)
+        for e, t in got
+        if e["type"] == "cut" and e["stream"] == source and e.get("provisional", True)
+    ]
     assert [e["frame"] for e, _ in cuts] == want
     for ev, stamp in cuts:  # the LSL time of the cut's frame, as the outlet stamped it
         assert stamp == pytest.approx(t0 + ev["frame"] / rec.fps, abs=1e-3)
@@ -191,8 +221,7 @@ def test_serve_follows_an_outlet_that_comes_back(lsl, rec):
     """`serve --lsl-type MoCap`: frames of an outlet that goes away and comes back (same
     source id) continue the stream; the missing frames are a gap."""
     source = f"back-{uuid.uuid4().hex[:8]}"
-    proc, ep = serve("--lsl-type", "MoCap", "--lsl-source-id", source,
-                     "--relabel-interval", "0")
+    proc, ep = serve("--lsl-type", "MoCap", "--lsl-source-id", source, "--relabel-interval", "0")
     try:
         out = outlet_of(lsl, rec, source)
         t0 = lsl.local_clock()
@@ -216,8 +245,12 @@ def test_serve_follows_an_outlet_that_comes_back(lsl, rec):
 
 
 def test_lsl_without_pylsl_or_streams_says_so(tmp_path):
-    run = subprocess.run([sys.executable, "-m", "streamseg.cli", "lsl", "--to", "nowhere"],
-                         capture_output=True, text=True, timeout=60)
+    run = subprocess.run(
+        [sys.executable, "-m", "streamseg.cli", "lsl", "--to", "nowhere"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert run.returncode == 2 and "tcp://HOST:PORT" in run.stderr
 
 
@@ -234,14 +267,28 @@ def test_lsl_input_sends_markers_as_the_joints_of_the_map(lsl, start_daemon, rec
     d, ep = start_daemon(relabel_interval=0)
     source = f"mk-{uuid.uuid4().hex[:8]}"
     subs = {s: subscribe(ep["publish"], ep["control"], stream=s) for s in (source, "j")}
-    info = lsl.StreamInfo("markers-test", "MoCap", 3 * len(names), rec.fps, lsl.cf_double64,
-                          source)
+    info = lsl.StreamInfo("markers-test", "MoCap", 3 * len(names), rec.fps, lsl.cf_double64, source)
     add_channels(info.desc(), names, "m")
     out = lsl.StreamOutlet(info, chunk_size=0, max_buffered=600)
-    bridge = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "lsl", "--to",
-                               ep["ingest"], "--source-id", source, "--up", "y", "--markers",
-                               str(tmp_path / "map.toml")],
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    bridge = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "lsl",
+            "--to",
+            ep["ingest"],
+            "--source-id",
+            source,
+            "--up",
+            "y",
+            "--markers",
+            str(tmp_path / "map.toml"),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert "waiting for LSL streams" in bridge.stdout.readline()
         while not out.wait_for_consumers(0.5):

@@ -15,11 +15,24 @@ from streamseg.client import listen, subscribe
 from streamseg.skeleton.marker_sets import JOINTS
 
 # the CMU joint of 86_01 that stands for each canonical joint of the map
-CMU = {"pelvis": "root", "spine": "lowerback", "sternum": "thorax", "neck": "lowerneck",
-       "l_shoulder": "lhumerus", "l_elbow": "lradius", "l_wrist": "lwrist",
-       "r_shoulder": "rhumerus", "r_elbow": "rradius", "r_wrist": "rwrist",
-       "l_hip": "lfemur", "l_knee": "ltibia", "l_ankle": "lfoot",
-       "r_hip": "rfemur", "r_knee": "rtibia", "r_ankle": "rfoot"}
+CMU = {
+    "pelvis": "root",
+    "spine": "lowerback",
+    "sternum": "thorax",
+    "neck": "lowerneck",
+    "l_shoulder": "lhumerus",
+    "l_elbow": "lradius",
+    "l_wrist": "lwrist",
+    "r_shoulder": "rhumerus",
+    "r_elbow": "rradius",
+    "r_wrist": "rwrist",
+    "l_hip": "lfemur",
+    "l_knee": "ltibia",
+    "l_ankle": "lfoot",
+    "r_hip": "rfemur",
+    "r_knee": "rtibia",
+    "r_ankle": "rfoot",
+}
 
 
 def marker_take(rec, n_frames=None):
@@ -48,10 +61,11 @@ def send(ep, stream, names, positions, fps, units="m"):
     ctx = zmq.Context.instance()
     sock = ctx.socket(zmq.PUSH)
     sock.connect(ep["ingest"])
-    sock.send_multipart(P.encode(P.Announce(stream, fps, tuple(names), tuple([-1] * len(names)),
-                                            units, "y")))
+    sock.send_multipart(
+        P.encode(P.Announce(stream, fps, tuple(names), tuple([-1] * len(names)), units, "y"))
+    )
     for a in range(0, positions.shape[0], 40):
-        sock.send_multipart(P.encode(P.Frames(stream, a, a / fps, positions[a:a + 40])))
+        sock.send_multipart(P.encode(P.Frames(stream, a, a / fps, positions[a : a + 40])))
     sock.send_multipart(P.encode(P.End(stream)))
     sock.close(linger=10_000)
 
@@ -60,8 +74,9 @@ def events_of(sub, stream):
     """The stream's events up to its `closed`, without the fields that name the stream."""
     out = []
     for ev in listen(sub, stream=stream, until_end=True, timeout=60):
-        out.append({k: v for k, v in P.to_json(ev).items()
-                    if k not in ("stream", "seq", "elapsed")})
+        out.append(
+            {k: v for k, v in P.to_json(ev).items() if k not in ("stream", "seq", "elapsed")}
+        )
     return out
 
 
@@ -81,8 +96,11 @@ def test_the_daemon_segments_markers_as_the_joints_the_map_makes(start_daemon, r
     keep = [i for i, n in enumerate(names) if n != pelvis]
     send(ep, "bad", [names[i] for i in keep], markers[:200, keep], rec.fps)
     ev = next(e for e in listen(subs["bad"], stream="bad", timeout=30) if e.type == "error")
-    assert ev.reason == "skeleton" and "nor are they the markers of map.toml (--markers)" in \
-        ev.message and f"pelvis ({pelvis})" in ev.message
+    assert (
+        ev.reason == "skeleton"
+        and "nor are they the markers of map.toml (--markers)" in ev.message
+        and f"pelvis ({pelvis})" in ev.message
+    )
     # a stream of joints is segmented as announced beside the map
     sub = subscribe(ep["publish"], ep["control"], stream="plain")
     send(ep, "plain", JOINTS, joints[:1200], rec.fps)
@@ -97,24 +115,45 @@ def test_serve_takes_the_map_from_its_option_or_its_config(tmp_path, capsys):
     config = load_config(tmp_path / "conf" / "serve.toml")[0]
     assert config.markers == str(tmp_path / "conf" / "lab.toml")  # beside the config file
     # a missing or bad map: one line, before any socket is bound
-    for extra in (["--markers", str(tmp_path / "nope.toml")],
-                  ["--config", str(tmp_path / "conf" / "serve.toml")]):
-        assert main(["serve", "--state-dir", "none", "--ingest", "tcp://127.0.0.1:0",
-                     "--publish", "tcp://127.0.0.1:0", "--control", "tcp://127.0.0.1:0",
-                     *extra]) == 2
+    for extra in (
+        ["--markers", str(tmp_path / "nope.toml")],
+        ["--config", str(tmp_path / "conf" / "serve.toml")],
+    ):
+        assert (
+            main(
+                [
+                    "serve",
+                    "--state-dir",
+                    "none",
+                    "--ingest",
+                    "tcp://127.0.0.1:0",
+                    "--publish",
+                    "tcp://127.0.0.1:0",
+                    "--control",
+                    "tcp://127.0.0.1:0",
+                    *extra,
+                ]
+            )
+            == 2
+        )
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "--markers" in err[0] and "no such file" in err[0], err
 
 
 def _trc(path, names, xyz, fps):
     n = xyz.shape[0]
-    lines = [f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
-             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
-             f"{fps:g}\t{fps:g}\t{n}\t{len(names)}\tm",
-             "Frame#\tTime\t" + "\t\t\t".join(names),
-             "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(len(names)) for a in "XYZ"), ""]
-    lines += [f"{f + 1}\t{f / fps:.5f}\t" + "\t".join(repr(float(v)) for v in xyz[f].ravel())
-              for f in range(n)]
+    lines = [
+        f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+        f"{fps:g}\t{fps:g}\t{n}\t{len(names)}\tm",
+        "Frame#\tTime\t" + "\t\t\t".join(names),
+        "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(len(names)) for a in "XYZ"),
+        "",
+    ]
+    lines += [
+        f"{f + 1}\t{f / fps:.5f}\t" + "\t".join(repr(float(v)) for v in xyz[f].ravel())
+        for f in range(n)
+    ]
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -129,15 +168,41 @@ def test_eval_all_reads_the_folders_markers_through_the_map(rec, data_dir, tmp_p
     assert main(["eval", "--all", str(folder), "--method", "lof"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--markers MAP.toml" in err[0], err
-    assert main(["eval", "--all", str(folder), "--method", "lof", "--markers",
-                 str(tmp_path / "map.toml"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "eval",
+                "--all",
+                str(folder),
+                "--method",
+                "lof",
+                "--markers",
+                str(tmp_path / "map.toml"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     rows = json.loads(capsys.readouterr().out)["rows"]
     assert {(r["recording"], r["method"]) for r in rows} == {
-        ("86_01", "LOF streaming"), ("86_01", "LOF offline")}
+        ("86_01", "LOF streaming"),
+        ("86_01", "LOF offline"),
+    }
     # the same figures as the take's joints read from a file that names them
     _trc(tmp_path / "86_01.trc", JOINTS, joints, rec.fps)
     assert main(["segment", str(tmp_path / "86_01.trc"), "--online", "--json"]) == 0
     want = json.loads(capsys.readouterr().out)["cuts"]
-    assert main(["segment", str(folder / "86_01.trc"), "--online", "--json", "--markers",
-                 str(tmp_path / "map.toml")]) == 0
+    assert (
+        main(
+            [
+                "segment",
+                str(folder / "86_01.trc"),
+                "--online",
+                "--json",
+                "--markers",
+                str(tmp_path / "map.toml"),
+            ]
+        )
+        == 0
+    )
     assert json.loads(capsys.readouterr().out)["cuts"] == want and len(want) >= 5

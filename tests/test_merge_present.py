@@ -25,8 +25,9 @@ B_END = int(4 * FPS)
 def _revisions(merge: bool, ratio: float = 0.4, adjacent: bool = False):
     # the synthetic pieces of one action score 0.50-0.62 against its exemplars, so the test
     # uses a ratio below the default 0.5 (what it tests is the mechanism, not the setting)
-    cfg = replace(LabelMemoryConfig(), merge_present=merge, merge_ratio=ratio,
-                  merge_adjacent=adjacent)
+    cfg = replace(
+        LabelMemoryConfig(), merge_present=merge, merge_ratio=ratio, merge_adjacent=adjacent
+    )
     algos = Algorithms(aca_config=replace(ACAConfig(), n_clusters=2), memory_config=cfg)
     out, previous = [], None
     for t in (6, 8, 10, 12, 14, 16):
@@ -52,11 +53,11 @@ def test_an_action_split_by_a_revision_keeps_one_id():
     for a, b in zip(without, with_merge, strict=True):
         assert [s[:2] for s in a.segments] == [s[:2] for s in b.segments]
     lab0, lab1 = _final(without), _final(with_merge)
-    a_ids0 = set(lab0[B_END + int(FPS):].tolist())  # A, a second past the join
-    a_ids1 = set(lab1[B_END + int(FPS):].tolist())
+    a_ids0 = set(lab0[B_END + int(FPS) :].tolist())  # A, a second past the join
+    a_ids1 = set(lab1[B_END + int(FPS) :].tolist())
     assert len(a_ids0) >= 2  # the split the merge removes
     assert len(a_ids1) == 1
-    b_id = np.bincount(lab1[:B_END - int(FPS)]).argmax()
+    b_id = np.bincount(lab1[: B_END - int(FPS)]).argmax()
     assert b_id not in a_ids1  # the other action keeps its own id
     # ids published: every revision's, as a listener sees them
     pub0 = {s[2] for r in without for s in r.segments}
@@ -71,7 +72,7 @@ def test_an_action_split_by_a_revision_keeps_one_id():
 def test_the_two_clusters_of_a_split_action_touch_so_the_guard_keeps_the_merge():
     guarded, unguarded = _revisions(True, adjacent=True), _revisions(True)
     assert [r.segments for r in guarded] == [r.segments for r in unguarded]
-    assert len(set(_final(guarded)[B_END + int(FPS):].tolist())) == 1
+    assert len(set(_final(guarded)[B_END + int(FPS) :].tolist())) == 1
 
 
 def test_touches():
@@ -106,9 +107,15 @@ def test_merge_is_on_by_default_with_its_guard():
     assert cfg.merge_present is True and cfg.merge_adjacent is True
 
 
-@pytest.mark.parametrize("field,value", [("merge_present", 1), ("merge_adjacent", "yes"),
-                                         ("merge_ratio", -1.0),
-                                         ("merge_margin", float("inf"))])
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("merge_present", 1),
+        ("merge_adjacent", "yes"),
+        ("merge_ratio", -1.0),
+        ("merge_margin", float("inf")),
+    ],
+)
 def test_bad_merge_settings_are_refused(field, value):
     with pytest.raises(ParameterError, match=field):
         LabelMemoryConfig(**{field: value})
@@ -123,8 +130,7 @@ def _simulated_revisions(feats, fps, memory_config, interval=5.0, history=60.0):
     def fit(features, *, start_frame, fps, config, previous=None):
         key = (id(feats), int(start_frame), int(features.shape[0]))
         if key not in _FITS:
-            _FITS[key] = relabel_window(features, start_frame=start_frame, fps=fps,
-                                        config=config)
+            _FITS[key] = relabel_window(features, start_frame=start_frame, fps=fps, config=config)
         return _FITS[key]
 
     algos = Algorithms(relabel=fit, memory_config=memory_config)

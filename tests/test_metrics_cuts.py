@@ -44,13 +44,15 @@ def test_per_boundary_windows_and_margin():
     assert cut_scores([125, 203], true, windows=win)["tp"] == 1
     assert cut_scores([125, 203], true, windows=win, margin=3)["tp"] == 2
     assert cut_scores([86], true, windows=win, margin=3)["tp"] == 0
-    np.testing.assert_array_equal(cut_windows_from(true, windows=win, margin=3),
-                                  [[87, 133], [197, 203]])
+    np.testing.assert_array_equal(
+        cut_windows_from(true, windows=win, margin=3), [[87, 133], [197, 203]]
+    )
 
 
 def test_empty_conventions():
-    assert cut_scores([], [10], tolerance=5) == dict(precision=1.0, recall=0.0, f1=0.0, tp=0,
-                                                     n_pred=0, n_true=1)
+    assert cut_scores([], [10], tolerance=5) == dict(
+        precision=1.0, recall=0.0, f1=0.0, tp=0, n_pred=0, n_true=1
+    )
     assert cut_scores([5], [], tolerance=5)["precision"] == 0.0
     with pytest.raises(ValueError, match="tolerance"):
         cut_scores([1], [1])

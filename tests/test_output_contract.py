@@ -11,8 +11,9 @@ import pytest
 from streamseg.cli import main
 
 DOC = (Path(__file__).resolve().parents[1] / "docs" / "output.md").read_text()
-COMMON = set(re.findall(r"^\| `(\w+)` \|", DOC.split("## `segment`")[1].split("Method keys")[0],
-                        re.M))
+COMMON = set(
+    re.findall(r"^\| `(\w+)` \|", DOC.split("## `segment`")[1].split("Method keys")[0], re.M)
+)
 
 
 def _json(capsys, *argv) -> dict:
@@ -26,8 +27,15 @@ def recording(data_dir):
     return [data_dir / "cmu86" / "86_01.amc.gz", "--skeleton", data_dir / "cmu86" / "86.asf"]
 
 
-@pytest.mark.parametrize("argv", [["--method", "lof"], ["--method", "lof", "--online"],
-                                  ["--method", "aca"], ["--method", "rep"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--method", "lof"],
+        ["--method", "lof", "--online"],
+        ["--method", "aca"],
+        ["--method", "rep"],
+    ],
+)
 def test_segment_prints_the_documented_keys(capsys, recording, argv):
     out = _json(capsys, "segment", *recording, *argv, "--json")
     assert COMMON - {"plot", "events_file", "events_written"} <= set(out), COMMON - set(out)
@@ -43,8 +51,10 @@ def test_segment_prints_the_documented_keys(capsys, recording, argv):
         assert all(s["label"] is None for s in segs)
     elif out["method"] == "rep":  # the segments are the sets (their label) and the rest (None)
         for st in out["sets"]:
-            assert any(s["start"] <= st["start"] and st["end"] <= s["end"]
-                       and s["label"] == st["label"] for s in segs)
+            assert any(
+                s["start"] <= st["start"] and st["end"] <= s["end"] and s["label"] == st["label"]
+                for s in segs
+            )
         assert out["count"] == sum(st["count"] for st in out["sets"]) == len(out["repetitions"])
     else:  # same-label runs are merged: neighbours always differ
         assert all(a["label"] != b["label"] for a, b in zip(segs[:-1], segs[1:]))
@@ -80,7 +90,6 @@ def test_options_that_do_nothing_are_named(capsys, recording):
     assert any("--clusters is a aca option" in w for w in out["warnings"])
 
 
-
 def test_a_skeleton_given_to_a_file_that_carries_its_own_is_named(capsys, recording, tmp_path):
     from streamseg.io import read
     from streamseg.io.npz import write_npz
@@ -88,14 +97,15 @@ def test_a_skeleton_given_to_a_file_that_carries_its_own_is_named(capsys, record
     f = tmp_path / "take.npz"
     write_npz(f, read(recording[0], skeleton=recording[2]))
     out = _json(capsys, "segment", f, "--skeleton", recording[2], "--json")
-    assert out["warnings"] == ["--skeleton does nothing for take.npz: only AMC files take an "
-                               "ASF skeleton (BVH, C3D and .npz carry their own, positions are "
-                               "named by their header or --joints, matrices need none)"]
+    assert out["warnings"] == [
+        "--skeleton does nothing for take.npz: only AMC files take an "
+        "ASF skeleton (BVH, C3D and .npz carry their own, positions are "
+        "named by their header or --joints, matrices need none)"
+    ]
 
 
 def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):
-    assert main([str(a) for a in ["segment", *recording, "--plot", tmp_path / "no" / "x.png"]]) \
-        == 2
+    assert main([str(a) for a in ["segment", *recording, "--plot", tmp_path / "no" / "x.png"]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "does not exist" in err[0]
     assert main(["segment", str(tmp_path / "missing.bvh")]) == 2
@@ -108,8 +118,10 @@ def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):
     assert exit_.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tcp://127.0.0.1:5560" in err[0]
-    assert main([str(a) for a in ["replay", *recording, "--to", "tcp://127.0.0.1:9",
-                                  "--speed", "-1"]]) == 2
+    assert (
+        main([str(a) for a in ["replay", *recording, "--to", "tcp://127.0.0.1:9", "--speed", "-1"]])
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--speed -1.0 is invalid" in err[0]
     with pytest.raises(SystemExit) as info:  # argparse's own errors: one line too
@@ -122,8 +134,20 @@ def test_failures_are_one_line_with_exit_codes(capsys, recording, tmp_path):
     taken = zmq.Context.instance().socket(zmq.PULL)
     port = taken.bind_to_random_port("tcp://127.0.0.1")
     try:
-        assert main(["serve", "--ingest", f"tcp://127.0.0.1:{port}", "--publish",
-                     "tcp://127.0.0.1:0", "--control", "tcp://127.0.0.1:0"]) == 1
+        assert (
+            main(
+                [
+                    "serve",
+                    "--ingest",
+                    f"tcp://127.0.0.1:{port}",
+                    "--publish",
+                    "tcp://127.0.0.1:0",
+                    "--control",
+                    "tcp://127.0.0.1:0",
+                ]
+            )
+            == 1
+        )
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "in use" in err[0] and "another process" in err[0]
     finally:
@@ -140,8 +164,22 @@ def test_a_matrix_without_fps_is_said_and_info_reads_matrices(capsys, tmp_path):
         assert main(["segment", str(m), "--method", method]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "--fps" in err[0], err
-    out = _json(capsys, "segment", m, "--method", "aca", "--fps", "1", "--clusters", "3",
-                "--min-len", "20", "--max-len", "40", "--json")
+    out = _json(
+        capsys,
+        "segment",
+        m,
+        "--method",
+        "aca",
+        "--fps",
+        "1",
+        "--clusters",
+        "3",
+        "--min-len",
+        "20",
+        "--max-len",
+        "40",
+        "--json",
+    )
     assert out["fps"] == 1.0 and out["n_clusters"] == 3
     assert main(["info", str(m)]) == 0
     text = capsys.readouterr().out
@@ -154,6 +192,8 @@ def test_listen_jsonl_writes_segments_as_objects():
 
     ev = P.Segments("s", 2, 0, 10, ((0, 4, 1), (4, 10, 0)), True, 0.5)
     out = json_event(ev)
-    assert out["segments"] == [{"start": 0, "end": 4, "label": 1},
-                               {"start": 4, "end": 10, "label": 0}]
+    assert out["segments"] == [
+        {"start": 0, "end": 4, "label": 1},
+        {"start": 4, "end": 10, "label": 0},
+    ]
     assert out["type"] == "segments" and out["revision"] == 2

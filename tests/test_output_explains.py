@@ -17,8 +17,11 @@ matplotlib.use("Agg")
 
 @pytest.fixture
 def take(data_dir):
-    return [str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
-            str(data_dir / "cmu86" / "86.asf")]
+    return [
+        str(data_dir / "cmu86" / "86_01.amc.gz"),
+        "--skeleton",
+        str(data_dir / "cmu86" / "86.asf"),
+    ]
 
 
 @pytest.fixture
@@ -48,7 +51,7 @@ def test_confusion_matrix_has_headers(capsys, take, labels):
     i = next(i for i, line in enumerate(lines) if line.strip().startswith("confusion"))
     assert "rows: found clusters, columns: human actions" in lines[i]
     assert lines[i + 1].split() == ["cluster", "jump", "leg_kick", "punch", "walk"]
-    rows = [line.split() for line in lines[i + 2:i + 6]]
+    rows = [line.split() for line in lines[i + 2 : i + 6]]
     assert [r[0] for r in rows] == ["0", "1", "2", "3"] and all(len(r) == 5 for r in rows)
 
 
@@ -58,7 +61,7 @@ def test_online_text_output_shows_each_cuts_latency(capsys, take):
     assert main(["segment", *take, "--online"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[1].split()[-4:] == ["label", "decided", "after", "s"]
-    got = [float(line.split()[-1]) for line in lines[3:3 + len(want)]]
+    got = [float(line.split()[-1]) for line in lines[3 : 3 + len(want)]]
     assert got == pytest.approx(want, abs=0.006) and len(want) == 6
 
 
@@ -90,8 +93,10 @@ def test_haca_picture_names_the_method_and_the_actions(tmp_path, take, labels, f
 
 def test_flat_aca_picture_is_titled_aca(tmp_path, take, figures):
     png = tmp_path / "aca.png"
-    assert main(["segment", *take, "--method", "aca", "--flat", "--clusters", "4", "--plot",
-                 str(png)]) == 0
+    assert (
+        main(["segment", *take, "--method", "aca", "--flat", "--clusters", "4", "--plot", str(png)])
+        == 0
+    )
     (fig,) = figures
     assert fig._suptitle.get_text() == "86_01.amc.gz: ACA, 4 actions (given)"
     assert fig.axes[0].get_ylabel() == "ACA"

@@ -87,8 +87,13 @@ def _run(words, cwd=ROOT, **kw):
     import subprocess
     import sys
 
-    return subprocess.run([sys.executable, "-m", "streamseg.cli", *words], cwd=cwd,
-                          capture_output=True, text=True, **kw)
+    return subprocess.run(
+        [sys.executable, "-m", "streamseg.cli", *words],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        **kw,
+    )
 
 
 def test_the_commands_left_out_are_only_those_needing_the_users_own_things():
@@ -124,10 +129,28 @@ def _serve(line, tmp_path, name):
     words = shlex.split(line)[1:]
     words = [("127.0.0.1:0" if w.startswith("127.0.0.1:") else w) for w in words]
     loop = "tcp://127.0.0.1:0"
-    proc = subprocess.Popen([sys.executable, "-m", "streamseg.cli", *words, "--ingest", loop,
-                             "--publish", loop, "--control", loop, "--state-dir",
-                             str(tmp_path / name), "--log-level", "WARNING"],
-                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            *words,
+            "--ingest",
+            loop,
+            "--publish",
+            loop,
+            "--control",
+            loop,
+            "--state-dir",
+            str(tmp_path / name),
+            "--log-level",
+            "WARNING",
+        ],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     first = proc.stdout.readline()
     assert first.startswith("streamseg serve: ingest="), proc.stderr.read()
     ep = dict(w.split("=", 1) for w in first.split()[2:])
@@ -149,8 +172,10 @@ def _on(line, ep):
     import shlex
 
     ports = {"5560": ep["ingest"], "5561": ep["publish"], "5562": ep["control"]}
-    return [next((v for k, v in ports.items() if w == f"tcp://127.0.0.1:{k}"), w)
-            for w in shlex.split(line)[1:]]
+    return [
+        next((v for k, v in ports.items() if w == f"tcp://127.0.0.1:{k}"), w)
+        for w in shlex.split(line)[1:]
+    ]
 
 
 def _stop(proc):
@@ -174,9 +199,13 @@ def test_the_live_service_commands_run_as_written(tmp_path):
     assert serve.startswith("streamseg serve") and "replay" in replay and "listen" in listen
     proc, ep, _ = _serve(serve, tmp_path, "state")
     try:
-        follower = subprocess.Popen([sys.executable, "-m", "streamseg.cli", *_on(listen, ep)],
-                                    cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                    text=True)
+        follower = subprocess.Popen(
+            [sys.executable, "-m", "streamseg.cli", *_on(listen, ep)],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         assert follower.stdout.readline().startswith("[*] streams")  # subscribed
         done = _run(_on(replay, ep), timeout=300)
         assert done.returncode == 0, done.stderr

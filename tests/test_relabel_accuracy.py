@@ -62,8 +62,11 @@ def test_live_relabelling_of_86_01_matches_the_labels(data_dir, warm_kernels):
         # handshake: the first heartbeat shows the subscription has reached the publisher
         next(e for e in listen(s, timeout=30) if e.type == "stats")
         replay(rec, ep["ingest"], stream="live", speed=0, batch=12)
-        events = [e for e in listen(s, stream="live", until_end=True, timeout=60)
-                  if getattr(e, "stream", None) == "live"]
+        events = [
+            e
+            for e in listen(s, stream="live", until_end=True, timeout=60)
+            if getattr(e, "stream", None) == "live"
+        ]
     finally:
         d.stop()
         t.join(10)
@@ -75,8 +78,7 @@ def test_live_relabelling_of_86_01_matches_the_labels(data_dir, warm_kernels):
             live[a:b] = lab
     keep = truth >= 0
     assert matched_frame_accuracy(live[keep], truth[keep])[0] >= 0.87
-    names = sorted({s.label for s in read_labels(data_dir / "cmu86/labels_86_01.csv",
-                                                 "86_01")})
+    names = sorted({s.label for s in read_labels(data_dir / "cmu86/labels_86_01.csv", "86_01")})
     walk = live[truth == names.index("walk")]  # the three walks of the take
     # they are one id (the frames at their edges may carry a neighbour's)
     assert np.mean(walk == np.bincount(walk).argmax()) >= 0.9

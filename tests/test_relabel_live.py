@@ -16,13 +16,16 @@ def _actions(levels, seconds=3.0, seed=0, d=6):
     return cyclic_blocks(levels, seconds, seed, d)
 
 
-@pytest.mark.parametrize("name,X", [
-    ("still", np.ones((2400, 17))),
-    ("near-constant", 1 + 1e-6 * np.random.default_rng(1).random((2400, 17))),
-    ("tiny", np.random.default_rng(2).random((30, 17))),
-    ("one frame", np.random.default_rng(3).random((1, 17))),
-    ("all NaN", np.full((600, 17), np.nan)),
-])
+@pytest.mark.parametrize(
+    "name,X",
+    [
+        ("still", np.ones((2400, 17))),
+        ("near-constant", 1 + 1e-6 * np.random.default_rng(1).random((2400, 17))),
+        ("tiny", np.random.default_rng(2).random((30, 17))),
+        ("one frame", np.random.default_rng(3).random((1, 17))),
+        ("all NaN", np.full((600, 17), np.nan)),
+    ],
+)
 def test_windows_with_nothing_to_cluster_are_one_segment(name, X):
     w = relabel_window(X, start_frame=100, fps=FPS, config=ACAConfig())
     assert w.segments == [(100, 100 + X.shape[0], w.segments[0][2])]

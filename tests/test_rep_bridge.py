@@ -20,7 +20,7 @@ def _lossy(rng, n=400, J=6):
     P = np.cumsum(rng.normal(size=(n, J, 3)), axis=0)
     for _ in range(25):
         j, a = int(rng.integers(1, J - 1)), int(rng.integers(0, n))
-        P[a:a + int(rng.integers(1, 40)), j] = np.nan
+        P[a : a + int(rng.integers(1, 40)), j] = np.nan
     P[:, J - 1] = np.nan  # never seen
     P[:17, 0] = np.nan
     P[150:190, 0] = np.nan
@@ -31,7 +31,7 @@ def _stream(P, chunks, hold=8, needed=(0,)):
     b = PoseBridge(P.shape[1], hold, needed)
     outs, gots, at = [], [], 0
     for size in chunks:
-        o, g = b.push(P[at:at + size])
+        o, g = b.push(P[at : at + size])
         at += size
         outs.append(o)
         gots.append(np.arange(b.n_out - o.shape[0], b.n_out) + 1 if g is None else g)
@@ -86,7 +86,7 @@ def lossy_squat(data_dir):
     rng = np.random.default_rng(1)
     n = P.shape[0]
     for a in rng.integers(0, n, size=40):
-        P[a:a + int(rng.integers(5, 200)), j("l_knee")] = np.nan
+        P[a : a + int(rng.integers(5, 200)), j("l_knee")] = np.nan
     P[900:930] = np.nan
     P[2100:2130] = np.nan
     from dataclasses import replace
@@ -104,8 +104,9 @@ def test_live_counts_equal_offline_on_a_take_with_lost_markers(lossy_squat):
     for chunk in (1, 13, 100):
         c = RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton)
         events = stream_events(c, rec.positions, chunk)
-        runs.append([(e.start, e.end, e.count, e.emitted_at, e.rom_deg, e.likeness)
-                     for e in events])
+        runs.append(
+            [(e.start, e.end, e.count, e.emitted_at, e.rom_deg, e.likeness) for e in events]
+        )
         assert sets_of(events) == [s["repetitions"] for s in seg.sets_]
         assert "l_wrist" in c.lost_joints_ and "l_knee" in c.lost_joints_
     assert runs[0] == runs[1] == runs[2]
@@ -132,11 +133,16 @@ def test_a_daemon_counts_a_take_with_lost_markers_as_offline(start_daemon, lossy
     events = list(listen(s, stream="lossy", until_end=True, timeout=60))
     c = RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton)
     want = c.learn_many(rec.positions) + c.finish()
-    got = [(e.start, e.end, e.count, e.emitted_at, e.duration_s, e.rom_deg, e.rom_joint,
-            e.likeness) for e in events if e.type == "rep"]
+    got = [
+        (e.start, e.end, e.count, e.emitted_at, e.duration_s, e.rom_deg, e.rom_joint, e.likeness)
+        for e in events
+        if e.type == "rep"
+    ]
     assert len(want) == 10
-    assert got == [(r.start, r.end, r.count, r.emitted_at, r.duration_s, r.rom_deg,
-                    r.rom_joint, r.likeness) for r in want]
+    assert got == [
+        (r.start, r.end, r.count, r.emitted_at, r.duration_s, r.rom_deg, r.rom_joint, r.likeness)
+        for r in want
+    ]
     # what a therapist reads of each repetition travels with it: a deep squat's knee range
     assert all(g[6] in ("l_knee", "r_knee", "l_hip", "r_hip") and g[5] > 90 for g in got)
     assert all(0 <= g[7] <= 1 for g in got) and all(g[4] > 0.5 for g in got)

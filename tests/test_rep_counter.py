@@ -54,8 +54,15 @@ def test_rests_of_different_lengths_between_repetitions_stay_one_set():
     assert [s["count"] for s in seg.sets_] == [5]
 
 
-@pytest.mark.parametrize("cls,n", [("hopBothLegs1hops", 2), ("hopBothLegs1hops", 3),
-                                   ("hopBothLegs1hops", 4), ("rotateArmsBothBackward1Reps", 2)])
+@pytest.mark.parametrize(
+    "cls,n",
+    [
+        ("hopBothLegs1hops", 2),
+        ("hopBothLegs1hops", 3),
+        ("hopBothLegs1hops", 4),
+        ("rotateArmsBothBackward1Reps", 2),
+    ],
+)
 def test_a_still_rest_between_real_repetitions_is_no_part_of_their_duration(data_dir, cls, n):
     """bd's takes with the last pose held 1, 1.5, 2 s between them: one set of all. (A loop
     is compared by its moving frames; with ``still_ratio=0`` these sets are missed or cut
@@ -72,16 +79,19 @@ def test_a_still_rest_between_real_repetitions_is_no_part_of_their_duration(data
 
 
 def test_two_exercises_back_to_back_are_two_sets(data_dir):
-    rec = _join(_bd(data_dir, "squat1Reps", range(4))
-                + _bd(data_dir, "rotateArmsBothBackward1Reps", range(4)))
+    rec = _join(
+        _bd(data_dir, "squat1Reps", range(4))
+        + _bd(data_dir, "rotateArmsBothBackward1Reps", range(4))
+    )
     seg = RepetitionSegmenter().fit(rec)
     assert [s["count"] for s in seg.sets_] == [4, 4]
 
 
 def test_a_pause_ends_a_set(data_dir):
     squats = _bd(data_dir, "squat1Reps", range(6))
-    still = Recording(120.0, squats[0].skeleton,
-                      np.repeat(squats[2].positions[-1:], int(4.5 * 120), axis=0))
+    still = Recording(
+        120.0, squats[0].skeleton, np.repeat(squats[2].positions[-1:], int(4.5 * 120), axis=0)
+    )
     seg = RepetitionSegmenter().fit(_join(squats[:3] + [still] + squats[3:]))
     assert [s["count"] for s in seg.sets_] == [3, 3]
     assert seg.sets_[0]["end_reason"] == "pause"
@@ -127,8 +137,7 @@ def test_bad_input_is_refused_with_a_clear_message():
 
 
 def test_cli_segment_prints_each_set_and_draws_it(data_dir, tmp_path, capsys):
-    rec = _join(_bd(data_dir, "squat1Reps", range(3)) + _bd(data_dir, "kickLFront1Reps",
-                                                           range(4)))
+    rec = _join(_bd(data_dir, "squat1Reps", range(3)) + _bd(data_dir, "kickLFront1Reps", range(4)))
     from streamseg.io import write_npz
 
     f = tmp_path / "routine.npz"
@@ -159,8 +168,20 @@ def test_cli_eval_scores_each_labelled_set(data_dir, tmp_path, capsys):
     for i, (a, b) in enumerate(zip([0, *ends[:-1]], ends)):
         rows.append(f"take,{a + 1},{b},{'squat' if i < 3 else 'throw'}")
     (tmp_path / "labels.csv").write_text("\n".join(rows) + "\n")
-    assert main(["eval", str(tmp_path / "take.npz"), "--method", "rep", "--labels",
-                 str(tmp_path / "labels.csv"), "--json"]) == 0
+    assert (
+        main(
+            [
+                "eval",
+                str(tmp_path / "take.npz"),
+                "--method",
+                "rep",
+                "--labels",
+                str(tmp_path / "labels.csv"),
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["exact_sets"] == "1 of 1" and out["actions_counted_zero"] == "1 of 1"
     assert out["alpha"] > 0.85 and out["true_count"] == 3
@@ -171,8 +192,9 @@ def test_cli_feature_matrix_needs_its_frame_rate(tmp_path, capsys):
     assert main(["segment", str(tmp_path / "x.npy"), "--method", "rep"]) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--fps" in err[0]
-    assert main(["segment", str(tmp_path / "x.npy"), "--method", "rep", "--fps", "30",
-                 "--json"]) == 0
+    assert (
+        main(["segment", str(tmp_path / "x.npy"), "--method", "rep", "--fps", "30", "--json"]) == 0
+    )
     assert json.loads(capsys.readouterr().out)["count"] == 4
 
 

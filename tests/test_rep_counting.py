@@ -42,8 +42,10 @@ def _best_set(seg, reps):
     """The found set holding most of the true repetitions' frames (its repetitions)."""
     if not seg.sets_:
         return []
-    inside = [sum(max(0, min(b, reps[-1][1]) - max(a, reps[0][0])) for a, b in s["repetitions"])
-              for s in seg.sets_]
+    inside = [
+        sum(max(0, min(b, reps[-1][1]) - max(a, reps[0][0])) for a, b in s["repetitions"])
+        for s in seg.sets_
+    ]
     return seg.sets_[int(np.argmax(inside))]["repetitions"]
 
 
@@ -51,8 +53,9 @@ def test_held_out_sets_of_two_to_six_meet_the_floors(held_out_sets):
     k = np.array([len(reps) for _, _, reps, _ in held_out_sets])
     found = [_best_set(seg, reps) for _, _, reps, seg in held_out_sets]
     c = np.array([len(f) for f in found])
-    alpha = np.mean([matched_repetition_accuracy(f, reps)
-                     for f, (_, _, reps, _) in zip(found, held_out_sets)])
+    alpha = np.mean(
+        [matched_repetition_accuracy(f, reps) for f, (_, _, reps, _) in zip(found, held_out_sets)]
+    )
     assert len(k) == 127
     # measured: exact 0.81, OBO 0.91, alpha 0.886 at 5a5bb09; 0.80, 0.91, 0.884 at eb129f3
     assert np.mean(c == k) >= 0.79
@@ -72,9 +75,13 @@ def test_every_class_keeps_its_floor(held_out_sets):
     for plan, _, reps, seg in held_out_sets:
         by[plan.parts[0][0]].append(len(_best_set(seg, reps)) == len(reps))
     # measured: 1.00, 1.00, 0.96, 0.58, 0.59 (kicks 0.54 since eb129f3: 13 of 24)
-    floors = {"squat1Reps": 1.0, "rotateArmsBothBackward1Reps": 1.0,
-              "elbowToKnee1RepsLelbowStart": 0.9, "kickLFront1Reps": 0.54,
-              "hopBothLegs1hops": 0.55}
+    floors = {
+        "squat1Reps": 1.0,
+        "rotateArmsBothBackward1Reps": 1.0,
+        "elbowToKnee1RepsLelbowStart": 0.9,
+        "kickLFront1Reps": 0.54,
+        "hopBothLegs1hops": 0.55,
+    }
     for cls, floor in floors.items():
         assert np.mean(by[cls]) >= floor, (cls, np.mean(by[cls]))
 
@@ -82,8 +89,9 @@ def test_every_class_keeps_its_floor(held_out_sets):
 def test_live_events_equal_the_offline_sets_whatever_the_chunking(held_out_sets):
     for _, rec, _, seg in held_out_sets[::4]:
         for chunk in (1, 7, 120):
-            events = stream_events(RepetitionCounter(RepetitionConfig(), rec.fps,
-                                                     rec.skeleton), rec.positions, chunk)
+            events = stream_events(
+                RepetitionCounter(RepetitionConfig(), rec.fps, rec.skeleton), rec.positions, chunk
+            )
             live = sets_of(events)
             assert live == [s["repetitions"] for s in seg.sets_]
             assert [e.count for e in events] == [k + 1 for s in live for k in range(len(s))]
@@ -119,8 +127,9 @@ def test_routines_of_held_out_actors_are_cut_into_their_sets(data_dir, clips):
     assert total == 30 and right >= 23
 
 
-@pytest.mark.parametrize("cls", ["squat1Reps", "kickLFront1Reps", "hopBothLegs1hops",
-                                 "depositFloorR", "throwBasketball"])
+@pytest.mark.parametrize(
+    "cls", ["squat1Reps", "kickLFront1Reps", "hopBothLegs1hops", "depositFloorR", "throwBasketball"]
+)
 def test_one_repetition_or_one_action_is_not_a_set(data_dir, cls):
     from streamseg.evaluation.datasets import hdm05_clips
     from streamseg.io import read

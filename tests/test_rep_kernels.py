@@ -104,21 +104,50 @@ def test_advance_matches_the_naive_loop_tracker(search, seed):
     na[0] = 1
     Mm[0] = (0.0, np.inf)
     anchors = [dict(s=0, M=0.0, tM=0, m=float("inf"), tm=0)]
-    params = dict(thr=0.8, timeout=90, rho=0.55, gamma=0.35, dabs=0.15, eta=0.1, pause=30,
-                  tmax=240, gap=6, kmax=kmax)
+    params = dict(
+        thr=0.8,
+        timeout=90,
+        rho=0.55,
+        gamma=0.35,
+        dabs=0.15,
+        eta=0.1,
+        pause=30,
+        tmax=240,
+        gap=6,
+        kmax=kmax,
+    )
     pos, n_calls = 0, 0
     while pos < n - 1:
-        got_t, nc = K.advance(Zr, SP, pos + 1, n, search, st, Mm, na, params["thr"],
-                              params["timeout"], params["rho"], params["gamma"],
-                              params["dabs"], params["eta"], params["pause"], params["tmax"],
-                              params["gap"], params["kmax"], closed)
+        got_t, nc = K.advance(
+            Zr,
+            SP,
+            pos + 1,
+            n,
+            search,
+            st,
+            Mm,
+            na,
+            params["thr"],
+            params["timeout"],
+            params["rho"],
+            params["gamma"],
+            params["dabs"],
+            params["eta"],
+            params["pause"],
+            params["tmax"],
+            params["gap"],
+            params["kmax"],
+            closed,
+        )
         want_t, want = naive_advance(Z, pos + 1, n, search, anchors, **params)
         assert got_t == want_t
-        assert [(int(r[0]), int(r[1]), int(r[2])) for r in closed[:nc]] == \
-            [(s, k, c) for s, k, c, _ in want]
+        assert [(int(r[0]), int(r[1]), int(r[2])) for r in closed[:nc]] == [
+            (s, k, c) for s, k, c, _ in want
+        ]
         np.testing.assert_allclose(closed[:nc, 3], [M for *_, M in want])
-        got_anchors = [(int(st[i, 0]), int(st[i, 1]), int(st[i, 2]), Mm[i, 0], Mm[i, 1])
-                       for i in range(na[0])]
+        got_anchors = [
+            (int(st[i, 0]), int(st[i, 1]), int(st[i, 2]), Mm[i, 0], Mm[i, 1]) for i in range(na[0])
+        ]
         assert [a[:3] for a in got_anchors] == [a[:3] for a in _anchor_rows(anchors)]
         n_calls += 1
         pos = got_t
@@ -137,7 +166,7 @@ def test_seed_anchor_is_the_anchor_after_those_frames():
     M, tM, m, tm = K.seed_anchor(Z, 3, 20)
     d = np.linalg.norm(Z[4:21] - Z[3], axis=1)
     assert M == d.max() and tM == 4 + int(np.argmax(d))
-    after = d[tM - 3:]
+    after = d[tM - 3 :]
     assert m == (after.min() if after.size else np.inf) and tm == tM + 1 + int(np.argmin(after))
 
 

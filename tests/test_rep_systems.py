@@ -23,16 +23,22 @@ def _raw(path):
     lines = gzip.open(path, "rt").read().split("\n")
     names = [c.strip() for c in lines[3].split("\t")[2::3] if c.strip()]
     w = 2 + 3 * len(names)
-    rows = [[float(c) if c.strip() else np.nan for c in line.split("\t")[:w]]
-            for line in lines[5:] if line.strip()]
+    rows = [
+        [float(c) if c.strip() else np.nan for c in line.split("\t")[:w]]
+        for line in lines[5:]
+        if line.strip()
+    ]
     rows = [r + [np.nan] * (w - len(r)) for r in rows]
     return names, np.array(rows)[:, 2:].reshape(len(rows), len(names), 3)
 
 
 def _reps(data_dir, file):
     with open(data_dir / "uiprmd" / "repetitions.csv", newline="") as fh:
-        return [(int(r["start_frame"]) - 1, int(r["end_frame"])) for r in csv.DictReader(fh)
-                if r["file"] == file]
+        return [
+            (int(r["start_frame"]) - 1, int(r["end_frame"]))
+            for r in csv.DictReader(fh)
+            if r["file"] == file
+        ]
 
 
 @pytest.fixture(scope="module")
@@ -55,9 +61,9 @@ def test_markers_lost_for_stretches_are_placed_from_their_segment(squat):
     full = points_recording("squat.trc", X, names, 100.0, "mm", {})
     Y = X.copy()
     n = len(X)
-    Y[int(0.05 * n):int(0.95 * n), names.index("LWRB")] = np.nan
+    Y[int(0.05 * n) : int(0.95 * n), names.index("LWRB")] = np.nan
     Y[200:1200, names.index("LASI")] = np.nan
-    Y[:reps[0][1], names.index("STRN")] = np.nan
+    Y[: reps[0][1], names.index("STRN")] = np.nan
     rec = points_recording("squat.trc", Y, names, 100.0, "mm", {})
     assert np.isfinite(rec.positions).all()
     err = np.linalg.norm(rec.positions - full.positions, axis=2)
@@ -81,7 +87,8 @@ def test_an_asis_lost_in_every_frame_is_mirrored_and_the_take_counts(squat):
     assert np.isfinite(rec.positions).all()
     assert [w for w in rec.metadata["warnings"] if "LASI" in w] == [
         "squat.trc: marker LASI lost in every frame: placed as RASI mirrored across the "
-        "mid-plane of LPSI and RPSI"]
+        "mid-plane of LPSI and RPSI"
+    ]
     for k in (2, 4, 10):
         assert _count(rec, reps, k)[1] == k
 
@@ -115,7 +122,7 @@ def test_the_cli_names_a_joint_it_left_out(squat, tmp_path, capsys):
     names, X, reps = squat
     from tests.test_io_trc import write_trc
 
-    Y = X[:reps[3][1]].copy()
+    Y = X[: reps[3][1]].copy()
     Y[:, names.index("LANK")] = np.nan
     Y[:, names.index("LHEE")] = np.nan
     path = tmp_path / "squat.trc"
@@ -132,8 +139,12 @@ def test_the_reason_for_no_set_is_the_test_that_failed(data_dir):
     """A take without a set says why: when the closest loops were alike in shape (under
     max_dissimilarity) it names the test they failed instead, never "not alike"."""
     reasons = []
-    for file in ("kinect/m02_s01_inc.csv.gz", "kinect/m06_s01.csv.gz", "kinect/m02_s01.csv.gz",
-                 "vicon/m01_s01.trc.gz"):
+    for file in (
+        "kinect/m02_s01_inc.csv.gz",
+        "kinect/m06_s01.csv.gz",
+        "kinect/m02_s01.csv.gz",
+        "vicon/m01_s01.trc.gz",
+    ):
         rec = read(data_dir / "uiprmd" / file, fps=30.0 if file.startswith("kinect") else None)
         reps = _reps(data_dir, file)
         for k in (1, 2):
@@ -163,14 +174,23 @@ def test_each_repetition_says_its_duration_range_of_motion_and_likeness(data_dir
     assert all(0.5 < r["likeness"] <= 1 for r in reps)
     rec = read(path)
     for chunk in (1, 37):
-        events = stream_events(RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton),
-                               rec.positions, chunk)
+        events = stream_events(
+            RepetitionCounter(fps=rec.fps, skeleton=rec.skeleton), rec.positions, chunk
+        )
         assert [(e.start, e.end, e.rom_joint, e.rom_deg, e.likeness) for e in events] == [
-            (r["start"], r["end"], st["rom_joint"], r["rom_deg"], r["likeness"]) for r in reps]
+            (r["start"], r["end"], st["rom_joint"], r["rom_deg"], r["likeness"]) for r in reps
+        ]
 
 
-@pytest.mark.parametrize("file", ["vicon/m01_s01.trc.gz", "vicon/m10_s05.trc.gz",
-                                  "kinect/m06_s01.csv.gz", "kinect/m10_s05.csv.gz"])
+@pytest.mark.parametrize(
+    "file",
+    [
+        "vicon/m01_s01.trc.gz",
+        "vicon/m10_s05.trc.gz",
+        "kinect/m06_s01.csv.gz",
+        "kinect/m10_s05.csv.gz",
+    ],
+)
 def test_quality_floor_on_uiprmd_sets(data_dir, file):
     """Sets of a take's first 2, 3, 4, 6 and 10 repetitions (as benchmarks/rep_systems.py
     makes them): each counted exactly, and the repetitions where the labels put them (mean
@@ -195,8 +215,11 @@ def test_quality_floor_on_phone_camera_pose(data_dir, video, floor):
     from streamseg.evaluation.metrics import matched_repetition_accuracy
 
     with open(data_dir / "repcount_pose" / "repetitions.csv", newline="") as fh:
-        reps = [(int(r["start_frame"]) - 1, int(r["end_frame"])) for r in csv.DictReader(fh)
-                if r["file"] == f"poses/{video}"]
+        reps = [
+            (int(r["start_frame"]) - 1, int(r["end_frame"]))
+            for r in csv.DictReader(fh)
+            if r["file"] == f"poses/{video}"
+        ]
     rec = read(data_dir / "repcount_pose" / "poses" / video, joints="blazepose", fps=30)
     seg = RepetitionSegmenter().fit(rec)
     assert abs(seg.count_ - len(reps)) <= 1
@@ -211,9 +234,11 @@ def test_a_file_without_a_pelvis_marker_reads_and_counts(squat, tmp_path):
     names, X, reps = squat
     keep = [i for i, n in enumerate(names) if n != "LASI"]
     path = tmp_path / "no_lasi.trc"
-    write_trc(path, [names[i] for i in keep], X[:reps[3][1], keep], 100)
+    write_trc(path, [names[i] for i in keep], X[: reps[3][1], keep], 100)
     rec = read(path)
     assert rec.metadata["marker_set"] == "plug-in-gait" and np.isfinite(rec.positions).all()
-    assert any("marker LASI lost in every frame: placed as RASI mirrored" in w
-               for w in rec.metadata["warnings"])
+    assert any(
+        "marker LASI lost in every frame: placed as RASI mirrored" in w
+        for w in rec.metadata["warnings"]
+    )
     assert RepetitionSegmenter().fit(rec).count_ == 4

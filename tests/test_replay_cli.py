@@ -22,9 +22,18 @@ LOOP = "tcp://127.0.0.1:0"
 
 
 def replay_cmd(data_dir, to, *extra):
-    return [sys.executable, "-m", "streamseg.cli", "replay",
-            str(data_dir / "cmu86" / "86_01.amc.gz"), "--skeleton",
-            str(data_dir / "cmu86" / "86.asf"), "--to", to, *extra]
+    return [
+        sys.executable,
+        "-m",
+        "streamseg.cli",
+        "replay",
+        str(data_dir / "cmu86" / "86_01.amc.gz"),
+        "--skeleton",
+        str(data_dir / "cmu86" / "86.asf"),
+        "--to",
+        to,
+        *extra,
+    ]
 
 
 def free_port() -> int:
@@ -34,8 +43,12 @@ def free_port() -> int:
 
 
 def test_no_daemon_waits_then_gives_up_in_one_line(data_dir):
-    proc = subprocess.run(replay_cmd(data_dir, f"tcp://127.0.0.1:{free_port()}", "--wait", "1"),
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        replay_cmd(data_dir, f"tcp://127.0.0.1:{free_port()}", "--wait", "1"),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 1
     err = proc.stderr.strip().splitlines()
     assert err[0].startswith("streamseg replay: waiting for the daemon at tcp://127.0.0.1:")
@@ -53,34 +66,42 @@ def _default_sigint():
 def test_ctrl_c_and_sigterm_send_end(data_dir, sig):
     """Ctrl-C, and the SIGTERM of `timeout`, systemd and kill: the daemon gets `end`, not an
     idle stream."""
-    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0,
-                            heartbeat=0))
+    d = Daemon(
+        DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, relabel_interval=0, heartbeat=0)
+    )
     ep = d.bind()
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
     assert d.ready.wait(30)
     try:
         s = subscriber(ep["publish"], stream="cc")
-        proc = subprocess.Popen(replay_cmd(data_dir, ep["ingest"], "--speed", "1", "--stream",
-                                           "cc"), stderr=subprocess.PIPE, text=True,
-                                env={**os.environ, "PYTHONFAULTHANDLER": "1"},
-                                preexec_fn=_default_sigint)
+        proc = subprocess.Popen(
+            replay_cmd(data_dir, ep["ingest"], "--speed", "1", "--stream", "cc"),
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, "PYTHONFAULTHANDLER": "1"},
+            preexec_fn=_default_sigint,
+        )
         # the stream is open and has taken 2 s of frames: the replay is in its sending loop
         # (past imports and first-use compilation, which are slow on a fresh clone)
-        wait_until(lambda: (st := request(ep["control"], "streams")["streams"])
-                   and st[0]["frame"] >= 240, "the replay's stream took 240 frames")
+        wait_until(
+            lambda: (st := request(ep["control"], "streams")["streams"]) and st[0]["frame"] >= 240,
+            "the replay's stream took 240 frames",
+        )
         proc.send_signal(sig)
         try:
             proc.wait(30)
         except subprocess.TimeoutExpired:  # say where it hangs (faulthandler's dump)
             proc.send_signal(signal.SIGABRT)
             proc.wait(10)
-            raise AssertionError(f"replay still running 30 s after {sig.name}:\n"
-                                 + proc.stderr.read()[-4000:]) from None
+            raise AssertionError(
+                f"replay still running 30 s after {sig.name}:\n" + proc.stderr.read()[-4000:]
+            ) from None
         assert proc.returncode == 130
         assert "interrupted: sent end of cc" in proc.stderr.read()
-        closed = [e for e in listen(s, stream="cc", until_end=True, timeout=20)
-                  if e.type == "closed"]
+        closed = [
+            e for e in listen(s, stream="cc", until_end=True, timeout=20) if e.type == "closed"
+        ]
         assert closed[0].reason == "end" and 0 < closed[0].frames < 4579
     finally:
         d.stop()
@@ -119,8 +140,12 @@ def test_replay_exits_only_once_every_packet_is_out(data_dir, rec):
     context at exit, so a replay that just closed its socket lost its last ~15 packets and
     its `end` to a daemon slower than the sender (measured before the fix: 26 of 41)."""
     to, got, reader = slow_pull()
-    proc = subprocess.run(replay_cmd(data_dir, to, "--speed", "0", "--batch", "120"),
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        replay_cmd(data_dir, to, "--speed", "0", "--batch", "120"),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     reader.join()
     assert proc.returncode == 0, proc.stderr
     n_packets = -(-rec.n_frames // 120)

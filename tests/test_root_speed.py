@@ -37,8 +37,9 @@ def test_kernel_equals_naive_twin(rec, case):
         pos = pos + np.random.default_rng(2).normal(0, 0.01, pos.shape)
     cfg = LOFConfig(root_speed_max=2.0)
     b = bone_point_indices(rec.skeleton)
-    want = naive_root_speeds(pos, b[0, 0], b[1:], np.array([0.0, 1.0, 0.0]), FPS, LAG, 2.0,
-                             cfg.root_jump / FPS)
+    want = naive_root_speeds(
+        pos, b[0, 0], b[1:], np.array([0.0, 1.0, 0.0]), FPS, LAG, 2.0, cfg.root_jump / FPS
+    )
     got = root_speed_columns(pos, rec.skeleton, FPS, cfg)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
     assert np.array_equal(np.isnan(got), np.isnan(want))
@@ -99,7 +100,7 @@ def test_teleport_counts_as_no_motion(rec):
     assert (got == 0).all()
     cfg = LOFConfig(root_jump=1e6)  # with no teleport rule the jump is a speed
     jumped = root_speed_columns(pos, rec.skeleton, FPS, cfg)
-    assert (jumped[50:50 + LAG, 0] == np.pi).all() and (jumped[:, 1] == 0).all()
+    assert (jumped[50 : 50 + LAG, 0] == np.pi).all() and (jumped[:, 1] == 0).all()
 
 
 def test_reset_forgets_the_past(rec):
@@ -136,7 +137,7 @@ def test_a_root_speed_change_alone_is_no_cut():
     n = int(40 * FPS)
     a = np.clip(1.5 + 0.3 * rng.standard_normal((n, 4)), 0, np.pi)
     a[:, 2:] = 0.2
-    a[n // 2:, 2:] = 2.5
+    a[n // 2 :, 2:] = 2.5
     plain = LOFSegmenter(LOFConfig(root_speed_max=0), FPS, n_features=4).fit(a)
     assert plain.cuts_.size and np.abs(plain.cuts_ - n // 2).min() <= FPS
     root = LOFSegmenter(LOFConfig(), FPS, n_features=4).fit(a)
@@ -151,7 +152,7 @@ def test_streaming_equals_offline_with_root_speeds(rec):
     det = StreamingLOFSegmenter(cfg, FPS)
     ev = []
     for i in range(0, len(a), 97):
-        ev += det.learn_many(a[i:i + 97])
+        ev += det.learn_many(a[i : i + 97])
     ev += det.finish()
     assert [e.frame for e in ev] == LOFSegmenter(cfg, FPS).fit(rec).cuts_.tolist()
 
@@ -162,7 +163,7 @@ def test_daemon_pipeline_feeds_the_detector_not_the_relabel_ring(rec):
     pipe = StreamPipeline(rec.skeleton, FPS, Algorithms(), history=60.0)
     cuts = []
     for i in range(0, rec.n_frames, 120):
-        cuts += [c[0] for c in pipe.push(rec.positions[i:i + 120], i)[0] if c[3] == "cut"]
+        cuts += [c[0] for c in pipe.push(rec.positions[i : i + 120], i)[0] if c[3] == "cut"]
     cuts += [c[0] for c in pipe._cuts(pipe.segmenter.finish()) if c[3] == "cut"]
     assert cuts == LOFSegmenter(LOFConfig(), FPS).fit(rec).cuts_.tolist()
     features, _frames = pipe.snapshot()

@@ -66,8 +66,14 @@ def same_partition(a, b) -> bool:
 
 
 def test_relabels_on_an_in_process_cluster_equal_local_ones(threads_cluster, rec):
-    d, ep, s = start(dict(relabel_interval=5.0, relabel_history=10.0, relabel_backend="dask",
-                          relabel_scheduler=threads_cluster.scheduler_address))
+    d, ep, s = start(
+        dict(
+            relabel_interval=5.0,
+            relabel_history=10.0,
+            relabel_backend="dask",
+            relabel_scheduler=threads_cluster.scheduler_address,
+        )
+    )
     try:
         assert d.worker.wait_connected(60)
         replay(rec, ep["ingest"], stream="dk", speed=0, batch=60)
@@ -97,8 +103,14 @@ def test_many_streams_come_back_in_revision_order(threads_cluster, rec):
     from streamseg import protocol as P
     from streamseg.commands.replay import announce_of
 
-    d, ep, s = start(dict(relabel_interval=2.0, relabel_history=6.0, relabel_backend="dask",
-                          relabel_scheduler=threads_cluster.scheduler_address))
+    d, ep, s = start(
+        dict(
+            relabel_interval=2.0,
+            relabel_history=6.0,
+            relabel_backend="dask",
+            relabel_scheduler=threads_cluster.scheduler_address,
+        )
+    )
     names = [f"m{i}" for i in range(4)]
     sock = zmq.Context.instance().socket(zmq.PUSH)
     sock.setsockopt(zmq.LINGER, 5000)
@@ -111,8 +123,9 @@ def test_many_streams_come_back_in_revision_order(threads_cluster, rec):
         for r in range(3):
             for n in names:
                 a = r * chunk
-                sock.send_multipart(P.encode(P.Frames(n, a, a / rec.fps,
-                                                      rec.positions[a:a + chunk])))
+                sock.send_multipart(
+                    P.encode(P.Frames(n, a, a / rec.fps, rec.positions[a : a + chunk]))
+                )
             waiting = set(names)
             for e in listen(s, timeout=120):
                 events.append(e)
@@ -141,26 +154,31 @@ def test_many_streams_come_back_in_revision_order(threads_cluster, rec):
 
 def run_blocked(*argv) -> subprocess.CompletedProcess:
     """``streamseg ARGV`` in a Python where ``import dask`` / ``distributed`` fails."""
-    code = ("import sys; sys.modules['distributed'] = None; sys.modules['dask'] = None; "
-            "from streamseg.cli import main; sys.exit(main(sys.argv[1:]))")
-    return subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True,
-                          timeout=120)
+    code = (
+        "import sys; sys.modules['distributed'] = None; sys.modules['dask'] = None; "
+        "from streamseg.cli import main; sys.exit(main(sys.argv[1:]))"
+    )
+    return subprocess.run(
+        [sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120
+    )
 
 
 def test_without_dask_the_daemon_works_and_the_dask_backend_says_what_to_install(tmp_path):
-    r = run_blocked("serve", "--relabel-backend", "dask", "--ingest", LOOP, "--publish", LOOP,
-                    "--control", LOOP)
+    r = run_blocked(
+        "serve", "--relabel-backend", "dask", "--ingest", LOOP, "--publish", LOOP, "--control", LOOP
+    )
     assert r.returncode == 2
     assert r.stderr.strip().count("\n") == 0 and "pip install streamseg[dask]" in r.stderr
     r = run_blocked("batch", "data/cmu86", "--output", str(tmp_path / "o.jsonl"))
     assert r.returncode == 2 and "pip install streamseg[dask]" in r.stderr
     assert r.stderr.strip().count("\n") == 0
-    code = ("import sys; sys.modules['distributed'] = None; "
-            "from streamseg.config import DaemonConfig; from streamseg.daemon import Daemon; "
-            "L = 'tcp://127.0.0.1:0'; d = Daemon(DaemonConfig(ingest=L, publish=L, control=L)); "
-            "d.bind(); print(type(d.worker).__name__); d.ctx.destroy(linger=0)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=120)
+    code = (
+        "import sys; sys.modules['distributed'] = None; "
+        "from streamseg.config import DaemonConfig; from streamseg.daemon import Daemon; "
+        "L = 'tcp://127.0.0.1:0'; d = Daemon(DaemonConfig(ingest=L, publish=L, control=L)); "
+        "d.bind(); print(type(d.worker).__name__); d.ctx.destroy(linger=0)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "RelabelWorker", out.stderr
 
 
@@ -174,11 +192,26 @@ def test_batch_on_local_worker_processes(tmp_path, capsys, data_dir):
     ``segment --json`` object plus "file"; a bad one is its own error line; a rerun skips."""
     bad = tmp_path / "broken.amc"
     bad.write_text("not an amc\n")
-    files = [str(data_dir / "cmu86" / "86_01.amc.gz"), str(data_dir / "cmu02" / "02_05.amc.gz"),
-             str(bad)]
+    files = [
+        str(data_dir / "cmu86" / "86_01.amc.gz"),
+        str(data_dir / "cmu02" / "02_05.amc.gz"),
+        str(bad),
+    ]
     out = tmp_path / "lines.jsonl"
-    rc = main(["batch", *files, "--method", "lof", "--workers", "2", "--output", str(out),
-               "--labels", str(data_dir)])
+    rc = main(
+        [
+            "batch",
+            *files,
+            "--method",
+            "lof",
+            "--workers",
+            "2",
+            "--output",
+            str(out),
+            "--labels",
+            str(data_dir),
+        ]
+    )
     printed = capsys.readouterr()
     assert rc == 0  # one skipped with its reason; the others segmented
     lines = [json.loads(x) for x in out.read_text().splitlines()]
@@ -207,8 +240,19 @@ def test_batch_on_local_worker_processes(tmp_path, capsys, data_dir):
     rc = main(["batch", *files, "--output", str(out)])
     assert rc == 0 and len(out.read_text().splitlines()) == 3
     assert "already in" in capsys.readouterr().err
-    rc = main(["batch", *files, "--method", "lof", "--output", str(out), "--retry-failed",
-               "--workers", "1"])
+    rc = main(
+        [
+            "batch",
+            *files,
+            "--method",
+            "lof",
+            "--output",
+            str(out),
+            "--retry-failed",
+            "--workers",
+            "1",
+        ]
+    )
     assert rc == 0 and len(out.read_text().splitlines()) == 3  # its line replaced
     assert "2 already in" in capsys.readouterr().err
 
@@ -252,8 +296,9 @@ def test_backend_option_picks_the_worker_and_rejects_unknown_names():
     w.stop()
     w = relabel_worker(Algorithms(), DaemonConfig())
     assert isinstance(w, RelabelWorker) and w.pool is None
-    w = relabel_worker(Algorithms(), DaemonConfig(relabel_backend="dask",
-                                                  relabel_scheduler="tcp://127.0.0.1:1"))
+    w = relabel_worker(
+        Algorithms(), DaemonConfig(relabel_backend="dask", relabel_scheduler="tcp://127.0.0.1:1")
+    )
     assert isinstance(w, DaskRelabelWorker)
 
 
@@ -263,8 +308,14 @@ def test_an_unreachable_scheduler_means_local_relabels_and_an_error_event(rec):
     with socket.socket() as sk:  # a port nobody listens on
         sk.bind(("127.0.0.1", 0))
         port = sk.getsockname()[1]
-    d, ep, s = start(dict(relabel_interval=5.0, relabel_history=10.0, relabel_backend="dask",
-                          relabel_scheduler=f"tcp://127.0.0.1:{port}"))
+    d, ep, s = start(
+        dict(
+            relabel_interval=5.0,
+            relabel_history=10.0,
+            relabel_backend="dask",
+            relabel_scheduler=f"tcp://127.0.0.1:{port}",
+        )
+    )
     try:
         replay(rec.slice(0, 1500), ep["ingest"], stream="u", speed=0, batch=60)
         events, closed, told = [], False, False
@@ -285,13 +336,37 @@ def test_an_unreachable_scheduler_means_local_relabels_and_an_error_event(rec):
 
 
 def test_batch_says_in_one_line_what_is_wrong(tmp_path, capsys, data_dir):
-    assert main(["batch", str(data_dir / "cmu86"), "--output",
-                 str(tmp_path / "missing" / "o.jsonl")]) == 2
+    assert (
+        main(["batch", str(data_dir / "cmu86"), "--output", str(tmp_path / "missing" / "o.jsonl")])
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "not a file in an existing folder" in err
-    assert main(["batch", str(tmp_path / "empty*.amc"), "--output",
-                 str(tmp_path / "o.jsonl"), "--labels", str(tmp_path)]) == 2
+    assert (
+        main(
+            [
+                "batch",
+                str(tmp_path / "empty*.amc"),
+                "--output",
+                str(tmp_path / "o.jsonl"),
+                "--labels",
+                str(tmp_path),
+            ]
+        )
+        == 2
+    )
     assert "no recordings" in capsys.readouterr().err
-    assert main(["batch", str(data_dir / "cmu86"), "--output", str(tmp_path / "o.jsonl"),
-                 "--labels", str(tmp_path)]) == 2
+    assert (
+        main(
+            [
+                "batch",
+                str(data_dir / "cmu86"),
+                "--output",
+                str(tmp_path / "o.jsonl"),
+                "--labels",
+                str(tmp_path),
+            ]
+        )
+        == 2
+    )
     assert "no label CSV" in capsys.readouterr().err

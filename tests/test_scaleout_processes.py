@@ -47,8 +47,9 @@ def free_port() -> int:
 def dask_cli(*args, log) -> subprocess.Popen:
     exe = Path(sys.executable).with_name("dask")
     env = dict(os.environ, PYTHONPATH=str(ROOT))  # workers import tests.dask_gate
-    return subprocess.Popen([str(exe), *args], stdout=log, stderr=subprocess.STDOUT, env=env,
-                            cwd=ROOT)
+    return subprocess.Popen(
+        [str(exe), *args], stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT
+    )
 
 
 @pytest.fixture
@@ -56,12 +57,37 @@ def cluster(tmp_path):
     """``(address, client, scheduler process, worker processes)``: 2 single-thread workers."""
     address = f"tcp://127.0.0.1:{free_port()}"
     log = open(tmp_path / "dask.log", "w")
-    procs = [dask_cli("scheduler", "--host", "127.0.0.1", "--port", address.rsplit(":", 1)[1],
-                      "--dashboard-address", "127.0.0.1:0", log=log)]
+    procs = [
+        dask_cli(
+            "scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            address.rsplit(":", 1)[1],
+            "--dashboard-address",
+            "127.0.0.1:0",
+            log=log,
+        )
+    ]
     for i in range(2):
-        procs.append(dask_cli("worker", address, "--nthreads", "1", "--nworkers", "1",
-                              "--host", "127.0.0.1", "--dashboard-address", "127.0.0.1:0",
-                              "--name", f"w{i}", "--no-nanny", log=log))
+        procs.append(
+            dask_cli(
+                "worker",
+                address,
+                "--nthreads",
+                "1",
+                "--nworkers",
+                "1",
+                "--host",
+                "127.0.0.1",
+                "--dashboard-address",
+                "127.0.0.1:0",
+                "--name",
+                f"w{i}",
+                "--no-nanny",
+                log=log,
+            )
+        )
     client = distributed.Client(address, timeout=60, set_as_default=False)  # waits for it
     client.wait_for_workers(2, timeout=120)
     yield address, client, procs[0], procs[1:]
@@ -84,12 +110,22 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
     gate = tmp_path / "gate"
     gate.mkdir()
     algorithms = Algorithms(relabel=functools.partial(dask_gate.gated_relabel, str(gate)))
-    d = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0.2,
-                            relabel_interval=1000.0, relabel_history=60.0,
-                            # one relabel per take, the final one: no relabels that settle
-                            # provisional cuts (docs/protocol.md, Settled cuts)
-                            settle=0.0,
-                            relabel_backend="dask", relabel_scheduler=address), algorithms)
+    d = Daemon(
+        DaemonConfig(
+            ingest=LOOP,
+            publish=LOOP,
+            control=LOOP,
+            heartbeat=0.2,
+            relabel_interval=1000.0,
+            relabel_history=60.0,
+            # one relabel per take, the final one: no relabels that settle
+            # provisional cuts (docs/protocol.md, Settled cuts)
+            settle=0.0,
+            relabel_backend="dask",
+            relabel_scheduler=address,
+        ),
+        algorithms,
+    )
     ep = d.bind()
     t = threading.Thread(target=d.run, daemon=True)
     t.start()
@@ -107,19 +143,28 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
         # while that job is stuck on the cluster, another stream is cut and closed as usual
         short = rec.slice(0, 900)  # its final window is too short to be gated
         seg = StreamingLOFSegmenter(fps=rec.fps)
-        want = [c.frame for c in seg.learn_many(lof_input(short.positions, short.skeleton,
-                                                          short.fps)) + seg.finish()]
+        want = [
+            c.frame
+            for c in seg.learn_many(lof_input(short.positions, short.skeleton, short.fps))
+            + seg.finish()
+        ]
         replay(short, ep["ingest"], stream="c", speed=0, batch=60)
-        other = [e for e in listen(s, stream="c", until_end=True, timeout=120)
-                 if getattr(e, "stream", None) == "c"]  # the subscriber has every stream's events
+        other = [
+            e
+            for e in listen(s, stream="c", until_end=True, timeout=120)
+            if getattr(e, "stream", None) == "c"
+        ]  # the subscriber has every stream's events
         assert [e.frame for e in other if e.type == "cut" and e.provisional] == want and want
         assert not (gate / "release").exists() and dask_gate.started(gate) == [first]
         os.kill(first, signal.SIGKILL)
         second = dask_gate.wait_started(gate, 2)[1]
         assert second != first and second in pid_of.values()
         (gate / "release").touch()
-        events = [e for e in listen(s, stream="k", until_end=True, timeout=120)
-                  if getattr(e, "stream", None) == "k"]
+        events = [
+            e
+            for e in listen(s, stream="k", until_end=True, timeout=120)
+            if getattr(e, "stream", None) == "k"
+        ]
         segs = [e for e in events if e.type == "segments"]
         assert [e.revision for e in segs] == [1] and segs[0].final
         assert (segs[0].start, segs[0].end) == (0, take.n_frames)
@@ -143,13 +188,17 @@ def test_relabels_and_batch_through_separate_processes(cluster, tmp_path, data_d
         dask_gate.wait_started(gate, 1)
         scheduler.kill()
         scheduler.wait(30)
-        told = next(e for e in listen(s, timeout=120)
-                    if e.type == "error" and e.reason == "relabel_backend")
+        told = next(
+            e for e in listen(s, timeout=120) if e.type == "error" and e.reason == "relabel_backend"
+        )
         assert "runs locally" in told.message
         assert os.getpid() in dask_gate.wait_started(gate, 2)  # the local fallback runs it
         (gate / "release").touch()
-        events = [e for e in listen(s, stream="x", until_end=True, timeout=120)
-                  if getattr(e, "stream", None) == "x"]
+        events = [
+            e
+            for e in listen(s, stream="x", until_end=True, timeout=120)
+            if getattr(e, "stream", None) == "x"
+        ]
         segs = [e for e in events if e.type == "segments"]
         assert [e.revision for e in segs] == [1] and segs[0].final
         assert segs[0].end == take.n_frames and d.worker.fallbacks >= 1

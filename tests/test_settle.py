@@ -60,8 +60,11 @@ def test_the_final_relabel_settles_every_open_cut_and_announces_its_boundaries()
     s.add(990, 1.0, 995)  # in the last second: only the final relabel can settle it
     s.add(40, 1.0, 300)  # before a window that does not start the stream: it stands
     out = s.apply([(20, 600, 1), (600, 1000, 2)], 20, 1000, True, 1000, first_frame=0)
-    assert sorted(out) == [(40, 1.0, 1000, "confirmed", 40), (600, 0.0, 1000, "found", 600),
-                           (990, 1.0, 1000, "rejected", None)]
+    assert sorted(out) == [
+        (40, 1.0, 1000, "confirmed", 40),
+        (600, 0.0, 1000, "found", 600),
+        (990, 1.0, 1000, "rejected", None),
+    ]
     assert s.open == [] and s.due_at == -1
 
 
@@ -76,8 +79,9 @@ def _drive(rec, algorithms, n_frames, history=20.0, interval=5.0, packet=40):
     """The daemon's scheduling without sockets: relabels run at once when due; returns the
     cut tuples in order and the snapshots' (first frame, focused) pairs."""
     sk = rec.skeleton
-    pipe = StreamPipeline(skeleton_from(sk.names, sk.parents, sk.units, sk.up), rec.fps,
-                          algorithms, history)
+    pipe = StreamPipeline(
+        skeleton_from(sk.names, sk.parents, sk.units, sk.up), rec.fps, algorithms, history
+    )
     nxt = int(interval * rec.fps)
     events, windows, last = [], [], []
 
@@ -87,13 +91,12 @@ def _drive(rec, algorithms, n_frames, history=20.0, interval=5.0, packet=40):
         windows.append((int(frames[0]), focused, pipe.settlement.open[:] if focused else None))
         if not focused:
             nxt = pipe.learned + int(interval * rec.fps)
-        result = relabel(algorithms, feats, frames, rec.fps, pipe.previous,
-                         tuple(pipe.cut_frames))
+        result = relabel(algorithms, feats, frames, rec.fps, pipe.previous, tuple(pipe.cut_frames))
         events.extend(pipe.relabelled(result, final, pipe.next_frame, focused))
         last[:] = [result]
 
     for i in range(0, n_frames, packet):
-        cuts, _, _ = pipe.push(rec.positions[i:min(i + packet, n_frames)], i)
+        cuts, _, _ = pipe.push(rec.positions[i : min(i + packet, n_frames)], i)
         events.extend(cuts)
         if pipe.relabel_due(nxt):
             run(False)
@@ -168,14 +171,14 @@ def _send_take(ep, rec, stream, got, done, end=True):
     push = zmq.Context.instance().socket(zmq.PUSH)
     push.connect(ep["ingest"])
     while not got:
-        push.send_multipart(protocol.encode(protocol.Frames(stream, 0, 0.0,
-                                                            rec.positions[:1])))
+        push.send_multipart(protocol.encode(protocol.Frames(stream, 0, 0.0, rec.positions[:1])))
         done.wait(0.2)
     got.clear()
     push.send_multipart(protocol.encode(announce_of(rec, stream)))
     for i in range(0, rec.n_frames, 120):
-        push.send_multipart(protocol.encode(protocol.Frames(stream, i, i / rec.fps,
-                                                            rec.positions[i:i + 120])))
+        push.send_multipart(
+            protocol.encode(protocol.Frames(stream, i, i / rec.fps, rec.positions[i : i + 120]))
+        )
     if end:
         push.send_multipart(protocol.encode(protocol.End(stream)))
     push.close(5000)
@@ -233,17 +236,22 @@ def test_cuts_stand_when_shutdown_leaves_no_time_for_the_final_relabel(start_dae
     th.join(5)
     settles = _check_settled(got)
     assert got[-1].reason == "shutdown"
-    stood = [e for e in settles.values() if e.type == "confirm" and e.emitted_at == rec.n_frames
-             and e.settled == e.frame]
+    stood = [
+        e
+        for e in settles.values()
+        if e.type == "confirm" and e.emitted_at == rec.n_frames and e.settled == e.frame
+    ]
     assert stood  # the last cuts had no relabel with settle_s of frames after them
 
 
 def test_wire_fields_of_settled_cuts():
     """``settled`` and ``revision`` go on the wire only when set (older receivers see the
     events they knew), and come back as sent."""
-    for ev in (protocol.Confirm("s", 10, 1.0, 1.6, 30, 10, 4),
-               protocol.Withdraw("s", 11, 1.0, 31, False, 4),
-               protocol.Cut("s", 12, 1.0, 0.0, 40, False, None, 4)):
+    for ev in (
+        protocol.Confirm("s", 10, 1.0, 1.6, 30, 10, 4),
+        protocol.Withdraw("s", 11, 1.0, 31, False, 4),
+        protocol.Cut("s", 12, 1.0, 0.0, 40, False, None, 4),
+    ):
         back = protocol.decode(protocol.encode(ev, seq=3))
         assert back == ev and back.seq == 3
         assert protocol.to_json(ev)["revision"] == 4

@@ -79,7 +79,7 @@ def test_kinect_names_reach_the_same_angles(cmu86):
     skel = Skeleton(KINECT, np.full(len(KINECT), -1), np.zeros((len(KINECT), 3)), "m")
     np.testing.assert_allclose(
         bone_angles(pos, skel, inclinations=False),
-        bone_angles(cmu86.positions[:200], cmu86.skeleton, inclinations=False)
+        bone_angles(cmu86.positions[:200], cmu86.skeleton, inclinations=False),
     )
     np.testing.assert_allclose(
         body_features(pos, skel), body_features(cmu86.positions[:200], cmu86.skeleton)
@@ -155,8 +155,8 @@ def test_bone_angle_kernel_equals_naive_twin(cmu86):
     from tests.naive import naive_bone_angles
 
     pos = cmu86.positions[:200].copy()
-    pos[50, 4] = np.nan                       # a dropout
-    pos[60, 13] = pos[60, 18]                 # a zero-length upper arm (shoulder on elbow)
+    pos[50, 4] = np.nan  # a dropout
+    pos[60, 13] = pos[60, 18]  # a zero-length upper arm (shoulder on elbow)
     points = bone_point_indices(cmu86.skeleton)
     got = bone_angles(pos, cmu86.skeleton, inclinations=False)
     want = naive_bone_angles(pos, points.tolist(), ANGLES)
@@ -170,20 +170,21 @@ def test_inclinations_equal_naive_twin(cmu86):
     from tests.naive import naive_bone_angles, naive_inclinations
 
     pos = cmu86.positions[:200].copy()
-    pos[50, 4] = np.nan                       # a dropout
-    pos[60, 13] = pos[60, 18]                 # a zero-length upper arm
+    pos[50, 4] = np.nan  # a dropout
+    pos[60, 13] = pos[60, 18]  # a zero-length upper arm
     points = bone_point_indices(cmu86.skeleton).tolist()
     got = bone_angles(pos, cmu86.skeleton, inclinations=True)
     assert got.shape == (200, 17) == (200, len(FEATURE_NAMES))
     from streamseg.skeleton.bones import ANGLES
 
-    want = np.concatenate([naive_bone_angles(pos, points, ANGLES),
-                           naive_inclinations(pos, points, (0.0, 1.0, 0.0))], axis=1)
+    want = np.concatenate(
+        [naive_bone_angles(pos, points, ANGLES), naive_inclinations(pos, points, (0.0, 1.0, 0.0))],
+        axis=1,
+    )
     np.testing.assert_array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_allclose(got[~np.isnan(got)], want[~np.isnan(want)], atol=1e-12)
     # the first 8 columns are the paper's angles, unchanged
-    np.testing.assert_array_equal(got[:, :8],
-                                  bone_angles(pos, cmu86.skeleton, inclinations=False))
+    np.testing.assert_array_equal(got[:, :8], bone_angles(pos, cmu86.skeleton, inclinations=False))
     # hand-derived: a horizontal spine is pi/2 from up; a shin pointing down and forward at
     # 45 degrees is 3 pi / 4; a forearm pointing straight up is 0
     one = cmu86.positions[:1].copy()
@@ -206,12 +207,14 @@ def test_inclinations_follow_the_declared_up_axis(cmu86):
     z_up = np.stack([x, -z, y], axis=-1)  # rotation about x: +y -> +z
     skel_z = replace(cmu86.skeleton, up="z")
     np.testing.assert_allclose(bone_angles(z_up, skel_z, inclinations=True), ref, atol=1e-9)
-    np.testing.assert_allclose(bone_angles(z_up, cmu86.skeleton, inclinations=True, up="z"),
-                               ref, atol=1e-9)
+    np.testing.assert_allclose(
+        bone_angles(z_up, cmu86.skeleton, inclinations=True, up="z"), ref, atol=1e-9
+    )
     c, s = np.cos(1.1), np.sin(1.1)
     turned = np.stack([c * x + s * z, y, -s * x + c * z], axis=-1)
-    np.testing.assert_allclose(bone_angles(turned, cmu86.skeleton, inclinations=True), ref,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        bone_angles(turned, cmu86.skeleton, inclinations=True), ref, atol=1e-9
+    )
     assert not np.allclose(bone_angles(z_up, cmu86.skeleton, inclinations=True), ref)
     with pytest.raises(ValueError, match="up='w'"):
         bone_angles(pos, cmu86.skeleton, inclinations=True, up="w")
@@ -234,7 +237,8 @@ def test_inclinations_follow_the_declared_up_axis(cmu86):
     assert likely_up(np.array([1.0, 1.0, 0.0]), "z") is None  # 45 degrees: no clear axis
     assert likely_up(np.zeros(3), "y") is None
     # the body-frame features read the skeleton's up axis too
-    np.testing.assert_allclose(body_features(z_up, skel_z), body_features(pos, cmu86.skeleton),
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        body_features(z_up, skel_z), body_features(pos, cmu86.skeleton), atol=1e-9
+    )
     with pytest.raises(ValueError, match="up="):
         replace(cmu86.skeleton, up="up")

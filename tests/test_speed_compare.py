@@ -26,23 +26,48 @@ def _result(path: Path, commit: str, date: int, values: dict) -> Path:
             results[name] = [list(v.values()), [list(v)], "x", 0, 0.0]
         else:
             results[name] = [[v], [], "x", 0, 0.0]
-    path.write_text(json.dumps({"commit_hash": commit, "date": date, "result_columns": cols,
-                                "results": results}))
+    path.write_text(
+        json.dumps(
+            {"commit_hash": commit, "date": date, "result_columns": cols, "results": results}
+        )
+    )
     return path
 
 
 def test_flags_only_figures_more_than_20_percent_worse(tmp_path):
     speed = _speed()
-    old = speed.load(_result(tmp_path / "a.json", "aaa", 1, {
-        "aca.track_seconds": {"1000": 1.0, "4609": 2.0},
-        "daemon.track_rate": 100.0, "daemon.track_ok_rate": 100.0, "misc.track_mem": 50.0}))
-    new = speed.load(_result(tmp_path / "b.json", "bbb", 2, {
-        "aca.track_seconds": {"1000": 1.19, "4609": 2.5},  # +19 %: fine; +25 %: worse
-        "daemon.track_rate": 80.0,  # a rate down 20 % (1 / 0.8 = 1.25 the cost): worse
-        "daemon.track_ok_rate": 90.0,  # down 10 %: fine
-        "misc.track_mem": 30.0}))  # a cost that fell: better, not flagged
-    units = {"aca.track_seconds": "s", "daemon.track_rate": "frames/s",
-             "daemon.track_ok_rate": "frames/s", "misc.track_mem": "kB"}
+    old = speed.load(
+        _result(
+            tmp_path / "a.json",
+            "aaa",
+            1,
+            {
+                "aca.track_seconds": {"1000": 1.0, "4609": 2.0},
+                "daemon.track_rate": 100.0,
+                "daemon.track_ok_rate": 100.0,
+                "misc.track_mem": 50.0,
+            },
+        )
+    )
+    new = speed.load(
+        _result(
+            tmp_path / "b.json",
+            "bbb",
+            2,
+            {
+                "aca.track_seconds": {"1000": 1.19, "4609": 2.5},  # +19 %: fine; +25 %: worse
+                "daemon.track_rate": 80.0,  # a rate down 20 % (1 / 0.8 = 1.25 the cost): worse
+                "daemon.track_ok_rate": 90.0,  # down 10 %: fine
+                "misc.track_mem": 30.0,
+            },
+        )
+    )  # a cost that fell: better, not flagged
+    units = {
+        "aca.track_seconds": "s",
+        "daemon.track_rate": "frames/s",
+        "daemon.track_ok_rate": "frames/s",
+        "misc.track_mem": "kB",
+    }
     rows, worse = speed.compare(new, old, units)
     assert sorted(worse) == [("aca.track_seconds", "4609"), ("daemon.track_rate", "")]
     assert len(rows) == 5

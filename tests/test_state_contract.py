@@ -30,51 +30,177 @@ from streamseg.state_migrations import name_of
 from tests.motion import lof_input
 
 STORED = {
-    'streamseg.daemon.pipeline:StreamPipeline': (2, {
-        '_cap', '_feat', '_frames', '_spine', '_spine_n', '_width', 'cut_frames', 'filler',
-        'final_bad', 'final_reps', 'fps', 'gaps', 'learned', 'next_frame', 'notices', 'offset',
-        'previous', 'rep_offset', 'reps', 'root', 'segmenter', 'settlement', 'skeleton'
-    }),
-    'streamseg.daemon.settle:Settlement': (1, {
-        'due_at', 'focus', 'last', 'open', 'radius', 'settle', 'settled'
-    }),
-    'streamseg.daemon.streams:StreamState': (1, {
-        'client', 'cuts', 'dropped', 'events_out', 'fps', 'frames_in', 'gen', 'labels',
-        'last_seen', 'lost', 'next_relabel', 'next_seq', 'relabel_time', 'reps', 'revision',
-        'segments', 'seq_base', 'stream', 't0'
-    }),
-    'streamseg.io.gaps:GapFiller': (1, {
-        '_gap_lost', '_gap_start', '_held', '_last', '_last_frame', '_lost', '_tail',
-        '_touched', 'filled_frames', 'gaps', 'max_frames', 'n_joints', 'next_frame',
-        'released_lost', 'watch'
-    }),
-    'streamseg.offline.label_memory:ExemplarMemory': (1, {
-        'born', 'exemplars', 'last_seen', 'origin', 'pending', 'revisions', 'stride', 'weight'
-    }),
-    'streamseg.online.lof:StreamingLOFSegmenter': (2, {
-        '_centres', '_cols', '_cur', '_explicit_width', '_geo', '_p', '_pend', '_rb', '_rv',
-        '_seqs', '_speeds', '_st', '_vecs', 'config', 'fps', 'geometry', 'n_features'
-    }),
-    'streamseg.online.rep_bridge:PoseBridge': (1, {
-        '_buf', '_lead', '_prev', '_since', 'hold', 'long_lost', 'n_in', 'n_joints', 'n_out',
-        'needed', 'told'
-    }),
-    'streamseg.online.rep_loops:PoseRing': (1, {
-        'C', 'SP', 'Z', '_sos', '_state', 'config', 'cutoff', 'dec', 'k'
-    }),
-    'streamseg.online.repetition:RepetitionCounter': (4, {
-        '_Mm', '_bridge', '_cands', '_closed', '_cur', '_events', '_final', '_gap', '_idx',
-        '_init', '_lag', '_na', '_names', '_now', '_origin', '_pause', '_pending', '_pos',
-        '_ring', '_scale', '_search', '_st', '_tmax', '_unliked', '_up', '_upv', '_waits',
-        'best_dissimilarity_', 'config', 'count_', 'fps', 'max_excursion_', 'n_loops_',
-        'n_seen_', 'near_misses_', 'sets_'
-    }),
-    'streamseg.online.root_speed:RootSpeed': (1, {
-        '_prev', '_ring', '_st', 'fps', 'jump', 'lag', 'limbs', 'root', 'up', 'v_max'
-    }),
-    'streamseg.online.speed_features:SpeedColumns': (2, {
-        '_first', '_order', '_ref', '_ring', '_st', 'd', 'scale'
-    }),
+    "streamseg.daemon.pipeline:StreamPipeline": (
+        2,
+        {
+            "_cap",
+            "_feat",
+            "_frames",
+            "_spine",
+            "_spine_n",
+            "_width",
+            "cut_frames",
+            "filler",
+            "final_bad",
+            "final_reps",
+            "fps",
+            "gaps",
+            "learned",
+            "next_frame",
+            "notices",
+            "offset",
+            "previous",
+            "rep_offset",
+            "reps",
+            "root",
+            "segmenter",
+            "settlement",
+            "skeleton",
+        },
+    ),
+    "streamseg.daemon.settle:Settlement": (
+        1,
+        {"due_at", "focus", "last", "open", "radius", "settle", "settled"},
+    ),
+    "streamseg.daemon.streams:StreamState": (
+        1,
+        {
+            "client",
+            "cuts",
+            "dropped",
+            "events_out",
+            "fps",
+            "frames_in",
+            "gen",
+            "labels",
+            "last_seen",
+            "lost",
+            "next_relabel",
+            "next_seq",
+            "relabel_time",
+            "reps",
+            "revision",
+            "segments",
+            "seq_base",
+            "stream",
+            "t0",
+        },
+    ),
+    "streamseg.io.gaps:GapFiller": (
+        1,
+        {
+            "_gap_lost",
+            "_gap_start",
+            "_held",
+            "_last",
+            "_last_frame",
+            "_lost",
+            "_tail",
+            "_touched",
+            "filled_frames",
+            "gaps",
+            "max_frames",
+            "n_joints",
+            "next_frame",
+            "released_lost",
+            "watch",
+        },
+    ),
+    "streamseg.offline.label_memory:ExemplarMemory": (
+        1,
+        {"born", "exemplars", "last_seen", "origin", "pending", "revisions", "stride", "weight"},
+    ),
+    "streamseg.online.lof:StreamingLOFSegmenter": (
+        2,
+        {
+            "_centres",
+            "_cols",
+            "_cur",
+            "_explicit_width",
+            "_geo",
+            "_p",
+            "_pend",
+            "_rb",
+            "_rv",
+            "_seqs",
+            "_speeds",
+            "_st",
+            "_vecs",
+            "config",
+            "fps",
+            "geometry",
+            "n_features",
+        },
+    ),
+    "streamseg.online.rep_bridge:PoseBridge": (
+        1,
+        {
+            "_buf",
+            "_lead",
+            "_prev",
+            "_since",
+            "hold",
+            "long_lost",
+            "n_in",
+            "n_joints",
+            "n_out",
+            "needed",
+            "told",
+        },
+    ),
+    "streamseg.online.rep_loops:PoseRing": (
+        1,
+        {"C", "SP", "Z", "_sos", "_state", "config", "cutoff", "dec", "k"},
+    ),
+    "streamseg.online.repetition:RepetitionCounter": (
+        4,
+        {
+            "_Mm",
+            "_bridge",
+            "_cands",
+            "_closed",
+            "_cur",
+            "_events",
+            "_final",
+            "_gap",
+            "_idx",
+            "_init",
+            "_lag",
+            "_na",
+            "_names",
+            "_now",
+            "_origin",
+            "_pause",
+            "_pending",
+            "_pos",
+            "_ring",
+            "_scale",
+            "_search",
+            "_st",
+            "_tmax",
+            "_unliked",
+            "_up",
+            "_upv",
+            "_waits",
+            "best_dissimilarity_",
+            "config",
+            "count_",
+            "fps",
+            "max_excursion_",
+            "n_loops_",
+            "n_seen_",
+            "near_misses_",
+            "sets_",
+        },
+    ),
+    "streamseg.online.root_speed:RootSpeed": (
+        1,
+        {"_prev", "_ring", "_st", "fps", "jump", "lag", "limbs", "root", "up", "v_max"},
+    ),
+    "streamseg.online.speed_features:SpeedColumns": (
+        2,
+        {"_first", "_order", "_ref", "_ring", "_st", "d", "scale"},
+    ),
 }
 
 
@@ -82,16 +208,25 @@ STORED = {
 def full(rec):
     """A pipeline with every optional part (repetitions, label memory, gap filling, settling)
     after 30 s of 86_01 (a lost joint for 20 frames) and one relabel, and its stream state."""
-    algorithms = Algorithms(repetitions=True, memory_config=LabelMemoryConfig(),
-                            gap_fill_s=0.25, settle_s=8.0, focus_s=20.0)
+    algorithms = Algorithms(
+        repetitions=True,
+        memory_config=LabelMemoryConfig(),
+        gap_fill_s=0.25,
+        settle_s=8.0,
+        focus_s=20.0,
+    )
     p = StreamPipeline(rec.skeleton, rec.fps, algorithms, history=30.0)
     pos = rec.positions.copy()
     pos[700:720, 4] = np.nan
     for a in range(0, 3600, 100):
-        p.push(pos[a:a + 100], a)
+        p.push(pos[a : a + 100], a)
     feats, frames, focused = p.relabel_snapshot(True)
-    p.relabelled(relabel(algorithms, feats, frames, rec.fps, p.previous, tuple(p.cut_frames)),
-                 False, 3600, focused)
+    p.relabelled(
+        relabel(algorithms, feats, frames, rec.fps, p.previous, tuple(p.cut_frames)),
+        False,
+        3600,
+        focused,
+    )
     return algorithms, p, pos, StreamState("x", 1, rec.fps, p, 0.0)
 
 
@@ -132,14 +267,15 @@ def test_a_restored_pipeline_goes_on_as_the_original(full, rec):
     algorithms, p, pos, _ = full
     p = copy.deepcopy(p)
     chunks: dict = {}
-    body = msgpack.unpackb(msgpack.packb(packable(dump(p), chunks)), raw=False,
-                           strict_map_key=False)
+    body = msgpack.unpackb(
+        msgpack.packb(packable(dump(p), chunks)), raw=False, strict_map_key=False
+    )
     q = load(body, {d: stored(c) for d, c in chunks.items()})
     q.algorithms, q.plan = algorithms, algorithms.prepare(q.skeleton)
     a, b = [], []
     for f in range(3600, rec.n_frames, 100):
-        a += p.push(pos[f:f + 100], f)[0]
-        b += q.push(pos[f:f + 100], f)[0]
+        a += p.push(pos[f : f + 100], f)[0]
+        b += q.push(pos[f : f + 100], f)[0]
     a += p.finish()
     b += q.finish()
     assert a and a == b

@@ -24,28 +24,50 @@ pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
 
 
-def test_a_second_daemon_on_the_same_state_dir_is_refused(start_daemon, rec, tmp_path,
-                                                          capsys):
+def test_a_second_daemon_on_the_same_state_dir_is_refused(start_daemon, rec, tmp_path, capsys):
     state = tmp_path / "state"
     d, ep = start_daemon(state_dir=str(state), checkpoint_interval=0.05)
     s = subscribe(ep["publish"], ep["control"], stream="held")
     # a stream left open (no end): the first daemon holds its checkpoint
-    replay(dataclasses.replace(rec, positions=rec.positions[:600]), ep["ingest"],
-           stream="held", speed=0, batch=20, end=False)
+    replay(
+        dataclasses.replace(rec, positions=rec.positions[:600]),
+        ep["ingest"],
+        stream="held",
+        speed=0,
+        batch=20,
+        end=False,
+    )
     deadline = time.monotonic() + 30
     while request(ep["control"], "state", stream="held").get("frame") != 600:
         assert time.monotonic() < deadline, "the daemon did not take the 600 frames"
         time.sleep(0.01)
     assert request(ep["control"], "checkpoint")["streams"] == 1
     s.close()
-    logged = sqlite3.connect(state / "events.sqlite").execute(
-        "SELECT COUNT(*) FROM events").fetchone()[0]
+    logged = (
+        sqlite3.connect(state / "events.sqlite")
+        .execute("SELECT COUNT(*) FROM events")
+        .fetchone()[0]
+    )
 
     with pytest.raises(StateDirInUse, match="in use by another daemon"):
         Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, state_dir=str(state)))
     # the command line: one line that says what to do, usage exit code, no traceback
-    assert main(["serve", "--state-dir", str(state), "--ingest", LOOP, "--publish", LOOP,
-                 "--control", LOOP]) == 2
+    assert (
+        main(
+            [
+                "serve",
+                "--state-dir",
+                str(state),
+                "--ingest",
+                LOOP,
+                "--publish",
+                LOOP,
+                "--control",
+                LOOP,
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "in use by another daemon" in err[0] and "--state-dir" in err[0]
 
@@ -53,8 +75,12 @@ def test_a_second_daemon_on_the_same_state_dir_is_refused(start_daemon, rec, tmp
     assert [st["stream"] for st in request(ep["control"], "streams")["streams"]] == ["held"]
     con = sqlite3.connect(state / "checkpoints.sqlite")
     assert [r[0] for r in con.execute("SELECT stream FROM checkpoints")] == ["held"]
-    assert sqlite3.connect(state / "events.sqlite").execute(
-        "SELECT COUNT(*) FROM events").fetchone()[0] == logged
+    assert (
+        sqlite3.connect(state / "events.sqlite")
+        .execute("SELECT COUNT(*) FROM events")
+        .fetchone()[0]
+        == logged
+    )
 
     # once the first daemon has stopped, the directory is free again
     d.stop()

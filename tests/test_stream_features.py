@@ -41,8 +41,9 @@ def _fused_in_packets(pos, cfg, skeleton, fps, sizes):
     out, a, k = [], 0, 0
     while a < len(pos):
         b = min(a + sizes[k % len(sizes)], len(pos))
-        _, cols, ok = lof_columns(np.ascontiguousarray(pos[a:b]), plan[2], _root_args(root),
-                                  seg._speed_args())
+        _, cols, ok = lof_columns(
+            np.ascontiguousarray(pos[a:b]), plan[2], _root_args(root), seg._speed_args()
+        )
         out.append(cols)
         a, k = b, k + 1
     return np.concatenate(out)
@@ -72,9 +73,15 @@ def test_fused_columns_equal_the_naive_twin(rec, name):
     root = None
     if cfg.root_columns:
         root = (points[0, 0], points[1:], cfg.root_speed_max, cfg.root_jump / rec.fps)
-    want = naive_lof_columns(pos, points.tolist(),
-                             up_vector(rec.skeleton.up) if cfg.inclinations else None,
-                             rec.fps, g["speed_lag"], cfg.speed_max, root)
+    want = naive_lof_columns(
+        pos,
+        points.tolist(),
+        up_vector(rec.skeleton.up) if cfg.inclinations else None,
+        rec.fps,
+        g["speed_lag"],
+        cfg.speed_max,
+        root,
+    )
     assert np.array_equal(np.isnan(got), np.isnan(want))
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
 
@@ -84,9 +91,13 @@ def recordings(data_dir):
     """Real CMU takes: 86_01 (walk, jump, punch, kick) and two of subject 02."""
     from streamseg.io import read
 
-    return [read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf"),
-            *(read(data_dir / "cmu02" / f"{t}.amc.gz", skeleton=data_dir / "cmu02" / "02.asf")
-              for t in ("02_01", "02_05"))]
+    return [
+        read(data_dir / "cmu86" / "86_01.amc.gz", skeleton=data_dir / "cmu86" / "86.asf"),
+        *(
+            read(data_dir / "cmu02" / f"{t}.amc.gz", skeleton=data_dir / "cmu02" / "02.asf")
+            for t in ("02_01", "02_05")
+        ),
+    ]
 
 
 @pytest.mark.parametrize("packet", [1, 7, 120])
@@ -103,10 +114,11 @@ def test_live_cuts_are_the_offline_cuts_on_real_recordings(recordings, packet):
         p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(lof_config=cfg), 60.0)
         live = []
         for a in range(0, len(pos), packet):
-            live += p.push(pos[a:a + packet], a)[0]
+            live += p.push(pos[a : a + packet], a)[0]
         live += p.finish()
-        off = LOFSegmenter(cfg, rec.fps).fit(lof_features(Recording(rec.fps, rec.skeleton, pos),
-                                                          cfg))
+        off = LOFSegmenter(cfg, rec.fps).fit(
+            lof_features(Recording(rec.fps, rec.skeleton, pos), cfg)
+        )
         assert [c[0] for c in live] == list(off.cuts_)
         assert [c[2] for c in live] == list(off.decided_at_)
         assert [c[1] for c in live] == list(off.scores_)

@@ -20,12 +20,25 @@ def strict_loads(text: str):
 
 
 def test_non_finite_numbers_become_null_at_any_depth():
-    obj = {"a": float("nan"), "b": [1.0, float("inf"), (np.float32("-inf"), 2)],
-           "c": np.array([[0.5, np.nan]]), "d": {"e": np.float64("nan"), "f": np.int64(3)},
-           "g": "NaN", "h": None, "i": True}
+    obj = {
+        "a": float("nan"),
+        "b": [1.0, float("inf"), (np.float32("-inf"), 2)],
+        "c": np.array([[0.5, np.nan]]),
+        "d": {"e": np.float64("nan"), "f": np.int64(3)},
+        "g": "NaN",
+        "h": None,
+        "i": True,
+    }
     text = strict_json.dumps(obj)
-    assert strict_loads(text) == {"a": None, "b": [1.0, None, [None, 2]], "c": [[0.5, None]],
-                                  "d": {"e": None, "f": 3}, "g": "NaN", "h": None, "i": True}
+    assert strict_loads(text) == {
+        "a": None,
+        "b": [1.0, None, [None, 2]],
+        "c": [[0.5, None]],
+        "d": {"e": None, "f": 3},
+        "g": "NaN",
+        "h": None,
+        "i": True,
+    }
     with pytest.raises(ValueError):  # what the module guards against: json's default
         json.dumps({"a": float("nan")}, allow_nan=False)
 
@@ -38,9 +51,23 @@ def test_listen_jsonl_prints_a_nan_from_the_wire_as_null(capsys):
     port = pub.bind_to_random_port("tcp://127.0.0.1")
     parts = P.encode(P.Cut("s", 10, 0.25, float("nan"), 12, True), seq=1)
     out = {}
-    lis = threading.Thread(target=lambda: out.setdefault("rc", main(
-        ["listen", "--from", f"tcp://127.0.0.1:{port}", "--jsonl", "--count", "1",
-         "--timeout", "60"])))
+    lis = threading.Thread(
+        target=lambda: out.setdefault(
+            "rc",
+            main(
+                [
+                    "listen",
+                    "--from",
+                    f"tcp://127.0.0.1:{port}",
+                    "--jsonl",
+                    "--count",
+                    "1",
+                    "--timeout",
+                    "60",
+                ]
+            ),
+        )
+    )
     lis.start()
     while lis.is_alive():  # until the listener has taken one (a SUB joins when it joins)
         pub.send_multipart(parts)

@@ -28,16 +28,26 @@ pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 # the flags keep a CI browser from phoning home or touching the GPU
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                 "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync"]
+CHROMIUM_ARGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+]
 
-sync_api = pytest.importorskip("playwright.sync_api",
-                               reason="playwright is not installed (pip install -e '.[test]')")
+sync_api = pytest.importorskip(
+    "playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')"
+)
 pytest.importorskip("aiohttp", reason="aiohttp is not installed (pip install -e '.[view]')")
 if CHROMIUM is None:
-    pytest.skip("chromium is not installed: apt-get install -y chromium (.ci/run does)",
-                allow_module_level=True)
+    pytest.skip(
+        "chromium is not installed: apt-get install -y chromium (.ci/run does)",
+        allow_module_level=True,
+    )
 
 from streamseg.view.server import ViewThread  # noqa: E402  (needs aiohttp)
 
@@ -47,8 +57,12 @@ def browser():
     profile = tempfile.mkdtemp(prefix="streamseg-chromium-")
     with sync_api.sync_playwright() as pw:
         ctx = pw.chromium.launch_persistent_context(
-            profile, executable_path=CHROMIUM, args=CHROMIUM_ARGS, headless=True,
-            viewport={"width": 1400, "height": 800})
+            profile,
+            executable_path=CHROMIUM,
+            args=CHROMIUM_ARGS,
+            headless=True,
+            viewport={"width": 1400, "height": 800},
+        )
         ctx.set_default_timeout(120_000)  # a slow CI machine; conditions, never sleeps
         yield ctx
         ctx.close()
@@ -118,8 +132,9 @@ def live():
 
 
 def part(rec, stop):
-    return dataclasses.replace(rec, positions=np.ascontiguousarray(rec.positions[:stop]),
-                               rotations=None)
+    return dataclasses.replace(
+        rec, positions=np.ascontiguousarray(rec.positions[:stop]), rotations=None
+    )
 
 
 def send_rest(endpoint, rec, stream, start, batch=8):
@@ -131,8 +146,9 @@ def send_rest(endpoint, rec, stream, start, batch=8):
     push.connect(endpoint)
     try:
         for a in range(start, rec.n_frames, batch):
-            push.send_multipart(P.encode(P.Frames(stream, a, time.time(),
-                                                  rec.positions[a:a + batch])))
+            push.send_multipart(
+                P.encode(P.Frames(stream, a, time.time(), rec.positions[a : a + batch]))
+            )
         push.send_multipart(P.encode(P.End(stream, read_token())))
     finally:
         push.close()
@@ -142,12 +158,17 @@ def wait_view_live(page):
     """The view has received a published event (its subscription is live): the header counts
     forwarded events."""
     page.wait_for_function(
-        "() => /\\b[1-9][0-9]* events/.test(document.querySelector('#totals').textContent)")
+        "() => /\\b[1-9][0-9]* events/.test(document.querySelector('#totals').textContent)"
+    )
 
 
 def frames_of(page, selector, attr):
-    return sorted(int(v) for v in page.eval_on_selector_all(
-        selector, f"els => els.map(e => e.getAttribute('{attr}'))"))
+    return sorted(
+        int(v)
+        for v in page.eval_on_selector_all(
+            selector, f"els => els.map(e => e.getAttribute('{attr}'))"
+        )
+    )
 
 
 def wait_frames(page, selector, attr, expected):
@@ -158,8 +179,12 @@ def wait_frames(page, selector, attr, expected):
         page.wait_for_function(
             "([sel, attr, want]) => JSON.stringify([...document.querySelectorAll(sel)]"
             ".map(e => +e.getAttribute(attr)).sort((a, b) => a - b)) === want",
-            arg=[selector, attr, json.dumps(sorted(int(v) for v in expected),
-                                            separators=(",", ":"))])
+            arg=[
+                selector,
+                attr,
+                json.dumps(sorted(int(v) for v in expected), separators=(",", ":")),
+            ],
+        )
 
 
 def wait_segments(page, expected):
@@ -169,14 +194,20 @@ def wait_segments(page, expected):
             "want => JSON.stringify([...document.querySelectorAll('#seg-layer rect.seg')]"
             ".map(e => [+e.dataset.start, +e.dataset.end, +e.dataset.label])"
             ".sort((a, b) => a[0] - b[0] || a[1] - b[1] || a[2] - b[2])) === want",
-            arg=json.dumps(sorted([int(a), int(b), int(c)] for a, b, c in expected),
-                           separators=(",", ":")))
+            arg=json.dumps(
+                sorted([int(a), int(b), int(c)] for a, b, c in expected), separators=(",", ":")
+            ),
+        )
 
 
 def segments_of(page):
-    return sorted(tuple(s) for s in page.eval_on_selector_all(
-        "#seg-layer rect.seg", "els => els.map(e => [+e.dataset.start, +e.dataset.end, "
-                               "+e.dataset.label])"))
+    return sorted(
+        tuple(s)
+        for s in page.eval_on_selector_all(
+            "#seg-layer rect.seg",
+            "els => els.map(e => [+e.dataset.start, +e.dataset.end, +e.dataset.label])",
+        )
+    )
 
 
 def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_dir):
@@ -185,8 +216,11 @@ def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_di
     page.goto(lv.url + "#stream=86_01")
     wait_view_live(page)
     labels = data_dir / "cmu86" / "labels_86_01.csv"
-    sender = threading.Thread(target=replay, args=(rec, lv.ep["ingest"]),
-                              kwargs=dict(stream="86_01", speed=0, batch=8, labels=labels))
+    sender = threading.Thread(
+        target=replay,
+        args=(rec, lv.ep["ingest"]),
+        kwargs=dict(stream="86_01", speed=0, batch=8, labels=labels),
+    )
     sender.start()
     # listed, opened from the address, then marked closed on the page
     page.wait_for_selector('.row[data-stream="86_01"]')
@@ -194,8 +228,7 @@ def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_di
     lv.wait_closed("86_01")
     sender.join()
     page.wait_for_selector('.row[data-stream="86_01"][data-closed="end"]')
-    page.wait_for_function("() => document.querySelector('#status').textContent === "
-                           "'closed (end)'")
+    page.wait_for_function("() => document.querySelector('#status').textContent === 'closed (end)'")
 
     # the page lists the cuts not withdrawn (every provisional cut ends confirmed or
     # withdrawn by a relabel: docs/protocol.md, Settled cuts)
@@ -222,10 +255,13 @@ def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_di
     from streamseg.evaluation.labels import read_labels
 
     human = read_labels(labels, "86_01")
-    page.wait_for_function(f"() => document.querySelectorAll('#human-layer rect').length "
-                           f"=== {len(human)}")
-    shown = page.eval_on_selector_all("#human-layer rect", "els => els.map(e => "
-                                      "[+e.dataset.start, +e.dataset.end, e.dataset.name])")
+    page.wait_for_function(
+        f"() => document.querySelectorAll('#human-layer rect').length === {len(human)}"
+    )
+    shown = page.eval_on_selector_all(
+        "#human-layer rect",
+        "els => els.map(e => [+e.dataset.start, +e.dataset.end, e.dataset.name])",
+    )
     assert sorted(map(tuple, shown)) == sorted((s.start, s.end, s.label) for s in human)
     page.wait_for_selector("#agreement:has-text('frame accuracy')")
 
@@ -244,8 +280,7 @@ def test_replay_shows_cuts_segments_labels_and_close(live, browser, rec, data_di
 def test_view_started_late_catches_up_through_state(browser, rec):
     """A view that connects while a stream is running gets its past from the ``state``
     snapshot and the rest from events: the page ends with every cut the daemon published."""
-    cfg = DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0.2,
-                       relabel_interval=0)
+    cfg = DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0.2, relabel_interval=0)
     daemon = Daemon(cfg)
     ep = daemon.bind()
     t = threading.Thread(target=daemon.run, daemon=True)
@@ -266,8 +301,9 @@ def test_view_started_late_catches_up_through_state(browser, rec):
         state = request(ep["control"], "state", stream="late")
         assert state["closed"] == "end"
         want = sorted({c["frame"] for c in state["cuts"]})  # no relabel: the daemon kept all
-        page.wait_for_function(f"() => document.querySelectorAll('#cut-layer line.cut')"
-                               f".length === {len(want)}")
+        page.wait_for_function(
+            f"() => document.querySelectorAll('#cut-layer line.cut').length === {len(want)}"
+        )
         shown = frames_of(page, "#cut-layer line.cut", "data-frame")
         assert shown == want
         assert shown and min(shown) < half  # cuts from before the view started are there
@@ -308,12 +344,14 @@ def test_a_withdrawn_pending_cut_leaves_the_page(live, browser, rec):
     send_rest(lv.ep["ingest"], rec, "w", stop)
     lv.wait_closed("w")
     page.wait_for_selector('.row[data-stream="w"][data-closed="end"]')
-    page.wait_for_function("() => !document.querySelector('#cut-layer line.cut"
-                           f"[data-frame=\"{f}\"]')")
+    page.wait_for_function(
+        f"() => !document.querySelector('#cut-layer line.cut[data-frame=\"{f}\"]')"
+    )
     wait_frames(page, "#cut-layer line.cut", "data-frame", final)
     assert frames_of(page, "#cut-layer line.cut", "data-frame") == final
-    assert [e.frame for e in lv.of("w", "withdraw")] == [e.frame for e in events
-                                                         if isinstance(e, WithdrawEvent)]
+    assert [e.frame for e in lv.of("w", "withdraw")] == [
+        e.frame for e in events if isinstance(e, WithdrawEvent)
+    ]
     page.close()
 
 
@@ -334,8 +372,9 @@ def test_hundred_streams_list_is_virtual_and_filterable(live, browser, rec):
         push.close()
     for name in names:
         lv.wait_closed(name)
-    page.wait_for_function("() => document.querySelector('#count').textContent."
-                           "startsWith('100 streams (0 open)')")
+    page.wait_for_function(
+        "() => document.querySelector('#count').textContent.startsWith('100 streams (0 open)')"
+    )
     rendered = page.eval_on_selector_all(".row", "els => els.length")
     assert 0 < rendered < 40  # only the visible rows are in the DOM
     page.fill("#filter", "s077")
@@ -347,11 +386,14 @@ def test_hundred_streams_list_is_virtual_and_filterable(live, browser, rec):
     page.click('.row[data-stream="s099"]')
     n_cuts = len(lv.of("s099", "cut"))
     assert n_cuts > 0
-    page.wait_for_function(f"() => document.querySelector('#title').textContent === 's099' && "
-                           f"document.querySelectorAll('#cut-layer line.cut').length === "
-                           f"{n_cuts}")
-    assert frames_of(page, "#cut-layer line.cut", "data-frame") == \
-        sorted(e.frame for e in lv.of("s099", "cut"))
+    page.wait_for_function(
+        f"() => document.querySelector('#title').textContent === 's099' && "
+        f"document.querySelectorAll('#cut-layer line.cut').length === "
+        f"{n_cuts}"
+    )
+    assert frames_of(page, "#cut-layer line.cut", "data-frame") == sorted(
+        e.frame for e in lv.of("s099", "cut")
+    )
     page.close()
 
 
@@ -359,8 +401,9 @@ def test_repetitions_gaps_and_errors_reach_the_page(live, browser, data_dir):
     """Repetitions on: the live count of the set and each repetition on the timeline; a lost
     packet shows as a gap, a repeated one in the errors by kind."""
     lv = live(repetitions=True, relabel_interval=0)
-    rec = read(data_dir / "cmu_exercise" / "14_14.amc.gz",
-               skeleton=data_dir / "cmu86" / "86.asf").slice(0, 1800)  # jumping jacks
+    rec = read(
+        data_dir / "cmu_exercise" / "14_14.amc.gz", skeleton=data_dir / "cmu86" / "86.asf"
+    ).slice(0, 1800)  # jumping jacks
     page = browser.new_page()
     page.goto(lv.url + "#stream=reps")
     wait_view_live(page)
@@ -372,21 +415,26 @@ def test_repetitions_gaps_and_errors_reach_the_page(live, browser, data_dir):
     push.send_multipart(P.encode(announce_of(rec, "reps")))
     for a in range(0, rec.n_frames, 30):
         if a != 900:  # one packet lost: frames 900..929
-            push.send_multipart(P.encode(P.Frames("reps", a, time.time(),
-                                                  rec.positions[a:a + 30])))
+            push.send_multipart(
+                P.encode(P.Frames("reps", a, time.time(), rec.positions[a : a + 30]))
+            )
         if a == 600:  # and one sent twice: 30 duplicate frames
-            push.send_multipart(P.encode(P.Frames("reps", a, time.time(),
-                                                  rec.positions[a:a + 30])))
+            push.send_multipart(
+                P.encode(P.Frames("reps", a, time.time(), rec.positions[a : a + 30]))
+            )
     push.send_multipart(P.encode(P.End("reps")))
     push.close()
     lv.wait_closed("reps")
     page.wait_for_selector('.row[data-stream="reps"][data-closed="end"]')
     reps = [(e.start, e.end, e.count) for e in lv.of("reps", "rep")]
     assert len(reps) >= 3
-    page.wait_for_function(f"() => document.querySelectorAll('#rep-layer rect.rep').length "
-                           f"=== {len(reps)}")
-    shown = page.eval_on_selector_all("#rep-layer rect.rep", "els => els.map(e => "
-                                      "[+e.dataset.start, +e.dataset.end, +e.dataset.count])")
+    page.wait_for_function(
+        f"() => document.querySelectorAll('#rep-layer rect.rep').length === {len(reps)}"
+    )
+    shown = page.eval_on_selector_all(
+        "#rep-layer rect.rep",
+        "els => els.map(e => [+e.dataset.start, +e.dataset.end, +e.dataset.count])",
+    )
     assert [tuple(r) for r in shown] == reps
     assert page.text_content("#rep-count") == str(reps[-1][2])
     assert f"{reps[-1][2]} reps" in page.text_content('.row[data-stream="reps"]')
@@ -394,8 +442,10 @@ def test_repetitions_gaps_and_errors_reach_the_page(live, browser, data_dir):
     assert page.text_content('#health dd[data-k="gaps"]') == "1"
     errors = {e.reason: e.count for e in lv.of("reps", "error")}
     assert errors.get("duplicate") == 30
-    page.wait_for_function("() => document.querySelector('#health dd[data-k=\"errors\"]')"
-                           ".textContent.includes('duplicate×30')")
+    page.wait_for_function(
+        "() => document.querySelector('#health dd[data-k=\"errors\"]')"
+        ".textContent.includes('duplicate×30')"
+    )
     assert "errors duplicate×30" in page.text_content('.row[data-stream="reps"]')
     page.close()
 
@@ -428,21 +478,17 @@ def test_the_page_says_when_no_daemon_is_there(browser):
         url = view.start()
         page = browser.new_page()
         page.goto(url)
-        page.wait_for_function("() => document.querySelector('#conn').dataset.state === "
-                               "'nodaemon'")
+        page.wait_for_function("() => document.querySelector('#conn').dataset.state === 'nodaemon'")
         assert page.text_content("#conn") == f"no daemon at {publish}: waiting for it"
-        daemon = Daemon(DaemonConfig(ingest=LOOP, publish=publish, control=LOOP,
-                                     heartbeat=0.2))
+        daemon = Daemon(DaemonConfig(ingest=LOOP, publish=publish, control=LOOP, heartbeat=0.2))
         daemon.bind()
         thread = threading.Thread(target=daemon.run, daemon=True)
         thread.start()
-        page.wait_for_function("() => document.querySelector('#conn').textContent === "
-                               "'connected'")
+        page.wait_for_function("() => document.querySelector('#conn').textContent === 'connected'")
         daemon.stop()
         thread.join(30)
         daemon = None
-        page.wait_for_function("() => document.querySelector('#conn').dataset.state === "
-                               "'nodaemon'")
+        page.wait_for_function("() => document.querySelector('#conn').dataset.state === 'nodaemon'")
         page.close()
     finally:
         view.stop()

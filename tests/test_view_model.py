@@ -35,8 +35,9 @@ def test_announce_labels_is_optional_and_checked(rec, data_dir):
 
 
 def test_daemon_passes_the_announced_labels_on_in_state(rec, data_dir):
-    daemon = Daemon(DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0,
-                                 relabel_interval=0))
+    daemon = Daemon(
+        DaemonConfig(ingest=LOOP, publish=LOOP, control=LOOP, heartbeat=0, relabel_interval=0)
+    )
     ep = daemon.bind()
     t = threading.Thread(target=daemon.run, daemon=True)
     t.start()
@@ -44,11 +45,11 @@ def test_daemon_passes_the_announced_labels_on_in_state(rec, data_dir):
         assert daemon.ready.wait(60)
         csv = data_dir / "cmu86" / "labels_86_01.csv"
         short = rec.__class__(rec.fps, rec.skeleton, rec.positions[:300])
-        replay(short, ep["ingest"], stream="x", speed=0, batch=50, labels=csv,
-               labels_sequence="86_01")
+        replay(
+            short, ep["ingest"], stream="x", speed=0, batch=50, labels=csv, labels_sequence="86_01"
+        )
         replay(short, ep["ingest"], stream="y", speed=0, batch=50)
-        for stream, want in (("x", {"path": str(csv.resolve()), "sequence": "86_01"}),
-                             ("y", None)):
+        for stream, want in (("x", {"path": str(csv.resolve()), "sequence": "86_01"}), ("y", None)):
             state = request(ep["control"], "state", stream=stream)
             while not state.get("closed"):  # end is handled in order after the frames
                 state = request(ep["control"], "state", stream=stream)
@@ -59,24 +60,36 @@ def test_daemon_passes_the_announced_labels_on_in_state(rec, data_dir):
 
 
 def _events():
-    return [P.Cut("s", 100, 0.0, 2.0, 130), P.Cut("s", 300, 0.0, 2.5, 330),
-            P.Segments("s", 1, 0, 400, ((0, 100, 0), (100, 300, 1), (300, 400, 0))),
-            P.Cut("s", 500, 0.0, 3.0, 540),
-            P.Segments("s", 2, 200, 600, ((200, 300, 1), (300, 500, 2), (500, 600, 1))),
-            P.Rep("s", 500, 560, 1, 0.0, 560), P.Rep("s", 560, 600, 2, 0.0, 600)]
+    return [
+        P.Cut("s", 100, 0.0, 2.0, 130),
+        P.Cut("s", 300, 0.0, 2.5, 330),
+        P.Segments("s", 1, 0, 400, ((0, 100, 0), (100, 300, 1), (300, 400, 0))),
+        P.Cut("s", 500, 0.0, 3.0, 540),
+        P.Segments("s", 2, 200, 600, ((200, 300, 1), (300, 500, 2), (500, 600, 1))),
+        P.Rep("s", 500, 560, 1, 0.0, 560),
+        P.Rep("s", 560, 600, 2, 0.0, 600),
+    ]
 
 
 def _snapshot():
     """What the daemon's ``state`` answers after the events of :func:`_events`."""
-    return {"stream": "s", "fps": 100.0, "frame": 620, "revision": 2,
-            "segments": P.to_json(_events()[4]), "cuts": []}
+    return {
+        "stream": "s",
+        "fps": 100.0,
+        "frame": 620,
+        "revision": 2,
+        "segments": P.to_json(_events()[4]),
+        "cuts": [],
+    }
 
 
 def test_snapshot_and_events_merge_in_either_order():
     fixed = {}
-    for name, steps in (("events first", ["events", "state"]),
-                        ("state first", ["state", "events"]),
-                        ("state twice", ["state", "events", "state"])):
+    for name, steps in (
+        ("events first", ["events", "state"]),
+        ("state first", ["state", "events"]),
+        ("state twice", ["state", "events", "state"]),
+    ):
         hub = Hub(clock=lambda: 1000.0)
         for step in steps:
             if step == "state":
@@ -87,8 +100,13 @@ def test_snapshot_and_events_merge_in_either_order():
         sv = hub.streams["s"]
         fixed[name] = (sv.segments, [c["frame"] for c in sv.cuts], sv.reps, sv.revision)
     # events first: revision 1 labelled [0, 200) before revision 2 covered [200, 600)
-    assert fixed["events first"][0] == [[0, 100, 0], [100, 200, 1], [200, 300, 1],
-                                       [300, 500, 2], [500, 600, 1]]
+    assert fixed["events first"][0] == [
+        [0, 100, 0],
+        [100, 200, 1],
+        [200, 300, 1],
+        [300, 500, 2],
+        [500, 600, 1],
+    ]
     assert fixed["events first"][1] == [100, 300, 500]
     # state first: revision 1 is older than the snapshot and ignored; cuts are not repeated
     assert fixed["state first"][0] == [[200, 300, 1], [300, 500, 2], [500, 600, 1]]
@@ -167,9 +185,25 @@ def test_serve_http_and_view_commands_serve_the_page():
 
     loop = "tcp://127.0.0.1:0"
     serve = subprocess.Popen(
-        [sys.executable, "-m", "streamseg.cli", "serve", "--ingest", loop, "--publish", loop,
-         "--control", loop, "--http", "127.0.0.1:0", "--log-level", "WARNING"],
-        stdout=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "serve",
+            "--ingest",
+            loop,
+            "--publish",
+            loop,
+            "--control",
+            loop,
+            "--http",
+            "127.0.0.1:0",
+            "--log-level",
+            "WARNING",
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     view = None
     try:
         endpoints = _line_with(serve, "streamseg serve: ingest=")
@@ -177,7 +211,7 @@ def test_serve_http_and_view_commands_serve_the_page():
         url = _line_with(serve, "live view ").split("live view ")[1].strip()
         assert url.startswith("http://127.0.0.1:")
         page = urllib.request.urlopen(url).read().decode()
-        assert "<svg id=\"timeline\"" in page and "static/view.js" in page
+        assert '<svg id="timeline"' in page and "static/view.js" in page
         import re
 
         links = re.findall(r'(?:src|href)="([^"]*)"', page)
@@ -188,9 +222,21 @@ def test_serve_http_and_view_commands_serve_the_page():
         api = json.load(urllib.request.urlopen(url + "api/streams"))
         assert api["rows"] == [] and api["header"]["control"] == ep["control"]
         view = subprocess.Popen(
-            [sys.executable, "-m", "streamseg.cli", "view", "--from", ep["publish"],
-             "--control", ep["control"], "--http", "127.0.0.1:0"],
-            stdout=subprocess.PIPE, text=True)
+            [
+                sys.executable,
+                "-m",
+                "streamseg.cli",
+                "view",
+                "--from",
+                ep["publish"],
+                "--control",
+                ep["control"],
+                "--http",
+                "127.0.0.1:0",
+            ],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         line = _line_with(view, "streamseg view: http://")
         other = line.split("streamseg view: ", 1)[1].split()[0]
         assert json.load(urllib.request.urlopen(other + "api/streams"))["rows"] == []
@@ -249,8 +295,9 @@ def test_websocket_refuses_other_origins_and_hosts():
         import urllib.request
 
         port = url.rsplit(":", 1)[1].strip("/")
-        rebound = urllib.request.Request(url + "api/streams",
-                                         headers={"Host": f"evil.example:{port}"})
+        rebound = urllib.request.Request(
+            url + "api/streams", headers={"Host": f"evil.example:{port}"}
+        )
         with pytest.raises(urllib.error.HTTPError) as err:
             urllib.request.urlopen(rebound)
         assert err.value.code == 403
@@ -272,18 +319,34 @@ def test_a_stream_lost_in_a_daemon_crash_is_marked_lost(rec):
 
     from streamseg.view.server import ViewThread
 
-    def serve(ingest="tcp://127.0.0.1:0", publish="tcp://127.0.0.1:0",
-              control="tcp://127.0.0.1:0"):
-        p = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "serve", "--ingest",
-                              ingest, "--publish", publish, "--control", control,
-                              "--log-level", "WARNING", "--relabel-interval", "0"],
-                             stdout=subprocess.PIPE, text=True)
+    def serve(ingest="tcp://127.0.0.1:0", publish="tcp://127.0.0.1:0", control="tcp://127.0.0.1:0"):
+        p = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "streamseg.cli",
+                "serve",
+                "--ingest",
+                ingest,
+                "--publish",
+                publish,
+                "--control",
+                control,
+                "--log-level",
+                "WARNING",
+                "--relabel-interval",
+                "0",
+            ],
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         line = _line_with(p, "streamseg serve: ingest=")
         return p, dict(kv.split("=", 1) for kv in line.split(": ", 1)[1].split())
 
     def rows(url):
-        return {r["stream"]: r for r in json.load(urllib.request.urlopen(url + "api/streams"))
-                ["rows"]}
+        return {
+            r["stream"]: r for r in json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
+        }
 
     def until(cond, what, limit=60.0):
         """Follow the view's WebSocket (as a page does) until ``cond(rows)`` holds."""
@@ -316,8 +379,14 @@ def test_a_stream_lost_in_a_daemon_crash_is_marked_lost(rec):
         view = ViewThread(ep["publish"], ep["control"], poll=0.2)
         url = view.start()
         view.server.feed.timeout = 1.0
-        replay(rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]), ep["ingest"],
-               stream="gone", speed=0, batch=50, end=False)
+        replay(
+            rec.__class__(rec.fps, rec.skeleton, rec.positions[:600]),
+            ep["ingest"],
+            stream="gone",
+            speed=0,
+            batch=50,
+            end=False,
+        )
         until(lambda r: r.get("gone", {}).get("frame") == 600, "the stream's frames")
         assert rows(url)["gone"]["closed"] is None
         first.send_signal(signal.SIGKILL)

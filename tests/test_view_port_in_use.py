@@ -38,11 +38,30 @@ def test_a_view_that_cannot_bind_leaves_no_pending_task(taken, caplog):
 def test_serve_http_on_a_taken_port_is_one_line(taken):
     loop = "tcp://127.0.0.1:0"
     proc = subprocess.run(
-        [sys.executable, "-m", "streamseg.cli", "serve", "--http", f"127.0.0.1:{taken}",
-         "--ingest", loop, "--publish", loop, "--control", loop, "--state-dir", "none"],
-        capture_output=True, text=True, timeout=120)
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "serve",
+            "--http",
+            f"127.0.0.1:{taken}",
+            "--ingest",
+            loop,
+            "--publish",
+            loop,
+            "--control",
+            loop,
+            "--state-dir",
+            "none",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 1
     err = proc.stderr.strip().splitlines()
     assert len(err) == 1, proc.stderr
-    assert err[0].startswith(f"streamseg serve: error: cannot serve the page on "
-                             f"127.0.0.1:{taken}") and "in use" in err[0]
+    assert (
+        err[0].startswith(f"streamseg serve: error: cannot serve the page on 127.0.0.1:{taken}")
+        and "in use" in err[0]
+    )

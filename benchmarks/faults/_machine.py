@@ -57,8 +57,13 @@ def can_mount() -> bool:
     if not shutil.which("unshare"):
         return False
     with tempfile.TemporaryDirectory() as d:
-        return subprocess.run(["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m "
-                               f"tmpfs '{d}'"], capture_output=True).returncode == 0
+        return (
+            subprocess.run(
+                ["unshare", "-rm", "sh", "-c", f"mount -t tmpfs -o size=1m tmpfs '{d}'"],
+                capture_output=True,
+            ).returncode
+            == 0
+        )
 
 
 def fill(path) -> int:

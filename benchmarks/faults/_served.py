@@ -55,9 +55,11 @@ def row(case: str, result: str, figure: str, passed: bool) -> dict:
 
 def named(name: str):
     """Decorator: the case's name in the table and for ``--cases``."""
+
     def wrap(fn):
         fn.case = name
         return fn
+
     return wrap
 
 
@@ -78,8 +80,11 @@ class Served:
         daemon.setdefault("relabel_history", 20.0)
         daemon.setdefault("heartbeat", 0.5)
         for k, v in daemon.items():
-            lines.append(f"{k} = {v!r}".replace("'", '"') if isinstance(v, str)
-                         else f"{k} = {str(v).lower() if isinstance(v, bool) else v}")
+            lines.append(
+                f"{k} = {v!r}".replace("'", '"')
+                if isinstance(v, str)
+                else f"{k} = {str(v).lower() if isinstance(v, bool) else v}"
+            )
         (tmp / "d.toml").write_text("[daemon]\n" + "\n".join(lines) + "\n")
         if "curve_dir" in daemon:
             from streamseg.daemon.security import ClientKeys
@@ -91,16 +96,33 @@ class Served:
         """Start the daemon; seconds until it answers a ping."""
         # ring_start: the feature ring's first size (a huge one: the ring allocated whole at
         # the first packet, as before it grew on demand)
-        pre = (f"import streamseg.daemon.pipeline as p; p.RING_START = {self.ring_start}; "
-               if self.ring_start else "")
-        cmd = [sys.executable, "-c", pre + "import sys; from streamseg.cli import main; "
-               "sys.exit(main(sys.argv[1:]))", "serve", "--config", str(self.tmp / "d.toml"),
-               "--log-level", log_level]
+        pre = (
+            f"import streamseg.daemon.pipeline as p; p.RING_START = {self.ring_start}; "
+            if self.ring_start
+            else ""
+        )
+        cmd = [
+            sys.executable,
+            "-c",
+            pre + "import sys; from streamseg.cli import main; sys.exit(main(sys.argv[1:]))",
+            "serve",
+            "--config",
+            str(self.tmp / "d.toml"),
+            "--log-level",
+            log_level,
+        ]
         if self.tmpfs_mb:
             state = self.tmp / "state"
             state.mkdir(exist_ok=True)
-            cmd = ["unshare", "-rm", "sh", "-c", f'mount -t tmpfs -o size={self.tmpfs_mb}m '
-                   f'tmpfs "{state}" && exec "$@"', "sh", *cmd]
+            cmd = [
+                "unshare",
+                "-rm",
+                "sh",
+                "-c",
+                f'mount -t tmpfs -o size={self.tmpfs_mb}m tmpfs "{state}" && exec "$@"',
+                "sh",
+                *cmd,
+            ]
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=stderr, text=True)
         line = self.proc.stdout.readline()  # "streamseg serve: ingest=EP publish=EP ..."
         self.ep.update(kv.split("=", 1) for kv in line.split()[2:] if "=" in kv)
@@ -167,8 +189,11 @@ class Served:
 
     def state(self) -> Path:
         """The state directory as this process reaches it (through the daemon's namespace)."""
-        return Path(f"/proc/{self.proc.pid}/root{self.tmp / 'state'}") if self.tmpfs_mb \
+        return (
+            Path(f"/proc/{self.proc.pid}/root{self.tmp / 'state'}")
+            if self.tmpfs_mb
             else self.tmp / "state"
+        )
 
     def kill(self):
         self.proc.send_signal(signal.SIGKILL)
@@ -186,8 +211,9 @@ class Served:
 def send_good(sock, rec, lo, hi, stream="good"):
     """Frames ``[lo, hi)`` of ``rec`` as ``stream``, :data:`STEP` frames per packet."""
     for a in range(lo, hi, STEP):
-        sock.send_multipart(P.encode(P.Frames(stream, a, 0.0, rec.positions[a:min(a + STEP,
-                                                                                 hi)])))
+        sock.send_multipart(
+            P.encode(P.Frames(stream, a, 0.0, rec.positions[a : min(a + STEP, hi)]))
+        )
 
 
 def ckpt_frame(db, stream="good"):
@@ -230,8 +256,9 @@ class Sender(threading.Thread):
         while not self.stopping.is_set():
             idx = np.arange(a, a + STEP) % n
             try:
-                push.send_multipart(P.encode(P.Frames(self.stream, a, 0.0,
-                                                      self.rec.positions[idx])))
+                push.send_multipart(
+                    P.encode(P.Frames(self.stream, a, 0.0, self.rec.positions[idx]))
+                )
             except zmq.Again:
                 pass
             a += STEP

@@ -41,8 +41,9 @@ def big_packets(tmp: Path) -> dict:
         t0 = time.monotonic()
         for k in range(BIG_PACKETS):
             a = k * BIG_FRAMES
-            sock.send_multipart(P.encode(P.Frames("big", a, 0.0,
-                                                  rec.positions[(a + idx) % rec.n_frames])))
+            sock.send_multipart(
+                P.encode(P.Frames("big", a, 0.0, rec.positions[(a + idx) % rec.n_frames]))
+            )
         sent = time.monotonic() - t0
         total = BIG_PACKETS * BIG_FRAMES
         d.wait_frame("big", total, timeout=1800)
@@ -52,16 +53,19 @@ def big_packets(tmp: Path) -> dict:
         sock.close()
     finally:
         d.stop()
-    result = (f"{tot['frames']:,} frames taken of {total:,}, errors "
-              f"{tot['errors_by_reason'] or 'none'}; ZeroMQ's bound {tot['ingest_hwm']} "
-              f"packets per connection (fixed), the receiver's queue at most "
-              f"{tot['ingest_peak_bytes'] / 1e6:.0f} MB")
-    figure = (f"RSS peak {peak:.0f} MB; latency p50 {tot['latency_p50_ms']:.0f} ms, p99 "
-              f"{tot['latency_p99_ms']:.0f} ms; all processed in {took:.1f} s "
-              f"({BIG_PACKETS * BIG_FRAMES * 744 / took / 1e6:.0f} MB/s; sender done after "
-              f"{sent:.1f} s)")
-    return row("1,000 valid 10 MB packets", result, figure,
-               peak < 1024 and tot["frames"] == total)
+    result = (
+        f"{tot['frames']:,} frames taken of {total:,}, errors "
+        f"{tot['errors_by_reason'] or 'none'}; ZeroMQ's bound {tot['ingest_hwm']} "
+        f"packets per connection (fixed), the receiver's queue at most "
+        f"{tot['ingest_peak_bytes'] / 1e6:.0f} MB"
+    )
+    figure = (
+        f"RSS peak {peak:.0f} MB; latency p50 {tot['latency_p50_ms']:.0f} ms, p99 "
+        f"{tot['latency_p99_ms']:.0f} ms; all processed in {took:.1f} s "
+        f"({BIG_PACKETS * BIG_FRAMES * 744 / took / 1e6:.0f} MB/s; sender done after "
+        f"{sent:.1f} s)"
+    )
+    return row("1,000 valid 10 MB packets", result, figure, peak < 1024 and tot["frames"] == total)
 
 
 def _errors(d, reason):
@@ -78,8 +82,11 @@ def _finish_good(d, sock, live) -> tuple:
     seen = drain(live)
     logged = {(e.seq, e) for e in events}
     cuts = [e.frame for e in events if e.type == "cut"]
-    lost = holes(events) + len(set(base_cuts()) - set(cuts)) + \
-        sum((e.seq, e) not in logged for e in seen)
+    lost = (
+        holes(events)
+        + len(set(base_cuts()) - set(cuts))
+        + sum((e.seq, e) not in logged for e in seen)
+    )
     return lost, cuts == list(base_cuts()), events
 
 
@@ -121,12 +128,17 @@ def stranger(tmp: Path) -> dict:
     finally:
         d.stop()
     refused = [op for op in ("shutdown", "checkpoint") if not out.get(op, {}).get("ok", True)]
-    result = (f"{', '.join(refused) or 'nothing'} refused, end and re-announce refused "
-              f"({owner} owner errors); daemon {'running' if alive else 'STOPPED'}; {lost} "
-              f"events lost, cuts {'=' if equal else '!='} no-fault")
-    return row("another local user, no CURVE", result, out.get("raised") or
-               f"the stranger's uid {out.get('uid')}",
-               len(refused) == 2 and owner == 2 and alive and lost == 0 and equal)
+    result = (
+        f"{', '.join(refused) or 'nothing'} refused, end and re-announce refused "
+        f"({owner} owner errors); daemon {'running' if alive else 'STOPPED'}; {lost} "
+        f"events lost, cuts {'=' if equal else '!='} no-fault"
+    )
+    return row(
+        "another local user, no CURVE",
+        result,
+        out.get("raised") or f"the stranger's uid {out.get('uid')}",
+        len(refused) == 2 and owner == 2 and alive and lost == 0 and equal,
+    )
 
 
 @named("10,000 announces, no CURVE")
@@ -161,11 +173,17 @@ def local_announce_flood(tmp: Path) -> dict:
         late.close()
     finally:
         d.stop()
-    result = (f"{tot['streams'] - 1} flood streams open (quota 1000 per connection), "
-              f"{tot['errors_by_reason'].get('quota', 0)} refused (quota); a stream from "
-              f"another process was accepted")
-    return row("10,000 announces, no CURVE", result, f"flood to the late stream's 200th "
-               f"frame {took:.1f} s", tot["streams"] == 1001)
+    result = (
+        f"{tot['streams'] - 1} flood streams open (quota 1000 per connection), "
+        f"{tot['errors_by_reason'].get('quota', 0)} refused (quota); a stream from "
+        f"another process was accepted"
+    )
+    return row(
+        "10,000 announces, no CURVE",
+        result,
+        f"flood to the late stream's 200th frame {took:.1f} s",
+        tot["streams"] == 1001,
+    )
 
 
 @named("tcp://[::1]")
@@ -181,10 +199,12 @@ def ipv6_loopback(tmp: Path) -> dict:
     finally:
         d.stop()
     cuts = [e.frame for e in events if e.type == "cut"]
-    return row("tcp://[::1]", f"served on {d.ep['ingest']}; cuts "
-               f"{'=' if cuts == list(base_cuts()) else '!='} no-fault",
-               f"{len(events)} events logged", cuts == list(base_cuts()))
-
+    return row(
+        "tcp://[::1]",
+        f"served on {d.ep['ingest']}; cuts {'=' if cuts == list(base_cuts()) else '!='} no-fault",
+        f"{len(events)} events logged",
+        cuts == list(base_cuts()),
+    )
 
 
 LEAVING = 200  # senders
@@ -207,8 +227,9 @@ def large_senders_leave(tmp: Path) -> dict:
             s = d.push()
             s.send_multipart(P.encode(announce_of(rec, f"s{k}")))
             for a in range(0, 5 * LEAVING_FRAMES, LEAVING_FRAMES):
-                s.send_multipart(P.encode(P.Frames(f"s{k}", a, 0.0,
-                                                   rec.positions[a:a + LEAVING_FRAMES])))
+                s.send_multipart(
+                    P.encode(P.Frames(f"s{k}", a, 0.0, rec.positions[a : a + LEAVING_FRAMES]))
+                )
             s.send_multipart(P.encode(P.End(f"s{k}")))
             s.close()  # its linger delivers the packets, then the connection ends
             if d.proc.poll() is not None:
@@ -227,13 +248,20 @@ def large_senders_leave(tmp: Path) -> dict:
     finally:
         d.stop()
     if died is not None:
-        return row("200 senders of large packets that leave",
-                   f"the daemon died (exit {died}) after sender {k + 1} of {LEAVING}",
-                   "a daemon that dies loses every open stream's live state", False)
+        return row(
+            "200 senders of large packets that leave",
+            f"the daemon died (exit {died}) after sender {k + 1} of {LEAVING}",
+            "a daemon that dies loses every open stream's live state",
+            False,
+        )
     ok = tot is not None and tot["frames"] == total
-    return row("200 senders of large packets that leave",
-               f"{tot['frames'] if tot else '?'} frames taken of {total}",
-               "the daemon still runs", ok)
+    return row(
+        "200 senders of large packets that leave",
+        f"{tot['frames'] if tot else '?'} frames taken of {total}",
+        "the daemon still runs",
+        ok,
+    )
+
 
 CASES = [big_packets, stranger, local_announce_flood, ipv6_loopback, large_senders_leave]
 
@@ -255,11 +283,28 @@ def replays_in_a_row(tmp: Path) -> dict:
     died, k = None, 0
     try:
         for k in range(REPLAYS):
-            subprocess.run([sys.executable, "-c", "import sys; from streamseg.cli import main; "
-                            "sys.exit(main(sys.argv[1:]))", "replay", str(DATA / "86_01.amc.gz"),
-                            "--skeleton", str(DATA / "86.asf"), "--to", d.ep["ingest"],
-                            "--speed", "0", "--batch", "120", "--stream", f"r{k}"],
-                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            subprocess.run(
+                [
+                    sys.executable,
+                    "-c",
+                    "import sys; from streamseg.cli import main; sys.exit(main(sys.argv[1:]))",
+                    "replay",
+                    str(DATA / "86_01.amc.gz"),
+                    "--skeleton",
+                    str(DATA / "86.asf"),
+                    "--to",
+                    d.ep["ingest"],
+                    "--speed",
+                    "0",
+                    "--batch",
+                    "120",
+                    "--stream",
+                    f"r{k}",
+                ],
+                check=True,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
             if d.proc.poll() is not None:
                 died = d.proc.returncode
                 break
@@ -269,12 +314,19 @@ def replays_in_a_row(tmp: Path) -> dict:
     finally:
         d.stop()
     if died is not None:
-        return row("30 replays at --speed 0 --batch 120",
-                   f"the daemon died (exit {died}) during replay {k + 1} of {REPLAYS}",
-                   "a daemon that dies loses every open stream's live state", False)
+        return row(
+            "30 replays at --speed 0 --batch 120",
+            f"the daemon died (exit {died}) during replay {k + 1} of {REPLAYS}",
+            "a daemon that dies loses every open stream's live state",
+            False,
+        )
     total = REPLAYS * rec.n_frames
-    return row("30 replays at --speed 0 --batch 120", f"{tot['frames']:,} frames taken of "
-               f"{total:,}", "the daemon still runs", tot["frames"] == total)
+    return row(
+        "30 replays at --speed 0 --batch 120",
+        f"{tot['frames']:,} frames taken of {total:,}",
+        "the daemon still runs",
+        tot["frames"] == total,
+    )
 
 
 LARGE_SENDERS, LARGE_PACKETS, LARGE_FRAMES = 8, 30, 12_000
@@ -321,12 +373,14 @@ def large_senders_at_once(tmp: Path) -> dict:
         d.stop()
     frames = LARGE_SENDERS * total
     ok = tot["frames"] == frames and growth <= 1.25 * budget / (1 << 20)
-    return row("8 senders of 8.9 MB packets at once",
-               f"{tot['frames']:,} frames taken of {frames:,}; errors "
-               f"{tot['errors_by_reason'] or 'none'}",
-               f"RSS growth {growth:.0f} MiB (1.25 x ingest_bytes = {1.25 * budget / (1 << 20):.0f}"
-               f" MiB); receiver queue peak {tot['ingest_peak_bytes'] / (1 << 20):.0f} MiB; "
-               f"ZeroMQ bound {tot['ingest_hwm']} per connection; {took:.1f} s", ok)
+    return row(
+        "8 senders of 8.9 MB packets at once",
+        f"{tot['frames']:,} frames taken of {frames:,}; errors {tot['errors_by_reason'] or 'none'}",
+        f"RSS growth {growth:.0f} MiB (1.25 x ingest_bytes = {1.25 * budget / (1 << 20):.0f}"
+        f" MiB); receiver queue peak {tot['ingest_peak_bytes'] / (1 << 20):.0f} MiB; "
+        f"ZeroMQ bound {tot['ingest_hwm']} per connection; {took:.1f} s",
+        ok,
+    )
 
 
 def _rss_mb(pid: int, key: str) -> float:

@@ -81,11 +81,13 @@ def kill9(tmp: Path) -> dict:
         sender.stop()
         sub.close(linger=0)
         d.stop()
-    return row("kill -9 x20 during a stream",
-               f"{len(missing)} of {len(seen)} events seen live missing from the log; {dup} "
-               f"numbers seen with two contents",
-               f"{KILLS} kills; restart to ping median {statistics.median(restarts):.2f} s",
-               not missing and not dup and len(seen) > KILLS)
+    return row(
+        "kill -9 x20 during a stream",
+        f"{len(missing)} of {len(seen)} events seen live missing from the log; {dup} "
+        f"numbers seen with two contents",
+        f"{KILLS} kills; restart to ping median {statistics.median(restarts):.2f} s",
+        not missing and not dup and len(seen) > KILLS,
+    )
 
 
 @named("stream re-announced during its final relabel")
@@ -103,7 +105,7 @@ def reannounce(tmp: Path) -> dict:
         for pos in (first, second):
             sock.send_multipart(P.encode(announce_of(rec, "r")))
             for a in range(0, pos.shape[0], 50):
-                sock.send_multipart(P.encode(P.Frames("r", a, 0.0, pos[a:a + 50])))
+                sock.send_multipart(P.encode(P.Frames("r", a, 0.0, pos[a : a + 50])))
         sock.send_multipart(P.encode(P.End("r")))
         live = []
         for ev in listen(sub, stream="r", timeout=60, pending=pending):
@@ -114,15 +116,21 @@ def reannounce(tmp: Path) -> dict:
         want = [offline_cuts(rec, first), offline_cuts(rec, second)]
         got = [[e.frame for e in t if e.type == "cut"] for t in takes]
         early = len(set(want[1]) & set(got[0])) if len(takes) > 1 else len(want[1])
-        ok = got == want and takes[0][-1].reason == "reannounced" and \
-            fetch_since(d.ep["control"], "r", 0) == live
+        ok = (
+            got == want
+            and takes[0][-1].reason == "reannounced"
+            and fetch_since(d.ep["control"], "r", 0) == live
+        )
     finally:
         sub.close(linger=0)
         d.stop()
-    return row("stream re-announced during its final relabel",
-               f"{early} cuts of the new take published before the old take's closed; each "
-               f"take's cuts {'=' if got == want else '!='} its frames' offline cuts",
-               f"{len(live)} events, {len(takes)} takes", ok)
+    return row(
+        "stream re-announced during its final relabel",
+        f"{early} cuts of the new take published before the old take's closed; each "
+        f"take's cuts {'=' if got == want else '!='} its frames' offline cuts",
+        f"{len(live)} events, {len(takes)} takes",
+        ok,
+    )
 
 
 def _garbage(path: Path, page: int = 1) -> None:
@@ -139,7 +147,7 @@ def _damaged(tmp: Path, name: str, wal: bool) -> dict:
         sock = d.push()
         sock.send_multipart(P.encode(announce_of(rec, "a")))
         for a in range(0, 2000, 20):
-            sock.send_multipart(P.encode(P.Frames("a", a, 0.0, rec.positions[a:a + 20])))
+            sock.send_multipart(P.encode(P.Frames("a", a, 0.0, rec.positions[a : a + 20])))
         d.wait_frame("a", 2000)
         before = fetch_since(d.ep["control"], "a", 0)
         db = d.state() / "events.sqlite"
@@ -154,20 +162,33 @@ def _damaged(tmp: Path, name: str, wal: bool) -> dict:
         d.start(log_level="WARNING", stderr=subprocess.PIPE)
         up = time.monotonic() - t0
         aside = sorted(d.state().glob("events.corrupt-*.sqlite"))
-        errors = [e for e in fetch_since(d.ep["control"], P.DAEMON_WIDE, 0)
-                  if e.type == "error" and e.reason == "event_log"]
+        errors = [
+            e
+            for e in fetch_since(d.ep["control"], P.DAEMON_WIDE, 0)
+            if e.type == "error" and e.reason == "event_log"
+        ]
         replies = [d.request("since", stream=s) for s in ("a", "b")]
-        ok = bool(aside) and bool(errors) and all(r["ok"] for r in replies) and \
-            str(aside[0]) in errors[0].message and str(db) in errors[0].message
+        ok = (
+            bool(aside)
+            and bool(errors)
+            and all(r["ok"] for r in replies)
+            and str(aside[0]) in errors[0].message
+            and str(db) in errors[0].message
+        )
         d.stop()
         said = d.proc.stderr.read()
         named_both = aside and str(db) in said and str(aside[0]) in said
     finally:
         d.stop()
-    return row(name, f"started; the file moved aside ({aside[0].name if aside else 'NOT'}), "
-               f"warning naming both files {'yes' if named_both else 'NO'}, `error` event "
-               f"{'yes' if errors else 'NO'}; since answers on a new log ({len(before)} old "
-               "events stay in the moved file)", f"start {up:.2f} s", ok and named_both)
+    return row(
+        name,
+        f"started; the file moved aside ({aside[0].name if aside else 'NOT'}), "
+        f"warning naming both files {'yes' if named_both else 'NO'}, `error` event "
+        f"{'yes' if errors else 'NO'}; since answers on a new log ({len(before)} old "
+        "events stay in the moved file)",
+        f"start {up:.2f} s",
+        ok and named_both,
+    )
 
 
 @named("events.sqlite damaged while stopped")
@@ -193,7 +214,7 @@ def damaged_running(tmp: Path) -> dict:
         for s in ("a", "b", "c"):
             sock.send_multipart(P.encode(announce_of(rec, s)))
             for a in range(0, 3000, 20):
-                sock.send_multipart(P.encode(P.Frames(s, a, 0.0, rec.positions[a:a + 20])))
+                sock.send_multipart(P.encode(P.Frames(s, a, 0.0, rec.positions[a : a + 20])))
             sock.send_multipart(P.encode(P.End(s)))
             d.wait_closed(s)
         errors = subscriber(d.ep["publish"], kind="error")
@@ -214,13 +235,21 @@ def damaged_running(tmp: Path) -> dict:
         spam = said.count("retention failed")
     finally:
         d.stop()
-    ok = bad and all(str(db) in b and "bad request" not in b for b in bad) and ev is not None \
-        and alive and spam <= 1
-    return row("events.sqlite damaged under a running daemon",
-               f"{len(bad)} of 3 since replies refused, naming the file "
-               f"{'yes' if bad and all(str(db) in b for b in bad) else 'NO'}, `error` event "
-               f"{'yes' if ev else 'NO'}, serving on", f"retention ERROR lines: {spam}",
-               ok)
+    ok = (
+        bad
+        and all(str(db) in b and "bad request" not in b for b in bad)
+        and ev is not None
+        and alive
+        and spam <= 1
+    )
+    return row(
+        "events.sqlite damaged under a running daemon",
+        f"{len(bad)} of 3 since replies refused, naming the file "
+        f"{'yes' if bad and all(str(db) in b for b in bad) else 'NO'}, `error` event "
+        f"{'yes' if ev else 'NO'}, serving on",
+        f"retention ERROR lines: {spam}",
+        ok,
+    )
 
 
 @named("slow subscriber losing a stream's tail")
@@ -233,8 +262,9 @@ def lost_tail(tmp: Path) -> dict:
     slow = zmq.Context.instance().socket(zmq.SUB)
     try:
         slow.setsockopt(zmq.RCVHWM, 1)
-        for prefix in P.subscriptions(stream="t") + P.subscriptions(stream="z") + \
-                [P.topic("stats", None)]:
+        for prefix in (
+            P.subscriptions(stream="t") + P.subscriptions(stream="z") + [P.topic("stats", None)]
+        ):
             slow.setsockopt(zmq.SUBSCRIBE, prefix)
         slow.connect(d.ep["publish"])
         pending = handshake(slow, d.ep["control"])
@@ -248,14 +278,13 @@ def lost_tail(tmp: Path) -> dict:
             holes.append((key, first, end))
             return fetch_since(d.ep["control"], key, first - 1, upto=end)
 
-        events = listen(slow, stream="t", until_end=True, timeout=20, pending=pending,
-                        on_hole=fill)
+        events = listen(slow, stream="t", until_end=True, timeout=20, pending=pending, on_hole=fill)
         head = next(e for e in events if getattr(e, "stream", None) == "t")
         sock.send_multipart(P.encode(announce_of(rec, "z")))
         for a in range(0, 6000, 2):
             sock.send_multipart(P.encode(P.Frames("z", a, 0.0, rec.positions[:1])))
         for a in range(4, 40, 2):
-            sock.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a:a + 1])))
+            sock.send_multipart(P.encode(P.Frames("t", a, 0.0, rec.positions[a : a + 1])))
         sock.send_multipart(P.encode(P.End("t")))
         d.wait_closed("t")
         logged = d.log("t")
@@ -265,11 +294,14 @@ def lost_tail(tmp: Path) -> dict:
     finally:
         slow.close(linger=0)
         d.stop()
-    return row("slow subscriber losing a stream's tail",
-               f"{lost} events at the tail (closed included) lost live, seen missing from "
-               f"the heartbeat and fetched; the subscriber ends with {len(got)} of "
-               f"{len(logged)} events", f"{len(tail)} holes filled",
-               got == logged and lost > 0)
+    return row(
+        "slow subscriber losing a stream's tail",
+        f"{lost} events at the tail (closed included) lost live, seen missing from "
+        f"the heartbeat and fetched; the subscriber ends with {len(got)} of "
+        f"{len(logged)} events",
+        f"{len(tail)} holes filled",
+        got == logged and lost > 0,
+    )
 
 
 @named("full disk, space freed")
@@ -278,10 +310,17 @@ def full_disk(tmp: Path) -> dict:
     then the file removed for 5 s: events seen live missing from the log, checkpoint rounds
     paused, the checkpoints' WAL size at the end."""
     if not can_mount():
-        return row("full disk, space freed", "not run: no tmpfs in a user namespace here",
-                   "", False)
-    d = Served(tmp, tmpfs_mb=40, relabel_interval=1.0, relabel_history=8.0,
-               checkpoint_interval=0.1, heartbeat=0.2)
+        return row(
+            "full disk, space freed", "not run: no tmpfs in a user namespace here", "", False
+        )
+    d = Served(
+        tmp,
+        tmpfs_mb=40,
+        relabel_interval=1.0,
+        relabel_history=8.0,
+        checkpoint_interval=0.1,
+        heartbeat=0.2,
+    )
     sub = _numbered_sub(d)
     sender = Sender(d.ep["ingest"], recording())
     try:
@@ -309,12 +348,15 @@ def full_disk(tmp: Path) -> dict:
         d.stop()
     resumed = after["checkpoints_written"] - full["checkpoints_written"]
     why = full["errors_by_reason"]
-    return row("full disk, space freed",
-               f"{len(missing)} of {len(seen)} events seen live missing from the log; "
-               f"event_log errors {why.get('event_log', 0)}, checkpoint rounds paused/failed "
-               f"{why.get('checkpoint', 0)} while full; {resumed} checkpoints after space "
-               f"was freed", f"checkpoints WAL {wal / 1e6:.2f} MB at the end",
-               not missing and not why.get("event_log") and resumed > 0 and wal < 1 << 20)
+    return row(
+        "full disk, space freed",
+        f"{len(missing)} of {len(seen)} events seen live missing from the log; "
+        f"event_log errors {why.get('event_log', 0)}, checkpoint rounds paused/failed "
+        f"{why.get('checkpoint', 0)} while full; {resumed} checkpoints after space "
+        f"was freed",
+        f"checkpoints WAL {wal / 1e6:.2f} MB at the end",
+        not missing and not why.get("event_log") and resumed > 0 and wal < 1 << 20,
+    )
 
 
 @named("listen --since 0 after a restart")
@@ -332,20 +374,43 @@ def since_after_restart(tmp: Path) -> dict:
         d.kill()
         d.start()
         for a in range(200, rec.n_frames, 100):
-            sock.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a:a + 100])))
+            sock.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + 100])))
         sock.send_multipart(P.encode(P.End("k")))
         logged = d.log("k")
-        out = subprocess.run([sys.executable, "-m", "streamseg.cli", "listen", "--from",
-                              d.ep["publish"], "--control", d.ep["control"], "--stream", "k",
-                              "--since", "0", "--until-end", "--timeout", "30"],
-                             capture_output=True, text=True, timeout=120)
+        out = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "streamseg.cli",
+                "listen",
+                "--from",
+                d.ep["publish"],
+                "--control",
+                d.ep["control"],
+                "--stream",
+                "k",
+                "--since",
+                "0",
+                "--until-end",
+                "--timeout",
+                "30",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     finally:
         d.stop()
     said = out.stderr.strip().splitlines()
-    ok = any(f"1..{P.SEQ_SKIP}" in x and "skipped" in x for x in said) and \
-        not any("retention" in x for x in said)
-    return row("listen --since 0 after a restart", "; ".join(said) or "nothing said",
-               f"{len(logged)} events logged, first {logged[0].seq if logged else '-'}", ok)
+    ok = any(f"1..{P.SEQ_SKIP}" in x and "skipped" in x for x in said) and not any(
+        "retention" in x for x in said
+    )
+    return row(
+        "listen --since 0 after a restart",
+        "; ".join(said) or "nothing said",
+        f"{len(logged)} events logged, first {logged[0].seq if logged else '-'}",
+        ok,
+    )
 
 
 @named("publish wait, 100 real-time streams")
@@ -353,8 +418,9 @@ def publish_wait(tmp: Path) -> dict:
     """100 streams at 120 frames/s (20-frame packets, relabels every 5 s) for 20 s: each
     event's wait between being queued and being published (its commit), and the packet
     latency (arrival to its events queued), from the daemon's `stats`."""
-    d = Served(tmp, relabel_interval=5.0, relabel_history=60.0, max_streams=200,
-               max_streams_per_client=0)
+    d = Served(
+        tmp, relabel_interval=5.0, relabel_history=60.0, max_streams=200, max_streams_per_client=0
+    )
     senders = [Sender(d.ep["ingest"], recording(), f"s{k:03d}", fps=120) for k in range(100)]
     try:
         for s in senders:
@@ -368,12 +434,23 @@ def publish_wait(tmp: Path) -> dict:
             s.stop()
         d.stop()
     p50, p99 = tot.get("publish_wait_p50_ms"), tot.get("publish_wait_p99_ms")
-    return row("publish wait, 100 real-time streams",
-               f"{tot['events']} events, {tot['frames']} frames taken",
-               f"commit wait p50 {p50} ms, p99 {p99} ms; packet latency p50 "
-               f"{tot['latency_p50_ms']} ms, p99 {tot['latency_p99_ms']} ms",
-               p99 is not None and p99 < 100)
+    return row(
+        "publish wait, 100 real-time streams",
+        f"{tot['events']} events, {tot['frames']} frames taken",
+        f"commit wait p50 {p50} ms, p99 {p99} ms; packet latency p50 "
+        f"{tot['latency_p50_ms']} ms, p99 {tot['latency_p99_ms']} ms",
+        p99 is not None and p99 < 100,
+    )
 
 
-CASES = [kill9, reannounce, damaged_stopped, damaged_wal, damaged_running, lost_tail,
-         full_disk, since_after_restart, publish_wait]
+CASES = [
+    kill9,
+    reannounce,
+    damaged_stopped,
+    damaged_wal,
+    damaged_running,
+    lost_tail,
+    full_disk,
+    since_after_restart,
+    publish_wait,
+]

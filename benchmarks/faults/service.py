@@ -82,8 +82,12 @@ def run_fault(name, tmp: Path) -> dict:
             rng = np.random.default_rng(0)
             for k in range(2000):
                 evil.send_multipart([b"frames/good/", rng.bytes(int(rng.integers(1, 200)))])
-                evil.send_multipart([b"frames/good/", msgpack.packb(
-                    {"v": 1, "type": "frames", "stream": "good", "seq": k})])
+                evil.send_multipart(
+                    [
+                        b"frames/good/",
+                        msgpack.packb({"v": 1, "type": "frames", "stream": "good", "seq": k}),
+                    ]
+                )
                 evil.send_multipart([b"one part only"])
             evil.close()
         elif name == "huge":
@@ -112,8 +116,9 @@ def run_fault(name, tmp: Path) -> dict:
             burst = d.push()
             burst.send_multipart(P.encode(announce_of(rec, "holes")))
             for a in range(0, 4000, 2):  # 2000 one-frame packets, every other frame lost
-                burst.send_multipart(P.encode(P.Frames("holes", 2 * a, 0.0,
-                                                       rec.positions[a:a + 1])))
+                burst.send_multipart(
+                    P.encode(P.Frames("holes", 2 * a, 0.0, rec.positions[a : a + 1]))
+                )
             burst.send_multipart(P.encode(P.End("holes")))
             burst.close()
         elif name == "kill -9 and restart":
@@ -145,11 +150,14 @@ def run_fault(name, tmp: Path) -> dict:
             out["recovery"] = d.start()  # a restart: the stream was closed (shutdown)
             events = d.log("good")
             out["lost"] = holes(events)
-            out["equal"] = [e.frame for e in events if e.type == "cut"] == \
-                offline_cuts(rec, rec.positions[:3600])
+            out["equal"] = [e.frame for e in events if e.type == "cut"] == offline_cuts(
+                rec, rec.positions[:3600]
+            )
             final = [e for e in events if e.type == "segments" and e.final]
-            out["note"] = (f"final segments {'published' if final else 'MISSING'}, closed "
-                           f"{events[-1].reason if events[-1].type == 'closed' else 'MISSING'}")
+            out["note"] = (
+                f"final segments {'published' if final else 'MISSING'}, closed "
+                f"{events[-1].reason if events[-1].type == 'closed' else 'MISSING'}"
+            )
             out["rss"] = d.rss_peak_mb()
             return out
         if out["recovery"] is None:
@@ -163,10 +171,17 @@ def run_fault(name, tmp: Path) -> dict:
         logged = {(e.seq, e) for e in events}
         cuts = [e.frame for e in events if e.type == "cut"]
         if name == "kill -9 and restart":  # the first daemon's cuts decided after its last
-            cuts = [e.frame for e in events if e.type == "cut" and  # checkpoint: the stated
-                    (e.seq > n1 or e.emitted_at < ckpt)]  # exception
-        out["lost"] = holes(events) + len(set(ref_cuts) - set(cuts)) + \
-            sum((e.seq, e) not in logged for e in seen)
+            cuts = [
+                e.frame
+                for e in events
+                if e.type == "cut"  # checkpoint: the stated
+                and (e.seq > n1 or e.emitted_at < ckpt)
+            ]  # exception
+        out["lost"] = (
+            holes(events)
+            + len(set(ref_cuts) - set(cuts))
+            + sum((e.seq, e) not in logged for e in seen)
+        )
         out["equal"] = cuts == ref_cuts
         if slow is not None:
             d.wait_closed("holes")
@@ -177,24 +192,28 @@ def run_fault(name, tmp: Path) -> dict:
             mine = [e for e in got if getattr(e, "stream", None) == "holes"]
             by_seq = {e.seq: e for e in logged}
             missing = [s for s in range(1, max(by_seq) + 1) if s not in by_seq]
-            out["note"] = (f"slow SUB got {len(mine)} of {len(logged)} events of 'holes'; the "
-                           f"log returned the {len(logged) - len(mine)} it missed")
+            out["note"] = (
+                f"slow SUB got {len(mine)} of {len(logged)} events of 'holes'; the "
+                f"log returned the {len(logged) - len(mine)} it missed"
+            )
             out["lost"] += len(missing) + sum(by_seq[e.seq] != e for e in mine)
             slow.close(linger=0)
         if name == "announce flood":
             tot = d.request("stats")["totals"]
-            out["note"] = (f"{tot['streams'] - 1} flood streams open (quota 1000), "
-                           f"{tot['errors_by_reason'].get('quota', 0)} refused (quota); a "
-                           f"stream announced after the flood by another key was accepted")
+            out["note"] = (
+                f"{tot['streams'] - 1} flood streams open (quota 1000), "
+                f"{tot['errors_by_reason'].get('quota', 0)} refused (quota); a "
+                f"stream announced after the flood by another key was accepted"
+            )
         if name in ("garbage", "huge", "poisoned seq"):
             tot = d.request("stats")["totals"]
-            out["note"] = "errors " + ", ".join(f"{k} {v}" for k, v in
-                                                sorted(tot["errors_by_reason"].items()))
+            out["note"] = "errors " + ", ".join(
+                f"{k} {v}" for k, v in sorted(tot["errors_by_reason"].items())
+            )
         out["rss"] = d.rss_peak_mb()
         return out
     finally:
         d.stop()
-
 
 
 def measure_checkpoint_cost(repeats: int = 20) -> list:
@@ -215,8 +234,11 @@ def measure_checkpoint_cost(repeats: int = 20) -> list:
     step = int(DaemonConfig().checkpoint_interval * 120)
     rec, out = recording(), []
     full = int(hist * 120)
-    for label, n, more in (("4 frames", 4, 0), (f"{full} frames (full), first", full, 0),
-                           (f"{full} frames, each next {step}", full, step)):
+    for label, n, more in (
+        ("4 frames", 4, 0),
+        (f"{full} frames (full), first", full, 0),
+        (f"{full} frames, each next {step}", full, step),
+    ):
         p = StreamPipeline(rec.skeleton, rec.fps, alg, hist)
         p.push(rec.positions[np.arange(n) % rec.n_frames], 0)
         st = StreamState("s", 1, rec.fps, p, 0.0)
@@ -243,11 +265,16 @@ def measure_checkpoint_cost(repeats: int = 20) -> list:
             stored.append(len(blob) + sum(len(c) for c in fresh))
             if more:
                 previous = set(chunks)
-        out.append({"label": label, "copy": statistics.median(copy) * 1e3,
-                    "pack": statistics.median(pack) * 1e3,
-                    "state": sum(a.nbytes for a in _arrays(state)) / 1e3,
-                    "stored": statistics.median(stored if not more else stored[1:]) / 1e3,
-                    "restore": statistics.median(restore) * 1e3})
+        out.append(
+            {
+                "label": label,
+                "copy": statistics.median(copy) * 1e3,
+                "pack": statistics.median(pack) * 1e3,
+                "state": sum(a.nbytes for a in _arrays(state)) / 1e3,
+                "stored": statistics.median(stored if not more else stored[1:]) / 1e3,
+                "restore": statistics.median(restore) * 1e3,
+            }
+        )
     return out
 
 
@@ -267,10 +294,13 @@ def _arrays(tree):
 def _row(out: dict) -> dict:
     note = out.get("note", "")
     if "frames lost" in out:
-        note = (f"{out['frames lost']} frames between the last checkpoint and the crash lost "
-                f"(a gap event); cuts = those of a no-fault run with that gap")
-    result = (f"{out['lost']} events lost, cuts {'=' if out['equal'] else '!='} no-fault"
-              + (f"; {note}" if note else ""))
+        note = (
+            f"{out['frames lost']} frames between the last checkpoint and the crash lost "
+            f"(a gap event); cuts = those of a no-fault run with that gap"
+        )
+    result = f"{out['lost']} events lost, cuts {'=' if out['equal'] else '!='} no-fault" + (
+        f"; {note}" if note else ""
+    )
     figure = f"RSS peak {out['rss']:.0f} MB, recovery {out['recovery']:.3f} s"
     return row(out["fault"], result, figure, out["lost"] == 0 and out["equal"])
 
@@ -284,8 +314,16 @@ def _case(name: str):
     return case
 
 
-FAULTS = ["none", "garbage", "huge", "poisoned seq", "announce flood", "slow subscriber",
-          "kill -9 and restart", "SIGTERM during relabel"]
+FAULTS = [
+    "none",
+    "garbage",
+    "huge",
+    "poisoned seq",
+    "announce flood",
+    "slow subscriber",
+    "kill -9 and restart",
+    "SIGTERM during relabel",
+]
 
 
 @named("checkpoint cost")
@@ -295,12 +333,18 @@ def checkpoint_cost(tmp: Path) -> dict:
     fifth of the first (only the chunks that changed)."""
     m = measure_checkpoint_cost()
     first, nxt = m[1], m[2]
-    figure = (f"full stream: loop copy {first['copy']:.3f} ms, writer pack {first['pack']:.3f}"
-              f" ms, restore {first['restore']:.2f} ms; stored {first['stored']:.0f} kB the "
-              f"first round, {nxt['stored']:.0f} kB each next; 4 frames: {m[0]['stored']:.1f}"
-              f" kB")
-    return row("checkpoint cost", "a full stream's state copied, packed, restored", figure,
-               nxt["stored"] < first["stored"] / 5)
+    figure = (
+        f"full stream: loop copy {first['copy']:.3f} ms, writer pack {first['pack']:.3f}"
+        f" ms, restore {first['restore']:.2f} ms; stored {first['stored']:.0f} kB the "
+        f"first round, {nxt['stored']:.0f} kB each next; 4 frames: {m[0]['stored']:.1f}"
+        f" kB"
+    )
+    return row(
+        "checkpoint cost",
+        "a full stream's state copied, packed, restored",
+        figure,
+        nxt["stored"] < first["stored"] / 5,
+    )
 
 
 CASES = [_case(n) for n in FAULTS] + [checkpoint_cost]

@@ -32,7 +32,7 @@ def option(argv, name):
         return None
     i = argv.index(name)
     value = argv[i + 1]
-    del argv[i:i + 2]
+    del argv[i : i + 2]
     return value
 
 
@@ -40,11 +40,11 @@ def use_keys(sock, keys):
     """CURVE on ``sock``: zmq.auth reads ZeroMQ's certificate files made by streamseg keys."""
     try:
         sock.curve_publickey, sock.curve_secretkey = zmq.auth.load_certificate(
-            f"{keys}/client.key_secret")
+            f"{keys}/client.key_secret"
+        )
         sock.curve_serverkey, _ = zmq.auth.load_certificate(f"{keys}/server.key")
     except (OSError, ValueError) as err:  # one line, not a traceback
-        print(f"--keys {keys}: {err}: make the keys with `streamseg keys DIR`",
-              file=sys.stderr)
+        print(f"--keys {keys}: {err}: make the keys with `streamseg keys DIR`", file=sys.stderr)
         sys.exit(2)
 
 
@@ -92,8 +92,11 @@ def on_hole(req, key, first, end):
     not daemon-wide ones: those the subscription may not all hold) and said on stderr."""
     where = f"events {first}..{end - 1} of stream {key}"
     if req is None or key == "*":
-        print(f"hole: {where} were missed ({end - first})"
-              f"{'' if req else '; give --control to fetch them'}", file=sys.stderr)
+        print(
+            f"hole: {where} were missed ({end - first})"
+            f"{'' if req else '; give --control to fetch them'}",
+            file=sys.stderr,
+        )
         return []
     try:
         evs = since(req, key, first - 1, end)
@@ -123,18 +126,24 @@ class Printer:
             pending = ev.get("pending", False)  # optional field: absent means final
             if pending:
                 self.two_stage.add(sid)
-            print(f"{sid}: cut at frame {ev['frame']} (decided at {ev['emitted_at']}"
-                  f"{', pending' if pending else ''})", flush=True)
+            print(
+                f"{sid}: cut at frame {ev['frame']} (decided at {ev['emitted_at']}"
+                f"{', pending' if pending else ''})",
+                flush=True,
+            )
         elif kind == "withdraw":
             frames = self.cuts.get(sid, [])
             if ev["frame"] in frames:
                 frames.remove(ev["frame"])
-            print(f"{sid}: withdraw of the cut at frame {ev['frame']} "
-                  f"(at {ev['emitted_at']})", flush=True)
+            print(
+                f"{sid}: withdraw of the cut at frame {ev['frame']} (at {ev['emitted_at']})",
+                flush=True,
+            )
         elif kind == "segments":
             runs = ", ".join(f"{a}-{b}:{lab}" for a, b, lab in ev["segments"])
-            print(f"{sid}: relabel {ev['revision']} of {ev['start']}-{ev['end']}: {runs}",
-                  flush=True)
+            print(
+                f"{sid}: relabel {ev['revision']} of {ev['start']}-{ev['end']}: {runs}", flush=True
+            )
         elif kind == "closed":
             final = self.cuts.pop(sid, [])
             if sid in self.two_stage:
@@ -143,8 +152,7 @@ class Printer:
             if self.stream and sid == self.stream:
                 self.done = True
         else:  # confirm, rep, gap, error: followed for their numbers
-            print(f"{sid if sid is not None else '*'}: {kind} event {ev.get('seq')}",
-                  flush=True)
+            print(f"{sid if sid is not None else '*'}: {kind} event {ev.get('seq')}", flush=True)
 
 
 def main(argv):

@@ -28,8 +28,14 @@ import zmq.auth
 
 AXES = ("x", "y", "z")
 SEPARATORS = "_.- :"
-TIME_COLUMNS = {"time": 1.0, "timestamp": 1.0, "t": 1.0, "time_s": 1.0, "time_ms": 1e-3,
-                "timestamp_ms": 1e-3}
+TIME_COLUMNS = {
+    "time": 1.0,
+    "timestamp": 1.0,
+    "t": 1.0,
+    "time_s": 1.0,
+    "time_ms": 1e-3,
+    "timestamp_ms": 1e-3,
+}
 
 
 def option(argv, name, default=None):
@@ -38,7 +44,7 @@ def option(argv, name, default=None):
         return default
     i = argv.index(name)
     value = argv[i + 1]
-    del argv[i:i + 2]
+    del argv[i : i + 2]
     return value
 
 
@@ -81,11 +87,11 @@ def use_keys(sock, keys):
     """CURVE on ``sock``: zmq.auth reads ZeroMQ's certificate files made by streamseg keys."""
     try:
         sock.curve_publickey, sock.curve_secretkey = zmq.auth.load_certificate(
-            f"{keys}/client.key_secret")
+            f"{keys}/client.key_secret"
+        )
         sock.curve_serverkey, _ = zmq.auth.load_certificate(f"{keys}/server.key")
     except (OSError, ValueError) as err:  # one line, not a traceback
-        print(f"--keys {keys}: {err}: make the keys with `streamseg keys DIR`",
-              file=sys.stderr)
+        print(f"--keys {keys}: {err}: make the keys with `streamseg keys DIR`", file=sys.stderr)
         sys.exit(2)
 
 
@@ -130,20 +136,29 @@ def main(argv):
     if keys:
         use_keys(sock, keys)
     sock.connect(endpoint)
-    sock.send_multipart(message("announce", stream, fps=fps, joints=joints,
-                                parents=[-1] * len(joints), units=units, up=up))
+    sock.send_multipart(
+        message(
+            "announce",
+            stream,
+            fps=fps,
+            joints=joints,
+            parents=[-1] * len(joints),
+            units=units,
+            up=up,
+        )
+    )
     t0 = time.time()
     for seq in range(0, len(rows), batch):
         if speed > 0:  # real time (or a multiple): packet k leaves when its last frame is due
             due = t0 + (seq + batch) / fps / speed
             time.sleep(max(0.0, due - time.time()))
-        sock.send_multipart(frames_packet(stream, seq, t0 + seq / fps, rows[seq:seq + batch],
-                                          len(joints)))
+        sock.send_multipart(
+            frames_packet(stream, seq, t0 + seq / fps, rows[seq : seq + batch], len(joints))
+        )
     sock.send_multipart(message("end", stream))
     sock.close()
     ctx.term()
-    print(f"{stream}: sent {len(rows)} frames of {len(joints)} joints at {fps:g} Hz",
-          flush=True)
+    print(f"{stream}: sent {len(rows)} frames of {len(joints)} joints at {fps:g} Hz", flush=True)
     return 0
 
 

@@ -85,7 +85,7 @@ def candidate_sums(K, starts, ends, labels, counts, wmin, wmax, A, B, acc, F, ne
         for b in range(1, ln + 1):
             krow = K[s + b - 1]
             for w in range(1, W):
-                _column(A[w], A[w - 1], B[w - 1], B[w], krow[w - 1:], n - w + 1)
+                _column(A[w], A[w - 1], B[w - 1], B[w], krow[w - 1 :], n - w + 1)
             A, B = B, A
             B[0, :] = neg
         times = counts[j]

@@ -132,8 +132,9 @@ def _move_frame(counts, other, ring, valid, size, g, bins, sign, sq, dot):
 
 
 @njit(cache=True, nogil=True)
-def refine_cut(ring, valid, size, centre, radius, window, bins, n_avail, oldest, first, left,
-               right):
+def refine_cut(
+    ring, valid, size, centre, radius, window, bins, n_avail, oldest, first, left, right
+):
     """Frame near ``centre`` where the histograms just before and just after differ most.
 
     Candidate ``g`` is scored by the cosine distance ``1 - cos`` between the count vectors of

@@ -255,8 +255,11 @@ def _scan(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, centres, p, ex
             continue
         n_elig += 1
         dj = dist[j]
-        if cnt < kk or dj < nn_d[p, kk - 1] or (
-                dj == nn_d[p, kk - 1] and seqs[j] < nn_key[p, kk - 1]):
+        if (
+            cnt < kk
+            or dj < nn_d[p, kk - 1]
+            or (dj == nn_d[p, kk - 1] and seqs[j] < nn_key[p, kk - 1])
+        ):
             cnt = _insert_sorted(nn_idx[p], nn_d[p], nn_key[p], cnt, kk, j, dj, seqs[j])
     nn_cnt[p] = cnt
     trunc[p] = 1 if n_elig > kk else 0
@@ -285,8 +288,25 @@ def _distances_to(vecs, norms, p, out):
 
 
 @njit(cache=True, nogil=True)
-def ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
-               slot, vec, seq, k, excl):
+def ext_insert(
+    vecs,
+    norms,
+    seqs,
+    nn_idx,
+    nn_d,
+    nn_key,
+    nn_cnt,
+    trunc,
+    lrd,
+    lof,
+    mark,
+    centres,
+    slot,
+    vec,
+    seq,
+    k,
+    excl,
+):
     """Insert ``vec`` with sequence number ``seq`` into the empty ``slot``; update LOF.
 
     Candidate lists have ``K = nn_idx.shape[1] >= k`` entries (see the state notes above);
@@ -314,10 +334,14 @@ def ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof,
         n_elig += 1
         dj = dist[j]
         # the new point's own list
-        if cnt_new < kk or dj < nn_d[slot, kk - 1] or (
-                dj == nn_d[slot, kk - 1] and seqs[j] < nn_key[slot, kk - 1]):
-            cnt_new = _insert_sorted(nn_idx[slot], nn_d[slot], nn_key[slot], cnt_new, kk, j, dj,
-                                     seqs[j])
+        if (
+            cnt_new < kk
+            or dj < nn_d[slot, kk - 1]
+            or (dj == nn_d[slot, kk - 1] and seqs[j] < nn_key[slot, kk - 1])
+        ):
+            cnt_new = _insert_sorted(
+                nn_idx[slot], nn_d[slot], nn_key[slot], cnt_new, kk, j, dj, seqs[j]
+            )
         # the new point is the youngest, last among equal distances: it enters j's list when
         # strictly closer than its last candidate, or after it when the list is complete
         c = nn_cnt[j]
@@ -336,8 +360,9 @@ def ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof,
 
 
 @njit(cache=True, nogil=True)
-def ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
-              slot, k, excl):
+def ext_evict(
+    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres, slot, k, excl
+):
     """Remove the point in ``slot`` from every candidate list, marking (``mark = 1``) the
     points whose k-neighbours changed; lrd and LOF are left to the next update.
 
@@ -370,8 +395,9 @@ def ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, 
 
 
 @njit(cache=True, nogil=True)
-def ext_rebuild(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
-                centres, k, excl):
+def ext_rebuild(
+    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres, k, excl
+):
     """Recompute everything :func:`ext_insert` derives from ``vecs``, ``seqs`` and
     ``centres``: norms, full candidate lists (``nn_idx.shape[1]`` nearest eligible points),
     ``trunc``, lrd and LOF; the other slots' lists, lrd and LOF are zero (as after an
@@ -400,14 +426,30 @@ def ext_rebuild(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof
 
 
 @njit(cache=True, nogil=True)
-def ext_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
-               slot, k, excl):
+def ext_delete(
+    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres, slot, k, excl
+):
     """:func:`ext_evict` followed by the lrd/LOF update.
 
     Returns the number of points whose LOF was recomputed.
     """
-    ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres,
-              slot, k, excl)
+    ext_evict(
+        vecs,
+        norms,
+        seqs,
+        nn_idx,
+        nn_d,
+        nn_key,
+        nn_cnt,
+        trunc,
+        lrd,
+        lof,
+        mark,
+        centres,
+        slot,
+        k,
+        excl,
+    )
     return _update_lrd_lof(seqs, nn_idx, nn_d, nn_cnt, lrd, lof, mark, k)
 
 
@@ -423,18 +465,67 @@ def _trunc_of_full(nn_cnt, kk):
 
 
 @njit(cache=True, nogil=True)
-def inc_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres,
-               slot, vec, seq, k, excl):
+def inc_insert(
+    vecs,
+    norms,
+    seqs,
+    nn_idx,
+    nn_d,
+    nn_key,
+    nn_cnt,
+    lrd,
+    lof,
+    mark,
+    centres,
+    slot,
+    vec,
+    seq,
+    k,
+    excl,
+):
     """:func:`ext_insert` with lists of exactly ``k = nn_idx.shape[1]`` (no extra candidates)."""
     trunc = _trunc_of_full(nn_cnt, nn_idx.shape[1])
-    return ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
-                      centres, slot, vec, seq, k, excl)
+    return ext_insert(
+        vecs,
+        norms,
+        seqs,
+        nn_idx,
+        nn_d,
+        nn_key,
+        nn_cnt,
+        trunc,
+        lrd,
+        lof,
+        mark,
+        centres,
+        slot,
+        vec,
+        seq,
+        k,
+        excl,
+    )
 
 
 @njit(cache=True, nogil=True)
-def inc_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres,
-               slot, k, excl):
+def inc_delete(
+    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, lrd, lof, mark, centres, slot, k, excl
+):
     """:func:`ext_delete` with lists of exactly ``k = nn_idx.shape[1]`` (no extra candidates)."""
     trunc = _trunc_of_full(nn_cnt, nn_idx.shape[1])
-    return ext_delete(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
-                      centres, slot, k, excl)
+    return ext_delete(
+        vecs,
+        norms,
+        seqs,
+        nn_idx,
+        nn_d,
+        nn_key,
+        nn_cnt,
+        trunc,
+        lrd,
+        lof,
+        mark,
+        centres,
+        slot,
+        k,
+        excl,
+    )

@@ -130,7 +130,7 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
     """
     rb, rv, _, left, right = frames
     # the checks read the pose columns only (LOFConfig.check_columns: not the root speeds)
-    rc = rb[:, :geo[GEO_CHECK]]
+    rc = rb[:, : geo[GEO_CHECK]]
     seqs, lof, centres = lofs[2], lofs[9], lofs[11]
     work, curve, keep, stack = scratch
     tol, n_mads = p[P_TOLERANCE], p[P_MADS]
@@ -168,17 +168,29 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
         # fraction of the range of the whole buffered curve, as the paper simplifies its whole
         # curve, so the wiggles of a flat stretch are not peaks
         r = curve_range(curve, 0, size - 1)
-        peak = r > 0.0 and is_vertex_peak(curve, lo - oldest, hi - oldest, w - oldest, tol * r,
-                                          keep, stack)
+        peak = r > 0.0 and is_vertex_peak(
+            curve, lo - oldest, hi - oldest, w - oldest, tol * r, keep, stack
+        )
     if peak:
         c = centres[w % seqs.shape[0]]
         if geo[GEO_REFINE] > 0:
             size = rb.shape[0]
             # cut frames keep the minimum gap too (min_gap windows of step frames)
             seen = st[ST_FRAMES]
-            c = refine_cut(rc, rv, size, c, geo[GEO_REFINE], geo[GEO_WINDOW], geo[GEO_BINS],
-                           seen, max(0, seen - size),
-                           st[lf] + int(min_gap) * geo[GEO_STEP], left, right)
+            c = refine_cut(
+                rc,
+                rv,
+                size,
+                c,
+                geo[GEO_REFINE],
+                geo[GEO_WINDOW],
+                geo[GEO_BINS],
+                seen,
+                max(0, seen - size),
+                st[lf] + int(min_gap) * geo[GEO_STEP],
+                left,
+                right,
+            )
         if p[P_MIN_CONTRAST] > 0.0:
             # confirmation needs at least one window of frames after the cut (at the end of a
             # stream there may be fewer: a few frames make any histogram look different)
@@ -187,8 +199,18 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
             size = rb.shape[0]
             # the before side starts no earlier than the previous cut: the new segment is
             # compared with the current one, not with a change already reported
-            con = contrast_at(rc, rv, size, c, geo[GEO_CONTRAST], geo[GEO_BINS], st[ST_FRAMES],
-                              max(0, st[ST_FRAMES] - size, st[lf]), left, right)
+            con = contrast_at(
+                rc,
+                rv,
+                size,
+                c,
+                geo[GEO_CONTRAST],
+                geo[GEO_BINS],
+                st[ST_FRAMES],
+                max(0, st[ST_FRAMES] - size, st[lf]),
+                left,
+                right,
+            )
             if con < p[P_MIN_CONTRAST]:
                 return -1, 0.0
         if p[P_NOVELTY] > 0.0:
@@ -196,8 +218,17 @@ def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
             # undoes a brief excursion inside the segment does not start a new one
             size = rb.shape[0]
             seen = st[ST_FRAMES]
-            nov = span_contrast(rc, rv, size, max(0, seen - size, st[lf]), c,
-                                min(c + geo[GEO_CONTRAST], seen), geo[GEO_BINS], left, right)
+            nov = span_contrast(
+                rc,
+                rv,
+                size,
+                max(0, seen - size, st[lf]),
+                c,
+                min(c + geo[GEO_CONTRAST], seen),
+                geo[GEO_BINS],
+                left,
+                right,
+            )
             if nov < p[P_NOVELTY]:
                 return -1, 0.0
         st[lf] = c
@@ -259,8 +290,21 @@ def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
     """Window ``seq`` was inserted on frame ``f``: the decisions it completes."""
     delay = int(p[P_DELAY])
     w = seq - delay
-    c, y = _decide(w, seq, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
-                   ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)
+    c, y = _decide(
+        w,
+        seq,
+        st,
+        p,
+        geo,
+        frames,
+        lofs,
+        scratch,
+        delay,
+        ST_LAST_CUT_SEQ,
+        ST_LAST_DECIDED,
+        ST_LAST_CUT_FRAME,
+        cache,
+    )
     early = int(p[P_EARLY]) if p.shape[0] > P_EARLY else 0
     if early <= 0:
         if c >= 0:
@@ -273,8 +317,21 @@ def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
         st[ST_E_LAST_CUT_SEQ] = st[ST_LAST_CUT_SEQ]
         st[ST_E_LAST_CUT_FRAME] = st[ST_LAST_CUT_FRAME]
     we = seq - early
-    c, y = _decide(we, seq, st, p, geo, frames, lofs, scratch, early, ST_E_LAST_CUT_SEQ,
-                   ST_E_LAST_DECIDED, ST_E_LAST_CUT_FRAME, cache)
+    c, y = _decide(
+        we,
+        seq,
+        st,
+        p,
+        geo,
+        frames,
+        lofs,
+        scratch,
+        early,
+        ST_E_LAST_CUT_SEQ,
+        ST_E_LAST_DECIDED,
+        ST_E_LAST_CUT_FRAME,
+        cache,
+    )
     if c >= 0:
         n = st[ST_PENDING]
         pend[n, 0] = we
@@ -349,16 +406,48 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
             oldest = st[ST_NEXT_SEQ] - n_slots
             # lrd and LOF are brought up to date once, after the insert below (Pokrajac's
             # update is exact from the marks of both changes)
-            ext_evict(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark,
-                      centres, oldest % n_slots, k, excl)
+            ext_evict(
+                vecs,
+                norms,
+                seqs,
+                nn_idx,
+                nn_d,
+                nn_key,
+                nn_cnt,
+                trunc,
+                lrd,
+                lof,
+                mark,
+                centres,
+                oldest % n_slots,
+                k,
+                excl,
+            )
             st[ST_BUFFERED] -= 1
         seq = st[ST_NEXT_SEQ]
         slot = seq % n_slots
         for d in range(vec.shape[0]):
             vec[d] = cur[d]
         centres[slot] = f - window + 1 + window // 2
-        st[ST_RECOMPUTES] += ext_insert(vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc,
-                                        lrd, lof, mark, centres, slot, vec, seq, k, excl)
+        st[ST_RECOMPUTES] += ext_insert(
+            vecs,
+            norms,
+            seqs,
+            nn_idx,
+            nn_d,
+            nn_key,
+            nn_cnt,
+            trunc,
+            lrd,
+            lof,
+            mark,
+            centres,
+            slot,
+            vec,
+            seq,
+            k,
+            excl,
+        )
         st[ST_BUFFERED] += 1
         st[ST_NEXT_SEQ] = seq + 1
         n_ev = _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache)
@@ -376,8 +465,21 @@ def stream_finish(st, p, geo, frames, lofs, scratch, events, pend):
     n_ev = 0
     cache = np.full(3, -1.0)
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
-        c, y = _decide(w, last, st, p, geo, frames, lofs, scratch, delay, ST_LAST_CUT_SEQ,
-                       ST_LAST_DECIDED, ST_LAST_CUT_FRAME, cache)
+        c, y = _decide(
+            w,
+            last,
+            st,
+            p,
+            geo,
+            frames,
+            lofs,
+            scratch,
+            delay,
+            ST_LAST_CUT_SEQ,
+            ST_LAST_DECIDED,
+            ST_LAST_CUT_FRAME,
+            cache,
+        )
         if early > 0:
             n_ev = _settle(w, c, y, st, p, pend, events, n_ev, at)
         elif c >= 0:

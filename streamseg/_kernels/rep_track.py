@@ -10,11 +10,26 @@ import numpy as np
 from numba import njit
 
 #: Joint points of :func:`pose_features`, canonical names of ``streamseg.skeleton.names``.
-POINTS = ("pelvis", "sternum", "l_hip", "r_hip", "l_shoulder", "l_elbow", "l_wrist",
-          "r_shoulder", "r_elbow", "r_wrist", "l_knee", "l_ankle", "r_knee", "r_ankle")
+POINTS = (
+    "pelvis",
+    "sternum",
+    "l_hip",
+    "r_hip",
+    "l_shoulder",
+    "l_elbow",
+    "l_wrist",
+    "r_shoulder",
+    "r_elbow",
+    "r_wrist",
+    "l_knee",
+    "l_ankle",
+    "r_knee",
+    "r_ankle",
+)
 #: (from, to) rows of :data:`POINTS`: upper arms, forearms, thighs, shins.
-BONES = np.array([[4, 5], [5, 6], [7, 8], [8, 9], [2, 10], [10, 11], [3, 12], [12, 13]],
-                 dtype=np.int64)
+BONES = np.array(
+    [[4, 5], [5, 6], [7, 8], [8, 9], [2, 10], [10, 11], [3, 12], [12, 13]], dtype=np.int64
+)
 N_FEATURES = 3 * len(BONES) + 4
 
 #: Kinds of a closed loop (column 1 of :func:`advance`'s output).
@@ -172,8 +187,27 @@ def _closes(Z, st, Mm, i, t, thr, rho, gamma, dabs, eta, pause):
 
 
 @njit(cache=True, nogil=True)
-def advance(Z, SP, t0, t1, search, st, Mm, n_anchors, thr, timeout, rho, gamma, dabs, eta,
-            pause, tmax, gap, kmax, closed):
+def advance(
+    Z,
+    SP,
+    t0,
+    t1,
+    search,
+    st,
+    Mm,
+    n_anchors,
+    thr,
+    timeout,
+    rho,
+    gamma,
+    dabs,
+    eta,
+    pause,
+    tmax,
+    gap,
+    kmax,
+    closed,
+):
     """Run the loop tracker over frames ``t0 .. t1 - 1`` until loops close.
 
     Parameters
@@ -241,13 +275,21 @@ def advance(Z, SP, t0, t1, search, st, Mm, n_anchors, thr, timeout, rho, gamma, 
         else:
             kind, cut = _closes(Z, st, Mm, 0, t, thr, rho, gamma, dabs, eta, pause)
             if kind:
-                closed[0, 0], closed[0, 1], closed[0, 2], closed[0, 3] = st[0, 0], kind, cut, \
-                    Mm[0, 0]
+                closed[0, 0], closed[0, 1], closed[0, 2], closed[0, 3] = (
+                    st[0, 0],
+                    kind,
+                    cut,
+                    Mm[0, 0],
+                )
                 return t, 1
             returned = Mm[0, 0] >= thr and Mm[0, 1] <= rho * Mm[0, 0]
             if t - st[0, 0] > timeout and not returned:  # back at rest: wait for the pause
-                closed[0, 0], closed[0, 1], closed[0, 2], closed[0, 3] = st[0, 0], TIMEOUT, -1, \
-                    Mm[0, 0]
+                closed[0, 0], closed[0, 1], closed[0, 2], closed[0, 3] = (
+                    st[0, 0],
+                    TIMEOUT,
+                    -1,
+                    Mm[0, 0],
+                )
                 return t, 1
     return t1 - 1, 0
 

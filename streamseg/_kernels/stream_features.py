@@ -80,11 +80,59 @@ def lof_columns(pos, bones, root, speeds):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def push_block(pos, parent, child, first, second, up, joint, limbs, rup, rst, rring, rprev,
-               jump, rate, v_max, sst, sring, sref, sfirst, scale, order, st, geo, p, rb, rv,
-               cur, left, right, vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd,
-               lof, mark, centres, work, curve, keep, stack, ev_frame, ev_score, ev_emit,
-               ev_kind, ev_win, pend):
+def push_block(
+    pos,
+    parent,
+    child,
+    first,
+    second,
+    up,
+    joint,
+    limbs,
+    rup,
+    rst,
+    rring,
+    rprev,
+    jump,
+    rate,
+    v_max,
+    sst,
+    sring,
+    sref,
+    sfirst,
+    scale,
+    order,
+    st,
+    geo,
+    p,
+    rb,
+    rv,
+    cur,
+    left,
+    right,
+    vecs,
+    norms,
+    seqs,
+    nn_idx,
+    nn_d,
+    nn_key,
+    nn_cnt,
+    trunc,
+    lrd,
+    lof,
+    mark,
+    centres,
+    work,
+    curve,
+    keep,
+    stack,
+    ev_frame,
+    ev_score,
+    ev_emit,
+    ev_kind,
+    ev_win,
+    pend,
+):
     """:func:`lof_columns` of ``pos``, then :func:`stream_block` on them; returns
     ``(angles, ok, n_events)``.
 
@@ -92,11 +140,21 @@ def push_block(pos, parent, child, first, second, up, joint, limbs, rup, rst, rr
     dispatcher a few microseconds (it types each array in C) instead of some twelve (a tuple
     of arrays is typed in Python), which matters with packets of a few frames.
     """
-    angles, cols, ok = lof_columns(pos, (parent, child, first, second, up),
-                                   (joint, limbs, rup, rst, rring, rprev, jump, rate, v_max),
-                                   (sst, sring, sref, sfirst, scale, order))
-    n_ev = stream_block(cols, st, geo, p, (rb, rv, cur, left, right),
-                        (vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof,
-                         mark, centres), (work, curve, keep, stack),
-                        (ev_frame, ev_score, ev_emit, ev_kind, ev_win), pend)
+    angles, cols, ok = lof_columns(
+        pos,
+        (parent, child, first, second, up),
+        (joint, limbs, rup, rst, rring, rprev, jump, rate, v_max),
+        (sst, sring, sref, sfirst, scale, order),
+    )
+    n_ev = stream_block(
+        cols,
+        st,
+        geo,
+        p,
+        (rb, rv, cur, left, right),
+        (vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres),
+        (work, curve, keep, stack),
+        (ev_frame, ev_score, ev_emit, ev_kind, ev_win),
+        pend,
+    )
     return angles, ok, n_ev

@@ -35,25 +35,38 @@ from __future__ import annotations
 
 #: name -> (module, help line), in the order ``streamseg --help`` lists them
 COMMANDS = {
-    "info": ("streamseg.commands.info",
-             "summarize a recording (or feature matrix) and its features"),
+    "info": (
+        "streamseg.commands.info",
+        "summarize a recording (or feature matrix) and its features",
+    ),
     "segment": ("streamseg.commands.segment", "segment a recording offline (or --online)"),
     "eval": ("streamseg.commands.evaluate", "score a segmentation against human labels"),
-    "serve": ("streamseg.commands.serve",
-              "run the live segmentation daemon (ZeroMQ ingest, events, control)"),
-    "replay": ("streamseg.commands.replay",
-               "replay a recording as a live stream to a daemon's ingest endpoint"),
+    "serve": (
+        "streamseg.commands.serve",
+        "run the live segmentation daemon (ZeroMQ ingest, events, control)",
+    ),
+    "replay": (
+        "streamseg.commands.replay",
+        "replay a recording as a live stream to a daemon's ingest endpoint",
+    ),
     "listen": ("streamseg.commands.listen", "subscribe to a daemon's events and print them"),
-    "demo": ("streamseg.commands.demo",
-             "live demo: daemon + replay of CMU 86_01 + listener, then a timeline picture"),
-    "view": ("streamseg.commands.view",
-             "serve a live web page of a daemon's streams (cuts, actions, health)"),
-    "batch": ("streamseg.commands.batch",
-              "segment or evaluate a whole corpus on a Dask cluster (JSON lines)"),
-    "keys": ("streamseg.commands.keys",
-             "generate CURVE key pairs for the daemon and its clients"),
-    "lsl": ("streamseg.commands.lsl",
-            "feed Lab Streaming Layer mocap streams to a daemon (LSL time, reconnecting)"),
+    "demo": (
+        "streamseg.commands.demo",
+        "live demo: daemon + replay of CMU 86_01 + listener, then a timeline picture",
+    ),
+    "view": (
+        "streamseg.commands.view",
+        "serve a live web page of a daemon's streams (cuts, actions, health)",
+    ),
+    "batch": (
+        "streamseg.commands.batch",
+        "segment or evaluate a whole corpus on a Dask cluster (JSON lines)",
+    ),
+    "keys": ("streamseg.commands.keys", "generate CURVE key pairs for the daemon and its clients"),
+    "lsl": (
+        "streamseg.commands.lsl",
+        "feed Lab Streaming Layer mocap streams to a daemon (LSL time, reconnecting)",
+    ),
 }
 
 METHODS = {

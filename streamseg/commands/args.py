@@ -22,7 +22,8 @@ def frame_rate(text: str) -> float:
     if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
         raise argparse.ArgumentTypeError(
             f"{text!r}: expected a frame rate in frames per second, a finite number > 0 and "
-            f"at most {MAX_FPS:g} (e.g. 120)")
+            f"at most {MAX_FPS:g} (e.g. 120)"
+        )
     return fps
 
 
@@ -36,12 +37,15 @@ def endpoint(text: str) -> str:
     host, _, port = rest.rpartition(":")
     if scheme == "tcp" and host and port.isdigit() and 1 <= int(port) <= 65535:
         return text
-    raise argparse.ArgumentTypeError(f"{text!r}: expected an endpoint tcp://HOST:PORT with a "
-                                     "port in 1..65535 (e.g. tcp://127.0.0.1:5560)")
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: expected an endpoint tcp://HOST:PORT with a "
+        "port in 1..65535 (e.g. tcp://127.0.0.1:5560)"
+    )
 
 
-def add_input_arguments(p: argparse.ArgumentParser, optional: bool = False,
-                        write_events: bool = False) -> None:
+def add_input_arguments(
+    p: argparse.ArgumentParser, optional: bool = False, write_events: bool = False
+) -> None:
     """FILE, --skeleton and --fps, as every command reading one recording takes them, and
     the reading flags of :func:`streamseg.commands.inputs.add_source_arguments`."""
     from streamseg.commands.inputs import add_source_arguments
@@ -50,7 +54,7 @@ def add_input_arguments(p: argparse.ArgumentParser, optional: bool = False,
         "file",
         nargs="?" if optional else None,
         help="recording (.amc[.gz], .bvh, .c3d, .trc, .npz; joint positions .csv/.npy/.npz) or "
-             "feature matrix (.npy, .csv)",
+        "feature matrix (.npy, .csv)",
     )
     p.add_argument("--skeleton", help="ASF skeleton file (needed for AMC)")
     p.add_argument(
@@ -58,8 +62,8 @@ def add_input_arguments(p: argparse.ArgumentParser, optional: bool = False,
         type=frame_rate,
         default=None,
         help="frame rate: needed for a feature matrix (.npy/.csv, rows per second) and for "
-             "positions without a time column; for a recording it replaces the file's own "
-             "(AMC: 120)",
+        "positions without a time column; for a recording it replaces the file's own "
+        "(AMC: 120)",
     )
     add_source_arguments(p, write_events=write_events)
 
@@ -73,8 +77,9 @@ def check_plot(plot, need_matplotlib: bool = True) -> None:
         raise ParameterError(f"--plot {plot}: expected a .png file name")
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
-        raise ParameterError(f"--plot {plot}: folder {folder} does not exist (create it "
-                             "or choose another path)")
+        raise ParameterError(
+            f"--plot {plot}: folder {folder} does not exist (create it or choose another path)"
+        )
     if not os.access(folder, os.W_OK):
         raise ParameterError(f"--plot {plot}: folder {folder} is not writable")
     if not need_matplotlib:

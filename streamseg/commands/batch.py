@@ -25,38 +25,78 @@ from streamseg.commands import METHODS
 from streamseg.exceptions import ParameterError
 
 # options of the batch itself; every other parsed option is a `segment` option for the task
-_OWN = {"inputs", "output", "scheduler", "workers", "labels", "retry_failed", "method",
-        "command", "run", "log_level", "method_options"}
+_OWN = {
+    "inputs",
+    "output",
+    "scheduler",
+    "workers",
+    "labels",
+    "retry_failed",
+    "method",
+    "command",
+    "run",
+    "log_level",
+    "method_options",
+}
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("inputs", nargs="+", metavar="PATH",
-                        help="recordings (.amc[.gz], .bvh, .npz, .npy, .csv), globs or folders "
-                             "(every recording under them)")
-    parser.add_argument("--output", "-o", required=True, metavar="FILE.jsonl",
-                        help="one JSON line per recording, appended; a rerun skips the "
-                             "recordings already in it")
+    parser.add_argument(
+        "inputs",
+        nargs="+",
+        metavar="PATH",
+        help="recordings (.amc[.gz], .bvh, .npz, .npy, .csv), globs or folders "
+        "(every recording under them)",
+    )
+    parser.add_argument(
+        "--output",
+        "-o",
+        required=True,
+        metavar="FILE.jsonl",
+        help="one JSON line per recording, appended; a rerun skips the recordings already in it",
+    )
     parser.add_argument("--method", choices=sorted(METHODS), default="lof")
-    parser.add_argument("--skeleton", help="ASF for AMCs whose folder has none (each AMC "
-                        "takes the ASF beside it whose name starts the file's name, or the "
-                        "only one there)")
+    parser.add_argument(
+        "--skeleton",
+        help="ASF for AMCs whose folder has none (each AMC "
+        "takes the ASF beside it whose name starts the file's name, or the "
+        "only one there)",
+    )
     from streamseg.commands.args import frame_rate
 
-    parser.add_argument("--fps", type=frame_rate, default=None,
-                        help="frame rate for feature matrices (.npy/.csv) or AMCs")
+    parser.add_argument(
+        "--fps",
+        type=frame_rate,
+        default=None,
+        help="frame rate for feature matrices (.npy/.csv) or AMCs",
+    )
     from streamseg.commands.inputs import add_source_arguments
 
     add_source_arguments(parser)
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a "
-                             "local cluster on 127.0.0.1)")
-    parser.add_argument("--workers", type=int, default=None, metavar="N",
-                        help="local cluster: worker processes (default: one per core)")
-    parser.add_argument("--labels", metavar="CSV|DIR",
-                        help="score against human labels (a label CSV, or a folder searched "
-                             "for them; sequence = file name before the first dot)")
-    parser.add_argument("--retry-failed", action="store_true",
-                        help="run again the recordings whose line in FILE is an error")
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a "
+        "local cluster on 127.0.0.1)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="local cluster: worker processes (default: one per core)",
+    )
+    parser.add_argument(
+        "--labels",
+        metavar="CSV|DIR",
+        help="score against human labels (a label CSV, or a folder searched "
+        "for them; sequence = file name before the first dot)",
+    )
+    parser.add_argument(
+        "--retry-failed",
+        action="store_true",
+        help="run again the recordings whose line in FILE is an error",
+    )
     owned = {}  # method -> the option names of its group: what its results depend on
     for name in sorted(METHODS):
         module = importlib.import_module(METHODS[name])
@@ -87,22 +127,35 @@ def _refuse_mixing(done: dict, files, key: dict, output) -> None:
         theirs = line.get("batch_options")
         if theirs is None:  # a line of an older batch: only its method is known
             method = line.get("method")
-            if "error" in line or method is None or method.startswith(key["method"]) or (
-                    key["method"] == "aca" and method == "haca"):
+            if (
+                "error" in line
+                or method is None
+                or method.startswith(key["method"])
+                or (key["method"] == "aca" and method == "haca")
+            ):
                 continue
             theirs = {"method": method}
-        diff = [k for k in sorted(set(theirs) | set(key)) if theirs.get(k) != key.get(k)
-                and k in theirs and (k != "skeleton" or _needs_given_skeleton(f))]
+        diff = [
+            k
+            for k in sorted(set(theirs) | set(key))
+            if theirs.get(k) != key.get(k)
+            and k in theirs
+            and (k != "skeleton" or _needs_given_skeleton(f))
+        ]
         if diff:
+
             def show(v):
                 return "default" if v is None else repr(v)
 
-            said = ", ".join(f"--{k.replace('_', '-')} {show(theirs.get(k))} (now "
-                             f"{show(key.get(k))})" for k in diff[:3])
+            said = ", ".join(
+                f"--{k.replace('_', '-')} {show(theirs.get(k))} (now {show(key.get(k))})"
+                for k in diff[:3]
+            )
             raise ParameterError(
                 f"--output {output} already holds {os.path.basename(f)} made with other "
                 f"options: {said}; a rerun would skip it and report the old result. Write to "
-                "another --output file, or give the same options to resume that batch")
+                "another --output file, or give the same options to resume that batch"
+            )
 
 
 def _needs_given_skeleton(path) -> bool:
@@ -161,14 +214,23 @@ def run(args) -> int:
                 client = distributed.Client(cluster, set_as_default=False)
                 n = len(cluster.workers)
                 where = f"a local cluster of {n} worker process{'es' if n != 1 else ''}"
-            print(f"streamseg batch: {len(files)} recording{'s' if len(files) != 1 else ''}, "
-                  f"{len(files) - len(todo)} already "
-                  f"in {args.output}, {len(todo)} to run on {where}", file=sys.stderr)
+            print(
+                f"streamseg batch: {len(files)} recording{'s' if len(files) != 1 else ''}, "
+                f"{len(files) - len(todo)} already "
+                f"in {args.output}, {len(todo)} to run on {where}",
+                file=sys.stderr,
+            )
             futures = {}
             for i, f in enumerate(todo):
-                fut = client.submit(batch.run_one, f, args.method, options,
-                                    labels.get(batch.sequence_of(f)), pure=False,
-                                    key=f"batch-{i}-{os.path.basename(f)}")
+                fut = client.submit(
+                    batch.run_one,
+                    f,
+                    args.method,
+                    options,
+                    labels.get(batch.sequence_of(f)),
+                    pure=False,
+                    key=f"batch-{i}-{os.path.basename(f)}",
+                )
                 futures[fut] = f
             bar = Progress(len(todo))
             with open(args.output, "a", encoding="utf-8") as fh:
@@ -179,21 +241,32 @@ def run(args) -> int:
                     try:
                         obj = fut.result()
                     except Exception as err:  # the task's worker died (again) or was lost
-                        obj = {"file": f, "error": f"the cluster lost this task "
-                                                   f"({type(err).__name__}: {err})"[:300]}
+                        obj = {
+                            "file": f,
+                            "error": f"the cluster lost this task ({type(err).__name__}: {err})"[
+                                :300
+                            ],
+                        }
                     fut.release()
                     obj["batch_options"] = key
                     batch.write_line(fh, obj)
                     done[os.path.abspath(f)] = obj
-                    said = ("" if "error" not in obj else "SKIPPED " if obj.get("skipped")
-                            else "FAILED ")
+                    said = (
+                        ""
+                        if "error" not in obj
+                        else "SKIPPED "
+                        if obj.get("skipped")
+                        else "FAILED "
+                    )
                     bar.step(said + os.path.basename(f))
                 os.fsync(fh.fileno())
             if rerun:  # retried recordings: their new line replaces the old one
                 _compact(args.output, files)
         else:
-            print(f"streamseg batch: all {len(files)} recordings are already in {args.output}",
-                  file=sys.stderr)
+            print(
+                f"streamseg batch: all {len(files)} recordings are already in {args.output}",
+                file=sys.stderr,
+            )
     finally:
         if client is not None:
             client.close()
@@ -229,9 +302,15 @@ def _print_summary(objects, args, wall: float, ran: int) -> None:
 
     print(batch.summary(objects))
     # strict JSON stored NaN (no accuracy for a method without labels...) as null
-    scored = [(batch.sequence_of(o["file"]), o.get("method", args.method),
-               table_row({k: float("nan") if v is None else v for k, v in o["scores"].items()}))
-              for o in objects if "scores" in o]
+    scored = [
+        (
+            batch.sequence_of(o["file"]),
+            o.get("method", args.method),
+            table_row({k: float("nan") if v is None else v for k, v in o["scores"].items()}),
+        )
+        for o in objects
+        if "scores" in o
+    ]
     if scored and "F1" in scored[0][2]:
         print()
         print(format_table(scored))
@@ -240,16 +319,22 @@ def _print_summary(objects, args, wall: float, ran: int) -> None:
         print("| recording | alpha | count | true count | count error |")
         print("|---|---|---|---|---|")
         for name, _, s in scored:
-            print(f"| {name} | {s['alpha']:.3f} | {s['count']} | {s['true_count']} | "
-                  f"{s['count_error']:.3f} |")
+            print(
+                f"| {name} | {s['alpha']:.3f} | {s['count']} | {s['true_count']} | "
+                f"{s['count_error']:.3f} |"
+            )
     skipped = sum(1 for o in objects if o.get("skipped"))
     failed = sum(1 for o in objects if "error" in o and not o.get("skipped"))
     segmented = len(objects) - skipped - failed
-    parts = [f"{len(objects)} recording{'s' if len(objects) != 1 else ''} ({ran} run now, "
-             f"{len(objects) - ran} already in {args.output}): {segmented} segmented",
-             f"{skipped} skipped (cannot be read as asked: the reason is in its line)",
-             f"{failed} failed"]
+    parts = [
+        f"{len(objects)} recording{'s' if len(objects) != 1 else ''} ({ran} run now, "
+        f"{len(objects) - ran} already in {args.output}): {segmented} segmented",
+        f"{skipped} skipped (cannot be read as asked: the reason is in its line)",
+        f"{failed} failed",
+    ]
     if args.labels:
-        parts.append(f"{len(scored)} scored against {args.labels} (the others have no rows in "
-                     "its label CSVs)")
+        parts.append(
+            f"{len(scored)} scored against {args.labels} (the others have no rows in "
+            "its label CSVs)"
+        )
     print(f"\n{'; '.join(parts)}; {wall:.1f} s; lines in {args.output}")

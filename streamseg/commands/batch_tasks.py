@@ -39,8 +39,11 @@ def expand(inputs) -> list[str]:
     for item in inputs:
         p = Path(item)
         if p.is_dir():
-            found = [str(f) for f in sorted(p.rglob("*"))
-                     if f.is_file() and f.name.lower().endswith(RECORDING_SUFFIXES)]
+            found = [
+                str(f)
+                for f in sorted(p.rglob("*"))
+                if f.is_file() and f.name.lower().endswith(RECORDING_SUFFIXES)
+            ]
             out += found
         elif any(ch in item for ch in "*?[") and not p.exists():
             out += sorted(glob.glob(item, recursive=True))
@@ -88,8 +91,9 @@ def label_index(path) -> dict:
                 if row:
                     index.setdefault(row[0], str(f))
     if not index:
-        raise ParameterError(f"--labels {path}: no label CSV (header "
-                             f"{','.join(LABEL_HEADER)}) found")
+        raise ParameterError(
+            f"--labels {path}: no label CSV (header {','.join(LABEL_HEADER)}) found"
+        )
     return index
 
 
@@ -141,10 +145,13 @@ def score_object(obj: dict, labels_csv: str, sequence: str) -> dict:
     if segments and all(s.get("label") is not None for s in segments):
         labels = np.full(n, -1, dtype=np.int64)
         for s in segments:
-            labels[s["start"]:s["end"]] = int(s["label"])
-    pred = Prediction(cuts=list(obj["cuts"]), labels=labels,
-                      latencies=obj.get("cut_latency_frames"),
-                      seconds=float(obj.get("seconds", float("nan"))))
+            labels[s["start"] : s["end"]] = int(s["label"])
+    pred = Prediction(
+        cuts=list(obj["cuts"]),
+        labels=labels,
+        latencies=obj.get("cut_latency_frames"),
+        seconds=float(obj.get("seconds", float("nan"))),
+    )
     item = LabelledRecording(sequence, SimpleNamespace(n_frames=n), truth)
     return json_row(score(item, pred, fps))
 
@@ -180,8 +187,18 @@ def cannot_be_read(err: BaseException) -> bool:
     file with its reason, unlike a failure while running (an internal error, a lost task)."""
     from streamseg.exceptions import ParameterError, RecordingError, SkeletonError
 
-    return isinstance(err, (ParameterError, RecordingError, SkeletonError, FileNotFoundError,
-                            IsADirectoryError, PermissionError, UnicodeDecodeError))
+    return isinstance(
+        err,
+        (
+            ParameterError,
+            RecordingError,
+            SkeletonError,
+            FileNotFoundError,
+            IsADirectoryError,
+            PermissionError,
+            UnicodeDecodeError,
+        ),
+    )
 
 
 def _describe(err: BaseException) -> str:
@@ -229,8 +246,10 @@ def summary(objects: list[dict]) -> str:
             if o.get("n_clusters") is not None:
                 result += f", {o['n_clusters']} actions"
         sec = o.get("seconds")
-        lines.append(f"| {name} | {o.get('method', '')} | {o.get('n_frames', '')} | {result} "
-                     f"| {'' if sec is None else f'{sec:.2f}'} |")
+        lines.append(
+            f"| {name} | {o.get('method', '')} | {o.get('n_frames', '')} | {result} "
+            f"| {'' if sec is None else f'{sec:.2f}'} |"
+        )
     return "\n".join(lines)
 
 

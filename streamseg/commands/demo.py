@@ -20,14 +20,26 @@ DATA = Path(__file__).resolve().parents[2] / "data" / "cmu86"
 
 def add_arguments(parser) -> None:
     parser.add_argument("--speed", type=float, default=4.0, help="times real time (default 4)")
-    parser.add_argument("--plot", metavar="PNG", default="streamseg_demo.png",
-                        help="timeline picture to write (default streamseg_demo.png)")
+    parser.add_argument(
+        "--plot",
+        metavar="PNG",
+        default="streamseg_demo.png",
+        help="timeline picture to write (default streamseg_demo.png)",
+    )
     parser.add_argument("--batch", type=int, default=4, help="frames per packet (default 4)")
-    parser.add_argument("--http", default="127.0.0.1:8765", metavar="HOST:PORT",
-                        help="address of the live page (default 127.0.0.1:8765, another free "
-                             "port if that one is taken)")
-    parser.add_argument("--no-view", dest="view", action="store_false",
-                        help="no live page, even with the view extra installed")
+    parser.add_argument(
+        "--http",
+        default="127.0.0.1:8765",
+        metavar="HOST:PORT",
+        help="address of the live page (default 127.0.0.1:8765, another free "
+        "port if that one is taken)",
+    )
+    parser.add_argument(
+        "--no-view",
+        dest="view",
+        action="store_false",
+        help="no live page, even with the view extra installed",
+    )
     parser.add_argument("--file", default=str(DATA / "86_01.amc.gz"), help=argparse.SUPPRESS)
     parser.add_argument("--skeleton", default=str(DATA / "86.asf"), help=argparse.SUPPRESS)
     parser.add_argument("--labels", default=str(DATA / "labels_86_01.csv"), help=argparse.SUPPRESS)
@@ -66,17 +78,30 @@ def run(args) -> int:
 
     listener = threading.Thread(target=show, name="streamseg-listen", daemon=True)
     listener.start()
-    print(f"replaying {Path(args.file).name}: {rec.n_frames} frames at {rec.fps:g} Hz, "
-          + (f"{args.speed:g}x real time ({rec.n_frames / rec.fps / args.speed:.1f} s)"
-             if args.speed > 0 else "as fast as the daemon takes it"),
-          flush=True)
+    print(
+        f"replaying {Path(args.file).name}: {rec.n_frames} frames at {rec.fps:g} Hz, "
+        + (
+            f"{args.speed:g}x real time ({rec.n_frames / rec.fps / args.speed:.1f} s)"
+            if args.speed > 0
+            else "as fast as the daemon takes it"
+        ),
+        flush=True,
+    )
     try:
-        replay(rec, ep["ingest"], stream=stream, speed=args.speed, batch=args.batch,
-               labels=args.labels, labels_sequence=stream)
+        replay(
+            rec,
+            ep["ingest"],
+            stream=stream,
+            speed=args.speed,
+            batch=args.batch,
+            labels=args.labels,
+            labels_sequence=stream,
+        )
         listener.join(60)
         if view is not None and sys.stdin.isatty():
-            print(f"the live page stays up at {view.url}: press Enter (or Ctrl-C) to stop",
-                  flush=True)
+            print(
+                f"the live page stays up at {view.url}: press Enter (or Ctrl-C) to stop", flush=True
+            )
             sys.stdin.readline()
     except KeyboardInterrupt:
         print("interrupted: stopping the daemon")
@@ -86,8 +111,10 @@ def run(args) -> int:
         daemon.stop()
         server.join(30)
         sub.close()
-    print(f"daemon stopped; {sum(e.type == 'cut' for e in events)} cuts, "
-          f"{sum(e.type == 'segments' for e in events)} relabels")
+    print(
+        f"daemon stopped; {sum(e.type == 'cut' for e in events)} cuts, "
+        f"{sum(e.type == 'segments' for e in events)} relabels"
+    )
     if args.plot:
         try:
             timeline(events, rec, args.labels, stream, args.plot)
@@ -136,7 +163,7 @@ def timeline(events, rec, labels_csv, sequence, path) -> None:
     for ev in events:  # later revisions overwrite what they cover
         if ev.type == "segments":
             for a, b, lab in ev.segments:
-                relab[a:min(b, n)] = lab
+                relab[a : min(b, n)] = lab
     truth = frame_labels(human, n)  # index into the sorted label names
     order = sorted(names)
     ok = (relab >= 0) & (truth >= 0)
@@ -151,9 +178,20 @@ def timeline(events, rec, labels_csv, sequence, path) -> None:
             key.append(f"id {int(lab)} (no human match)")
     shown = np.array([colour_of.get(int(v), -1) for v in relab])
     cuts = [ev for ev in events if ev.type == "cut"]
-    draw(path, n, rec.fps, [(s.start, s.end, s.label) for s in human],
-         [("relabelled\n(HACA, K found)", [], shown),
-          ("provisional cuts\n(> = emitted)", [c.frame for c in cuts], None,
-           [c.emitted_at for c in cuts])],
-         title=f"streamseg demo: CMU {sequence}, live (relabel frame accuracy {acc:.2f})",
-         key=key)
+    draw(
+        path,
+        n,
+        rec.fps,
+        [(s.start, s.end, s.label) for s in human],
+        [
+            ("relabelled\n(HACA, K found)", [], shown),
+            (
+                "provisional cuts\n(> = emitted)",
+                [c.frame for c in cuts],
+                None,
+                [c.emitted_at for c in cuts],
+            ),
+        ],
+        title=f"streamseg demo: CMU {sequence}, live (relabel frame accuracy {acc:.2f})",
+        key=key,
+    )

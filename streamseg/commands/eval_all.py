@@ -16,17 +16,29 @@ from streamseg.exceptions import ParameterError
 def add_arguments(parser) -> None:
     """The ``--all`` options of ``eval``."""
     parser.add_argument(
-        "--all", metavar="DIR",
+        "--all",
+        metavar="DIR",
         help="score every labelled recording under DIR (data/: also the sequences joined from "
-             "its clips) and print one table; --method lof or aca keeps one method's rows")
-    parser.add_argument("--sets", metavar="NAMES",
-                        help="with --all: only these sets, comma-separated (cmu, cmu02, hdm, "
-                             "fresh, fresh2; files: recordings of other label CSVs)")
-    parser.add_argument("--chosen-on", metavar="NAMES",
-                        help="with --all: recordings the parameters were chosen on, "
-                             "comma-separated: the summary adds a mean over all the others")
-    parser.add_argument("--runs", type=int, default=1,
-                        help="with --all: timed runs per recording (median), default 1")
+        "its clips) and print one table; --method lof or aca keeps one method's rows",
+    )
+    parser.add_argument(
+        "--sets",
+        metavar="NAMES",
+        help="with --all: only these sets, comma-separated (cmu, cmu02, hdm, "
+        "fresh, fresh2; files: recordings of other label CSVs)",
+    )
+    parser.add_argument(
+        "--chosen-on",
+        metavar="NAMES",
+        help="with --all: recordings the parameters were chosen on, "
+        "comma-separated: the summary adds a mean over all the others",
+    )
+    parser.add_argument(
+        "--runs",
+        type=int,
+        default=1,
+        help="with --all: timed runs per recording (median), default 1",
+    )
 
 
 def _names(text) -> list[str]:
@@ -41,15 +53,19 @@ def methods_for(args) -> dict:
     from streamseg.offline.lof import lof_features
 
     if args.method == "rep":
-        raise ParameterError("eval --all scores cuts and labels (--method lof or aca); the "
-                             "repetition tables come from benchmarks/repetitions.py")
+        raise ParameterError(
+            "eval --all scores cuts and labels (--method lof or aca); the "
+            "repetition tables come from benchmarks/repetitions.py"
+        )
     out = {}
     if args.method in (None, "lof"):
         config = config_from_args(args)
         out["LOF streaming"] = lambda item, fps: lof_prediction(
-            lof_features(item.recording, config), fps, True, config)
+            lof_features(item.recording, config), fps, True, config
+        )
         out["LOF offline"] = lambda item, fps: lof_prediction(
-            lof_features(item.recording, config), fps, False, config)
+            lof_features(item.recording, config), fps, False, config
+        )
     if args.method in (None, "aca"):
         out.update({k: v for k, v in STREAMSEG_METHODS.items() if "ACA" in k})
     return out
@@ -86,28 +102,38 @@ def summarise(rows, preds: dict, groups: dict, fps: dict, chosen_on=()) -> list[
     out = []
     for method in dict.fromkeys(m for _, m, _ in rows):
         ok = [(r, row) for r, m, row in rows if m == method and "error" not in row]
-        subsets = [(s, [x for x in ok if groups[x[0]] == s])
-                   for s in dict.fromkeys(groups[r] for r, _ in ok)]
+        subsets = [
+            (s, [x for x in ok if groups[x[0]] == s])
+            for s in dict.fromkeys(groups[r] for r, _ in ok)
+        ]
         subsets.append(("all", ok))
         if chosen:
-            subsets.append((f"held out (all but {', '.join(sorted(chosen))})",
-                            [x for x in ok if x[0] not in chosen]))
+            subsets.append(
+                (
+                    f"held out (all but {', '.join(sorted(chosen))})",
+                    [x for x in ok if x[0] not in chosen],
+                )
+            )
         for name, part in subsets:
             if not part:
                 continue
             worst = min(part, key=lambda x: x[1]["F1"])
-            lats = [lat / fps[r] for r, _ in part
-                    for lat in (preds[r, method].latencies or [])]
-            out.append({
-                "method": method, "set": name, "n": len(part),
-                "f1": _mean(row["F1"] for _, row in part),
-                "f1_1s": _mean(row["F1@1s"] for _, row in part),
-                "covering": _mean(row["cover"] for _, row in part),
-                "accuracy": _mean(row["acc"] for _, row in part),
-                "latency_median_s": float(np.median(lats)) if lats else float("nan"),
-                "latency_max_s": float(np.max(lats)) if lats else float("nan"),
-                "worst": worst[0], "worst_f1": worst[1]["F1"],
-            })
+            lats = [lat / fps[r] for r, _ in part for lat in (preds[r, method].latencies or [])]
+            out.append(
+                {
+                    "method": method,
+                    "set": name,
+                    "n": len(part),
+                    "f1": _mean(row["F1"] for _, row in part),
+                    "f1_1s": _mean(row["F1@1s"] for _, row in part),
+                    "covering": _mean(row["cover"] for _, row in part),
+                    "accuracy": _mean(row["acc"] for _, row in part),
+                    "latency_median_s": float(np.median(lats)) if lats else float("nan"),
+                    "latency_max_s": float(np.max(lats)) if lats else float("nan"),
+                    "worst": worst[0],
+                    "worst_f1": worst[1]["F1"],
+                }
+            )
     return out
 
 
@@ -117,14 +143,22 @@ def format_summary(summary: list[dict]) -> str:
     def num(v, digits=3):
         return "" if isinstance(v, float) and math.isnan(v) else f"{v:.{digits}f}"
 
-    lines = ["| method | set | recordings | F1 | F1@1s | cover | acc | latency median / max s "
-             "| worst F1 |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| method | set | recordings | F1 | F1@1s | cover | acc | latency median / max s "
+        "| worst F1 |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for s in summary:
-        lat = ("" if math.isnan(s["latency_median_s"]) else
-               f"{num(s['latency_median_s'], 2)} / {num(s['latency_max_s'], 2)}")
-        lines.append(f"| {s['method']} | {s['set']} | {s['n']} | {num(s['f1'])} | "
-                     f"{num(s['f1_1s'])} | {num(s['covering'])} | {num(s['accuracy'])} | {lat} "
-                     f"| {num(s['worst_f1'], 2)} ({s['worst']}) |")
+        lat = (
+            ""
+            if math.isnan(s["latency_median_s"])
+            else f"{num(s['latency_median_s'], 2)} / {num(s['latency_max_s'], 2)}"
+        )
+        lines.append(
+            f"| {s['method']} | {s['set']} | {s['n']} | {num(s['f1'])} | "
+            f"{num(s['f1_1s'])} | {num(s['covering'])} | {num(s['accuracy'])} | {lat} "
+            f"| {num(s['worst_f1'], 2)} ({s['worst']}) |"
+        )
     return "\n".join(lines)
 
 
@@ -149,18 +183,29 @@ def run(args) -> int:
     chosen = _names(args.chosen_on)
     unknown = [c for c in chosen if c not in {i.name for i in items}]
     if unknown:
-        raise ParameterError(f"--chosen-on {', '.join(unknown)}: not among the recordings "
-                             "scored (names as in the table's first column)")
+        raise ParameterError(
+            f"--chosen-on {', '.join(unknown)}: not among the recordings "
+            "scored (names as in the table's first column)"
+        )
     rows, preds = evaluate_all(items, methods, runs=args.runs)
     groups = {i.name: i.group for i in items}
     fps = {i.name: i.recording.fps for i in items}
     summary = summarise(rows, preds, groups, fps, chosen)
     if args.json:
-        print(strict_json.dumps({
-            "schema": 1, "command": "eval --all", "folder": str(args.all),
-            "rows": [{"recording": r, "set": groups[r], "method": m, **json_row(row)}
-                     for r, m, row in rows],
-            "summary": summary}))
+        print(
+            strict_json.dumps(
+                {
+                    "schema": 1,
+                    "command": "eval --all",
+                    "folder": str(args.all),
+                    "rows": [
+                        {"recording": r, "set": groups[r], "method": m, **json_row(row)}
+                        for r, m, row in rows
+                    ],
+                    "summary": summary,
+                }
+            )
+        )
     else:
         print(format_table(rows, means=False))
         print()

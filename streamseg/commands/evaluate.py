@@ -21,7 +21,8 @@ def run(args) -> int:
     if args.all and args.file:
         raise ParameterError(
             f"eval --all {args.all} scores every labelled recording under {args.all}, and "
-            f"{args.file} would be ignored: give either --all DIR or FILE --labels CSV")
+            f"{args.file} would be ignored: give either --all DIR or FILE --labels CSV"
+        )
     check_options(args)
     if args.all:
         from streamseg.commands import eval_all

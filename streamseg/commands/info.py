@@ -23,16 +23,22 @@ def _matrix_info(path, fps) -> str:
     from streamseg.io.matrix import read_matrix
 
     m = read_matrix(path)
-    out = [f"file:      {path}", "format:    feature matrix (rows = frames)",
-           f"frames:    {m.shape[0]}", f"columns:   {m.shape[1]}"]
+    out = [
+        f"file:      {path}",
+        "format:    feature matrix (rows = frames)",
+        f"frames:    {m.shape[0]}",
+        f"columns:   {m.shape[1]}",
+    ]
     if fps:
         out += [f"fps:       {fps:g}", f"duration:  {m.shape[0] / fps:.2f} s"]
     else:
         out.append("fps:       not stored in a matrix (segment/eval take --fps)")
     out.append(f"NaN rows:  {int((~np.isfinite(m)).any(axis=1).sum())}")
     if m.shape[1] in (8, 17):
-        out.append(f"looks like: the cut detector's {m.shape[1]} bone features "
-                   f"(--inclinations {'on' if m.shape[1] == 17 else 'off'})")
+        out.append(
+            f"looks like: the cut detector's {m.shape[1]} bone features "
+            f"(--inclinations {'on' if m.shape[1] == 17 else 'off'})"
+        )
     out += _table("columns", [f"column {i}" for i in range(m.shape[1])], m, "as stored")
     return "\n".join(out)
 
@@ -51,8 +57,15 @@ def info(path, skeleton=None, fps=None, joints=None, gap_fill=None, markers=None
     if Path(path).suffix.lower() in MATRIX_SUFFIXES and not is_positions_table(path, joints):
         return _matrix_info(path, fps)
     try:
-        rec = read(path, skeleton, fps=fps, lenient=True, joints=joints,
-                   gap_fill=FILL_S if gap_fill is None else gap_fill, markers=markers)
+        rec = read(
+            path,
+            skeleton,
+            fps=fps,
+            lenient=True,
+            joints=joints,
+            gap_fill=FILL_S if gap_fill is None else gap_fill,
+            markers=markers,
+        )
     except (RecordingError, SkeletonError) as err:
         from streamseg.commands.info_raw import describe
 
@@ -62,8 +75,10 @@ def info(path, skeleton=None, fps=None, joints=None, gap_fill=None, markers=None
         return said
     n_nan = int(np.isnan(rec.positions).any(axis=(1, 2)).sum())
     out = [
-        f"file:      {path}" + (f" (converted from {rec.source})"
-                                  if rec.source and str(rec.source) != str(path) else ""),
+        f"file:      {path}"
+        + (
+            f" (converted from {rec.source})" if rec.source and str(rec.source) != str(path) else ""
+        ),
         f"format:    {rec.metadata.get('format')}",
         f"frames:    {rec.n_frames}",
         f"fps:       {rec.fps:g}",
@@ -73,18 +88,26 @@ def info(path, skeleton=None, fps=None, joints=None, gap_fill=None, markers=None
         f"NaN frames: {n_nan}",
     ]
     if rec.metadata.get("marker_set"):
-        out.append(f"markers:   {len(rec.metadata['markers'])}, mapped by the "
-                   f"{rec.metadata['marker_set']} set; up axis {rec.skeleton.up}")
+        out.append(
+            f"markers:   {len(rec.metadata['markers'])}, mapped by the "
+            f"{rec.metadata['marker_set']} set; up axis {rec.skeleton.up}"
+        )
     if rec.metadata.get("filled_frames") or rec.metadata.get("gaps"):
         gaps = rec.metadata.get("gaps", [])
-        out.append(f"gaps:      {rec.metadata.get('filled_frames', 0)} frames filled by "
-                   f"interpolation; {len(gaps)} longer gaps ("
-                   f"{sum(e - s for s, e in gaps)} frames) the detectors skip")
+        out.append(
+            f"gaps:      {rec.metadata.get('filled_frames', 0)} frames filled by "
+            f"interpolation; {len(gaps)} longer gaps ("
+            f"{sum(e - s for s, e in gaps)} frames) the detectors skip"
+        )
     out += [f"warning:   {w}" for w in rec.metadata.get("warnings", [])]
     feats = bone_angles(rec.positions, rec.skeleton, inclinations=True)
     out += _table("bone angles (Xing et al. Table 2)", ANGLE_NAMES, feats[:, :8], "rad")
-    out += _table(f"bone inclinations from the up axis ({rec.skeleton.up})", INCLINATION_NAMES,
-                  feats[:, 8:], "rad")
+    out += _table(
+        f"bone inclinations from the up axis ({rec.skeleton.up})",
+        INCLINATION_NAMES,
+        feats[:, 8:],
+        "rad",
+    )
     if rec.rotations is not None:
         q = quaternion_features(rec).reshape(rec.n_frames, -1, 4)
         # Rotation angle of each joint away from its rest pose: 2 acos |w|.
@@ -100,6 +123,14 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    print(info(args.file, skeleton=args.skeleton, fps=args.fps, joints=args.joints,
-               gap_fill=args.gap_fill, markers=args.markers))
+    print(
+        info(
+            args.file,
+            skeleton=args.skeleton,
+            fps=args.fps,
+            joints=args.joints,
+            gap_fill=args.gap_fill,
+            markers=args.markers,
+        )
+    )
     return 0

@@ -31,8 +31,10 @@ def describe(path, problem: Exception) -> str | None:
         from streamseg.skeleton.marker_map import template
 
         markers = lines.pop(0)  # (the label list, kept out of the printed lines above)
-        lines.append("a marker map for --markers MAP.toml (fill in the markers of each "
-                     "joint; docs/guide/formats.md, Marker maps):")
+        lines.append(
+            "a marker map for --markers MAP.toml (fill in the markers of each "
+            "joint; docs/guide/formats.md, Marker maps):"
+        )
         lines += ["  " + t for t in template(markers).splitlines()]
     return "\n".join(lines)
 
@@ -43,17 +45,23 @@ def _c3d(path) -> list:
     c, _ = _open(Path(path))
     info = c3d_info(c)
     n = int(c["data"]["points"].shape[2])
-    labels = info["labels"][:int(c["data"]["points"].shape[1])]
+    labels = info["labels"][: int(c["data"]["points"].shape[1])]
     events = read_events(path)
-    out = [labels, f"file:      {path}", "format:    c3d"
-           + (f" ({info['manufacturer']})" if info["manufacturer"] else ""),
-           f"frames:    {n}", f"fps:       {info['rate']:g}",
-           f"duration:  {n / info['rate']:.2f} s" if info["rate"] > 0 else "duration:  ?",
-           f"units:     {info['units']}",
-           f"markers:   {len(labels)} ({', '.join(labels)})"]
+    out = [
+        labels,
+        f"file:      {path}",
+        "format:    c3d" + (f" ({info['manufacturer']})" if info["manufacturer"] else ""),
+        f"frames:    {n}",
+        f"fps:       {info['rate']:g}",
+        f"duration:  {n / info['rate']:.2f} s" if info["rate"] > 0 else "duration:  ?",
+        f"units:     {info['units']}",
+        f"markers:   {len(labels)} ({', '.join(labels)})",
+    ]
     shown = ", ".join(f"{e['label']} ({e['context']}) {e['time']:.3f} s" for e in events[:20])
-    out.append(f"events:    {len(events)}" + (f" ({shown}{' ...' if len(events) > 20 else ''})"
-                                              if events else ""))
+    out.append(
+        f"events:    {len(events)}"
+        + (f" ({shown}{' ...' if len(events) > 20 else ''})" if events else "")
+    )
     return out
 
 
@@ -66,9 +74,15 @@ def _trc(path) -> list | None:
     names = [head[c].strip() for c in range(2, len(head), 3) if head[c].strip()]
     rows = sum(1 for line in lines[5:] if line.strip())
     rate = keys.get("DataRate", "?").strip()
-    return [names, f"file:      {path}", "format:    trc", f"frames:    {rows}",
-            f"fps:       {rate}", f"units:     {keys.get('Units', '?').strip()}",
-            f"markers:   {len(names)} ({', '.join(names)})"]
+    return [
+        names,
+        f"file:      {path}",
+        "format:    trc",
+        f"frames:    {rows}",
+        f"fps:       {rate}",
+        f"units:     {keys.get('Units', '?').strip()}",
+        f"markers:   {len(names)} ({', '.join(names)})",
+    ]
 
 
 def _amc(path) -> list:
@@ -81,7 +95,10 @@ def _amc(path) -> list:
             frames += 1
         elif frames == 1 and word and not word.startswith(("#", ":")):
             bones.append(word)
-    return [f"file:      {path}", "format:    amc (joint angles; the bones' lengths and axes "
-            "are in the subject's ASF)", f"frames:    {frames}",
-            "fps:       not stored in an AMC (120 for CMU and HDM05; --fps replaces it)",
-            f"bones:     {len(bones)} ({', '.join(bones)})"]
+    return [
+        f"file:      {path}",
+        "format:    amc (joint angles; the bones' lengths and axes are in the subject's ASF)",
+        f"frames:    {frames}",
+        "fps:       not stored in an AMC (120 for CMU and HDM05; --fps replaces it)",
+        f"bones:     {len(bones)} ({', '.join(bones)})",
+    ]

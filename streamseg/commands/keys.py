@@ -10,8 +10,9 @@ from __future__ import annotations
 
 def add_arguments(parser) -> None:
     parser.add_argument("dir", help="directory for the key files (created)")
-    parser.add_argument("--clients", type=int, default=1, metavar="N",
-                        help="client key pairs to make (default 1)")
+    parser.add_argument(
+        "--clients", type=int, default=1, metavar="N", help="client key pairs to make (default 1)"
+    )
 
 
 def run(args) -> int:
@@ -19,12 +20,15 @@ def run(args) -> int:
     from streamseg.exceptions import ParameterError
 
     if args.clients < 1:
-        raise ParameterError(f"--clients {args.clients} is invalid: expected a number of "
-                             "client key pairs >= 1")
+        raise ParameterError(
+            f"--clients {args.clients} is invalid: expected a number of client key pairs >= 1"
+        )
     written = generate(args.dir, clients=args.clients)
     for p in written:
         print(f"wrote {p}")
-    print(f"serve with --curve-dir {args.dir}; give clients --curve-dir (client.key_secret "
-          f"and server.key); a client key is accepted while its .key is in "
-          f"{args.dir}/authorized/")
+    print(
+        f"serve with --curve-dir {args.dir}; give clients --curve-dir (client.key_secret "
+        f"and server.key); a client key is accepted while its .key is in "
+        f"{args.dir}/authorized/"
+    )
     return 0

@@ -20,35 +20,55 @@ def add_lsl_source_arguments(parser, prefix: str = "") -> None:
     from streamseg.recording import UP_AXES
 
     p = f"--{prefix}"
-    parser.add_argument(f"{p}type", dest="lsl_type", metavar="TYPE",
-                        default=None if prefix else "MoCap",
-                        help="LSL stream type to resolve" + ("" if prefix else
-                                                             " (default MoCap)"))
-    parser.add_argument(f"{p}name", dest="lsl_name", metavar="NAME",
-                        help="only the LSL streams of this name")
-    parser.add_argument(f"{p}source-id", dest="lsl_source_id", metavar="ID",
-                        help="only the LSL stream of this source id")
-    parser.add_argument(f"{p}up", dest="lsl_up", choices=UP_AXES,
-                        help="world up axis of the streams' positions (default: the axis the "
-                             "body stands along in the first second, else y)")
+    parser.add_argument(
+        f"{p}type",
+        dest="lsl_type",
+        metavar="TYPE",
+        default=None if prefix else "MoCap",
+        help="LSL stream type to resolve" + ("" if prefix else " (default MoCap)"),
+    )
+    parser.add_argument(
+        f"{p}name", dest="lsl_name", metavar="NAME", help="only the LSL streams of this name"
+    )
+    parser.add_argument(
+        f"{p}source-id",
+        dest="lsl_source_id",
+        metavar="ID",
+        help="only the LSL stream of this source id",
+    )
+    parser.add_argument(
+        f"{p}up",
+        dest="lsl_up",
+        choices=UP_AXES,
+        help="world up axis of the streams' positions (default: the axis the "
+        "body stands along in the first second, else y)",
+    )
 
 
 def add_arguments(parser) -> None:
     from streamseg.commands.args import endpoint
 
-    parser.add_argument("--to", required=True, type=endpoint, metavar="ENDPOINT",
-                        help="daemon ingest endpoint")
+    parser.add_argument(
+        "--to", required=True, type=endpoint, metavar="ENDPOINT", help="daemon ingest endpoint"
+    )
     add_lsl_source_arguments(parser)
-    parser.add_argument("--stream", metavar="ID",
-                        help="daemon stream id (one LSL stream only; default: its source id, "
-                             "else its name)")
-    parser.add_argument("--curve-dir", metavar="DIR",
-                        help="CURVE keys made by `streamseg keys DIR` (client.key_secret, "
-                             "server.key)")
-    parser.add_argument("--markers", metavar="MAP.toml",
-                        help="a marker set of your own for streams whose channels are markers "
-                             "no skeleton names: TOML of joint = marker or [markers] "
-                             "(docs/guide/formats.md); sent as the joints it makes")
+    parser.add_argument(
+        "--stream",
+        metavar="ID",
+        help="daemon stream id (one LSL stream only; default: its source id, else its name)",
+    )
+    parser.add_argument(
+        "--curve-dir",
+        metavar="DIR",
+        help="CURVE keys made by `streamseg keys DIR` (client.key_secret, server.key)",
+    )
+    parser.add_argument(
+        "--markers",
+        metavar="MAP.toml",
+        help="a marker set of your own for streams whose channels are markers "
+        "no skeleton names: TOML of joint = marker or [markers] "
+        "(docs/guide/formats.md); sent as the joints it makes",
+    )
 
 
 def _say(line: str) -> None:
@@ -71,11 +91,18 @@ def run(args) -> int:
         from streamseg.daemon.security import ClientKeys
 
         curve = ClientKeys.load(args.curve_dir)
-    bridge = Bridge(args.to, args.lsl_type, args.lsl_name, args.lsl_source_id, args.lsl_up,
-                    args.stream, curve,
-                    on_error=lambda m: print(f"streamseg lsl: error: {m}", file=sys.stderr,
-                                             flush=True),
-                    on_open=_say, markers=markers)
+    bridge = Bridge(
+        args.to,
+        args.lsl_type,
+        args.lsl_name,
+        args.lsl_source_id,
+        args.lsl_up,
+        args.stream,
+        curve,
+        on_error=lambda m: print(f"streamseg lsl: error: {m}", file=sys.stderr, flush=True),
+        on_open=_say,
+        markers=markers,
+    )
     done = threading.Event()
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):

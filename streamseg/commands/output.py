@@ -20,8 +20,10 @@ def warn(args, message: str) -> None:
         args.warnings = []
     if message not in args.warnings:
         args.warnings.append(message)
-        print(f"streamseg {getattr(args, 'command', '')}: warning: {message}".replace("  ", " "),
-              file=sys.stderr)
+        print(
+            f"streamseg {getattr(args, 'command', '')}: warning: {message}".replace("  ", " "),
+            file=sys.stderr,
+        )
 
 
 def check_label_extent(args, segs, sequence: str, n_frames: int) -> None:
@@ -29,9 +31,12 @@ def check_label_extent(args, segs, sequence: str, n_frames: int) -> None:
     ``n_frames`` (they are clipped there; often a label file of another take)."""
     end = max((s.end for s in segs), default=0)
     if end > n_frames:
-        warn(args, f"{args.labels}: the labels of {sequence} reach frame {end} (end_frame, "
-                   f"1-based), past the recording's {n_frames} frames: scored up to the end "
-                   "(check the label file and --sequence)")
+        warn(
+            args,
+            f"{args.labels}: the labels of {sequence} reach frame {end} (end_frame, "
+            f"1-based), past the recording's {n_frames} frames: scored up to the end "
+            "(check the label file and --sequence)",
+        )
 
 
 def merge_runs(segments) -> list[tuple[int, int, object]]:
@@ -50,13 +55,29 @@ def segmentation(args, *, method: str, n_frames: int, fps: float, segments, **ex
     merged (``segments`` as (start, end, label) tiling the frames; label None for cut
     detectors, which do not say which segments are alike)."""
     merged = merge_runs(segments)
-    segs = [{"start": s, "end": e, "label": lab, "start_s": round(s / fps, 4),
-             "end_s": round(e / fps, 4)} for s, e, lab in merged]
+    segs = [
+        {
+            "start": s,
+            "end": e,
+            "label": lab,
+            "start_s": round(s / fps, 4),
+            "end_s": round(e / fps, 4),
+        }
+        for s, e, lab in merged
+    ]
     cuts = [s["start"] for s in segs[1:]]
-    out = {"schema": SCHEMA, "command": "segment", "file": str(args.file), "method": method,
-           "n_frames": int(n_frames), "fps": float(fps),
-           "duration_s": round(n_frames / fps, 4) if fps else None,
-           "cuts": cuts, "cuts_s": [round(c / fps, 4) for c in cuts], "segments": segs}
+    out = {
+        "schema": SCHEMA,
+        "command": "segment",
+        "file": str(args.file),
+        "method": method,
+        "n_frames": int(n_frames),
+        "fps": float(fps),
+        "duration_s": round(n_frames / fps, 4) if fps else None,
+        "cuts": cuts,
+        "cuts_s": [round(c / fps, 4) for c in cuts],
+        "segments": segs,
+    }
     out.update(extra)
     if getattr(args, "gaps", None) is not None:  # a recording (not a feature matrix)
         out["gaps"] = list(args.gaps)
@@ -67,8 +88,15 @@ def segmentation(args, *, method: str, n_frames: int, fps: float, segments, **ex
 
 def evaluation(args, *, method: str, n_frames: int, fps: float, **scores) -> dict:
     """The ``eval`` object: the method's scores against ``args.labels``."""
-    out = {"schema": SCHEMA, "command": "eval", "file": str(args.file), "labels": args.labels,
-           "method": method, "n_frames": int(n_frames), "fps": float(fps)}
+    out = {
+        "schema": SCHEMA,
+        "command": "eval",
+        "file": str(args.file),
+        "labels": args.labels,
+        "method": method,
+        "n_frames": int(n_frames),
+        "fps": float(fps),
+    }
     out.update(scores)
     out["warnings"] = list(getattr(args, "warnings", []))
     return out
@@ -84,16 +112,23 @@ def format_segmentation(result: dict) -> str:
     """A readable table of a :func:`segmentation` object."""
     n, fps = result["n_frames"], result["fps"]
     segs = result["segments"]
-    head = (f"{result['file']}: {result['method']}, {len(result['cuts'])} cuts, "
-            f"{len(segs)} segments over {n} frames ({n / fps:.2f} s at {fps:g} fps)")
+    head = (
+        f"{result['file']}: {result['method']}, {len(result['cuts'])} cuts, "
+        f"{len(segs)} segments over {n} frames ({n / fps:.2f} s at {fps:g} fps)"
+    )
     if result.get("method") == "rep":  # its sets: what a user of a counter reads first
-        lines = [head, f"  {'set':>3} {'start s':>9} {'end s':>9} {'label':>5} {'count':>5}  "
-                       f"{'s per repetition':>16}  confidence"]
+        lines = [
+            head,
+            f"  {'set':>3} {'start s':>9} {'end s':>9} {'label':>5} {'count':>5}  "
+            f"{'s per repetition':>16}  confidence",
+        ]
         for i, st in enumerate(result.get("sets") or []):
             tempo = f"{st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f}"
-            lines.append(f"  {i:>3} {st['start'] / fps:>9.2f} {st['end'] / fps:>9.2f} "
-                         f"{_cell(st['label']):>5} {st['count']:>5}  {tempo:>16}  "
-                         f"{st['confidence']:.2f}")
+            lines.append(
+                f"  {i:>3} {st['start'] / fps:>9.2f} {st['end'] / fps:>9.2f} "
+                f"{_cell(st['label']):>5} {st['count']:>5}  {tempo:>16}  "
+                f"{st['confidence']:.2f}"
+            )
     else:
         extra = ""
         # segment --online: the latency of the cut that starts each segment but the first
@@ -102,18 +137,37 @@ def format_segmentation(result: dict) -> str:
         first = result.get("cut_first_latency_s") if lat is not None else None
         if lat is not None:
             extra += "  decided after s" + ("  first shown after s" if first else "")
-        lines = [head, f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  "
-                       f"label{extra}"]
+        lines = [
+            head,
+            f"  {'#':>3} {'start':>7} {'end':>7} {'start s':>9} {'end s':>9}  label{extra}",
+        ]
         for i, s in enumerate(segs):
             label = _cell(s["label"])
             if lat is not None:
                 label = f"{label:>5}  " + (f"{lat[i - 1]:>16.2f}" if i else f"{'':>16}")
                 if first:
                     label += f"  {first[i - 1]:>20.2f}" if i else ""
-            lines.append(f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
-                         f"{s['end_s']:>9.2f}  {label}".rstrip())
-    skip = {"schema", "command", "file", "method", "n_frames", "fps", "duration_s", "cuts",
-            "cuts_s", "segments", "warnings", "params", "repetitions", "sets", "filled_frames"}
+            lines.append(
+                f"  {i:>3} {s['start']:>7} {s['end']:>7} {s['start_s']:>9.2f} "
+                f"{s['end_s']:>9.2f}  {label}".rstrip()
+            )
+    skip = {
+        "schema",
+        "command",
+        "file",
+        "method",
+        "n_frames",
+        "fps",
+        "duration_s",
+        "cuts",
+        "cuts_s",
+        "segments",
+        "warnings",
+        "params",
+        "repetitions",
+        "sets",
+        "filled_frames",
+    }
     for key, value in result.items():
         if key in skip or isinstance(value, (dict, list)):
             continue
@@ -127,10 +181,14 @@ def _confusion_lines(matrix, clusters, names) -> list[str]:
     clusters = clusters or list(range(len(matrix)))
     names = names or [str(j) for j in range(len(matrix[0]) if matrix else 0)]
     width = max([6, *(len(str(n)) for n in names)])
-    lines = ["  confusion (frames; rows: found clusters, columns: human actions):",
-             "    " + f"{'cluster':>8} " + " ".join(f"{n:>{width}}" for n in names)]
-    lines += ["    " + f"{c:>8} " + " ".join(f"{v:>{width}d}" for v in row)
-              for c, row in zip(clusters, matrix, strict=True)]
+    lines = [
+        "  confusion (frames; rows: found clusters, columns: human actions):",
+        "    " + f"{'cluster':>8} " + " ".join(f"{n:>{width}}" for n in names),
+    ]
+    lines += [
+        "    " + f"{c:>8} " + " ".join(f"{v:>{width}d}" for v in row)
+        for c, row in zip(clusters, matrix, strict=True)
+    ]
     return lines
 
 
@@ -144,10 +202,15 @@ def format_evaluation(result: dict) -> str:
         if key == "confusion":
             lines += _confusion_lines(value, result.get("clusters"), result.get("label_names"))
         elif key == "sets" and value and isinstance(value[0], dict):  # eval --rep-sets
-            lines += [f"  {key}:", f"    {'start':>7} {'end':>7} {'true':>5} {'found':>5} "
-                                    f"{'alpha':>6}  label"]
-            lines += [f"    {st['start']:>7} {st['end']:>7} {st['true_count']:>5} "
-                      f"{st['count']:>5} {_cell(st['alpha']):>6}  {st['label']}" for st in value]
+            lines += [
+                f"  {key}:",
+                f"    {'start':>7} {'end':>7} {'true':>5} {'found':>5} {'alpha':>6}  label",
+            ]
+            lines += [
+                f"    {st['start']:>7} {st['end']:>7} {st['true_count']:>5} "
+                f"{st['count']:>5} {_cell(st['alpha']):>6}  {st['label']}"
+                for st in value
+            ]
         elif isinstance(value, list) and len(value) > 12:
             lines.append(f"  {key}: [{len(value)} items] {value[:12]} ...")
         else:

@@ -20,24 +20,44 @@ _D = RepetitionConfig()
 
 def add_arguments(group) -> None:
     """Repetition options (all prefixed ``--rep-``)."""
-    group.add_argument("--rep-min-amplitude", type=float, default=_D.min_amplitude, metavar="A",
-                       help="smallest movement counted as a repetition, in pose-distance "
-                            f"units, about radians (default {_D.min_amplitude:g})")
-    group.add_argument("--rep-max-dissimilarity", type=float, default=_D.max_dissimilarity,
-                       metavar="R", help="consecutive repetitions are alike when their DTW "
-                                         "distance is at most this share of their amplitude "
-                                         f"(default {_D.max_dissimilarity:g})")
-    group.add_argument("--rep-pause", type=float, default=_D.pause_s, metavar="S",
-                       help=f"a rest this long ends a set, seconds (default {_D.pause_s:g})")
-    group.add_argument("--rep-no-labels", action="store_true",
-                       help="do not name the sets by their action label (skips the HACA run, "
-                            "about 1.5 s per 40 s of motion)")
+    group.add_argument(
+        "--rep-min-amplitude",
+        type=float,
+        default=_D.min_amplitude,
+        metavar="A",
+        help="smallest movement counted as a repetition, in pose-distance "
+        f"units, about radians (default {_D.min_amplitude:g})",
+    )
+    group.add_argument(
+        "--rep-max-dissimilarity",
+        type=float,
+        default=_D.max_dissimilarity,
+        metavar="R",
+        help="consecutive repetitions are alike when their DTW "
+        "distance is at most this share of their amplitude "
+        f"(default {_D.max_dissimilarity:g})",
+    )
+    group.add_argument(
+        "--rep-pause",
+        type=float,
+        default=_D.pause_s,
+        metavar="S",
+        help=f"a rest this long ends a set, seconds (default {_D.pause_s:g})",
+    )
+    group.add_argument(
+        "--rep-no-labels",
+        action="store_true",
+        help="do not name the sets by their action label (skips the HACA run, "
+        "about 1.5 s per 40 s of motion)",
+    )
 
 
 def _config(args) -> RepetitionConfig:
-    return RepetitionConfig(min_amplitude=args.rep_min_amplitude,
-                            max_dissimilarity=args.rep_max_dissimilarity,
-                            pause_s=args.rep_pause)
+    return RepetitionConfig(
+        min_amplitude=args.rep_min_amplitude,
+        max_dissimilarity=args.rep_max_dissimilarity,
+        pause_s=args.rep_pause,
+    )
 
 
 def _run(args, labels: bool = True):
@@ -51,8 +71,9 @@ def _run(args, labels: bool = True):
     set_labels = None
     if is_matrix(args):
         if args.fps is None:
-            raise ParameterError("--fps is required with a feature matrix (.npy/.csv): the "
-                                 "frame rate of its rows")
+            raise ParameterError(
+                "--fps is required with a feature matrix (.npy/.csv): the frame rate of its rows"
+            )
         seg = RepetitionSegmenter(cfg, float(args.fps)).fit(read_matrix(args.file))
     else:
         rec = read_recording(args)
@@ -64,13 +85,21 @@ def _run(args, labels: bool = True):
             set_labels = label_sets(action_labels(bridge_missing_frames(rec)[0]), seg.sets_)
     lost = getattr(seg, "lost_joints_", [])
     if lost:
-        warn(args, f"{', '.join(lost)} lost in most frames: counted with the other body parts "
-             "(held where last seen; never seen: the bones ending there are left out)")
+        warn(
+            args,
+            f"{', '.join(lost)} lost in most frames: counted with the other body parts "
+            "(held where last seen; never seen: the bones ending there are left out)",
+        )
     n_bad, n = int(seg.n_missing_frames_), int(seg.n_frames_)
     if n_bad and (n_bad >= n or not getattr(args, "gaps", None)):  # gaps: said at reading
         what = "frames have NaN values"
-        warn(args, f"{n_bad} of {n} {what}: bridged (a joint lost up to 0.5 s interpolated, "
-             "longer held where last seen)" if n_bad < n else f"all {n} {what}: nothing to count")
+        warn(
+            args,
+            f"{n_bad} of {n} {what}: bridged (a joint lost up to 0.5 s interpolated, "
+            "longer held where last seen)"
+            if n_bad < n
+            else f"all {n} {what}: nothing to count",
+        )
     return cfg, seg, set_labels, time.perf_counter() - t0
 
 
@@ -82,10 +111,11 @@ def _sets(seg, set_labels) -> list:
     for i, st in enumerate(seg.sets_):
         d = dict(st)
         d["label"] = None if set_labels is None else set_labels[i]
-        per = zip(st["repetitions"], d.pop("durations_s"), d.pop("rom_deg"),
-                  d.pop("likeness"))
-        d["repetitions"] = [{"start": a, "end": b, "duration_s": t, "rom_deg": r,
-                             "likeness": k} for (a, b), t, r, k in per]
+        per = zip(st["repetitions"], d.pop("durations_s"), d.pop("rom_deg"), d.pop("likeness"))
+        d["repetitions"] = [
+            {"start": a, "end": b, "duration_s": t, "rom_deg": r, "likeness": k}
+            for (a, b), t, r, k in per
+        ]
         out.append(d)
     return out
 
@@ -115,7 +145,10 @@ def segment(args) -> dict:
     if not seg.repetitive_:
         warn(args, f"{Path(args.file).name} holds no set of repetitions ({reason}): count 0")
     return segmentation(
-        args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
+        args,
+        method="rep",
+        n_frames=int(seg.n_frames_),
+        fps=float(seg.fps_),
         segments=_tiling(sets, int(seg.n_frames_)),
         count=int(seg.count_),
         repetitive=bool(seg.repetitive_),
@@ -124,9 +157,12 @@ def segment(args) -> dict:
         sets=sets,
         repetitions=[{"start": a, "end": b} for a, b in seg.repetitions_],
         n_nan_frames=int(seg.n_missing_frames_),
-        params={"min_amplitude": cfg.min_amplitude,
-                "max_dissimilarity": cfg.max_dissimilarity, "pause_s": cfg.pause_s,
-                "seconds": round(seconds, 3)},
+        params={
+            "min_amplitude": cfg.min_amplitude,
+            "max_dissimilarity": cfg.max_dissimilarity,
+            "pause_s": cfg.pause_s,
+            "seconds": round(seconds, 3),
+        },
     )
 
 
@@ -171,11 +207,20 @@ def score_sets(found_sets, sets) -> list:
         mine = [(i, r) for m, i, r in mids if start <= m < end]
         n_true = len(reps) if len(reps) >= 2 else 0
         n = len(mine)
-        out.append({"start": int(start), "end": int(end), "label": label,
-                    "true_count": n_true, "count": n, "count_error": count_error(n, n_true),
-                    "right": n == n_true and len({i for i, _ in mine}) <= 1,
-                    "alpha": (matched_repetition_accuracy([r for _, r in mine], reps)
-                              if n_true else None)})
+        out.append(
+            {
+                "start": int(start),
+                "end": int(end),
+                "label": label,
+                "true_count": n_true,
+                "count": n,
+                "count_error": count_error(n, n_true),
+                "right": n == n_true and len({i for i, _ in mine}) <= 1,
+                "alpha": (
+                    matched_repetition_accuracy([r for _, r in mine], reps) if n_true else None
+                ),
+            }
+        )
     return out
 
 
@@ -203,12 +248,15 @@ def set_scores(found_sets, rows, count: int) -> dict:
     rep = [s for s in scored if s["true_count"]]
     act = [s for s in scored if not s["true_count"]]
     true_count = int(sum(s["true_count"] for s in rep))
-    return {"alpha": float(sum(s["alpha"] for s in rep) / len(rep)) if rep else None,
-            "count": int(count), "true_count": true_count,
-            "count_error": int(count) - true_count,
-            "exact_sets": f"{sum(s['right'] for s in rep)} of {len(rep)}",
-            "actions_counted_zero": f"{sum(s['count'] == 0 for s in act)} of {len(act)}",
-            "sets": scored}
+    return {
+        "alpha": float(sum(s["alpha"] for s in rep) / len(rep)) if rep else None,
+        "count": int(count),
+        "true_count": true_count,
+        "count_error": int(count) - true_count,
+        "exact_sets": f"{sum(s['right'] for s in rep)} of {len(rep)}",
+        "actions_counted_zero": f"{sum(s['count'] == 0 for s in act)} of {len(act)}",
+        "sets": scored,
+    }
 
 
 def evaluate(args) -> dict:
@@ -223,18 +271,25 @@ def evaluate(args) -> dict:
     if args.plot:
         from streamseg.plotting.repetitions import plot_repetitions
 
-        plot_repetitions(args.plot, seg, sets=_sets(seg, None),
-                         truth=[(r.start, r.end) for r in rows],
-                         title_file=Path(args.file).name)
+        plot_repetitions(
+            args.plot,
+            seg,
+            sets=_sets(seg, None),
+            truth=[(r.start, r.end) for r in rows],
+            title_file=Path(args.file).name,
+        )
     return evaluation(
-        args, method="rep", n_frames=int(seg.n_frames_), fps=float(seg.fps_),
+        args,
+        method="rep",
+        n_frames=int(seg.n_frames_),
+        fps=float(seg.fps_),
         **scores,
         repetitive=bool(seg.repetitive_),
         reason=seg.reason_ or None,
         n_nan_frames=int(seg.n_missing_frames_),
         seconds=round(seconds, 3),
         note="per labelled set: the found repetitions whose middle frame lies in it, right "
-             "when their number is the true count and they are of one found set; alpha "
-             "(eq. 15, repetitions matched by overlap) is the mean over the sets of two or "
-             "more repetitions",
+        "when their number is the true count and they are of one found set; alpha "
+        "(eq. 15, repetitions matched by overlap) is the mean over the sets of two or "
+        "more repetitions",
     )

@@ -32,21 +32,27 @@ def add_common_arguments(p, *, optional_file: bool = False, write_events: bool =
     """The options segment and eval share, then every method's own group."""
     add_input_arguments(p, optional=optional_file, write_events=write_events)
     methods = available_methods()
-    p.add_argument("--method", choices=sorted(methods), default=None,
-                   help="default: lof (with eval --all: lof and aca)")
+    p.add_argument(
+        "--method",
+        choices=sorted(methods),
+        default=None,
+        help="default: lof (with eval --all: lof and aca)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="PNG", help="write a picture of the result")
     if optional_file:  # eval: segment has no labels to score against
-        p.add_argument("--labels", metavar="CSV",
-                       help="human labels (sequence,start,end,label,...)")
+        p.add_argument(
+            "--labels", metavar="CSV", help="human labels (sequence,start,end,label,...)"
+        )
         p.add_argument("--sequence", help="label rows to use (default: the file's stem)")
     owners = {}  # option dest -> the method whose option it is
     for mname, module in methods.items():
         before = {a.dest for a in p._actions}
         module.add_arguments(p.add_argument_group(f"{mname} options"))
         owners.update({a.dest: mname for a in p._actions if a.dest not in before})
-    p.set_defaults(methods=methods, owners=owners,
-                   option_defaults={a.dest: a.default for a in p._actions})
+    p.set_defaults(
+        methods=methods, owners=owners, option_defaults={a.dest: a.default for a in p._actions}
+    )
 
 
 def add_arguments(parser) -> None:
@@ -58,16 +64,19 @@ def check_options(args) -> None:
     from streamseg.commands.output import warn
 
     for dest, owner in args.owners.items():
-        if owner != (args.method or "lof") and \
-                getattr(args, dest) != args.option_defaults.get(dest):
+        if owner != (args.method or "lof") and getattr(args, dest) != args.option_defaults.get(
+            dest
+        ):
             flag = "--" + dest.replace("_", "-")
-            warn(args, f"{flag} is a {owner} option: it does nothing with --method "
-                       f"{args.method}")
+            warn(args, f"{flag} is a {owner} option: it does nothing with --method {args.method}")
     name = str(getattr(args, "file", "") or "").lower()
     if args.skeleton and name and not name.endswith((".amc", ".amc.gz")):
-        warn(args, f"--skeleton does nothing for {Path(name).name}: only AMC files take an "
-                   "ASF skeleton (BVH, C3D and .npz carry their own, positions are named by "
-                   "their header or --joints, matrices need none)")
+        warn(
+            args,
+            f"--skeleton does nothing for {Path(name).name}: only AMC files take an "
+            "ASF skeleton (BVH, C3D and .npz carry their own, positions are named by "
+            "their header or --joints, matrices need none)",
+        )
 
 
 def run(args) -> int:

@@ -39,19 +39,27 @@ def _plain(text: str) -> str:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--config", metavar="FILE.toml",
-                        help="TOML file with tables [daemon], [lof], [aca]")
-    parser.add_argument("--log-level", default="INFO",
-                        choices=["DEBUG", "INFO", "WARNING", "ERROR"])
-    parser.add_argument("--http", metavar="HOST:PORT",
-                        help="also serve the live web page (streamseg view) at this address, "
-                             "e.g. 127.0.0.1:8765 (needs the view extra)")
+    parser.add_argument(
+        "--config", metavar="FILE.toml", help="TOML file with tables [daemon], [lof], [aca]"
+    )
+    parser.add_argument(
+        "--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"]
+    )
+    parser.add_argument(
+        "--http",
+        metavar="HOST:PORT",
+        help="also serve the live web page (streamseg view) at this address, "
+        "e.g. 127.0.0.1:8765 (needs the view extra)",
+    )
     from streamseg.commands.lsl import add_lsl_source_arguments
 
     lsl = parser.add_argument_group("Lab Streaming Layer (needs the lsl extra)")
-    lsl.add_argument("--lsl-markers", action="store_true",
-                     help="publish cut, segments, rep and closed events as an LSL marker "
-                          "stream (type Markers), stamped with the LSL time of their frame")
+    lsl.add_argument(
+        "--lsl-markers",
+        action="store_true",
+        help="publish cut, segments, rep and closed events as an LSL marker "
+        "stream (type Markers), stamped with the LSL time of their frame",
+    )
     add_lsl_source_arguments(lsl, prefix="lsl-")
     described = field_help(DaemonConfig)
     said: dict = {}  # a paragraph shared by several options is printed once, at the first
@@ -66,17 +74,32 @@ def add_arguments(parser) -> None:
         default = "" if f.name == "state_dir" else f" (default {f.default!r})"
         text = f"{para}{default}".strip().replace("%", "%%")
         if kind is bool:
-            parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                                action=argparse.BooleanOptionalAction, help=text)
+            parser.add_argument(
+                "--" + f.name.replace("_", "-"),
+                dest=f.name,
+                default=None,
+                action=argparse.BooleanOptionalAction,
+                help=text,
+            )
             continue
         if kind is tuple:  # a list: the option is repeated
-            parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                                action="append", metavar="ENDPOINT",
-                                help=f"{para} (repeatable)".replace("%", "%%"))
+            parser.add_argument(
+                "--" + f.name.replace("_", "-"),
+                dest=f.name,
+                default=None,
+                action="append",
+                metavar="ENDPOINT",
+                help=f"{para} (repeatable)".replace("%", "%%"),
+            )
             continue
-        parser.add_argument("--" + f.name.replace("_", "-"), dest=f.name, default=None,
-                            type=kind, metavar={"state_dir": "DIR", "markers": "MAP.toml"}.get(
-                                f.name, kind.__name__.upper()), help=text)
+        parser.add_argument(
+            "--" + f.name.replace("_", "-"),
+            dest=f.name,
+            default=None,
+            type=kind,
+            metavar={"state_dir": "DIR", "markers": "MAP.toml"}.get(f.name, kind.__name__.upper()),
+            help=text,
+        )
 
 
 def build(args):
@@ -87,8 +110,11 @@ def build(args):
     config, lof, aca, rep = DaemonConfig(), None, None, None
     if args.config:
         config, lof, aca, rep = load_config(args.config)
-    overrides = {f.name: getattr(args, f.name) for f in dataclasses.fields(DaemonConfig)
-                 if getattr(args, f.name, None) is not None}
+    overrides = {
+        f.name: getattr(args, f.name)
+        for f in dataclasses.fields(DaemonConfig)
+        if getattr(args, f.name, None) is not None
+    }
     if "subscribe" in overrides:  # given on the command line too: both lists
         overrides["subscribe"] = (*config.subscribe, *overrides["subscribe"])
     config = dataclasses.replace(config, **overrides)
@@ -116,16 +142,19 @@ def _check_before_binding(args, config) -> None:
         path = Path(config.state_dir).expanduser()
         existing = next((p for p in (path, *path.parents) if p.exists()), None)
         if existing is not None and not existing.is_dir():
-            raise ParameterError(f"--state-dir {config.state_dir}: {existing} is a file, not a "
-                                 "folder: give a folder for the event log and checkpoints "
-                                 "(created if missing), or none")
+            raise ParameterError(
+                f"--state-dir {config.state_dir}: {existing} is a file, not a "
+                "folder: give a folder for the event log and checkpoints "
+                "(created if missing), or none"
+            )
 
 
 def run(args) -> int:
     from streamseg.daemon import Daemon
 
-    logging.basicConfig(level=args.log_level,
-                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    logging.basicConfig(
+        level=args.log_level, format="%(asctime)s %(name)s %(levelname)s %(message)s"
+    )
     config, algorithms = build(args)
     _check_before_binding(args, config)
     view_keys = None
@@ -144,8 +173,9 @@ def run(args) -> int:
     if getattr(args, "http", None):
         from streamseg.commands.view import start_view
 
-        view = start_view(endpoints["publish"], endpoints.get("control"), args.http,
-                          curve=view_keys)
+        view = start_view(
+            endpoints["publish"], endpoints.get("control"), args.http, curve=view_keys
+        )
         print(f"streamseg serve: live view {view.url}", flush=True)
     try:
         return daemon.run()
@@ -175,8 +205,9 @@ def _start_lsl(args, daemon, endpoints: dict, curve) -> list:
             st = daemon.streams.get(stream)
             return None if st is None or st.t0 is None else st.time_of(frame)
 
-        parts.append(MarkerOutlet(endpoints["publish"], endpoints["control"], time_of,
-                                  curve=curve).start())
+        parts.append(
+            MarkerOutlet(endpoints["publish"], endpoints["control"], time_of, curve=curve).start()
+        )
         print("streamseg serve: LSL marker stream 'streamseg' (type Markers)", flush=True)
     if args.lsl_type or args.lsl_name or args.lsl_source_id:
         from streamseg.lsl.bridge import Bridge
@@ -184,8 +215,17 @@ def _start_lsl(args, daemon, endpoints: dict, curve) -> list:
         def say(line):
             print(f"streamseg serve: {line}", flush=True)
 
-        parts.append(Bridge(endpoints["ingest"], args.lsl_type, args.lsl_name,
-                            args.lsl_source_id, args.lsl_up, curve=curve,
-                            on_error=lambda m: say(f"error: {m}"), on_open=say,
-                            markers=daemon.algorithms.markers).start())
+        parts.append(
+            Bridge(
+                endpoints["ingest"],
+                args.lsl_type,
+                args.lsl_name,
+                args.lsl_source_id,
+                args.lsl_up,
+                curve=curve,
+                on_error=lambda m: say(f"error: {m}"),
+                on_open=say,
+                markers=daemon.algorithms.markers,
+            ).start()
+        )
     return parts

@@ -12,5 +12,11 @@ from streamseg.config.daemon import DaemonConfig
 from streamseg.config.lof import LOFConfig
 from streamseg.config.repetitions import RepetitionConfig
 
-__all__ = ["ACAConfig", "DaemonConfig", "LOFConfig", "RepetitionConfig", "_check",
-           "config_from_dict"]
+__all__ = [
+    "ACAConfig",
+    "DaemonConfig",
+    "LOFConfig",
+    "RepetitionConfig",
+    "_check",
+    "config_from_dict",
+]

@@ -69,37 +69,88 @@ class ACAConfig:
         def is_int(v):
             return isinstance(v, int) and not isinstance(v, bool)
 
-        _check("n_clusters", self.n_clusters, self.n_clusters is None or (
-            is_int(self.n_clusters) and self.n_clusters >= 1), "None or an integer >= 1")
+        _check(
+            "n_clusters",
+            self.n_clusters,
+            self.n_clusters is None or (is_int(self.n_clusters) and self.n_clusters >= 1),
+            "None or an integer >= 1",
+        )
         _check("k_max", self.k_max, is_int(self.k_max) and self.k_max >= 2, "an integer >= 2")
-        _check("min_len_s", self.min_len_s, isinstance(self.min_len_s, (int, float))
-               and self.min_len_s > 0, "a length > 0 seconds")
-        _check("max_len_s", self.max_len_s, isinstance(self.max_len_s, (int, float))
-               and self.max_len_s >= self.min_len_s,
-               f"a length >= min_len_s={self.min_len_s} seconds")
-        _check("kernel", self.kernel, self.kernel in ("gaussian", "equality"),
-               "'gaussian' or 'equality'")
-        _check("sigma", self.sigma, self.sigma is None or (
-            isinstance(self.sigma, (int, float)) and self.sigma > 0), "None or a number > 0")
+        _check(
+            "min_len_s",
+            self.min_len_s,
+            isinstance(self.min_len_s, (int, float)) and self.min_len_s > 0,
+            "a length > 0 seconds",
+        )
+        _check(
+            "max_len_s",
+            self.max_len_s,
+            isinstance(self.max_len_s, (int, float)) and self.max_len_s >= self.min_len_s,
+            f"a length >= min_len_s={self.min_len_s} seconds",
+        )
+        _check(
+            "kernel",
+            self.kernel,
+            self.kernel in ("gaussian", "equality"),
+            "'gaussian' or 'equality'",
+        )
+        _check(
+            "sigma",
+            self.sigma,
+            self.sigma is None or (isinstance(self.sigma, (int, float)) and self.sigma > 0),
+            "None or a number > 0",
+        )
         _check("n_init", self.n_init, is_int(self.n_init) and self.n_init >= 1, "an integer >= 1")
-        _check("max_iter", self.max_iter, is_int(self.max_iter) and self.max_iter >= 1,
-               "an integer >= 1")
-        _check("init", self.init, self.init in ("random", "propagated"),
-               "'random' or 'propagated'")
-        _check("k_reduce", self.k_reduce, self.k_reduce is None or (
-            is_int(self.k_reduce) and self.k_reduce >= 2), "None or an integer >= 2")
-        _check("reduce_cap", self.reduce_cap, isinstance(self.reduce_cap, (int, float))
-               and self.reduce_cap > 0, "a duration > 0 seconds")
-        _check("hierarchical", self.hierarchical, isinstance(self.hierarchical, bool),
-               "True or False")
-        _check("fine_clusters", self.fine_clusters,
-               is_int(self.fine_clusters) and self.fine_clusters >= 1, "an integer >= 1")
-        _check("fine_min_len_s", self.fine_min_len_s, isinstance(self.fine_min_len_s, (int, float))
-               and self.fine_min_len_s > 0, "a length > 0 seconds")
-        _check("fine_max_len_s", self.fine_max_len_s, isinstance(self.fine_max_len_s, (int, float))
-               and self.fine_max_len_s >= self.fine_min_len_s,
-               f"a length >= fine_min_len_s={self.fine_min_len_s} seconds")
-        _check("coarse_kernel", self.coarse_kernel, self.coarse_kernel in ("labels", "dtak"),
-               "'labels' or 'dtak'")
-        _check("random_state", self.random_state, self.random_state is None
-               or is_int(self.random_state), "None or an integer seed")
+        _check(
+            "max_iter",
+            self.max_iter,
+            is_int(self.max_iter) and self.max_iter >= 1,
+            "an integer >= 1",
+        )
+        _check("init", self.init, self.init in ("random", "propagated"), "'random' or 'propagated'")
+        _check(
+            "k_reduce",
+            self.k_reduce,
+            self.k_reduce is None or (is_int(self.k_reduce) and self.k_reduce >= 2),
+            "None or an integer >= 2",
+        )
+        _check(
+            "reduce_cap",
+            self.reduce_cap,
+            isinstance(self.reduce_cap, (int, float)) and self.reduce_cap > 0,
+            "a duration > 0 seconds",
+        )
+        _check(
+            "hierarchical", self.hierarchical, isinstance(self.hierarchical, bool), "True or False"
+        )
+        _check(
+            "fine_clusters",
+            self.fine_clusters,
+            is_int(self.fine_clusters) and self.fine_clusters >= 1,
+            "an integer >= 1",
+        )
+        _check(
+            "fine_min_len_s",
+            self.fine_min_len_s,
+            isinstance(self.fine_min_len_s, (int, float)) and self.fine_min_len_s > 0,
+            "a length > 0 seconds",
+        )
+        _check(
+            "fine_max_len_s",
+            self.fine_max_len_s,
+            isinstance(self.fine_max_len_s, (int, float))
+            and self.fine_max_len_s >= self.fine_min_len_s,
+            f"a length >= fine_min_len_s={self.fine_min_len_s} seconds",
+        )
+        _check(
+            "coarse_kernel",
+            self.coarse_kernel,
+            self.coarse_kernel in ("labels", "dtak"),
+            "'labels' or 'dtak'",
+        )
+        _check(
+            "random_state",
+            self.random_state,
+            self.random_state is None or is_int(self.random_state),
+            "None or an integer seed",
+        )

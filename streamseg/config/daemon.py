@@ -151,24 +151,47 @@ class DaemonConfig:
         )
         if isinstance(self.subscribe, list):  # TOML gives a list
             object.__setattr__(self, "subscribe", tuple(self.subscribe))
-        _check("subscribe", self.subscribe, isinstance(self.subscribe, tuple) and all(
-            isinstance(e, str) and "://" in e for e in self.subscribe),
-            'a list of endpoints, e.g. ["tcp://127.0.0.1:5570"]')
-        _check("relabel_processes", self.relabel_processes,
-               type(self.relabel_processes) is int and self.relabel_processes >= 0,
-               "an integer >= 0")
-        _check("relabel_backend", self.relabel_backend,
-               self.relabel_backend in ("thread", "process", "dask"),
-               'one of "thread", "process", "dask"')
-        _check("relabel_scheduler", self.relabel_scheduler,
-               isinstance(self.relabel_scheduler, str)
-               and (self.relabel_scheduler == "" or "://" in self.relabel_scheduler),
-               'a scheduler address like tcp://127.0.0.1:8786, or "" (a local cluster)')
-        _check("relabel_share", self.relabel_share,
-               isinstance(self.relabel_share, (int, float)) and 0 < self.relabel_share <= 1,
-               "a fraction in (0, 1]")
-        for name in ("max_streams", "max_packet_frames", "drain", "drain_frames", "hwm",
-                     "ingest_hwm", "subscribe_hwm"):
+        _check(
+            "subscribe",
+            self.subscribe,
+            isinstance(self.subscribe, tuple)
+            and all(isinstance(e, str) and "://" in e for e in self.subscribe),
+            'a list of endpoints, e.g. ["tcp://127.0.0.1:5570"]',
+        )
+        _check(
+            "relabel_processes",
+            self.relabel_processes,
+            type(self.relabel_processes) is int and self.relabel_processes >= 0,
+            "an integer >= 0",
+        )
+        _check(
+            "relabel_backend",
+            self.relabel_backend,
+            self.relabel_backend in ("thread", "process", "dask"),
+            'one of "thread", "process", "dask"',
+        )
+        _check(
+            "relabel_scheduler",
+            self.relabel_scheduler,
+            isinstance(self.relabel_scheduler, str)
+            and (self.relabel_scheduler == "" or "://" in self.relabel_scheduler),
+            'a scheduler address like tcp://127.0.0.1:8786, or "" (a local cluster)',
+        )
+        _check(
+            "relabel_share",
+            self.relabel_share,
+            isinstance(self.relabel_share, (int, float)) and 0 < self.relabel_share <= 1,
+            "a fraction in (0, 1]",
+        )
+        for name in (
+            "max_streams",
+            "max_packet_frames",
+            "drain",
+            "drain_frames",
+            "hwm",
+            "ingest_hwm",
+            "subscribe_hwm",
+        ):
             v = getattr(self, name)
             _check(
                 name,
@@ -198,39 +221,81 @@ class DaemonConfig:
             isinstance(self.default_skeleton, str),
             'a path to an ASF file or ""',
         )
-        _check("default_up", self.default_up, self.default_up in UP_AXES,
-               f"one of {', '.join(UP_AXES)}")
-        _check("repetitions", self.repetitions, isinstance(self.repetitions, bool),
-               "true or false")
-        _check("label_memory", self.label_memory, isinstance(self.label_memory, bool),
-               "true or false")
+        _check(
+            "default_up",
+            self.default_up,
+            self.default_up in UP_AXES,
+            f"one of {', '.join(UP_AXES)}",
+        )
+        _check("repetitions", self.repetitions, isinstance(self.repetitions, bool), "true or false")
+        _check(
+            "label_memory", self.label_memory, isinstance(self.label_memory, bool), "true or false"
+        )
         _check("insecure", self.insecure, isinstance(self.insecure, bool), "true or false")
         for name in ("state_dir", "curve_dir"):
-            _check(name, getattr(self, name), isinstance(getattr(self, name), str),
-                   'a directory path or ""')
-        _check("markers", self.markers, isinstance(self.markers, str),
-               'the path of a marker map (TOML) or ""')
-        for name in ("log_max_mb", "log_max_days", "max_seq_jump", "min_fps", "max_fps",
-                     "gap_events_per_s", "stray_errors_per_s"):
+            _check(
+                name,
+                getattr(self, name),
+                isinstance(getattr(self, name), str),
+                'a directory path or ""',
+            )
+        _check(
+            "markers",
+            self.markers,
+            isinstance(self.markers, str),
+            'the path of a marker map (TOML) or ""',
+        )
+        for name in (
+            "log_max_mb",
+            "log_max_days",
+            "max_seq_jump",
+            "min_fps",
+            "max_fps",
+            "gap_events_per_s",
+            "stray_errors_per_s",
+        ):
             v = getattr(self, name)
-            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
-                   "a number > 0")
-        _check("gap_fill", self.gap_fill, isinstance(self.gap_fill, (int, float))
-               and not isinstance(self.gap_fill, bool) and 0 <= self.gap_fill <= 60,
-               "seconds >= 0 (0: fill no gap)")
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
+                "a number > 0",
+            )
+        _check(
+            "gap_fill",
+            self.gap_fill,
+            isinstance(self.gap_fill, (int, float))
+            and not isinstance(self.gap_fill, bool)
+            and 0 <= self.gap_fill <= 60,
+            "seconds >= 0 (0: fill no gap)",
+        )
         for name in ("settle", "focus"):
             v = getattr(self, name)
-            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
-                   and 0 <= v <= 600, "seconds in [0, 600]")
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v <= 600,
+                "seconds in [0, 600]",
+            )
         _check("max_fps", self.max_fps, self.max_fps >= self.min_fps, "a number >= min_fps")
-        _check("checkpoint_interval", self.checkpoint_interval,
-               isinstance(self.checkpoint_interval, (int, float)) and self.checkpoint_interval >= 0,
-               "a number >= 0 (seconds; 0 turns it off)")
+        _check(
+            "checkpoint_interval",
+            self.checkpoint_interval,
+            isinstance(self.checkpoint_interval, (int, float)) and self.checkpoint_interval >= 0,
+            "a number >= 0 (seconds; 0 turns it off)",
+        )
         for name in ("max_message_bytes", "max_streams_per_client"):
             v = getattr(self, name)
-            _check(name, v, type(v) is int and v >= (name == "max_message_bytes"),
-                   "an integer >= 1" if name == "max_message_bytes" else "an integer >= 0")
-        _check("ingest_bytes", self.ingest_bytes, type(self.ingest_bytes) is int
-               and self.ingest_bytes >= 4 * self.max_message_bytes,
-               f"an integer >= 4 x max_message_bytes ({4 * self.max_message_bytes}): lower "
-               "max_message_bytes for a smaller budget")
+            _check(
+                name,
+                v,
+                type(v) is int and v >= (name == "max_message_bytes"),
+                "an integer >= 1" if name == "max_message_bytes" else "an integer >= 0",
+            )
+        _check(
+            "ingest_bytes",
+            self.ingest_bytes,
+            type(self.ingest_bytes) is int and self.ingest_bytes >= 4 * self.max_message_bytes,
+            f"an integer >= 4 x max_message_bytes ({4 * self.max_message_bytes}): lower "
+            "max_message_bytes for a smaller budget",
+        )

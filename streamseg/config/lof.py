@@ -132,27 +132,50 @@ class LOFConfig:
         _check("min_valid", self.min_valid, 0 < self.min_valid <= 1, "a fraction in (0, 1]")
         _check("exclusion", self.exclusion, self.exclusion >= 0, "a number of windows >= 0")
         _check("refine_s", self.refine_s, self.refine_s >= 0, "a search radius >= 0 seconds")
-        _check("min_contrast", self.min_contrast, 0 <= self.min_contrast <= 1,
-               "a cosine distance in [0, 1]")
-        _check("contrast_s", self.contrast_s, self.contrast_s > 0,
-               "a contrast window > 0 seconds")
-        _check("inclinations", self.inclinations, isinstance(self.inclinations, bool),
-               "true or false")
-        _check("speed_max", self.speed_max, self.speed_max >= 0,
-               "a speed >= 0 rad/s (0: no speed columns)")
+        _check(
+            "min_contrast",
+            self.min_contrast,
+            0 <= self.min_contrast <= 1,
+            "a cosine distance in [0, 1]",
+        )
+        _check("contrast_s", self.contrast_s, self.contrast_s > 0, "a contrast window > 0 seconds")
+        _check(
+            "inclinations", self.inclinations, isinstance(self.inclinations, bool), "true or false"
+        )
+        _check(
+            "speed_max",
+            self.speed_max,
+            self.speed_max >= 0,
+            "a speed >= 0 rad/s (0: no speed columns)",
+        )
         _check("speed_lag_s", self.speed_lag_s, self.speed_lag_s > 0, "a lag > 0 seconds")
-        _check("root_speed_max", self.root_speed_max, self.root_speed_max >= 0,
-               "a speed >= 0 body scales/s (0: no root-speed columns)")
+        _check(
+            "root_speed_max",
+            self.root_speed_max,
+            self.root_speed_max >= 0,
+            "a speed >= 0 body scales/s (0: no root-speed columns)",
+        )
         _check("root_jump", self.root_jump, self.root_jump > 0, "a speed > 0 body scales/s")
-        _check("novelty", self.novelty, 0 <= self.novelty <= 1,
-               "a cosine distance in [0, 1] (0: no novelty check)")
-        _check("peak_rule", self.peak_rule, self.peak_rule in PEAK_RULES,
-               " or ".join(repr(r) for r in PEAK_RULES))
+        _check(
+            "novelty",
+            self.novelty,
+            0 <= self.novelty <= 1,
+            "a cosine distance in [0, 1] (0: no novelty check)",
+        )
+        _check(
+            "peak_rule",
+            self.peak_rule,
+            self.peak_rule in PEAK_RULES,
+            " or ".join(repr(r) for r in PEAK_RULES),
+        )
         e = self.early_delay_s
-        _check("early_delay_s", e, e is None or (isinstance(e, numbers.Real)
-                                                  and not isinstance(e, bool)
-                                                  and 0 <= e < self.delay_s),
-               "None or 0 (one stage) or a delay >= 0 and < delay_s seconds")
+        _check(
+            "early_delay_s",
+            e,
+            e is None
+            or (isinstance(e, numbers.Real) and not isinstance(e, bool) and 0 <= e < self.delay_s),
+            "None or 0 (one stage) or a delay >= 0 and < delay_s seconds",
+        )
 
     @property
     def n_features(self) -> int:
@@ -192,12 +215,25 @@ class LOFConfig:
         windows, the smallest that lets the live rule see both sides of a peak); why:
         ``docs/decisions.md`` (Cuts, the paper preset). Offline and live cuts are equal.
         """
-        values = dict(window_s=500 / 120, step_s=45 / 120, bins=10, k=20, exclusion=0.0,
-                      refine_s=0.0, inclinations=False, min_contrast=0.0, speed_max=0.0,
-                      novelty=0.0, peak_rule="paper", min_score=0.0, threshold_mads=0.0,
-                      root_speed_max=0.0,
-                      min_gap_s=0.0, dp_tolerance=PAPER_TOLERANCE,
-                      delay_s=(6 + 20) * 45 / 120)
+        values = dict(
+            window_s=500 / 120,
+            step_s=45 / 120,
+            bins=10,
+            k=20,
+            exclusion=0.0,
+            refine_s=0.0,
+            inclinations=False,
+            min_contrast=0.0,
+            speed_max=0.0,
+            novelty=0.0,
+            peak_rule="paper",
+            min_score=0.0,
+            threshold_mads=0.0,
+            root_speed_max=0.0,
+            min_gap_s=0.0,
+            dp_tolerance=PAPER_TOLERANCE,
+            delay_s=(6 + 20) * 45 / 120,
+        )
         values.update(overrides)
         return cls(**values)
 
@@ -219,12 +255,12 @@ class LOFConfig:
         step = max(1, min(window, int(round(self.step_s * fps))))
         delay = max(1, int(round(self.delay_s * fps / step)))
         # the early stage (0: off); at a low rate it may round to the confirming delay
-        early = 0 if not self.early_delay_s else max(1, int(round(self.early_delay_s * fps
-                                                                    / step)))
+        early = 0 if not self.early_delay_s else max(1, int(round(self.early_delay_s * fps / step)))
         if early >= delay:
             raise ParameterError(
                 f"early_delay_s={self.early_delay_s!r} is {early} windows at {fps:g} Hz, not "
-                f"fewer than delay_s's {delay}: lower early_delay_s or raise delay_s")
+                f"fewer than delay_s's {delay}: lower early_delay_s or raise delay_s"
+            )
         # the peak rule needs delay windows on both sides of the window it decides
         capacity = max(self.k + 2, 2 * delay + 1, int(round(self.buffer_s * fps / step)))
         refine = int(round(self.refine_s * fps))
@@ -232,14 +268,27 @@ class LOFConfig:
         # centre; localisation looks refine + window frames before that centre
         contrast = max(1, int(round(self.contrast_s * fps)))
         # the contrast and the novelty check read contrast frames before/after the cut: held
-        back = max(window if refine else 0,
-                   contrast if self.min_contrast > 0 or self.novelty > 0 else 0)
+        back = max(
+            window if refine else 0, contrast if self.min_contrast > 0 or self.novelty > 0 else 0
+        )
         history = window if back == 0 else delay * step + window + refine + back + 1
         _bounded(fps, "window", window, MAX_WINDOW_FRAMES, "frames", "window_s (--window)")
-        _bounded(fps, "LOF buffer", capacity, MAX_BUFFER_WINDOWS, "windows",
-                 "buffer_s (--buffer), k (--k) or delay_s (--delay), or raise step_s (--step)")
-        _bounded(fps, "frame history", history, MAX_HISTORY_FRAMES, "frames",
-                 "delay_s (--delay), refine_s (--refine) or contrast_s (--contrast)")
+        _bounded(
+            fps,
+            "LOF buffer",
+            capacity,
+            MAX_BUFFER_WINDOWS,
+            "windows",
+            "buffer_s (--buffer), k (--k) or delay_s (--delay), or raise step_s (--step)",
+        )
+        _bounded(
+            fps,
+            "frame history",
+            history,
+            MAX_HISTORY_FRAMES,
+            "frames",
+            "delay_s (--delay), refine_s (--refine) or contrast_s (--contrast)",
+        )
         return dict(
             window=window,
             step=step,
@@ -268,21 +317,26 @@ def _bounded(fps, what, value, limit, unit, lower) -> None:
     if value > limit:
         raise ParameterError(
             f"at {fps:g} Hz these settings make a {what} of {value:,} {unit}, more than the "
-            f"{limit:,} one detector holds: check the frame rate (--fps) or lower {lower}")
+            f"{limit:,} one detector holds: check the frame rate (--fps) or lower {lower}"
+        )
 
 
 def feature_width(config: LOFConfig, n_features) -> int:
     """Columns per frame a segmenter takes: ``n_features`` (validated) or ``config.n_features``."""
     if n_features is None:
         return config.n_features
-    if isinstance(n_features, bool) or not isinstance(n_features, numbers.Integral) \
-            or n_features < 1:
+    if (
+        isinstance(n_features, bool)
+        or not isinstance(n_features, numbers.Integral)
+        or n_features < 1
+    ):
         raise ParameterError(f"n_features={n_features!r} is invalid: expected an int >= 1")
     if n_features <= config.root_columns:
         raise ParameterError(
             f"n_features={n_features!r} is invalid: the last {config.root_columns} columns are "
             f"root speeds (root_speed_max={config.root_speed_max:g}); expected more than "
-            f"{config.root_columns}, or LOFConfig(root_speed_max=0)")
+            f"{config.root_columns}, or LOFConfig(root_speed_max=0)"
+        )
     return int(n_features)
 
 
@@ -293,13 +347,20 @@ def width_message(shape, d: int, config: LOFConfig, n_features, row: bool = Fals
     msg = f"{name} has shape {shape}; expected {want}"
     if n_features is not None:
         return msg
-    msg += (f": the config's features, streamseg.skeleton.bone_angles(..., "
-            f"inclinations={config.inclinations})")
+    msg += (
+        f": the config's features, streamseg.skeleton.bone_angles(..., "
+        f"inclinations={config.inclinations})"
+    )
     if config.root_columns:
-        msg += (" then the 2 root-speed columns (streamseg.offline.lof_features(recording) makes "
-                "both; LOFConfig(root_speed_max=0) takes the bone features alone)")
+        msg += (
+            " then the 2 root-speed columns (streamseg.offline.lof_features(recording) makes "
+            "both; LOFConfig(root_speed_max=0) takes the bone features alone)"
+        )
     other = not config.inclinations
-    if len(shape) in (1, 2) and shape[-1] == LOFConfig(
-            inclinations=other, root_speed_max=config.root_speed_max).n_features:
+    if (
+        len(shape) in (1, 2)
+        and shape[-1]
+        == LOFConfig(inclinations=other, root_speed_max=config.root_speed_max).n_features
+    ):
         msg += f"; {shape[-1]} columns are for LOFConfig(inclinations={other})"
     return msg

@@ -64,28 +64,56 @@ class LabelMemoryConfig:
         def is_int(v):
             return isinstance(v, int) and not isinstance(v, bool)
 
-        _check("max_ids", self.max_ids, is_int(self.max_ids) and self.max_ids >= 1,
-               "an integer >= 1")
-        _check("per_id", self.per_id, is_int(self.per_id) and self.per_id >= 1,
-               "an integer >= 1")
-        _check("exemplar_s", self.exemplar_s, isinstance(self.exemplar_s, (int, float))
-               and not isinstance(self.exemplar_s, bool) and self.exemplar_s > 0,
-               "a length > 0 seconds")
-        _check("rate_hz", self.rate_hz, isinstance(self.rate_hz, (int, float))
-               and not isinstance(self.rate_hz, bool) and self.rate_hz > 0, "a rate > 0 Hz")
+        _check(
+            "max_ids", self.max_ids, is_int(self.max_ids) and self.max_ids >= 1, "an integer >= 1"
+        )
+        _check("per_id", self.per_id, is_int(self.per_id) and self.per_id >= 1, "an integer >= 1")
+        _check(
+            "exemplar_s",
+            self.exemplar_s,
+            isinstance(self.exemplar_s, (int, float))
+            and not isinstance(self.exemplar_s, bool)
+            and self.exemplar_s > 0,
+            "a length > 0 seconds",
+        )
+        _check(
+            "rate_hz",
+            self.rate_hz,
+            isinstance(self.rate_hz, (int, float))
+            and not isinstance(self.rate_hz, bool)
+            and self.rate_hz > 0,
+            "a rate > 0 Hz",
+        )
         for name in ("merge_present", "merge_adjacent"):
-            _check(name, getattr(self, name), isinstance(getattr(self, name), bool),
-                   "True or False")
+            _check(
+                name, getattr(self, name), isinstance(getattr(self, name), bool), "True or False"
+            )
         for name in ("recall_ratio", "recall_margin", "merge_ratio", "merge_margin"):
             v = getattr(self, name)
-            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
-                   and 0 <= v < float("inf"), "a finite number >= 0")
-        _check("recall_confirm", self.recall_confirm, self.recall_confirm in (1, 2)
-               and is_int(self.recall_confirm), "1 or 2")
-        _check("recall_pieces", self.recall_pieces, is_int(self.recall_pieces)
-               and self.recall_pieces >= 2, "an integer >= 2")
-        _check("recall_within", self.recall_within, is_int(self.recall_within)
-               and self.recall_within >= 1, "an integer >= 1")
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v < float("inf"),
+                "a finite number >= 0",
+            )
+        _check(
+            "recall_confirm",
+            self.recall_confirm,
+            self.recall_confirm in (1, 2) and is_int(self.recall_confirm),
+            "1 or 2",
+        )
+        _check(
+            "recall_pieces",
+            self.recall_pieces,
+            is_int(self.recall_pieces) and self.recall_pieces >= 2,
+            "an integer >= 2",
+        )
+        _check(
+            "recall_within",
+            self.recall_within,
+            is_int(self.recall_within) and self.recall_within >= 1,
+            "an integer >= 1",
+        )
 
     def max_bytes(self, n_features: int) -> int:
         """Upper bound of one stream's memory in bytes for ``n_features`` features."""

@@ -100,25 +100,60 @@ class RepetitionConfig:
     buffer_s: float = 20.0
 
     def __post_init__(self):
-        for name in ("lowpass_hz", "lowpass_low_rate_hz", "low_rate_fps", "rate_hz",
-                     "min_amplitude", "rise_min", "pause_s", "max_cycle_s",
-                     "timeout_cycles", "anchor_gap_s", "buffer_s", "max_dissimilarity",
-                     "start_tempo_ratio"):
+        for name in (
+            "lowpass_hz",
+            "lowpass_low_rate_hz",
+            "low_rate_fps",
+            "rate_hz",
+            "min_amplitude",
+            "rise_min",
+            "pause_s",
+            "max_cycle_s",
+            "timeout_cycles",
+            "anchor_gap_s",
+            "buffer_s",
+            "max_dissimilarity",
+            "start_tempo_ratio",
+        ):
             v = getattr(self, name)
-            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
-                   "a number > 0")
-        for name in ("return_ratio", "rise_ratio", "rest_level", "amplitude_ratio",
-                     "spread_ratio", "end_return_ratio", "still_ratio", "edge_ratio",
-                     "resume_dissimilarity"):
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
+                "a number > 0",
+            )
+        for name in (
+            "return_ratio",
+            "rise_ratio",
+            "rest_level",
+            "amplitude_ratio",
+            "spread_ratio",
+            "end_return_ratio",
+            "still_ratio",
+            "edge_ratio",
+            "resume_dissimilarity",
+        ):
             v = getattr(self, name)
-            _check(name, v, isinstance(v, (int, float)) and not isinstance(v, bool)
-                   and 0 <= v <= 1, "a number in [0, 1]")
+            _check(
+                name,
+                v,
+                isinstance(v, (int, float)) and not isinstance(v, bool) and 0 <= v <= 1,
+                "a number in [0, 1]",
+            )
         for name in ("resample", "max_anchors"):
             v = getattr(self, name)
-            _check(name, v, isinstance(v, int) and not isinstance(v, bool) and v >= 2,
-                   "an integer >= 2")
+            _check(
+                name,
+                v,
+                isinstance(v, int) and not isinstance(v, bool) and v >= 2,
+                "an integer >= 2",
+            )
         for name in ("extend_edges", "lag_compensation"):
             v = getattr(self, name)
             _check(name, v, isinstance(v, bool), "true or false")
-        _check("buffer_s", self.buffer_s, self.buffer_s >= 2 * self.max_cycle_s,
-               f"at least 2 x max_cycle_s ({2 * self.max_cycle_s:g} s)")
+        _check(
+            "buffer_s",
+            self.buffer_s,
+            self.buffer_s >= 2 * self.max_cycle_s,
+            f"at least 2 x max_cycle_s ({2 * self.max_cycle_s:g} s)",
+        )

@@ -51,9 +51,9 @@ def merge_alternations(segments) -> list:
                     j += 1
                     break
             if partners >= 2:
-                for run in runs[i + 1:j + 1]:
+                for run in runs[i + 1 : j + 1]:
                     runs[i][1] += run[1]
-                del runs[i + 1:j + 1]
+                del runs[i + 1 : j + 1]
                 continue  # the merged run may start another alternation
         i += 1
     out = list(segments)

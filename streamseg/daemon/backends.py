@@ -18,8 +18,7 @@ def relabel_worker(algorithms, config):
     if backend == "dask":
         from streamseg.daemon.dask_worker import DaskRelabelWorker
 
-        return DaskRelabelWorker(algorithms, config.relabel_scheduler,
-                                 share=config.relabel_share)
+        return DaskRelabelWorker(algorithms, config.relabel_scheduler, share=config.relabel_share)
     processes = config.relabel_processes
     if backend == "process":
         processes = max(processes, 1)

@@ -160,7 +160,8 @@ def restored(store, algorithms):
             pipe.plan = algorithms.prepare(pipe.skeleton)
             st.pipeline = pipe
         except Exception as err:
-            log.error("checkpoint of %s could not be restored (%s: %s)", stream,
-                      type(err).__name__, err)
+            log.error(
+                "checkpoint of %s could not be restored (%s: %s)", stream, type(err).__name__, err
+            )
             continue
         yield st

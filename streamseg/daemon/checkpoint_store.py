@@ -78,8 +78,9 @@ class CheckpointStore:
             self._open()
         except sqlite3.DatabaseError as err:  # e.g. torn by a power loss (synchronous OFF)
             aside = self.path.with_name(f"checkpoints.corrupt-{int(time.time())}.sqlite")
-            log.warning("%s is damaged (%s): moved to %s, no stream restored", self.path, err,
-                        aside.name)
+            log.warning(
+                "%s is damaged (%s): moved to %s, no stream restored", self.path, err, aside.name
+            )
             if self._db is not None:
                 self._db.close()
             for suffix in ("", "-wal", "-shm"):
@@ -101,8 +102,7 @@ class CheckpointStore:
         self.bytes = 0
         self.write_seconds = 0.0
         self.cpu_seconds = 0.0
-        self._thread = threading.Thread(target=self._run, name="streamseg-checkpoint",
-                                        daemon=True)
+        self._thread = threading.Thread(target=self._run, name="streamseg-checkpoint", daemon=True)
         self._thread.start()
 
     def _open(self) -> None:
@@ -126,21 +126,39 @@ class CheckpointStore:
         out = []
         for stream, fmt, blob in self._db.execute("SELECT stream, format, blob FROM checkpoints"):
             if fmt not in READS:
-                log.error("checkpoint of %s in %s has format %s; this release reads formats "
-                          "%s: not restored (its take is closed)", stream, self.path, fmt,
-                          ", ".join(map(str, READS)))
+                log.error(
+                    "checkpoint of %s in %s has format %s; this release reads formats "
+                    "%s: not restored (its take is closed)",
+                    stream,
+                    self.path,
+                    fmt,
+                    ", ".join(map(str, READS)),
+                )
                 continue
             try:
-                chunks = dict(self._db.execute("SELECT digest, data FROM chunks WHERE stream = ?",
-                                               (stream,)))
-                out.append((stream, load(msgpack.unpackb(blob, raw=False,
-                                                         strict_map_key=False), chunks, fmt)))
+                chunks = dict(
+                    self._db.execute("SELECT digest, data FROM chunks WHERE stream = ?", (stream,))
+                )
+                out.append(
+                    (
+                        stream,
+                        load(msgpack.unpackb(blob, raw=False, strict_map_key=False), chunks, fmt),
+                    )
+                )
             except StateVersionError as err:  # written by a newer release
-                log.error("checkpoint of %s in %s: %s: not restored (its take is closed)",
-                          stream, self.path, err)
+                log.error(
+                    "checkpoint of %s in %s: %s: not restored (its take is closed)",
+                    stream,
+                    self.path,
+                    err,
+                )
             except Exception as err:  # a damaged row must not stop the daemon
-                log.error("checkpoint of %s unreadable (%s: %s): not restored", stream,
-                          type(err).__name__, err)
+                log.error(
+                    "checkpoint of %s unreadable (%s: %s): not restored",
+                    stream,
+                    type(err).__name__,
+                    err,
+                )
         return out
 
     def put(self, items: list) -> None:
@@ -175,8 +193,9 @@ class CheckpointStore:
         # the cores are saturated, checkpoints come later instead of delaying packets
         try:
             tid = threading.get_native_id()
-            os.setpriority(os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid)
-                                                     + NICE))
+            os.setpriority(
+                os.PRIO_PROCESS, tid, min(19, os.getpriority(os.PRIO_PROCESS, tid) + NICE)
+            )
         except (AttributeError, OSError):
             pass
         while True:
@@ -223,19 +242,23 @@ class CheckpointStore:
             self.free_bytes = shutil.disk_usage(self.path.parent).free
             if packed and self.free_bytes < 2 * size + LOW_WATER:
                 if not self.paused:
-                    log.warning("checkpoints %s paused: %.1f MB free on its disk, the event "
-                                "log has priority (%.0f MB kept free for it); they resume "
-                                "when there is room", self.path, self.free_bytes / 1e6,
-                                LOW_WATER / 1e6)
+                    log.warning(
+                        "checkpoints %s paused: %.1f MB free on its disk, the event "
+                        "log has priority (%.0f MB kept free for it); they resume "
+                        "when there is room",
+                        self.path,
+                        self.free_bytes / 1e6,
+                        LOW_WATER / 1e6,
+                    )
                 self.paused += 1
                 packed, new_chunks, dead, kept = [], [], [], {}  # the deletes still go in
             self._db.execute("BEGIN")
-            self._db.executemany("INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)",
-                                 packed)
+            self._db.executemany(
+                "INSERT OR REPLACE INTO checkpoints VALUES (?, ?, ?, ?, ?)", packed
+            )
             self._db.executemany("INSERT OR IGNORE INTO chunks VALUES (?, ?, ?)", new_chunks)
             self._db.executemany("DELETE FROM chunks WHERE stream = ? AND digest = ?", dead)
-            self._db.executemany("DELETE FROM checkpoints WHERE stream = ?",
-                                 [(s,) for s in gone])
+            self._db.executemany("DELETE FROM checkpoints WHERE stream = ?", [(s,) for s in gone])
             self._db.executemany("DELETE FROM chunks WHERE stream = ?", [(s,) for s in gone])
             self._db.execute("COMMIT")
             self._stored.update(kept)

@@ -38,8 +38,11 @@ class ClosedStreams:
 
     def listing(self, open_ids) -> list:
         """``{stream, closed, frame}`` of each kept stream not open again, oldest first."""
-        return [{"stream": s, "closed": cs.get("closed"), "frame": cs.get("frame")}
-                for s, cs in self.states.items() if s not in open_ids]
+        return [
+            {"stream": s, "closed": cs.get("closed"), "frame": cs.get("frame")}
+            for s, cs in self.states.items()
+            if s not in open_ids
+        ]
 
     def recent(self, now: float) -> list:
         """The ids closed in the last :data:`LAST_SEQ_S` seconds (at ``now``, monotonic)."""

@@ -68,8 +68,14 @@ class Control:
         Without CURVE, the token a state-changing request must carry, and where it is kept.
     """
 
-    def __init__(self, sock: zmq.Socket, view: ControlView, curve: bool,
-                 token: str | None = None, token_file=None):
+    def __init__(
+        self,
+        sock: zmq.Socket,
+        view: ControlView,
+        curve: bool,
+        token: str | None = None,
+        token_file=None,
+    ):
         self.sock, self.view, self.curve = sock, view, curve
         self.token, self.token_file = token, token_file
 
@@ -84,8 +90,11 @@ class Control:
                 req = msgpack.unpackb(parts[-1].bytes, raw=False)
                 reply = self.answer(req, self.may_change(req))
             except Exception as err:  # a bad request gets an error reply, never a crash
-                reply = {"ok": False, "error": f"bad request ({type(err).__name__}: {err}); "
-                                              "send a msgpack map with op (docs/protocol.md)"}
+                reply = {
+                    "ok": False,
+                    "error": f"bad request ({type(err).__name__}: {err}); "
+                    "send a msgpack map with op (docs/protocol.md)",
+                }
             reply["v"] = protocol.PROTOCOL_VERSION
             self.sock.send(msgpack.packb(reply, use_bin_type=True))
 
@@ -103,14 +112,20 @@ class Control:
         view = self.view
         op = req.get("op") if isinstance(req, dict) else None
         if isinstance(req, dict) and req.get("v") != protocol.PROTOCOL_VERSION:
-            return {"ok": False, "error": f"protocol version {req.get('v')!r} is not "
-                                          f"supported: send v={protocol.PROTOCOL_VERSION} "
-                                          "(docs/protocol.md)"}
+            return {
+                "ok": False,
+                "error": f"protocol version {req.get('v')!r} is not "
+                f"supported: send v={protocol.PROTOCOL_VERSION} "
+                "(docs/protocol.md)",
+            }
         if op in CHANGING_OPS and not may_change:
-            return {"ok": False, "error": f"{op} is refused: without CURVE it needs the control "
-                                          "token (auth), which streamseg's clients read from "
-                                          f"{self.token_file or 'the token file'} when they "
-                                          "run as the daemon's user (or STREAMSEG_TOKEN)"}
+            return {
+                "ok": False,
+                "error": f"{op} is refused: without CURVE it needs the control "
+                "token (auth), which streamseg's clients read from "
+                f"{self.token_file or 'the token file'} when they "
+                "run as the daemon's user (or STREAMSEG_TOKEN)",
+            }
         if op == "ping":
             return {"ok": True}
         if op == "hello":
@@ -127,8 +142,11 @@ class Control:
             state = view.stream_state(req.get("stream"))
             if state is not None:
                 return {"ok": True, **state}
-            return {"ok": False, "error": f"no stream {req.get('stream')!r}; open: "
-                                          f"{', '.join(sorted(view.open_ids())[:20]) or 'none'}"}
+            return {
+                "ok": False,
+                "error": f"no stream {req.get('stream')!r}; open: "
+                f"{', '.join(sorted(view.open_ids())[:20]) or 'none'}",
+            }
         if op == "since":
             return self._since(req)
         if op == "logged":
@@ -136,30 +154,40 @@ class Control:
         if op == "checkpoint":
             n = view.checkpoint_now()
             if n is None:
-                return {"ok": False, "error": "checkpoints are off (give --state-dir and a "
-                                              "checkpoint_interval > 0)"}
+                return {
+                    "ok": False,
+                    "error": "checkpoints are off (give --state-dir and a checkpoint_interval > 0)",
+                }
             return {"ok": True, "streams": n}
         if op == "shutdown":
             view.stop()
             return {"ok": True}
-        return {"ok": False, "error": f"unknown op {op!r}; expected ping, hello, streams, "
-                                      "state, since, logged, stats, checkpoint or shutdown"}
+        return {
+            "ok": False,
+            "error": f"unknown op {op!r}; expected ping, hello, streams, "
+            "state, since, logged, stats, checkpoint or shutdown",
+        }
 
     def _since(self, req) -> dict:
         """The logged events of a stream with sequence numbers above ``seq``."""
         stream, seq = req.get("stream"), req.get("seq", 0)
         limit = req.get("limit", SINCE_LIMIT)
         if not isinstance(stream, str) or type(seq) is not int or seq < 0:
-            return {"ok": False, "error": "since needs stream (str) and seq (int >= 0): the "
-                                          "events with sequence numbers > seq"}
+            return {
+                "ok": False,
+                "error": "since needs stream (str) and seq (int >= 0): the "
+                "events with sequence numbers > seq",
+            }
         limit = min(limit, SINCE_LIMIT) if type(limit) is int and limit > 0 else SINCE_LIMIT
         try:
             reply = self.view.events_since(stream, seq, limit)
         except LogReadError as err:  # a damaged file: said (reply and `error` event)
             return {"ok": False, "error": str(err)}
         if reply is None:
-            return {"ok": False, "error": "this daemon keeps no event log (start it with "
-                                          "--state-dir DIR)"}
+            return {
+                "ok": False,
+                "error": "this daemon keeps no event log (start it with --state-dir DIR)",
+            }
         return {"ok": True, **reply}
 
     def _logged(self) -> dict:
@@ -171,10 +199,15 @@ class Control:
         except LogReadError as err:
             return {"ok": False, "error": str(err)}
         if rows is None:
-            return {"ok": False, "error": "this daemon keeps no event log (start it with "
-                                          "--state-dir DIR)"}
-        return {"ok": True, "more": len(rows) == LOGGED_LIMIT,
-                "streams": [{"stream": s, "first": a, "last": b} for s, a, b in rows]}
+            return {
+                "ok": False,
+                "error": "this daemon keeps no event log (start it with --state-dir DIR)",
+            }
+        return {
+            "ok": True,
+            "more": len(rows) == LOGGED_LIMIT,
+            "streams": [{"stream": s, "first": a, "last": b} for s, a, b in rows],
+        }
 
     def close(self) -> None:
         self.sock.close()

@@ -18,16 +18,31 @@ from streamseg import protocol
 SETTLE_KINDS = ("confirmed", "rejected", "found")
 
 
-def publish_cut(publish, st, frame: int, score: float, emitted: int, kind: str,
-                settled: int | None = None, revision: int | None = None) -> None:
+def publish_cut(
+    publish,
+    st,
+    frame: int,
+    score: float,
+    emitted: int,
+    kind: str,
+    settled: int | None = None,
+    revision: int | None = None,
+) -> None:
     """Publish one ``(frame, score, emitted, kind)`` cut event of stream ``st`` with
     ``publish(st, event) -> numbered event`` and update ``st.cuts``; the kinds of
     :data:`SETTLE_KINDS` carry the relabel's ``settled`` frame and its ``revision``."""
     when = st.time_of(frame)
     if kind in ("cut", "pending", "found"):
-        ev = protocol.Cut(st.stream, frame, when, score, emitted, kind != "found",
-                          True if kind == "pending" else None,
-                          revision if kind == "found" else None)
+        ev = protocol.Cut(
+            st.stream,
+            frame,
+            when,
+            score,
+            emitted,
+            kind != "found",
+            True if kind == "pending" else None,
+            revision if kind == "found" else None,
+        )
         st.cuts.append(publish(st, ev))
         return
     if kind == "confirm":
@@ -35,17 +50,31 @@ def publish_cut(publish, st, frame: int, score: float, emitted: int, kind: str,
     elif kind == "confirmed":
         publish(st, protocol.Confirm(st.stream, frame, when, score, emitted, settled, revision))
     else:
-        publish(st, protocol.Withdraw(st.stream, frame, when, emitted, kind == "moved",
-                                      revision if kind == "rejected" else None))
+        publish(
+            st,
+            protocol.Withdraw(
+                st.stream,
+                frame,
+                when,
+                emitted,
+                kind == "moved",
+                revision if kind == "rejected" else None,
+            ),
+        )
     for i in range(len(st.cuts) - 1, -1, -1):
         c = st.cuts[i]
         if c.frame == frame and (c.pending or kind in SETTLE_KINDS) and c.provisional:
             if kind == "confirm":
                 st.cuts[i] = dataclasses.replace(c, pending=None)
             elif kind == "confirmed":  # settled: where the relabel puts it, no longer open
-                st.cuts[i] = dataclasses.replace(c, frame=settled, time=st.time_of(settled),
-                                                 pending=None, provisional=False,
-                                                 revision=revision)
+                st.cuts[i] = dataclasses.replace(
+                    c,
+                    frame=settled,
+                    time=st.time_of(settled),
+                    pending=None,
+                    provisional=False,
+                    revision=revision,
+                )
             else:
                 del st.cuts[i]
             return

@@ -67,8 +67,15 @@ class DaskRelabelWorker(threading.Thread):
         Seconds one connection attempt may take (the client's reconnect window, too).
     """
 
-    def __init__(self, algorithms, address: str = "", share: float = 1.0,
-                 timeout: float = 120.0, per_thread: int = 2, connect_timeout: float = 5.0):
+    def __init__(
+        self,
+        algorithms,
+        address: str = "",
+        share: float = 1.0,
+        timeout: float = 120.0,
+        per_thread: int = 2,
+        connect_timeout: float = 5.0,
+    ):
         super().__init__(name="streamseg-relabel-dask", daemon=True)
         self.distributed = require_distributed()
         self.algorithms = algorithms
@@ -90,8 +97,9 @@ class DaskRelabelWorker(threading.Thread):
         self._counter = 0
         self._warmed: dict = {}  # worker address -> its warm-up future
         self.sent = self.returned = self.fallbacks = 0
-        self._connector = threading.Thread(target=self._connect_loop, daemon=True,
-                                           name="streamseg-relabel-dask-connect")
+        self._connector = threading.Thread(
+            target=self._connect_loop, daemon=True, name="streamseg-relabel-dask-connect"
+        )
 
     # --- the interface the daemon uses -------------------------------------------------------
 
@@ -217,9 +225,12 @@ class DaskRelabelWorker(threading.Thread):
                     client = self._open()
                 except Exception as err:
                     if not lost_said:
-                        self._notice(None, f"the Dask scheduler {self.address or '(local)'} is "
-                                     f"not reachable ({type(err).__name__}: {err}); relabelling "
-                                     "locally until it is")
+                        self._notice(
+                            None,
+                            f"the Dask scheduler {self.address or '(local)'} is "
+                            f"not reachable ({type(err).__name__}: {err}); relabelling "
+                            "locally until it is",
+                        )
                         lost_said = True
                     self._wait(1.0)
                     continue
@@ -243,8 +254,9 @@ class DaskRelabelWorker(threading.Thread):
     def _open(self):
         distributed = self.distributed
         if self.address:
-            client = distributed.Client(self.address, timeout=self.connect_timeout,
-                                        set_as_default=False)
+            client = distributed.Client(
+                self.address, timeout=self.connect_timeout, set_as_default=False
+            )
         else:
             if self.cluster is None:
                 from streamseg.scaleout import local_cluster
@@ -257,9 +269,13 @@ class DaskRelabelWorker(threading.Thread):
         """Load the kernels once on each new worker (a task pinned to it; not waited for)."""
         for addr in workers:
             if addr not in self._warmed:
-                self._warmed[addr] = client.submit(self.algorithms.warmup, workers=[addr],
-                                                   allow_other_workers=False, pure=False,
-                                                   key=f"relabel-warmup-{addr}")
+                self._warmed[addr] = client.submit(
+                    self.algorithms.warmup,
+                    workers=[addr],
+                    allow_other_workers=False,
+                    pure=False,
+                    key=f"relabel-warmup-{addr}",
+                )
         for addr in [a for a, f in self._warmed.items() if a not in workers and f.done()]:
             del self._warmed[addr]
 
@@ -303,8 +319,17 @@ class DaskRelabelWorker(threading.Thread):
                 self._out[job.key] = (job, None, sent)  # out, being sent
             # outside the lock: pickling a 1 MB window must not hold up the ingest thread
             try:
-                fut = client.submit(remote_relabel, self.algorithms, job.features, job.frames,
-                                    job.fps, job.previous, job.cuts, key=key, pure=False)
+                fut = client.submit(
+                    remote_relabel,
+                    self.algorithms,
+                    job.features,
+                    job.frames,
+                    job.fps,
+                    job.previous,
+                    job.cuts,
+                    key=key,
+                    pure=False,
+                )
             except Exception as err:  # the client closed under us
                 with self._cond:
                     self._out.pop(job.key, None)
@@ -336,8 +361,9 @@ class DaskRelabelWorker(threading.Thread):
         """Run ``job`` on the local backend (caller holds the lock)."""
         self.fallbacks += 1
         if why is not None:
-            self._notice(job.key[0], f"relabel job sent to the Dask cluster failed: {why}; "
-                                     "it runs locally")
+            self._notice(
+                job.key[0], f"relabel job sent to the Dask cluster failed: {why}; it runs locally"
+            )
         self.local.submit(job)
 
     def _returned(self, job, fut) -> None:

@@ -68,8 +68,12 @@ def open_log(config, notify=None) -> EventLog | None:
     """The daemon's event log under ``config.state_dir`` (None without a state directory)."""
     if not config.state_dir or config.state_dir == "none":
         return None
-    return EventLog(config.state_dir, max_bytes=int(config.log_max_mb * 1e6),
-                    max_age=config.log_max_days * 86400.0, notify=notify)
+    return EventLog(
+        config.state_dir,
+        max_bytes=int(config.log_max_mb * 1e6),
+        max_age=config.log_max_days * 86400.0,
+        notify=notify,
+    )
 
 
 class EventLog:
@@ -93,9 +97,16 @@ class EventLog:
         :meth:`committed`.
     """
 
-    def __init__(self, state_dir, max_bytes: int = 256 << 20, max_age: float = 7 * 86400.0,
-                 batch_interval: float = 0.005, retention_interval: float = 10.0,
-                 notify=None, flush_interval: float | None = None):
+    def __init__(
+        self,
+        state_dir,
+        max_bytes: int = 256 << 20,
+        max_age: float = 7 * 86400.0,
+        batch_interval: float = 0.005,
+        retention_interval: float = 10.0,
+        notify=None,
+        flush_interval: float | None = None,
+    ):
         self.dir = Path(state_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.path = self.dir / "events.sqlite"
@@ -110,8 +121,13 @@ class EventLog:
             self._close_connections()
             aside = move_aside(self.path, "events")
             self.quarantined = (aside, str(err))
-            log.warning("event log %s is damaged (%s): moved to %s; a new log starts (the "
-                        "old events stay readable only there)", self.path, err, aside)
+            log.warning(
+                "event log %s is damaged (%s): moved to %s; a new log starts (the "
+                "old events stay readable only there)",
+                self.path,
+                err,
+                aside,
+            )
             self._open()
         self._pending: list = []  # rows appended by the loop thread
         self._out: list = []  # the frames to publish once the rows before them are committed
@@ -165,8 +181,9 @@ class EventLog:
         try:
             self._w.execute("BEGIN")
             self._w.execute("CREATE TABLE IF NOT EXISTS reserve (b BLOB)")
-            self._w.execute("INSERT INTO reserve VALUES (zeroblob(?))",
-                            ((RESERVE_PAGES - free) * size,))
+            self._w.execute(
+                "INSERT INTO reserve VALUES (zeroblob(?))", ((RESERVE_PAGES - free) * size,)
+            )
             self._w.execute("DROP TABLE reserve")
             self._w.execute("COMMIT")
         except sqlite3.OperationalError as err:  # no room for it: the log goes on without
@@ -246,8 +263,10 @@ class EventLog:
         """``(bodies, first)``: up to ``limit`` committed event bodies of ``stream`` with
         sequence number > ``seq`` in order, and the lowest sequence number still held (0: none
         held). Raises :class:`LogReadError`."""
-        rows = self._read("SELECT body FROM events WHERE stream = ? AND seq > ? ORDER BY seq "
-                          "LIMIT ?", (stream, seq, limit))
+        rows = self._read(
+            "SELECT body FROM events WHERE stream = ? AND seq > ? ORDER BY seq LIMIT ?",
+            (stream, seq, limit),
+        )
         first = self._read("SELECT min(seq) FROM events WHERE stream = ?", (stream,))[0][0]
         return [r[0] for r in rows], first or 0
 
@@ -258,31 +277,41 @@ class EventLog:
         it between packets. Raises :class:`LogReadError`."""
         out, key = [], None
         while len(out) < limit:
-            row = self._read("SELECT min(stream) FROM events" if key is None else
-                             "SELECT min(stream) FROM events WHERE stream > ?",
-                             () if key is None else (key,))
+            row = self._read(
+                "SELECT min(stream) FROM events"
+                if key is None
+                else "SELECT min(stream) FROM events WHERE stream > ?",
+                () if key is None else (key,),
+            )
             key = row[0][0]
             if key is None:
                 break
-            first_id, first = self._read("SELECT id, seq FROM events WHERE stream = ? ORDER "
-                                         "BY seq LIMIT 1", (key,))[0]
+            first_id, first = self._read(
+                "SELECT id, seq FROM events WHERE stream = ? ORDER BY seq LIMIT 1", (key,)
+            )[0]
             out.append((first_id, key, first, self.logged_seq(key)))
         return [row[1:] for row in sorted(out)]
 
     def skipped(self, stream: str, seq: int) -> list:
         """``[[lo, hi], ...]``: the ranges of numbers of ``stream`` above ``seq`` skipped at a
         restart (never used by any event)."""
-        return [list(r) for r in self._read("SELECT lo, hi FROM skips WHERE stream = ? AND "
-                                            "hi > ? ORDER BY lo", (stream, seq))]
+        return [
+            list(r)
+            for r in self._read(
+                "SELECT lo, hi FROM skips WHERE stream = ? AND hi > ? ORDER BY lo", (stream, seq)
+            )
+        ]
 
     def _read(self, sql: str, args: tuple) -> list:
         try:
             return self._r.execute(sql, args).fetchall()
         except sqlite3.Error as err:
             self.read_failed += 1
-            raise LogReadError(f"the event log {self.path} could not be read ({err}): it may "
-                               "be damaged; stop the daemon and move it aside (a new one "
-                               "starts then)") from err
+            raise LogReadError(
+                f"the event log {self.path} could not be read ({err}): it may "
+                "be damaged; stop the daemon and move it aside (a new one "
+                "starts then)"
+            ) from err
 
     def open_takes(self) -> list:
         """The stream ids whose last take published events but no ``closed`` (a crash)."""
@@ -344,8 +373,9 @@ class EventLog:
         t0 = time.perf_counter()
         try:
             self._w.execute("BEGIN")
-            self._w.executemany("INSERT INTO events (stream, seq, type, t, body) "
-                                "VALUES (?, ?, ?, ?, ?)", batch)
+            self._w.executemany(
+                "INSERT INTO events (stream, seq, type, t, body) VALUES (?, ?, ?, ?, ?)", batch
+            )
             self._w.executemany("INSERT INTO skips VALUES (?, ?, ?, ?)", skips)
             opened: dict = {}  # stream -> its take is open after this batch
             for row in batch:
@@ -353,16 +383,24 @@ class EventLog:
                     opened[row[0]] = False
                 elif row[2] != "error" and row[0] != protocol.DAEMON_WIDE:
                     opened[row[0]] = True
-            self._w.executemany("INSERT OR IGNORE INTO open_takes VALUES (?)",
-                                [(k,) for k, v in opened.items() if v])
-            self._w.executemany("DELETE FROM open_takes WHERE stream = ?",
-                                [(k,) for k, v in opened.items() if not v])
+            self._w.executemany(
+                "INSERT OR IGNORE INTO open_takes VALUES (?)",
+                [(k,) for k, v in opened.items() if v],
+            )
+            self._w.executemany(
+                "DELETE FROM open_takes WHERE stream = ?",
+                [(k,) for k, v in opened.items() if not v],
+            )
             self._w.execute("COMMIT")
             self.written += len(batch)
         except sqlite3.Error as err:  # a full disk must not stop the daemon: say so, go on
             if not self.failed:
-                log.error("event log %s: %d events not written: %s (counted from now on)",
-                          self.path, len(batch), err)
+                log.error(
+                    "event log %s: %d events not written: %s (counted from now on)",
+                    self.path,
+                    len(batch),
+                    err,
+                )
             self.failed += len(batch)
             try:
                 self._w.execute("ROLLBACK")
@@ -377,8 +415,10 @@ class EventLog:
         try:
             more, before = False, self.deleted
             # the first young row by id (ids grow with time): no scan of the old rows' bodies
-            young = self._w.execute("SELECT id FROM events WHERE t >= ? ORDER BY id LIMIT 1",
-                                    (time.time() - self.max_age,)).fetchone()
+            young = self._w.execute(
+                "SELECT id FROM events WHERE t >= ? ORDER BY id LIMIT 1",
+                (time.time() - self.max_age,),
+            ).fetchone()
             low = self._w.execute("SELECT min(id) FROM events").fetchone()[0]
             if low is not None:
                 end = young[0] if young else low + RETAIN_STEP + 1
@@ -395,8 +435,9 @@ class EventLog:
                     more = True
                     break
                 step = min(max(n // 10, 1), budget)
-                cut = self._w.execute("SELECT id FROM events ORDER BY id LIMIT 1 OFFSET ?",
-                                      (step - 1,)).fetchone()[0]
+                cut = self._w.execute(
+                    "SELECT id FROM events ORDER BY id LIMIT 1 OFFSET ?", (step - 1,)
+                ).fetchone()[0]
                 self._delete(cut)
                 budget -= step
             if not more:
@@ -412,8 +453,12 @@ class EventLog:
         except sqlite3.Error as err:
             self.read_failed += 1
             if str(err) != self._retain_error:  # once per kind of failure, not every pass
-                log.error("event log %s: retention failed: %s (said once; the daemon's "
-                          "`error` events count the failures)", self.path, err)
+                log.error(
+                    "event log %s: retention failed: %s (said once; the daemon's "
+                    "`error` events count the failures)",
+                    self.path,
+                    err,
+                )
                 self._retain_error = str(err)
             return False
 

@@ -65,12 +65,12 @@ def recv_message(sock, flags: int = 0) -> list:
     return parts
 
 
-def decode_ingest(parts, arrival: float, subscribed: bool = False
-                  ) -> FramesItem | BodyItem | BadItem:
+def decode_ingest(
+    parts, arrival: float, subscribed: bool = False
+) -> FramesItem | BodyItem | BadItem:
     """The queue item of one received multipart message (``subscribed``: from a SUB)."""
     if len(parts) != 2:
-        return BadItem(None, "decode", f"expected 2 message parts [topic, body], got "
-                                       f"{len(parts)}")
+        return BadItem(None, "decode", f"expected 2 message parts [topic, body], got {len(parts)}")
     try:
         obj = protocol.unpack_body(parts[1])
         stream = obj.get("stream")
@@ -80,8 +80,7 @@ def decode_ingest(parts, arrival: float, subscribed: bool = False
     except protocol.WireError as err:
         return BadItem(err.stream, err.kind, str(err))
     except Exception as err:  # a packet validation missed must not stop the receiver
-        return BadItem(None, "decode", f"packet could not be handled "
-                                       f"({type(err).__name__}: {err})")
+        return BadItem(None, "decode", f"packet could not be handled ({type(err).__name__}: {err})")
 
 
 def item_bytes(it) -> int:
@@ -209,9 +208,11 @@ class Ingest:
 
     def _full(self) -> bool:
         b = self.bounds
-        return (self.pushed_items - self.taken_items >= b.queue_items
-                or self.pushed - self.taken >= b.queue_frames
-                or self.pushed_bytes - self.taken_bytes >= b.queue_bytes)
+        return (
+            self.pushed_items - self.taken_items >= b.queue_items
+            or self.pushed - self.taken >= b.queue_frames
+            or self.pushed_bytes - self.taken_bytes >= b.queue_bytes
+        )
 
     def _wait_for_room(self) -> None:
         """The loop is behind: stop reading (senders wait) until it takes some."""
@@ -328,5 +329,9 @@ class Ingest:
 
     def stats(self) -> dict:
         """Totals for ``stats``: the fixed bound, what is queued, and how often it was full."""
-        return {"ingest_hwm": self.bounds.hwm, "ingest_queued_bytes": self.queued_bytes,
-                "ingest_peak_bytes": self.peak_bytes, "ingest_waits": self.waits}
+        return {
+            "ingest_hwm": self.bounds.hwm,
+            "ingest_queued_bytes": self.queued_bytes,
+            "ingest_peak_bytes": self.peak_bytes,
+            "ingest_waits": self.waits,
+        }

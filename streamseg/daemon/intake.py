@@ -81,8 +81,9 @@ class Intake:
     :meth:`owners` must be called once the security is known (at bind).
     """
 
-    def __init__(self, config, algorithms, ingest, out: Outbox, errors, numbering,
-                 default_skeleton=None):
+    def __init__(
+        self, config, algorithms, ingest, out: Outbox, errors, numbering, default_skeleton=None
+    ):
         self.config, self.algorithms, self.ingest, self.out = config, algorithms, ingest, out
         self.errors, self.numbering, self.default_skeleton = errors, numbering, default_skeleton
         self.streams: dict[str, StreamState] = {}
@@ -129,8 +130,9 @@ class Intake:
             except protocol.WireError as err:
                 self.out.error(err.stream, err.kind, str(err))
             except Exception as err:  # a packet validation missed must not stop the daemon
-                self.out.error(None, "decode", f"packet could not be handled "
-                               f"({type(err).__name__}: {err})")
+                self.out.error(
+                    None, "decode", f"packet could not be handled ({type(err).__name__}: {err})"
+                )
         for st in self._dirty:
             self.flush(st)
         self._dirty.clear()
@@ -190,9 +192,12 @@ class Intake:
             elif self._owns(st, msg.auth, "end"):
                 self.out.close(st, "end")
         else:
-            self.out.error(stream if isinstance(stream, str) else None, "type",
-                           f"{kind} is an event type; the ingest socket takes "
-                           f"{', '.join(protocol.INGEST_TYPES)}")
+            self.out.error(
+                stream if isinstance(stream, str) else None,
+                "type",
+                f"{kind} is an event type; the ingest socket takes "
+                f"{', '.join(protocol.INGEST_TYPES)}",
+            )
 
     def _unannounced(self, stream, now):
         if not protocol.valid_stream_id(stream):
@@ -200,8 +205,12 @@ class Intake:
         elif self.default_skeleton is not None:
             return self._open(stream, self.config.default_fps, self.default_skeleton, now)
         else:
-            self.out.error(stream, "unknown_stream", "frames for a stream that was not announced "
-                           "(send an announce message first, or configure default_skeleton)")
+            self.out.error(
+                stream,
+                "unknown_stream",
+                "frames for a stream that was not announced "
+                "(send an announce message first, or configure default_skeleton)",
+            )
         return None
 
     def _on_announce(self, msg: protocol.Announce, now: float, subscribed: bool = False) -> None:
@@ -241,22 +250,37 @@ class Intake:
             return True
         if not self.curve and matches(auth, self.token):
             return True
-        how = ("its CURVE key" if self.curve else
-               "its connection, or the control token of the daemon's user")
-        self.out.error(st.stream, "owner", f"{what} refused: stream {st.stream} belongs to the "
-                       f"client that announced it ({how}); send under another stream id")
+        how = (
+            "its CURVE key"
+            if self.curve
+            else "its connection, or the control token of the daemon's user"
+        )
+        self.out.error(
+            st.stream,
+            "owner",
+            f"{what} refused: stream {st.stream} belongs to the "
+            f"client that announced it ({how}); send under another stream id",
+        )
         return False
 
     def _open(self, stream, fps, skeleton, now):
         if len(self.streams) >= self.config.max_streams:
-            self.out.error(stream, "max_streams", f"{len(self.streams)} streams are open, the "
-                           f"configured maximum (max_streams); close one or raise the limit")
+            self.out.error(
+                stream,
+                "max_streams",
+                f"{len(self.streams)} streams are open, the "
+                f"configured maximum (max_streams); close one or raise the limit",
+            )
             return None
         quota = self.config.max_streams_per_client
         client = peer_of(self._sender) if self._sender is not None else None
         if quota and client is not None and self.clients[client] >= quota:
-            self.out.error(stream, "quota", f"this client ({client[:12]}) holds {quota} open "
-                           f"streams, its quota (max_streams_per_client); end one first")
+            self.out.error(
+                stream,
+                "quota",
+                f"this client ({client[:12]}) holds {quota} open "
+                f"streams, its quota (max_streams_per_client); end one first",
+            )
             return None
         try:
             pipeline = StreamPipeline(skeleton, fps, self.algorithms, self.config.relabel_history)
@@ -276,21 +300,33 @@ class Intake:
         self.out.opened(st)
         return st
 
-    def _on_frames(self, st: StreamState, seq: int, timestamp: float, pos: np.ndarray,
-                   now: float, arrival: float) -> None:
+    def _on_frames(
+        self,
+        st: StreamState,
+        seq: int,
+        timestamp: float,
+        pos: np.ndarray,
+        now: float,
+        arrival: float,
+    ) -> None:
         n, n_joints = pos.shape[0], pos.shape[1]
         st.last_seen = now
         if st.client is None:  # restored from a checkpoint: its sender takes it back
             self._adopt(st)
         if n_joints != st.pipeline.skeleton.n_joints or n > self.config.max_packet_frames:
             st.dropped += n
-            self.out.error(st.stream, "array", f"packet of shape {list(pos.shape)}: expected "
-                           f"(n <= {self.config.max_packet_frames}, "
-                           f"{st.pipeline.skeleton.n_joints}, 3) as announced")
+            self.out.error(
+                st.stream,
+                "array",
+                f"packet of shape {list(pos.shape)}: expected "
+                f"(n <= {self.config.max_packet_frames}, "
+                f"{st.pipeline.skeleton.n_joints}, 3) as announced",
+            )
             return
         problem = limits.clock_problem(timestamp) or (
-            seq > st.next_seq and limits.jump_problem(seq, st.next_seq, st.fps,
-                                                      self.config.max_seq_jump))
+            seq > st.next_seq
+            and limits.jump_problem(seq, st.next_seq, st.fps, self.config.max_seq_jump)
+        )
         if problem:
             st.dropped += n
             self.out.error(st.stream, "seq" if seq > st.next_seq else "field", problem)
@@ -312,8 +348,13 @@ class Intake:
             else:
                 overlap = st.next_seq - seq
                 st.dropped += min(overlap, n)
-                self.out.error(st.stream, "duplicate", f"packet at frame {seq} repeats frames "
-                               f"already received (next expected {st.next_seq})", min(overlap, n))
+                self.out.error(
+                    st.stream,
+                    "duplicate",
+                    f"packet at frame {seq} repeats frames "
+                    f"already received (next expected {st.next_seq})",
+                    min(overlap, n),
+                )
                 if overlap >= n:
                     return
                 pos = pos[overlap:]
@@ -331,8 +372,13 @@ class Intake:
         filler fills (docs/guide/formats.md, Gaps)."""
         if bad:
             st.dropped += bad
-            self.out.error(st.stream, "nan", "frames without the joint positions the features "
-                           "use, in gaps too long to fill: skipped", bad)
+            self.out.error(
+                st.stream,
+                "nan",
+                "frames without the joint positions the features "
+                "use, in gaps too long to fill: skipped",
+                bad,
+            )
         for start, end in st.pipeline.gaps:
             if st.gap_limit.allow(time.monotonic()):
                 self.out.publish(st, protocol.Gap(st.stream, start, end, False))
@@ -349,8 +395,12 @@ class Intake:
             cuts, reps, bad = st.pipeline.push(pos, first)
         except Exception as err:  # never die on input: report and drop these frames
             st.dropped += pos.shape[0]
-            self.out.error(st.stream, "pipeline", f"{pos.shape[0]} frames from {first} not "
-                           f"processed: {type(err).__name__}: {err}", pos.shape[0])
+            self.out.error(
+                st.stream,
+                "pipeline",
+                f"{pos.shape[0]} frames from {first} not processed: {type(err).__name__}: {err}",
+                pos.shape[0],
+            )
             return
         self.out.notices(st)
         self.report_gaps(st, bad)
@@ -362,5 +412,8 @@ class Intake:
 def _same_take(st: StreamState, msg: protocol.Announce) -> bool:
     """Whether ``msg`` announces the open take ``st`` again (rate and skeleton alike)."""
     sk = st.pipeline.skeleton
-    return (msg.fps == st.fps and tuple(msg.joints) == tuple(sk.names)
-            and list(msg.parents) == [int(p) for p in sk.parents])
+    return (
+        msg.fps == st.fps
+        and tuple(msg.joints) == tuple(sk.names)
+        and list(msg.parents) == [int(p) for p in sk.parents]
+    )

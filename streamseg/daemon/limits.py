@@ -14,16 +14,20 @@ MAX_CLOCK = 1e12  # |timestamp| in seconds (31,700 years): t0 + frame / fps stay
 def fps_problem(fps: float, config) -> str | None:
     """Why an announced ``fps`` is refused, or None."""
     if not (config.min_fps <= fps <= config.max_fps):
-        return (f"announce.fps={fps!r} is outside [{config.min_fps:g}, {config.max_fps:g}] Hz "
-                f"(min_fps, max_fps): send the recording's frame rate")
+        return (
+            f"announce.fps={fps!r} is outside [{config.min_fps:g}, {config.max_fps:g}] Hz "
+            f"(min_fps, max_fps): send the recording's frame rate"
+        )
     return None
 
 
 def clock_problem(timestamp: float) -> str | None:
     """Why a packet's ``timestamp`` is refused, or None (event times must be finite JSON)."""
     if not (math.isfinite(timestamp) and abs(timestamp) <= MAX_CLOCK):
-        return (f"frames.timestamp={timestamp!r} is not a finite clock within +-{MAX_CLOCK:g} s: "
-                f"send the sender's clock in seconds")
+        return (
+            f"frames.timestamp={timestamp!r} is not a finite clock within +-{MAX_CLOCK:g} s: "
+            f"send the sender's clock in seconds"
+        )
     return None
 
 
@@ -31,9 +35,11 @@ def jump_problem(seq: int, expected: int, fps: float, max_seconds: float) -> str
     """Why a forward ``seq`` jump is refused (beyond ``max_seconds`` of frames), or None."""
     limit = int(max_seconds * fps)
     if seq - expected > limit:
-        return (f"frames.seq={seq} jumps {seq - expected} frames ahead of the expected "
-                f"{expected} (more than max_seq_jump = {max_seconds:g} s = {limit} frames): "
-                f"packet dropped; re-announce the stream to start it over")
+        return (
+            f"frames.seq={seq} jumps {seq - expected} frames ahead of the expected "
+            f"{expected} (more than max_seq_jump = {max_seconds:g} s = {limit} frames): "
+            f"packet dropped; re-announce the stream to start it over"
+        )
     return None
 
 

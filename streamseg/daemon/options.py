@@ -20,15 +20,18 @@ def load_config(path) -> tuple:
     doc = read_toml(path, str(path), "no such config file")
     unknown = sorted(set(doc) - {"daemon", "lof", "aca", "repetitions"})
     if unknown:
-        raise ParameterError(f"{path}: unknown table(s) {', '.join(unknown)}; "
-                             "expected [daemon], [lof], [aca], [repetitions]")
+        raise ParameterError(
+            f"{path}: unknown table(s) {', '.join(unknown)}; "
+            "expected [daemon], [lof], [aca], [repetitions]"
+        )
     daemon = config_from_dict(DaemonConfig, doc.get("daemon", {}))
     if daemon.markers:  # a marker map beside the config file, wherever serve runs
         import dataclasses
         from pathlib import Path
 
-        daemon = dataclasses.replace(daemon, markers=str(Path(path).expanduser().parent
-                                                         / Path(daemon.markers).expanduser()))
+        daemon = dataclasses.replace(
+            daemon, markers=str(Path(path).expanduser().parent / Path(daemon.markers).expanduser())
+        )
     lof = aca = None
     if "lof" in doc:
         from streamseg.config import LOFConfig
@@ -49,6 +52,4 @@ def load_config(path) -> tuple:
 def skeleton_from(names, parents, units="unknown", up="y") -> Skeleton:
     """A Skeleton from announced joint names and parents (offsets unknown on the wire)."""
     n = len(names)
-    return Skeleton(tuple(names), np.asarray(parents, dtype=np.int64), np.zeros((n, 3)), units,
-                    up)
-
+    return Skeleton(tuple(names), np.asarray(parents, dtype=np.int64), np.zeros((n, 3)), units, up)

@@ -81,9 +81,21 @@ class Algorithms:
         segmented on the joints it makes; other streams as announced.
     """
 
-    def __init__(self, lof_config=None, aca_config=None, relabel=None, repetitions=False,
-                 rep_config=None, memory_config=None, gap_fill_s=None, settle_s=None,
-                 focus_s=None, radius_s=None, markers=None, alternations=True):
+    def __init__(
+        self,
+        lof_config=None,
+        aca_config=None,
+        relabel=None,
+        repetitions=False,
+        rep_config=None,
+        memory_config=None,
+        gap_fill_s=None,
+        settle_s=None,
+        focus_s=None,
+        radius_s=None,
+        markers=None,
+        alternations=True,
+    ):
         self.lof_config = lof_config
         self.aca_config = aca_config
         self._relabel = relabel
@@ -137,8 +149,9 @@ class Algorithms:
         columns = columns_for(self.markers, skeleton.names)
         if columns is None:
             return skeleton, None
-        return Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), skeleton.units,
-                        skeleton.up), columns
+        return Skeleton(
+            JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), skeleton.units, skeleton.up
+        ), columns
 
     def angles(self, positions: np.ndarray, plan) -> np.ndarray:
         """Features ``(n, d)`` of positions ``(n, J, 3)`` (the 8 bone angles, then the 9
@@ -166,8 +179,9 @@ class Algorithms:
         from streamseg.offline import relabel_window
 
         fn = self._relabel or relabel_window
-        return fn(features, start_frame=start_frame, fps=fps, config=self.relabel_config,
-                  previous=None)
+        return fn(
+            features, start_frame=start_frame, fps=fps, config=self.relabel_config, previous=None
+        )
 
     @property
     def relabel_config(self):
@@ -215,20 +229,31 @@ class Algorithms:
         angles_at(np.zeros((2, 9, 3)), plan, np.array([0.0, 1.0, 0.0]))
         from streamseg._kernels import root_speed as _kr
 
-        _kr.root_speeds(np.ones((2, 9, 3)), 0, plan[1:].astype(np.int64),
-                        np.array([0.0, 1.0, 0.0]), np.array([0, 1]), np.zeros((3, 3)),
-                        np.zeros(3), 1.0, 1.0, 1.0, np.empty((2, 2)))
+        _kr.root_speeds(
+            np.ones((2, 9, 3)),
+            0,
+            plan[1:].astype(np.int64),
+            np.array([0.0, 1.0, 0.0]),
+            np.array([0, 1]),
+            np.zeros((3, 3)),
+            np.zeros(3),
+            1.0,
+            1.0,
+            1.0,
+            np.empty((2, 2)),
+        )
         rng = np.random.default_rng(0)
         # a random walk of angles: enough frames for the LOF windows to fill and cut
         fps = 120.0
         seg = self.segmenter(fps)
-        walk = np.clip(1.5 + np.cumsum(rng.normal(0, 0.01, (6 * int(fps), seg.n_features)),
-                                       axis=0), 0, 3)
+        walk = np.clip(
+            1.5 + np.cumsum(rng.normal(0, 0.01, (6 * int(fps), seg.n_features)), axis=0), 0, 3
+        )
         seg.learn_many(walk)
         seg.finish()
         if relabel:
             # the relabels read the bone features, not the root speeds
-            self.relabel(walk[-int(4 * fps):, :seg.n_features - seg.config.root_columns], 0, fps)
+            self.relabel(walk[-int(4 * fps) :, : seg.n_features - seg.config.root_columns], 0, fps)
         self._warm_stream(fps, rng)
         return time.perf_counter() - t
 
@@ -276,7 +301,6 @@ def algorithms_for(config, algorithms: Algorithms | None = None) -> Algorithms:
     return algorithms
 
 
-
 def _bone_args(points: np.ndarray, up) -> tuple:
     """The angle kernel's arguments (:func:`streamseg._kernels.bones.angles_kernel`) for bone
     end points ``points`` (9, 2) and the up vector (None: no inclinations), as
@@ -284,10 +308,13 @@ def _bone_args(points: np.ndarray, up) -> tuple:
     from streamseg.skeleton.bones import ANGLES, INCLINATIONS
 
     pairs = np.array(ANGLES + (INCLINATIONS if up is not None else ()), dtype=np.int64)
-    return (np.ascontiguousarray(points[:, 0], dtype=np.int64),
-            np.ascontiguousarray(points[:, 1], dtype=np.int64),
-            np.ascontiguousarray(pairs[:, 0]), np.ascontiguousarray(pairs[:, 1]),
-            np.zeros(3) if up is None else np.asarray(up, dtype=np.float64))
+    return (
+        np.ascontiguousarray(points[:, 0], dtype=np.int64),
+        np.ascontiguousarray(points[:, 1], dtype=np.int64),
+        np.ascontiguousarray(pairs[:, 0]),
+        np.ascontiguousarray(pairs[:, 1]),
+        np.zeros(3) if up is None else np.asarray(up, dtype=np.float64),
+    )
 
 
 def _segment_triplets(window) -> list:
@@ -352,10 +379,33 @@ class StreamPipeline(Stateful):
 
     STATE_VERSION = 2  # 2: root speeds, settlement
     _transient = ("algorithms", "plan")  # shared by the daemon's streams: given back at restore
-    __slots__ = ("skeleton", "plan", "fps", "algorithms", "segmenter", "root", "reps", "_feat",
-                 "_frames", "learned", "previous", "offset", "next_frame", "_width", "rep_offset",
-                 "notices", "_spine", "_spine_n", "cut_frames", "_cap", "filler",
-                 "gaps", "final_bad", "final_reps", "settlement")
+    __slots__ = (
+        "skeleton",
+        "plan",
+        "fps",
+        "algorithms",
+        "segmenter",
+        "root",
+        "reps",
+        "_feat",
+        "_frames",
+        "learned",
+        "previous",
+        "offset",
+        "next_frame",
+        "_width",
+        "rep_offset",
+        "notices",
+        "_spine",
+        "_spine_n",
+        "cut_frames",
+        "_cap",
+        "filler",
+        "gaps",
+        "final_bad",
+        "final_reps",
+        "settlement",
+    )
 
     def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
         self.skeleton = skeleton  # as announced (its joints are the packets')
@@ -390,8 +440,9 @@ class StreamPipeline(Stateful):
 
         fill_s = FILL_S if algorithms.gap_fill_s is None else algorithms.gap_fill_s
         # the joints of the bone features decide what a gap is; every joint is filled
-        self.filler = GapFiller(skeleton.n_joints, fill_frames(fps, fill_s),
-                                watch=np.unique(self.plan[0]))
+        self.filler = GapFiller(
+            skeleton.n_joints, fill_frames(fps, fill_s), watch=np.unique(self.plan[0])
+        )
         self.gaps = []  # (start, end) of gaps closed and not yet reported
         self.final_bad = 0  # frames skipped among those released at finish()
         self.final_reps = []  # repetitions completed by the frames released at finish()
@@ -471,8 +522,7 @@ class StreamPipeline(Stateful):
         gap = first_frame - self.next_frame
         lost = None
         if 0 < gap <= RESTART_GAP_S * self.fps:  # lost frames: frames without positions
-            positions = np.concatenate([np.full((gap,) + positions.shape[1:], np.nan),
-                                        positions])
+            positions = np.concatenate([np.full((gap,) + positions.shape[1:], np.nan), positions])
             lost = np.zeros(positions.shape[0], dtype=bool)
             lost[:gap] = True
             first_frame = self.next_frame
@@ -484,8 +534,9 @@ class StreamPipeline(Stateful):
             if self.root is not None:  # a new detector: a stream's first frame
                 self.root.reset()
         self.next_frame = first_frame + positions.shape[0]
-        released, start = self.filler.push(positions, first_frame if not self.filler.held
-                                           else None, lost)
+        released, start = self.filler.push(
+            positions, first_frame if not self.filler.held else None, lost
+        )
         c, r, b = self._learn(released, start, self.filler.released_lost)
         self._take_gaps()
         return out + c, reps + r, n_bad + b
@@ -532,10 +583,14 @@ class StreamPipeline(Stateful):
             return
         axis = likely_up(self._spine, self.skeleton.up)
         if axis is not None:
-            self.notices.append(("up",
-                f"over the first {UP_CHECK_S:g} s the spine points along {axis}, not along the "
-                f"announced up axis {self.skeleton.up}: announce up = {axis!r} (streamseg "
-                "replay --up), or the bone inclinations change with the heading"))
+            self.notices.append(
+                (
+                    "up",
+                    f"over the first {UP_CHECK_S:g} s the spine points along {axis}, not along the "
+                    f"announced up axis {self.skeleton.up}: announce up = {axis!r} (streamseg "
+                    "replay --up), or the bone inclinations change with the heading",
+                )
+            )
         self._spine_n = -1
 
     def _repetitions(self, positions, first_frame) -> list:
@@ -552,14 +607,20 @@ class StreamPipeline(Stateful):
             reps = self.reps.learn_many(positions)
         except Exception as err:  # the counter is optional: turn it off for this stream
             self.reps = None
-            self.notices.append(("rep", f"repetition counting stopped: "
-                                        f"{type(err).__name__}: {err}"))
+            self.notices.append(
+                ("rep", f"repetition counting stopped: {type(err).__name__}: {err}")
+            )
             return []
         lost = self.reps.new_lost_joints()
         if lost:
-            self.notices.append(("rep", f"{', '.join(lost)} lost for more than "
-                                        f"{BRIDGE_S:g} s: repetitions counted with the other "
-                                        "body parts (held where last seen)"))
+            self.notices.append(
+                (
+                    "rep",
+                    f"{', '.join(lost)} lost for more than "
+                    f"{BRIDGE_S:g} s: repetitions counted with the other "
+                    "body parts (held where last seen)",
+                )
+            )
         return self._rep_tuples(reps)
 
     def finish_reps(self) -> list:
@@ -580,8 +641,20 @@ class StreamPipeline(Stateful):
         for r in reps:
             a, b = r.start + o, r.end + o
             label = label_at(a, b, segs, getattr(w, "end", None), self.cut_frames)
-            out.append((a, b, int(r.count), r.emitted_at + o, label, int(r.set_index),
-                        r.duration_s, _finite(r.rom_deg), r.rom_joint, _finite(r.likeness)))
+            out.append(
+                (
+                    a,
+                    b,
+                    int(r.count),
+                    r.emitted_at + o,
+                    label,
+                    int(r.set_index),
+                    r.duration_s,
+                    _finite(r.rom_deg),
+                    r.rom_joint,
+                    _finite(r.likeness),
+                )
+            )
         return out
 
     def finish(self) -> list:
@@ -590,17 +663,20 @@ class StreamPipeline(Stateful):
         A stream that ended before its first complete detector window adds a ``short``
         notice: it could not have had a cut, which a listener should not read as "no change".
         """
-        cuts, reps, self.final_bad = self._learn(*self.filler.finish(),
-                                                 self.filler.released_lost)
+        cuts, reps, self.final_bad = self._learn(*self.filler.finish(), self.filler.released_lost)
         self._take_gaps()
         self.final_reps = reps
         seen = self.segmenter.n_frames_
         window = self.segmenter.geometry["window"]
         if self.offset == 0 and seen < window:
-            self.notices.append(("short",
-                f"the stream ended after {seen} frames ({seen / self.fps:.2f} s), shorter than "
-                f"the cut detector's window of {window} frames ({window / self.fps:.2f} s): no "
-                "cut could be found"))
+            self.notices.append(
+                (
+                    "short",
+                    f"the stream ended after {seen} frames ({seen / self.fps:.2f} s), shorter than "
+                    f"the cut detector's window of {window} frames ({window / self.fps:.2f} s): no "
+                    "cut could be found",
+                )
+            )
         return cuts + self._cuts(self.segmenter.finish())
 
     def _remember(self, angles: np.ndarray, frames) -> None:
@@ -616,8 +692,10 @@ class StreamPipeline(Stateful):
             grown = min(cap, max(2 * size, self.learned + m))
             feat = np.zeros((grown, self._feat.shape[1]), dtype=np.float32)
             fr = np.zeros(grown, dtype=np.int64)
-            feat[:self.learned], fr[:self.learned] = self._feat[:self.learned], \
-                self._frames[:self.learned]
+            feat[: self.learned], fr[: self.learned] = (
+                self._feat[: self.learned],
+                self._frames[: self.learned],
+            )
             self._feat, self._frames = feat, fr
         first = self.learned
         if isinstance(frames, (int, np.integer)):
@@ -628,11 +706,11 @@ class StreamPipeline(Stateful):
         # at most two contiguous runs of the ring: slices, not an index array
         a = first % cap
         k = min(angles.shape[0], cap - a)
-        self._feat[a:a + k] = angles[:k]
-        self._frames[a:a + k] = frames[:k]
+        self._feat[a : a + k] = angles[:k]
+        self._frames[a : a + k] = frames[:k]
         if k < angles.shape[0]:
-            self._feat[:angles.shape[0] - k] = angles[k:]
-            self._frames[:angles.shape[0] - k] = frames[k:]
+            self._feat[: angles.shape[0] - k] = angles[k:]
+            self._frames[: angles.shape[0] - k] = frames[k:]
         self.learned += m
 
     def relabel_due(self, next_relabel: int) -> bool:

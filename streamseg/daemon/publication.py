@@ -114,16 +114,24 @@ class Publication:
         last = self.eventlog.logged_seq(stream)
         skipped = self.eventlog.skipped(stream, seq)
         events = [msgpack.unpackb(b, raw=False) for b in bodies]
-        return {"stream": stream, "events": events, "first": first, "last": last,
-                "skipped": skipped, "more": len(events) == limit}
+        return {
+            "stream": stream,
+            "events": events,
+            "first": first,
+            "last": last,
+            "skipped": skipped,
+            "more": len(events) == limit,
+        }
 
     def wait_stats(self) -> dict:
         """Commit-then-publish: each event's wait for its commit, last 4096 events, in ms."""
         if self.eventlog is None or not self.eventlog.waits:
             return {}
         w50, w99 = np.percentile(np.fromiter(self.eventlog.waits, float), (50, 99))
-        return {"publish_wait_p50_ms": round(w50 * 1e3, 3),
-                "publish_wait_p99_ms": round(w99 * 1e3, 3)}
+        return {
+            "publish_wait_p50_ms": round(w50 * 1e3, 3),
+            "publish_wait_p99_ms": round(w99 * 1e3, 3),
+        }
 
     def hello(self, token: str) -> None:
         """The control token's proof on PUB (protocol/auth.py), not numbered."""
@@ -153,8 +161,10 @@ class Publication:
     def publish_final(self, timeout: float) -> None:
         """At shutdown: the final events go out once committed, before the socket closes."""
         if not self.eventlog.sync(timeout):
-            log.error("event log %s: the last events were not committed in time: not "
-                      "published", self.eventlog.path)
+            log.error(
+                "event log %s: the last events were not committed in time: not published",
+                self.eventlog.path,
+            )
         self.publish_logged()
 
     def close_log(self) -> None:

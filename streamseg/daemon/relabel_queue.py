@@ -39,20 +39,29 @@ class RelabelQueue:
         """Hand the oldest due streams' snapshots to the worker while it has free slots."""
         while self.due and self.worker.free() > 0:
             st, _ = self.due.popitem(last=False)
-            if (streams.get(st.stream) is st
-                    and not self.worker.pending((st.stream, st.gen))):
+            if streams.get(st.stream) is st and not self.worker.pending((st.stream, st.gen)):
                 self.submit(st, final=False)
 
     def submit(self, st, final: bool) -> bool:
         """One relabel job of ``st`` (``final``: the take's last); False when it has too few
         frames to relabel."""
         feats, frames, focused = st.pipeline.relabel_snapshot(
-            final or st.pipeline.learned >= st.next_relabel)
+            final or st.pipeline.learned >= st.next_relabel
+        )
         if feats.shape[0] < 2:
             return False
         if not focused:  # a relabel a cut made due leaves the cadence as it was
             st.next_relabel = st.pipeline.learned + int(round(self.interval * st.fps))
-        self.worker.submit(RelabelJob((st.stream, st.gen), feats, frames, st.fps,
-                                      st.pipeline.previous, final, tuple(st.pipeline.cut_frames),
-                                      focused))
+        self.worker.submit(
+            RelabelJob(
+                (st.stream, st.gen),
+                feats,
+                frames,
+                st.fps,
+                st.pipeline.previous,
+                final,
+                tuple(st.pipeline.cut_frames),
+                focused,
+            )
+        )
         return True

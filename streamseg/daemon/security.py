@@ -65,8 +65,12 @@ def _load(path: Path, secret: bool):
     if secret and sec is None:
         raise ParameterError(f"{path}: holds no secret key")
     if secret and path.stat().st_mode & 0o077:  # `keys` writes 0600; a copy may not keep it
-        log.warning("%s: the secret key is readable by other users (mode %o): chmod 600 %s",
-                    path, path.stat().st_mode & 0o777, path)
+        log.warning(
+            "%s: the secret key is readable by other users (mode %o): chmod 600 %s",
+            path,
+            path.stat().st_mode & 0o777,
+            path,
+        )
     return pub, sec
 
 
@@ -100,8 +104,10 @@ class ServerSecurity:
         self.public, self.secret = _load(d / "server.key_secret", True)
         self.authorized = d / "authorized"
         if not self.authorized.is_dir():
-            raise ParameterError(f"{self.authorized}: no such directory of authorised client "
-                                 f"public keys (make keys with `streamseg keys {d}`)")
+            raise ParameterError(
+                f"{self.authorized}: no such directory of authorised client "
+                f"public keys (make keys with `streamseg keys {d}`)"
+            )
         self.auth = ThreadAuthenticator(ctx)
         self.auth.start()
         self.auth.configure_curve(domain=DOMAIN, location=str(self.authorized))
@@ -150,8 +156,16 @@ class ConnectionIds:
                 continue
             version, request_id = self.sock.recv_multipart()[:2]
             self.count += 1
-            self.sock.send_multipart([version, request_id, b"200", b"OK",
-                                      f"conn-{self.run_id}-{self.count}".encode(), b""])
+            self.sock.send_multipart(
+                [
+                    version,
+                    request_id,
+                    b"200",
+                    b"OK",
+                    f"conn-{self.run_id}-{self.count}".encode(),
+                    b"",
+                ]
+            )
         self.sock.close(linger=0)
 
     def stop(self) -> None:
@@ -163,7 +177,7 @@ def is_loopback(endpoint: str) -> bool:
     """True for ``ipc://``, ``inproc://`` and TCP endpoints on a loopback address."""
     if not endpoint.startswith("tcp://"):
         return endpoint.startswith(("ipc://", "inproc://"))
-    host = endpoint[len("tcp://"):].rsplit(":", 1)[0].strip("[]")
+    host = endpoint[len("tcp://") :].rsplit(":", 1)[0].strip("[]")
     if ";" in host:  # "source;destination" form (connect only): judge the destination
         host = host.split(";")[-1]
     if host in ("*", ""):
@@ -174,8 +188,9 @@ def is_loopback(endpoint: str) -> bool:
         return ipaddress.ip_address(host).is_loopback
     except ValueError:  # an interface name or a host name: resolve it
         try:
-            return all(ipaddress.ip_address(a[4][0]).is_loopback
-                       for a in _socket.getaddrinfo(host, None))
+            return all(
+                ipaddress.ip_address(a[4][0]).is_loopback for a in _socket.getaddrinfo(host, None)
+            )
         except (OSError, ValueError):
             return False
 
@@ -192,7 +207,8 @@ def check_binds(config) -> None:
                 f"subscribe={ep} is not a loopback address: a subscription is not encrypted "
                 f"(CURVE covers the PULL ingest only), so anyone on the way could read or "
                 f"forge its frames. Send to the ingest endpoint with CURVE instead, or give "
-                f"--insecure if the network is trusted")
+                f"--insecure if the network is trusted"
+            )
     if config.curve_dir:
         return
     for name in ("ingest", "publish", "control"):
@@ -201,7 +217,8 @@ def check_binds(config) -> None:
             raise ParameterError(
                 f"{name}={ep} is not a loopback address and CURVE is off: anyone who can "
                 f"reach it could send, listen and shut the daemon down. Give --curve-dir DIR "
-                f"(keys from `streamseg keys DIR`), or --insecure if the network is trusted")
+                f"(keys from `streamseg keys DIR`), or --insecure if the network is trusted"
+            )
 
 
 def peer_of(frame) -> str | None:
@@ -225,7 +242,10 @@ def control_token() -> tuple:
     try:
         return daemon_token()
     except OSError as err:
-        log.warning("cannot write the control token to %s (%s): shutdown and checkpoint are "
-                    "refused to every client; set XDG_RUNTIME_DIR to a private directory",
-                    token_path(), err)
+        log.warning(
+            "cannot write the control token to %s (%s): shutdown and checkpoint are "
+            "refused to every client; set XDG_RUNTIME_DIR to a private directory",
+            token_path(),
+            err,
+        )
         return None, None

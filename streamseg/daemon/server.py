@@ -61,8 +61,11 @@ FINAL_RELABELS_WAITING = 16
 
 def _bindable(endpoint: str) -> str:
     # port 0 means "any free port", which ZeroMQ spells "*"
-    return endpoint[:-2] + ":*" if endpoint.startswith("tcp://") and endpoint.endswith(":0") \
+    return (
+        endpoint[:-2] + ":*"
+        if endpoint.startswith("tcp://") and endpoint.endswith(":0")
         else endpoint
+    )
 
 
 class Daemon:
@@ -100,17 +103,23 @@ class Daemon:
         # before the log and the checkpoints are opened: a second daemon touches neither
         self.state_lock = lock_state_dir(state_dir) if state_dir else None
         self.out = Publication(self.config, self.totals)
-        self.eventlog, self.numbering, self.order = (self.out.eventlog, self.out.numbering,
-                                                     self.out.order)
+        self.eventlog, self.numbering, self.order = (
+            self.out.eventlog,
+            self.out.numbering,
+            self.out.order,
+        )
         self.stray = limits.RateLimit(self.config.stray_errors_per_s)
         self.security = None
         self.conn_ids = None  # names of ingest connections without CURVE (security.py)
         self.token = self.token_file = None  # the control token without CURVE (protocol/auth.py)
         self.checkpoints = checkpoint_store.open_store(self.config)
-        self.rounds = (checkpoint.CheckpointRounds(self.checkpoints,
-                                                   self.config.checkpoint_interval,
-                                                   self._checkpoint_copy)
-                       if self.checkpoints is not None else None)
+        self.rounds = (
+            checkpoint.CheckpointRounds(
+                self.checkpoints, self.config.checkpoint_interval, self._checkpoint_copy
+            )
+            if self.checkpoints is not None
+            else None
+        )
         self.storage = StorageReport(self.eventlog, self.checkpoints, self.error)
         self.worker = relabel_worker(self.algorithms, self.config)
         self.relabels = RelabelQueue(self.worker, self.config.relabel_interval)
@@ -119,14 +128,25 @@ class Daemon:
             from streamseg.io.asf import read_asf
 
             asf = read_asf(self.config.default_skeleton)
-            self.default_skeleton = skeleton_from(asf.names, asf.parents,
-                                                  up=self.config.default_up)
+            self.default_skeleton = skeleton_from(asf.names, asf.parents, up=self.config.default_up)
         self.ingest = None  # its sockets are made at bind
-        self.intake = Intake(self.config, self.algorithms, None, self, self.errors,
-                             self.numbering, self.default_skeleton)
+        self.intake = Intake(
+            self.config,
+            self.algorithms,
+            None,
+            self,
+            self.errors,
+            self.numbering,
+            self.default_skeleton,
+        )
         self.control = None
-        self.shutdown = Shutdown(self, self.worker, self.algorithms,
-                                 self.config.shutdown_relabel, bool(self.config.heartbeat))
+        self.shutdown = Shutdown(
+            self,
+            self.worker,
+            self.algorithms,
+            self.config.shutdown_relabel,
+            bool(self.config.heartbeat),
+        )
 
     @property
     def streams(self) -> dict[str, StreamState]:
@@ -151,6 +171,7 @@ class Daemon:
             if c.control:
                 self.token, self.token_file = control_token()
         secure = self.security.apply if self.security is not None else (lambda sock: None)
+
         def secure_ingest(sock):
             secure(sock)
             if self.conn_ids is not None:
@@ -172,8 +193,9 @@ class Daemon:
             sock.setsockopt(zmq.LINGER, 0)
             ipv6(sock, c.control)
             sock.bind(_bindable(c.control))
-            self.control = Control(sock, self, self.security is not None, self.token,
-                                   self.token_file)
+            self.control = Control(
+                sock, self, self.security is not None, self.token, self.token_file
+            )
             self.poller.register(sock, zmq.POLLIN)
             self.endpoints["control"] = sock.getsockopt_string(zmq.LAST_ENDPOINT)
         return self.endpoints
@@ -194,21 +216,31 @@ class Daemon:
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
         try:
             # the control socket answers only once this is done: say why a first start waits
-            log.info("warming the kernels (compiled on the first start after an install: a "
-                     "minute or more; cached after that)")
+            log.info(
+                "warming the kernels (compiled on the first start after an install: a "
+                "minute or more; cached after that)"
+            )
             spent = self.algorithms.warmup(relabel=self.config.relabel_interval > 0)
             if self.config.relabel_interval > 0:
                 self.worker.warm()
-            log.info("kernels warmed in %.2f s; ingest %s publish %s control %s", spent,
-                     self.endpoints["ingest"], self.endpoints["publish"],
-                     self.endpoints.get("control", "off"))
+            log.info(
+                "kernels warmed in %.2f s; ingest %s publish %s control %s",
+                spent,
+                self.endpoints["ingest"],
+                self.endpoints["publish"],
+                self.endpoints.get("control", "off"),
+            )
             self.worker.start()
             self.ingest.start()
             self._started = time.monotonic()
             if self.eventlog is not None and self.eventlog.quarantined:
                 aside, why = self.eventlog.quarantined
-                self.error(None, "event_log", f"the event log {self.eventlog.path} was "
-                            f"damaged ({why}): moved to {aside}; a new log started")
+                self.error(
+                    None,
+                    "event_log",
+                    f"the event log {self.eventlog.path} was "
+                    f"damaged ({why}): moved to {aside}; a new log started",
+                )
             self._restore(self._started)
             self.out.close_lost_takes(self.streams)
             if self.eventlog is not None:
@@ -221,9 +253,17 @@ class Daemon:
             self.ready.set()
             while not self._stop.is_set():
                 busy = self.worker.busy_key is not None or self.worker.queued()
-                timeout = 0 if self.ingest.items else \
-                    (1 if self.rounds is not None and self.rounds.in_round else
-                     10 if busy else 100)
+                timeout = (
+                    0
+                    if self.ingest.items
+                    else (
+                        1
+                        if self.rounds is not None and self.rounds.in_round
+                        else 10
+                        if busy
+                        else 100
+                    )
+                )
                 events = dict(self.poller.poll(timeout))
                 now = time.monotonic()
                 if self.ingest.wake in events:
@@ -242,8 +282,9 @@ class Daemon:
                 if self.config.heartbeat and now >= self._next_beat:
                     self._beat(now)
                 if self.rounds is not None and self.rounds.due(now):
-                    self.rounds.step(now, self.streams, self.eventlog.failed
-                                     if self.eventlog is not None else 0)
+                    self.rounds.step(
+                        now, self.streams, self.eventlog.failed if self.eventlog is not None else 0
+                    )
         finally:
             self._shutdown()
         return 0
@@ -260,8 +301,7 @@ class Daemon:
             self.rounds.seen[st.stream] = st.frames_in
             self.out.skip_unlogged(st.stream)
             n += 1
-            log.info("stream %s restored from its checkpoint at frame %d", st.stream,
-                     st.next_seq)
+            log.info("stream %s restored from its checkpoint at frame %d", st.stream, st.next_seq)
         self.totals["streams_restored"] += n
         return n
 
@@ -275,8 +315,11 @@ class Daemon:
         try:
             return (st.stream, st.next_seq, checkpoint.snapshot(st))
         except Exception as err:  # e.g. a custom algorithm with state we cannot copy
-            self.error(st.stream, "checkpoint", f"stream state not checkpointed: "
-                        f"{type(err).__name__}: {err}")
+            self.error(
+                st.stream,
+                "checkpoint",
+                f"stream state not checkpointed: {type(err).__name__}: {err}",
+            )
             return None
 
     # --- events ------------------------------------------------------------------------------
@@ -293,13 +336,21 @@ class Daemon:
             publish_cut(self.publish, st, frame, score, emitted, kind)
         for a, b, count, emitted, label, index, *measures in reps:
             st.reps = count
-            self.publish(st, protocol.Rep(st.stream, a, b, count, st.time_of(b), emitted,
-                                           label, index, *measures))
+            self.publish(
+                st,
+                protocol.Rep(
+                    st.stream, a, b, count, st.time_of(b), emitted, label, index, *measures
+                ),
+            )
 
     def error(self, stream, reason: str, message: str, n: int = 1) -> None:
         st = self.streams.get(stream) if stream else None
-        if st is None and stream and (stream, reason) not in self.errors.counts \
-                and not self.stray.allow(time.monotonic()):
+        if (
+            st is None
+            and stream
+            and (stream, reason) not in self.errors.counts
+            and not self.stray.allow(time.monotonic())
+        ):
             stream = None  # a flood of unknown ids: pooled, summarised each heartbeat
         ev = self.errors.add(stream, reason, message, n)
         if ev is not None:
@@ -340,9 +391,13 @@ class Daemon:
         relabel = self.config.relabel_interval > 0
         if relabel and len(self.closing) >= FINAL_RELABELS_WAITING:
             relabel = False  # takes end faster than the worker relabels: memory stays bounded
-            self.error(st.stream, "relabel", f"final relabel skipped: "
-                       f"{len(self.closing)} ended takes already wait for theirs (the "
-                       f"relabel worker is behind); the live cuts stand")
+            self.error(
+                st.stream,
+                "relabel",
+                f"final relabel skipped: "
+                f"{len(self.closing)} ended takes already wait for theirs (the "
+                f"relabel worker is behind); the live cuts stand",
+            )
         self.intake.remove(st)
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
@@ -361,8 +416,12 @@ class Daemon:
             self.publish(st, ev)
         self.publish(st, protocol.Closed(st.stream, reason, st.next_seq))
         if self.order:
-            self.order.closed(st, self.out.send, lambda: self.numbering.current(st.stream),
-                              any(s == st.stream for (s, _) in self.closing))
+            self.order.closed(
+                st,
+                self.out.send,
+                lambda: self.numbering.current(st.stream),
+                any(s == st.stream for (s, _) in self.closing),
+            )
         self.gone.add(st.stream, st.state(), reason)
         log.info("stream %s closed (%s) after %d frames", st.stream, reason, st.next_seq)
 
@@ -383,13 +442,21 @@ class Daemon:
         failed = isinstance(result, Exception)
         if failed:
             self.error(stream, "relabel", f"relabel failed: {type(result).__name__}: {result}")
-        settled = st.pipeline.relabelled(None if failed else result, job.final, st.next_seq,
-                                         getattr(job, "focused", False))
+        settled = st.pipeline.relabelled(
+            None if failed else result, job.final, st.next_seq, getattr(job, "focused", False)
+        )
         if not failed:
             st.revision += 1
             st.relabel_time = result.elapsed
-            ev = protocol.Segments(stream, st.revision, result.start, result.end,
-                                   result.segments, job.final, result.elapsed)
+            ev = protocol.Segments(
+                stream,
+                st.revision,
+                result.start,
+                result.end,
+                result.segments,
+                job.final,
+                result.elapsed,
+            )
             self.totals["relabels"] += 1
             st.segments = self.publish(st, ev)
         for frame, score, emitted, kind, at in settled:  # after the revision that settles
@@ -415,19 +482,29 @@ class Daemon:
         # event it received (events of a take that waits for an older one are not numbered)
         keys = [*self.gone.recent(now), *self.streams, protocol.DAEMON_WIDE]
         last = {k: n for k in keys if (n := self.numbering.last.get(k))}
-        self.publish(None, protocol.Stats(round(now - self._started, 3), self._totals(),
-                                           {s: st.stats() for s, st in self.streams.items()},
-                                           last))
+        self.publish(
+            None,
+            protocol.Stats(
+                round(now - self._started, 3),
+                self._totals(),
+                {s: st.stats() for s, st in self.streams.items()},
+                last,
+            ),
+        )
 
     def _totals(self) -> dict:
         intake = self.intake
         out = dict(self.totals, packets=intake.n_packets, frames=intake.n_frames)
         p50, p99 = intake.latency.percentiles()
-        out.update(streams=len(self.streams), errors=self.errors.total,
-                   latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
-                   latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
-                   relabel_queue=self.worker.queued(), errors_by_reason=self.errors.by_reason(),
-                   **self.ingest.stats())
+        out.update(
+            streams=len(self.streams),
+            errors=self.errors.total,
+            latency_p50_ms=None if p50 is None else round(p50 * 1e3, 3),
+            latency_p99_ms=None if p99 is None else round(p99 * 1e3, 3),
+            relabel_queue=self.worker.queued(),
+            errors_by_reason=self.errors.by_reason(),
+            **self.ingest.stats(),
+        )
         out.update(self.out.wait_stats())
         if self.checkpoints is not None:
             out["checkpoints"] = self.rounds.copied  # stream states copied for the store
@@ -441,9 +518,13 @@ class Daemon:
         # closed ones too (those `state` still answers for, oldest first): a client that
         # joins after a stream ended (the view beside a daemon) can still list it
         closed = self.gone.listing(self.streams)
-        return {"streams": [{"stream": s, "fps": st.fps, "frame": st.next_seq,
-                             "revision": st.revision} for s, st in self.streams.items()],
-                "closed": closed}
+        return {
+            "streams": [
+                {"stream": s, "fps": st.fps, "frame": st.next_seq, "revision": st.revision}
+                for s, st in self.streams.items()
+            ],
+            "closed": closed,
+        }
 
     def stream_state(self, stream) -> dict | None:
         st = self.streams.get(stream)
@@ -458,8 +539,11 @@ class Daemon:
         return list(self.streams)
 
     def status(self) -> dict:
-        return {"uptime": time.monotonic() - self._started, "totals": self._totals(),
-                "streams": {s: st.stats() for s, st in self.streams.items()}}
+        return {
+            "uptime": time.monotonic() - self._started,
+            "totals": self._totals(),
+            "streams": {s: st.stats() for s, st in self.streams.items()},
+        }
 
     def hello(self, token: str) -> None:
         self.out.hello(token)
@@ -512,13 +596,23 @@ class Daemon:
     def _release_steps(self) -> list:
         steps = []
         if self.eventlog is not None and getattr(self, "pub", None) is not None:
-            steps.append(("publishing the logged events",
-                          lambda: self.out.publish_final(self.config.shutdown_relabel + 5.0)))
-        steps.append(("stopping the relabel worker",
-                      lambda: self.worker.stop(timeout=self.config.shutdown_relabel)))
+            steps.append(
+                (
+                    "publishing the logged events",
+                    lambda: self.out.publish_final(self.config.shutdown_relabel + 5.0),
+                )
+            )
+        steps.append(
+            (
+                "stopping the relabel worker",
+                lambda: self.worker.stop(timeout=self.config.shutdown_relabel),
+            )
+        )
         if self.ingest is not None:
-            steps += [("stopping the ingest", self.ingest.stop),
-                      ("closing the ingest", self.ingest.close)]
+            steps += [
+                ("stopping the ingest", self.ingest.stop),
+                ("closing the ingest", self.ingest.close),
+            ]
         if self.control is not None:
             steps.append(("closing the control socket", self.control.close))
         if getattr(self, "pub", None) is not None:  # default linger: final events get out

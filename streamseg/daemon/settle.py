@@ -85,8 +85,9 @@ class Settlement(Stateful):
         self.due_at = -1
 
     # --- a relabel's result -----------------------------------------------------------------
-    def apply(self, segments, start: int, end: int, final: bool, now: int,
-              first_frame: int = 0) -> list:
+    def apply(
+        self, segments, start: int, end: int, final: bool, now: int, first_frame: int = 0
+    ) -> list:
         """The cut events that settle what the relabel ``segments`` (``(start, end, label)``
         over stream frames ``[start, end)``) can settle, published at stream frame ``now``.
 
@@ -119,7 +120,7 @@ class Settlement(Stateful):
                 else:
                     out.append((frame, score, now, "rejected", None))
         last = self.last
-        self.last = (last + [bounds])[-(AGREE - 1):] if AGREE > 1 else []
+        self.last = (last + [bounds])[-(AGREE - 1) :] if AGREE > 1 else []
         for b in bounds:
             if b in used or not lo <= b < hi:
                 continue
@@ -127,8 +128,10 @@ class Settlement(Stateful):
                 continue
             # settled: the previous AGREE - 1 relabels had it too (HACA's boundaries inside an
             # action come and go between revisions), or this is the stream's last relabel
-            if not final and (len(last) < AGREE - 1 or not all(
-                    any(abs(x - b) <= self.radius // 2 for x in prev) for prev in last)):
+            if not final and (
+                len(last) < AGREE - 1
+                or not all(any(abs(x - b) <= self.radius // 2 for x in prev) for prev in last)
+            ):
                 continue
             out.append((b, 0.0, now, "found", b))
             self._settled(b)

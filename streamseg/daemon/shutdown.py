@@ -79,11 +79,16 @@ class Shutdown:
         d.collect()
         for key, (st, reason) in list(d.closing.items()):
             feats, frames = st.pipeline.snapshot()
-            if (time.monotonic() < deadline and not self.worker.running(key)
-                    and feats.shape[0] >= 2):
+            if time.monotonic() < deadline and not self.worker.running(key) and feats.shape[0] >= 2:
                 try:
-                    res = relabel(self.algorithms, feats, frames, st.fps, st.pipeline.previous,
-                                  tuple(st.pipeline.cut_frames))
+                    res = relabel(
+                        self.algorithms,
+                        feats,
+                        frames,
+                        st.fps,
+                        st.pipeline.previous,
+                        tuple(st.pipeline.cut_frames),
+                    )
                 except Exception as err:
                     res = err
                 d.relabelled(RelabelJob(key, None, None, st.fps, None, final=True), res)

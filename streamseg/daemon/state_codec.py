@@ -48,13 +48,20 @@ def dump(obj):
         raise TypeError(f"cannot checkpoint a {cls.__module__}.{cls.__qualname__}")
     if isinstance(obj, Stateful):
         state = obj.to_state()
-        return {"__obj__": name_of(cls), "v": state["version"],
-                "s": {n: dump(v) for n, v in state["fields"].items()}}
+        return {
+            "__obj__": name_of(cls),
+            "v": state["version"],
+            "s": {n: dump(v) for n, v in state["fields"].items()},
+        }
     if dataclasses.is_dataclass(obj):
-        return {"__obj__": name_of(cls),
-                "s": {f.name: dump(getattr(obj, f.name)) for f in dataclasses.fields(obj)}}
-    raise TypeError(f"cannot checkpoint a {cls.__qualname__}: neither a Stateful component "
-                    "(streamseg.state) nor a dataclass")
+        return {
+            "__obj__": name_of(cls),
+            "s": {f.name: dump(getattr(obj, f.name)) for f in dataclasses.fields(obj)},
+        }
+    raise TypeError(
+        f"cannot checkpoint a {cls.__qualname__}: neither a Stateful component "
+        "(streamseg.state) nor a dataclass"
+    )
 
 
 def load(obj, chunks=None, fmt: int = FORMAT):
@@ -70,8 +77,9 @@ def load(obj, chunks=None, fmt: int = FORMAT):
         dtype = np.dtype(dtype)
         n = int(np.prod(shape)) * dtype.itemsize
         if isinstance(data, list):  # chunk digests (packable), each without trailing zeros
-            data = b"".join(chunks[d].ljust(min(CHUNK, n - i * CHUNK), b"\0")
-                            for i, d in enumerate(data))
+            data = b"".join(
+                chunks[d].ljust(min(CHUNK, n - i * CHUNK), b"\0") for i, d in enumerate(data)
+            )
         return np.frombuffer(data.ljust(n, b"\0"), dtype=dtype).reshape(shape).copy()
     if "__t__" in obj:
         return tuple(load(x, chunks, fmt) for x in obj["__t__"])
@@ -92,8 +100,10 @@ def load(obj, chunks=None, fmt: int = FORMAT):
             version = obj.get("v", implied_version(fmt, obj["__obj__"]) if fmt < 7 else None)
             return upgrade(cls, {"version": version, "fields": fields})
         if not dataclasses.is_dataclass(cls):
-            raise TypeError(f"refusing to build {module}.{qual} from a checkpoint: neither a "
-                            "Stateful component nor a dataclass")
+            raise TypeError(
+                f"refusing to build {module}.{qual} from a checkpoint: neither a "
+                "Stateful component nor a dataclass"
+            )
         out = cls.__new__(cls)
         for k, v in fields.items():
             object.__setattr__(out, k, v)  # also frozen dataclasses
@@ -123,7 +133,7 @@ def packable(obj, chunks: dict, pause=None):
             return {"__nd__": [dtype, shape, stored(raw)]}
         digests = []
         for i in range(0, raw.nbytes, CHUNK):
-            part = raw[i:i + CHUNK]
+            part = raw[i : i + CHUNK]
             # content addressing, not security: a changed chunk gets a new key. XXH3-128 reads
             # 745 kB in 0.03 ms, SHA-1 in 0.6 ms (a round hashes every open stream's state)
             d = xxhash.xxh3_128_digest(part)

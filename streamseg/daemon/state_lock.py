@@ -39,11 +39,12 @@ def lock_state_dir(state_dir) -> int | None:
     except BlockingIOError:
         holder = os.read(fd, 32).decode("ascii", "replace").strip() or "?"
         os.close(fd)
-        raise StateDirInUse(f"--state-dir {state_dir} is in use by another daemon (pid "
-                            f"{holder}): stop it, or give this one its own, e.g. --state-dir "
-                            f"{Path(state_dir).expanduser()}-2 (or --state-dir none: no "
-                            "event log, no checkpoints)") \
-            from None
+        raise StateDirInUse(
+            f"--state-dir {state_dir} is in use by another daemon (pid "
+            f"{holder}): stop it, or give this one its own, e.g. --state-dir "
+            f"{Path(state_dir).expanduser()}-2 (or --state-dir none: no "
+            "event log, no checkpoints)"
+        ) from None
     os.ftruncate(fd, 0)
     os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)  # for the message above, informative only
     return fd

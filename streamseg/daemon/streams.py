@@ -24,10 +24,31 @@ class StreamState(Stateful):
 
     # the pipeline is stored beside it; per-drain buffers and the rate limit start anew
     _transient = ("pipeline", "pending", "arrivals", "gap_limit")
-    __slots__ = ("stream", "gen", "fps", "pipeline", "next_seq", "t0", "last_seen", "frames_in",
-                 "dropped", "lost", "events_out", "revision", "segments", "cuts", "reps",
-                 "next_relabel", "relabel_time", "pending", "arrivals", "labels", "gap_limit",
-                 "seq_base", "client")
+    __slots__ = (
+        "stream",
+        "gen",
+        "fps",
+        "pipeline",
+        "next_seq",
+        "t0",
+        "last_seen",
+        "frames_in",
+        "dropped",
+        "lost",
+        "events_out",
+        "revision",
+        "segments",
+        "cuts",
+        "reps",
+        "next_relabel",
+        "relabel_time",
+        "pending",
+        "arrivals",
+        "labels",
+        "gap_limit",
+        "seq_base",
+        "client",
+    )
 
     def __init__(self, stream: str, gen: int, fps: float, pipeline, now: float):
         self.stream = stream
@@ -58,20 +79,30 @@ class StreamState(Stateful):
         return (self.t0 or 0.0) + frame / self.fps
 
     def stats(self) -> dict:
-        return {"frames_in": self.frames_in, "dropped": self.dropped, "lost": self.lost,
-                "events_out": self.events_out, "buffer_fill": round(self.pipeline.fill, 4),
-                "relabel_time": round(self.relabel_time, 6), "revision": self.revision,
-                "frame": self.next_seq}
+        return {
+            "frames_in": self.frames_in,
+            "dropped": self.dropped,
+            "lost": self.lost,
+            "events_out": self.events_out,
+            "buffer_fill": round(self.pipeline.fill, 4),
+            "relabel_time": round(self.relabel_time, 6),
+            "revision": self.revision,
+            "frame": self.next_seq,
+        }
 
     def state(self) -> dict:
         """The catch-up state of the control endpoint's ``state`` request."""
         seg = self.segments
-        return {"stream": self.stream, "fps": self.fps, "frame": self.next_seq,
-                "revision": self.revision, "seq_base": self.seq_base,
-                "segments": None if seg is None else protocol.to_json(seg),
-                "cuts": [protocol.to_json(c) for c in self.cuts
-                         if seg is None or c.frame >= seg.end],
-                **({"labels": self.labels} if self.labels else {})}
+        return {
+            "stream": self.stream,
+            "fps": self.fps,
+            "frame": self.next_seq,
+            "revision": self.revision,
+            "seq_base": self.seq_base,
+            "segments": None if seg is None else protocol.to_json(seg),
+            "cuts": [protocol.to_json(c) for c in self.cuts if seg is None or c.frame >= seg.end],
+            **({"labels": self.labels} if self.labels else {}),
+        }
 
 
 class LatencyRing:
@@ -121,8 +152,12 @@ class ErrorBook:
         count = self.counts.get(key, 0) + n
         self.counts[key] = count
         if count == n:
-            log.warning("stream %s: %s: %s (logged once per stream and kind; counted after)",
-                        key[0] if key[0] is not None else "?", reason, message)
+            log.warning(
+                "stream %s: %s: %s (logged once per stream and kind; counted after)",
+                key[0] if key[0] is not None else "?",
+                reason,
+                message,
+            )
             return protocol.Error(key[0], reason, message, count)
         self.dirty[key] = message
         return None

@@ -18,11 +18,19 @@ PROCESS_NICE = 10
 class RelabelJob:
     """A snapshot of one stream's features to relabel (taken by the ingest thread)."""
 
-    __slots__ = ("key", "features", "frames", "fps", "previous", "final", "queued", "cuts",
-                 "focused")
+    __slots__ = (
+        "key",
+        "features",
+        "frames",
+        "fps",
+        "previous",
+        "final",
+        "queued",
+        "cuts",
+        "focused",
+    )
 
-    def __init__(self, key, features, frames, fps, previous, final=False, cuts=(),
-                 focused=False):
+    def __init__(self, key, features, frames, fps, previous, final=False, cuts=(), focused=False):
         self.key = key  # (stream, generation): a re-announced stream is a new key
         self.features = features
         self.frames = frames
@@ -72,8 +80,10 @@ class RelabelWorker(threading.Thread):
             import multiprocessing
 
             self.pool = concurrent.futures.ProcessPoolExecutor(
-                processes, mp_context=multiprocessing.get_context("spawn"),
-                initializer=_lower_priority)
+                processes,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_lower_priority,
+            )
         self._cond = threading.Condition()
         self._queue = collections.OrderedDict()
         self._busy: set = set()
@@ -162,8 +172,15 @@ class RelabelWorker(threading.Thread):
                 self._busy.add(key)
             if self.pool is not None:
                 try:
-                    fut = self.pool.submit(relabel, self.algorithms, job.features, job.frames,
-                                           job.fps, job.previous, job.cuts)
+                    fut = self.pool.submit(
+                        relabel,
+                        self.algorithms,
+                        job.features,
+                        job.frames,
+                        job.fps,
+                        job.previous,
+                        job.cuts,
+                    )
                 except RuntimeError as err:  # the pool was shut down under us
                     self._finished(job, err)
                     continue
@@ -171,13 +188,13 @@ class RelabelWorker(threading.Thread):
                 continue
             started = time.thread_time()
             try:
-                result = relabel(self.algorithms, job.features, job.frames, job.fps,
-                                 job.previous, job.cuts)
+                result = relabel(
+                    self.algorithms, job.features, job.frames, job.fps, job.previous, job.cuts
+                )
             except Exception as err:  # reported as an error event; the worker lives on
                 result = err
             elapsed = time.thread_time() - started
             self._finished(job, result)
             if self.share < 1.0:  # the daemon hands the next job in meanwhile (free() is 1)
                 with self._cond:
-                    self._cond.wait_for(lambda: self._stopping,
-                                        elapsed * (1.0 / self.share - 1.0))
+                    self._cond.wait_for(lambda: self._stopping, elapsed * (1.0 / self.share - 1.0))

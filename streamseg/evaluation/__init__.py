@@ -17,5 +17,12 @@ from streamseg.evaluation.corpus import (
     score,
 )
 
-__all__ = ["STREAMSEG_METHODS", "LabelledRecording", "Prediction", "discover", "evaluate_all",
-           "format_table", "score"]
+__all__ = [
+    "STREAMSEG_METHODS",
+    "LabelledRecording",
+    "Prediction",
+    "discover",
+    "evaluate_all",
+    "format_table",
+    "score",
+]

@@ -72,8 +72,10 @@ class LabelledRecording:
 def segments_from_cuts(cuts, n_frames: int, label: str = "part") -> list[LabelSegment]:
     """Label segments for a sequence whose only truth is its cut frames (e.g. joined clips)."""
     bounds = [0, *sorted(int(c) for c in cuts), n_frames]
-    return [LabelSegment(a, b, f"{label}{i}", b, b) for i, (a, b) in
-            enumerate(zip(bounds[:-1], bounds[1:]))]
+    return [
+        LabelSegment(a, b, f"{label}{i}", b, b)
+        for i, (a, b) in enumerate(zip(bounds[:-1], bounds[1:]))
+    ]
 
 
 def discover(folder, skeleton=None, markers=None) -> list[LabelledRecording]:
@@ -107,16 +109,30 @@ def discover(folder, skeleton=None, markers=None) -> list[LabelledRecording]:
             continue  # not text, so not a label CSV (a label CSV that is: read_labels says)
         asfs = sorted(csv_path.parent.glob("*.asf"))
         for seq in sequences:
-            path = next((csv_path.parent / f"{seq}{s}" for s in RECORDING_SUFFIXES
-                         if (csv_path.parent / f"{seq}{s}").exists()), None)
+            path = next(
+                (
+                    csv_path.parent / f"{seq}{s}"
+                    for s in RECORDING_SUFFIXES
+                    if (csv_path.parent / f"{seq}{s}").exists()
+                ),
+                None,
+            )
             if path is None:
-                raise RecordingError(csv_path, None, f"sequence {seq!r} without a recording",
-                                     f"{seq}.amc[.gz], .bvh or .npz beside the labels")
+                raise RecordingError(
+                    csv_path,
+                    None,
+                    f"sequence {seq!r} without a recording",
+                    f"{seq}.amc[.gz], .bvh or .npz beside the labels",
+                )
             skel = asfs[0] if len(asfs) == 1 else skeleton
-            rec = read(path, skeleton=skel, markers=markers if path.suffix.lower() in
-                       (".c3d", ".trc") else None)
-            out.append(LabelledRecording(seq, rec, read_labels(csv_path, seq),
-                                         f"labels: {csv_path.name}"))
+            rec = read(
+                path,
+                skeleton=skel,
+                markers=markers if path.suffix.lower() in (".c3d", ".trc") else None,
+            )
+            out.append(
+                LabelledRecording(seq, rec, read_labels(csv_path, seq), f"labels: {csv_path.name}")
+            )
     return out
 
 
@@ -162,10 +178,18 @@ def score(item: LabelledRecording, pred: Prediction, fps: float) -> dict:
         return {"error": pred.error}
     win = cut_scores(pred.cuts, item.cuts, windows=item.windows, margin=round(0.5 * fps))
     flat = cut_scores(pred.cuts, item.cuts, tolerance=round(1.0 * fps))
-    row = {"P": win["precision"], "R": win["recall"], "F1": win["f1"], "F1@1s": flat["f1"],
-           "cover": covering(pred.cuts, item.cuts, n), "n_cuts": len(pred.cuts),
-           "acc": float("nan"), "lat_med": float("nan"), "lat_max": float("nan"),
-           "time_s": pred.seconds}
+    row = {
+        "P": win["precision"],
+        "R": win["recall"],
+        "F1": win["f1"],
+        "F1@1s": flat["f1"],
+        "cover": covering(pred.cuts, item.cuts, n),
+        "n_cuts": len(pred.cuts),
+        "acc": float("nan"),
+        "lat_med": float("nan"),
+        "lat_max": float("nan"),
+        "time_s": pred.seconds,
+    }
     if pred.labels is not None:
         row["acc"] = matched_frame_accuracy(pred.labels, item.frame_labels)[0]
     if pred.latencies is not None:
@@ -176,10 +200,19 @@ def score(item: LabelledRecording, pred: Prediction, fps: float) -> dict:
 
 COLUMNS = ("P", "R", "F1", "F1@1s", "cover", "acc", "lat_med", "lat_max", "time_s", "n_cuts")
 #: the table's short column names -> the keys of the JSON rows (docs/output.md), as ``eval``
-JSON_KEYS = {"P": "precision", "R": "recall", "F1": "f1", "F1@1s": "f1_1s", "cover": "covering",
-             "acc": "accuracy", "lat_med": "latency_median_frames",
-             "lat_max": "latency_max_frames", "time_s": "seconds", "n_cuts": "n_cuts",
-             "error": "error"}
+JSON_KEYS = {
+    "P": "precision",
+    "R": "recall",
+    "F1": "f1",
+    "F1@1s": "f1_1s",
+    "cover": "covering",
+    "acc": "accuracy",
+    "lat_med": "latency_median_frames",
+    "lat_max": "latency_max_frames",
+    "time_s": "seconds",
+    "n_cuts": "n_cuts",
+    "error": "error",
+}
 
 
 def json_row(row: dict) -> dict:
@@ -207,8 +240,9 @@ def format_table(rows: list[tuple[str, str, dict]], means: bool = True) -> str:
         if "error" in row:
             lines.append(f"| {rec} | {method} | could not run: {row['error']} |")
         else:
-            lines.append(f"| {rec} | {method} | " + " | ".join(cell(row[c]) for c in COLUMNS)
-                         + " |")
+            lines.append(
+                f"| {rec} | {method} | " + " | ".join(cell(row[c]) for c in COLUMNS) + " |"
+            )
     if means:
         methods = list(dict.fromkeys(m for _, m, _ in rows))
         for m in methods:
@@ -219,8 +253,11 @@ def format_table(rows: list[tuple[str, str, dict]], means: bool = True) -> str:
             for c in COLUMNS:
                 vals = [r[c] for r in ok if not (isinstance(r[c], float) and math.isnan(r[c]))]
                 avg[c] = float(np.mean(vals)) if vals else float("nan")
-            lines.append(f"| **mean ({len(ok)})** | {m} | "
-                         + " | ".join(cell(avg[c]) for c in COLUMNS) + " |")
+            lines.append(
+                f"| **mean ({len(ok)})** | {m} | "
+                + " | ".join(cell(avg[c]) for c in COLUMNS)
+                + " |"
+            )
     return "\n".join(lines)
 
 
@@ -237,8 +274,10 @@ class Progress:
         self.done += 1
         filled = int(self.width * self.done / self.total)
         elapsed = time.perf_counter() - self.t0
-        line = (f"[{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} "
-                f"{elapsed:5.0f}s {what[:40]}")
+        line = (
+            f"[{'#' * filled}{'.' * (self.width - filled)}] {self.done}/{self.total} "
+            f"{elapsed:5.0f}s {what[:40]}"
+        )
         if self.tty:
             end = "\n" if self.done >= self.total else ""
             self.stream.write(f"\r{line:<{self.width + 60}}{end}")
@@ -283,8 +322,9 @@ def label_cuts(labels: np.ndarray) -> list[int]:
     return [int(i) for i in np.flatnonzero(labels[1:] != labels[:-1]) + 1]
 
 
-def aca_prediction(features: np.ndarray, n_clusters: int | None, fps: float,
-                   hierarchical: bool, config=None) -> Prediction:
+def aca_prediction(
+    features: np.ndarray, n_clusters: int | None, fps: float, hierarchical: bool, config=None
+) -> Prediction:
     """(H)ACA (``config``; None: the defaults) with ``n_clusters`` actions (None: found): frame
     labels and their cuts."""
     from dataclasses import replace
@@ -303,10 +343,12 @@ def aca_prediction(features: np.ndarray, n_clusters: int | None, fps: float,
 STREAMSEG_METHODS = {
     "LOF offline": lambda item, fps: lof_prediction(_angles(item), fps, False),
     "LOF streaming": lambda item, fps: lof_prediction(_angles(item), fps, True),
-    "ACA (K=true)": lambda item, fps: aca_prediction(_bone_features(item), item.n_actions, fps,
-                                                     False),
-    "HACA (K=true)": lambda item, fps: aca_prediction(_bone_features(item), item.n_actions, fps,
-                                                      True),
+    "ACA (K=true)": lambda item, fps: aca_prediction(
+        _bone_features(item), item.n_actions, fps, False
+    ),
+    "HACA (K=true)": lambda item, fps: aca_prediction(
+        _bone_features(item), item.n_actions, fps, True
+    ),
     "HACA (K found)": lambda item, fps: aca_prediction(_bone_features(item), None, fps, True),
 }
 

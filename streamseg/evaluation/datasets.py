@@ -17,9 +17,16 @@ from streamseg.exceptions import ParameterError
 #: Trial-level labels of the CMU subject 02 trials in data/cmu02 (data/README.md), as the
 #: list of actions each label names.
 CMU02_TRIAL_ACTIONS = {
-    "01": ("walk",), "02": ("walk",), "03": ("run/jog",), "04": ("jump", "balance"),
-    "05": ("punch/strike",), "06": ("bend", "scoop", "rise"), "07": ("swordplay",),
-    "08": ("swordplay",), "09": ("swordplay",), "10": ("wash self",),
+    "01": ("walk",),
+    "02": ("walk",),
+    "03": ("run/jog",),
+    "04": ("jump", "balance"),
+    "05": ("punch/strike",),
+    "06": ("bend", "scoop", "rise"),
+    "07": ("swordplay",),
+    "08": ("swordplay",),
+    "09": ("swordplay",),
+    "10": ("wash self",),
 }
 
 #: A trial may be joined into an evaluation sequence only when its label names ONE action and
@@ -68,12 +75,16 @@ def concatenate(recordings) -> tuple:
         raise ParameterError("concatenate() needs at least one recording")
     first = recs[0]
     for r in recs[1:]:
-        if tuple(r.skeleton.names) != tuple(first.skeleton.names) or r.fps != first.fps \
-                or r.skeleton.up != first.skeleton.up:
+        if (
+            tuple(r.skeleton.names) != tuple(first.skeleton.names)
+            or r.fps != first.fps
+            or r.skeleton.up != first.skeleton.up
+        ):
             raise ParameterError(
                 f"cannot join {r.source or 'a recording'} to {first.source or 'the first'}: "
                 "skeleton joint names, up axis and fps must match (read them with the same "
-                "skeleton)")
+                "skeleton)"
+            )
     positions = np.concatenate([r.positions for r in recs], axis=0)
     rotations = None
     if all(r.rotations is not None for r in recs):
@@ -81,9 +92,13 @@ def concatenate(recordings) -> tuple:
     lengths = np.array([r.n_frames for r in recs])
     cuts = [int(c) for c in np.cumsum(lengths)[:-1]]
     source = " + ".join(str(r.source) for r in recs)
-    joined = replace(first, positions=positions, rotations=rotations, source=source,
-                     metadata={**first.metadata, "concatenated": [str(r.source) for r in recs],
-                               "cuts": cuts})
+    joined = replace(
+        first,
+        positions=positions,
+        rotations=rotations,
+        source=source,
+        metadata={**first.metadata, "concatenated": [str(r.source) for r in recs], "cuts": cuts},
+    )
     return joined, cuts
 
 
@@ -104,11 +119,22 @@ def cmu02_sequence(data_dir, trials) -> tuple:
 
 
 #: HDM05 classes whose clips hold exactly one repetition each (data/hdm05_reps/README.md).
-HDM05_REPETITIVE = ("squat1Reps", "elbowToKnee1RepsLelbowStart", "rotateArmsBothBackward1Reps",
-                    "kickLFront1Reps", "hopBothLegs1hops")
+HDM05_REPETITIVE = (
+    "squat1Reps",
+    "elbowToKnee1RepsLelbowStart",
+    "rotateArmsBothBackward1Reps",
+    "kickLFront1Reps",
+    "hopBothLegs1hops",
+)
 #: HDM05 classes whose clips hold one whole action each.
-HDM05_ACTIONS = ("depositFloorR", "grabHighR", "lieDownFloor", "throwBasketball",
-                 "sneak2StepsLStart", "jogLeftCircle4StepsRstart")
+HDM05_ACTIONS = (
+    "depositFloorR",
+    "grabHighR",
+    "lieDownFloor",
+    "throwBasketball",
+    "sneak2StepsLStart",
+    "jogLeftCircle4StepsRstart",
+)
 HDM05_ACTORS = ("bd", "bk", "dg")
 #: Repetitions a repetitive class contributes to an action sequence: one set of this many.
 HDM05_SET_REPS = 3
@@ -123,7 +149,8 @@ def hdm05_clips(data_dir) -> dict:
     with open(root / "clips.csv", newline="") as fh:
         for row in csv.DictReader(fh):
             out.setdefault((row["actor"], row["class"]), []).append(
-                root / row["class"] / (row["file"] + ".gz"))
+                root / row["class"] / (row["file"] + ".gz")
+            )
     return out
 
 
@@ -133,8 +160,14 @@ def _clips_left(clips, actor, cls, used) -> bool:
     return len(clips.get((actor, cls), [])) - used[cls] >= need
 
 
-def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: int = 0,
-                       exclude=None, prefix: str = "hdm") -> dict:
+def hdm05_action_plans(
+    data_dir,
+    per_actor: int = 3,
+    n_classes: int = 5,
+    seed: int = 0,
+    exclude=None,
+    prefix: str = "hdm",
+) -> dict:
     """Which clips make each HDM05 action sequence, decided before any result is seen.
 
     Per actor, ``per_actor`` sequences of ``n_classes`` distinct classes in random order (at
@@ -166,8 +199,10 @@ def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: i
             rep = [c for c in HDM05_REPETITIVE if _clips_left(clips, actor, c, used)]
             act = [c for c in HDM05_ACTIONS if _clips_left(clips, actor, c, used)]
             if not rep or not act or len(rep) + len(act) < n_classes:
-                raise ParameterError(f"hdm05_action_plans: actor {actor} has too few clips "
-                                     f"for {per_actor} sequences of {n_classes} classes")
+                raise ParameterError(
+                    f"hdm05_action_plans: actor {actor} has too few clips "
+                    f"for {per_actor} sequences of {n_classes} classes"
+                )
             while True:
                 classes = list(rng.choice(rep + act, n_classes, replace=False))
                 if set(classes) & set(rep) and set(classes) & set(act):
@@ -175,7 +210,7 @@ def hdm05_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5, seed: i
             parts = []
             for c in classes:
                 need = HDM05_SET_REPS if c in HDM05_REPETITIVE else 1
-                parts.append((str(c), clips[actor, c][used[c]:used[c] + need]))
+                parts.append((str(c), clips[actor, c][used[c] : used[c] + need]))
                 used[c] += need
             plans[f"{prefix}_{actor}_{i}"] = (actor, parts)
     return plans
@@ -214,7 +249,6 @@ def hdm05_action_sequences(data_dir, per_actor: int = 3, seed: int = 0) -> dict:
     return out
 
 
-
 #: Seeds of the fresh held-out joins: drawn once, after the nine ``hdm`` joins were in use.
 FRESH_SEED = 11
 FRESH2_SEED = 12
@@ -224,12 +258,12 @@ def fresh_action_plans(data_dir) -> dict:
     """Plans of the nine "fresh" HDM05 joins: the construction of :func:`hdm05_action_plans`
     (seed :data:`FRESH_SEED`) from the clips no ``hdm`` join uses; names ``fresh_<actor>_<i>``."""
     old = hdm05_action_plans(data_dir)
-    return hdm05_action_plans(data_dir, per_actor=3, seed=FRESH_SEED, exclude=old,
-                              prefix="fresh")
+    return hdm05_action_plans(data_dir, per_actor=3, seed=FRESH_SEED, exclude=old, prefix="fresh")
 
 
-def fresh2_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5,
-                        min_classes: int = 3) -> dict:
+def fresh2_action_plans(
+    data_dir, per_actor: int = 3, n_classes: int = 5, min_classes: int = 3
+) -> dict:
     """Plans of the "fresh2" joins, from the clips neither the ``hdm`` nor the fresh joins use.
 
     Per actor, up to ``per_actor`` sequences of ``min(n_classes, k)`` distinct classes drawn
@@ -259,7 +293,7 @@ def fresh2_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5,
             for c in rng.choice(avail, min(n_classes, len(avail)), replace=False):
                 c = str(c)
                 need = min(HDM05_SET_REPS, left[c]) if c in HDM05_REPETITIVE else 1
-                parts.append((c, clips[actor, c][used[c]:used[c] + need]))
+                parts.append((c, clips[actor, c][used[c] : used[c] + need]))
                 used[c] += need
             plans[f"fresh2_{actor}_{i}"] = (actor, parts)
     return plans
@@ -275,14 +309,24 @@ def fresh2_action_plans(data_dir, per_actor: int = 3, n_classes: int = 5,
 #: punch return after both exercise takes.
 RETURN_CMU_STREAMS = {
     "ret_14_86_14": (("14_14", 0, None), ("86_01", 0, None), ("14_20", 0, None)),
-    "ret_86_14_14_86": (("86_01", 0, 2500), ("14_14", 0, None), ("14_20", 0, None),
-                        ("86_01", 2500, None)),
+    "ret_86_14_14_86": (
+        ("86_01", 0, 2500),
+        ("14_14", 0, None),
+        ("14_20", 0, None),
+        ("86_01", 2500, None),
+    ),
 }
 #: HDM05 return streams, one per actor: the first half of the clips of each returning class,
 #: then every clip of the other classes (at least 70 s), then the second half.
 HDM05_RETURNING = ("squat1Reps", "hopBothLegs1hops")
-HDM05_BETWEEN = ("depositFloorR", "grabHighR", "lieDownFloor", "throwBasketball",
-                 "kickLFront1Reps", "elbowToKnee1RepsLelbowStart")
+HDM05_BETWEEN = (
+    "depositFloorR",
+    "grabHighR",
+    "lieDownFloor",
+    "throwBasketball",
+    "kickLFront1Reps",
+    "elbowToKnee1RepsLelbowStart",
+)
 
 
 def _cmu_take(data_dir, name):
@@ -298,7 +342,7 @@ def _cmu_take(data_dir, name):
         labels = read_labels(root / "cmu_exercise/labels.csv", name)
     names = np.full(rec.n_frames, "", dtype=object)
     for seg in labels:
-        names[seg.start:min(seg.end, rec.n_frames)] = seg.label
+        names[seg.start : min(seg.end, rec.n_frames)] = seg.label
     return rec, names
 
 
@@ -337,14 +381,15 @@ def return_streams(data_dir) -> dict:
         order = []
         for c in HDM05_RETURNING:
             p = clips[actor, c]
-            order += [(c, q) for q in p[:len(p) // 2]]
+            order += [(c, q) for q in p[: len(p) // 2]]
         for c in HDM05_BETWEEN:
             order += [(c, q) for q in clips[actor, c]]
         for c in HDM05_RETURNING:
             p = clips[actor, c]
-            order += [(c, q) for q in p[len(p) // 2:]]
+            order += [(c, q) for q in p[len(p) // 2 :]]
         recs = [read(q, skeleton=asf) for _, q in order]
-        names = np.concatenate([np.full(r.n_frames, c, dtype=object)
-                                for (c, _), r in zip(order, recs, strict=True)])
+        names = np.concatenate(
+            [np.full(r.n_frames, c, dtype=object) for (c, _), r in zip(order, recs, strict=True)]
+        )
         out[f"ret_hdm_{actor}"] = (concatenate(recs)[0], names)
     return out

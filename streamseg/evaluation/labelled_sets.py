@@ -53,8 +53,11 @@ def _cmu02(folder) -> list[LabelledRecording]:
     for name, trials in CMU02_SEQUENCES.items():
         rec, cuts = cmu02_sequence(folder, trials)
         labels = [CMU02_TRIAL_ACTIONS[t][0] for t in trials]
-        out.append(LabelledRecording(name, rec, _segments([0, *cuts, rec.n_frames], labels),
-                                     _JOINED_NOTE, "cmu02"))
+        out.append(
+            LabelledRecording(
+                name, rec, _segments([0, *cuts, rec.n_frames], labels), _JOINED_NOTE, "cmu02"
+            )
+        )
     return out
 
 
@@ -63,8 +66,11 @@ def _hdm(folder, plans: dict, group: str) -> list[LabelledRecording]:
     for name, (actor, parts) in plans.items():
         rec, cuts = hdm05_sequence(folder, actor, parts)
         labels = [cls for cls, _paths in parts]
-        out.append(LabelledRecording(name, rec, _segments([0, *cuts, rec.n_frames], labels),
-                                     _JOINED_NOTE, group))
+        out.append(
+            LabelledRecording(
+                name, rec, _segments([0, *cuts, rec.n_frames], labels), _JOINED_NOTE, group
+            )
+        )
     return out
 
 
@@ -109,14 +115,19 @@ def labelled_sets(folder, sets=None, skeleton=None, markers=None) -> list[Labell
     joined = [s for s in SETS[1:] if wanted is None or s in wanted]
     if joined and not bundled:
         if wanted is not None:
-            raise ParameterError(f"set {joined[0]} is joined from the bundled clips "
-                                 f"(cmu02/, hdm05_reps/), which {folder} does not hold")
+            raise ParameterError(
+                f"set {joined[0]} is joined from the bundled clips "
+                f"(cmu02/, hdm05_reps/), which {folder} does not hold"
+            )
         joined = []
     if "cmu02" in joined:
         out += _cmu02(folder)
     if {"hdm", "fresh", "fresh2"} & set(joined):
-        plans = {"hdm": hdm05_action_plans, "fresh": fresh_action_plans,
-                 "fresh2": fresh2_action_plans}
+        plans = {
+            "hdm": hdm05_action_plans,
+            "fresh": fresh_action_plans,
+            "fresh2": fresh2_action_plans,
+        }
         for group in ("hdm", "fresh", "fresh2"):
             if group in joined:
                 out += _hdm(folder, plans[group](folder), group)

@@ -74,8 +74,12 @@ def read_labels(path, sequence: str) -> list[LabelSegment]:
                     path, lineno, f"row {row!r}", "integer frame numbers in columns 2-3 (and 5-6)"
                 ) from None
             if start < 0:
-                raise RecordingError(path, lineno, f"start_frame {start + 1}",
-                                     "1-based frame numbers (the first frame is 1)")
+                raise RecordingError(
+                    path,
+                    lineno,
+                    f"start_frame {start + 1}",
+                    "1-based frame numbers (the first frame is 1)",
+                )
             if end <= start:
                 raise RecordingError(
                     path, lineno, f"start {start + 1} > end {end}", "start_frame <= end_frame"
@@ -95,9 +99,12 @@ def _text(path) -> str:
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise RecordingError(path, data[:err.start].count(b"\n") + 1,
-                             "bytes that are not UTF-8 text",
-                             "a label CSV (sequence,start_frame,end_frame,action_label)") from None
+        raise RecordingError(
+            path,
+            data[: err.start].count(b"\n") + 1,
+            "bytes that are not UTF-8 text",
+            "a label CSV (sequence,start_frame,end_frame,action_label)",
+        ) from None
 
 
 def true_cuts(segments: list[LabelSegment], n_frames: int | None = None) -> list[int]:

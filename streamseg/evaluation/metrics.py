@@ -116,8 +116,7 @@ def latency_stats(latencies) -> dict:
     x = np.asarray(latencies, dtype=np.float64).reshape(-1)
     if x.size == 0:
         return dict(n=0, median=float("nan"), mean=float("nan"), max=float("nan"))
-    return dict(n=int(x.size), median=float(np.median(x)), mean=float(x.mean()),
-                max=float(x.max()))
+    return dict(n=int(x.size), median=float(np.median(x)), mean=float(x.mean()), max=float(x.max()))
 
 
 # --- Hungarian-matched frame accuracy and confusion matrix -----------------------------------
@@ -130,7 +129,8 @@ def _frame_label_arrays(predicted, truth):
     t = np.asarray(truth).ravel()
     if p.shape != t.shape:
         raise ParameterError(
-            f"predicted has {p.size} frames but truth has {t.size}; label the same frames")
+            f"predicted has {p.size} frames but truth has {t.size}; label the same frames"
+        )
     return p, t
 
 
@@ -212,8 +212,12 @@ def matched_repetition_accuracy(found, truth) -> float:
         return 0.0
     shared = np.array([[max(0, min(b, d) - max(a, c)) for c, d in t] for a, b in f], float)
     rows, cols = linear_sum_assignment(-shared)
-    terms = [1.0 - abs((f[i][1] - f[i][0]) - (t[j][1] - t[j][0])) / (t[j][1] - t[j][0])
-             if shared[i, j] > 0 else 0.0 for i, j in zip(rows, cols)]
+    terms = [
+        1.0 - abs((f[i][1] - f[i][0]) - (t[j][1] - t[j][0])) / (t[j][1] - t[j][0])
+        if shared[i, j] > 0
+        else 0.0
+        for i, j in zip(rows, cols)
+    ]
     return float(np.sum(terms) / min(len(f), len(t)))
 
 

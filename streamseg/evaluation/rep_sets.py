@@ -49,8 +49,13 @@ def _rng(*key) -> np.random.Generator:
     return np.random.default_rng(zlib.crc32("/".join(map(str, key)).encode()))
 
 
-def hdm05_rep_sets(data_dir, actors=("bd", "bk", "dg"), sizes=SET_SIZES, per: int | None = 4,
-                   classes=HDM05_REPETITIVE) -> list[RepSetPlan]:
+def hdm05_rep_sets(
+    data_dir,
+    actors=("bd", "bk", "dg"),
+    sizes=SET_SIZES,
+    per: int | None = 4,
+    classes=HDM05_REPETITIVE,
+) -> list[RepSetPlan]:
     """Sets of ``sizes`` consecutive takes of one actor and class.
 
     Up to ``per`` windows of consecutive takes (None: every window), their first takes
@@ -65,21 +70,27 @@ def hdm05_rep_sets(data_dir, actors=("bd", "bk", "dg"), sizes=SET_SIZES, per: in
             for k in sizes:
                 if len(takes) >= k:
                     n_win = len(takes) - k + 1 if per is None else per
-                    starts = sorted(set(np.linspace(0, len(takes) - k, n_win).round()
-                                        .astype(int).tolist()))
+                    starts = sorted(
+                        set(np.linspace(0, len(takes) - k, n_win).round().astype(int).tolist())
+                    )
                     picks = [list(range(s, s + k)) for s in starts]
                 else:
                     rng = _rng(cls, actor, k)
-                    picks = [rng.choice(len(takes), size=k, replace=True).tolist()
-                             for _ in range(2)]
+                    picks = [
+                        rng.choice(len(takes), size=k, replace=True).tolist() for _ in range(2)
+                    ]
                 for i, idx in enumerate(picks):
-                    out.append(RepSetPlan(f"{cls}/{actor}/{k}/{i}", actor,
-                                          ((cls, tuple(takes[j] for j in idx)),)))
+                    out.append(
+                        RepSetPlan(
+                            f"{cls}/{actor}/{k}/{i}", actor, ((cls, tuple(takes[j] for j in idx)),)
+                        )
+                    )
     return out
 
 
-def hdm05_routines(data_dir, actors=("bd", "bk", "dg"), per_actor: int = 6,
-                   p_action: float = 0.6) -> list[RepSetPlan]:
+def hdm05_routines(
+    data_dir, actors=("bd", "bk", "dg"), per_actor: int = 6, p_action: float = 0.6
+) -> list[RepSetPlan]:
     """Routines: the five repetitive classes in a random order, each a set of 2-6
     consecutive takes (first take random, wrapping round), followed with probability
     ``p_action`` by one whole-action clip; so some exercises follow each other directly."""

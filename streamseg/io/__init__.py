@@ -45,18 +45,41 @@ def _read_npz(path, skeleton=None, **kw):
     return read_positions(path, skeleton, **kw)
 
 
-READERS = {".amc": read_amc, ".bvh": read_bvh, ".c3d": _read_c3d, ".csv": read_positions,
-           ".npy": read_positions, ".npz": _read_npz, ".trc": read_trc}
+READERS = {
+    ".amc": read_amc,
+    ".bvh": read_bvh,
+    ".c3d": _read_c3d,
+    ".csv": read_positions,
+    ".npy": read_positions,
+    ".npz": _read_npz,
+    ".trc": read_trc,
+}
 #: readers that take ``joints=`` (the joint set of unnamed columns) or ``markers=``
 _JOINTS = (".csv", ".npy", ".npz")
 _MARKERS = (".c3d", ".trc")
 
-__all__ = ["READERS", "read", "read_amc", "read_bvh", "read_npz", "read_positions",
-           "read_trc", "write_npz"]
+__all__ = [
+    "READERS",
+    "read",
+    "read_amc",
+    "read_bvh",
+    "read_npz",
+    "read_positions",
+    "read_trc",
+    "write_npz",
+]
 
 
-def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None,
-         joints: str | None = None, gap_fill: float = FILL_S, markers=None) -> Recording:
+def read(
+    path,
+    skeleton=None,
+    *,
+    lenient: bool = False,
+    fps: float | None = None,
+    joints: str | None = None,
+    gap_fill: float = FILL_S,
+    markers=None,
+) -> Recording:
     """Read any supported recording.
 
     Parameters
@@ -83,10 +106,12 @@ def read(path, skeleton=None, *, lenient: bool = False, fps: float | None = None
         formats ignore it.
     """
     if not Path(path).is_file():  # before anything else: a typo is not a format problem
-        raise RecordingError(Path(path), None,
-                             "no such file" if not Path(path).exists() else "not a file",
-                             "the path of a recording (.amc[.gz], .bvh, .c3d, .trc, .npz, .csv, "
-                             ".npy)")
+        raise RecordingError(
+            Path(path),
+            None,
+            "no such file" if not Path(path).exists() else "not a file",
+            "the path of a recording (.amc[.gz], .bvh, .c3d, .trc, .npz, .csv, .npy)",
+        )
     suffix = base_suffix(path)
     reader = READERS.get(suffix)
     if reader is None:
@@ -115,6 +140,10 @@ def with_gaps_filled(rec: Recording, seconds: float = FILL_S) -> Recording:
     except SkeletonError:
         watch = None
     positions, report = fill_gaps(rec.positions, rec.fps, seconds, watch)
-    meta = {**rec.metadata, "gaps": [list(g) for g in report.gaps],
-            "filled_frames": report.filled_frames, "gap_fill_s": float(seconds)}
+    meta = {
+        **rec.metadata,
+        "gaps": [list(g) for g in report.gaps],
+        "filled_frames": report.filled_frames,
+        "gap_fill_s": float(seconds),
+    }
     return replace(rec, positions=positions, metadata=meta)

@@ -19,8 +19,9 @@ def read_text(path) -> str:
         raw = path.read_bytes()
     except FileNotFoundError:
         # read_text serves recordings and ASF skeletons alike: say what to check, not which
-        raise RecordingError(path, None, "no such file",
-                             "an existing file (check the path)") from None
+        raise RecordingError(
+            path, None, "no such file", "an existing file (check the path)"
+        ) from None
     except IsADirectoryError:
         raise RecordingError(path, None, "a directory", "a file") from None
     raw = _gunzipped(path, raw)

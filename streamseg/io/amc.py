@@ -266,9 +266,18 @@ def read_amc(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
         values = _parse_checked(path, lines, first, layout, known)
     except TruncatedRecordingError as err:
         n = len(err.partial)
-        partial = _recording(path, skel, layout, err.partial, unit, fps, [
-            f"{Path(path).name}: the last frame (line {err.line}) is incomplete (the file was "
-            f"cut off): dropped it, kept {n} frame{'s' if n != 1 else ''}"])
+        partial = _recording(
+            path,
+            skel,
+            layout,
+            err.partial,
+            unit,
+            fps,
+            [
+                f"{Path(path).name}: the last frame (line {err.line}) is incomplete (the file was "
+                f"cut off): dropped it, kept {n} frame{'s' if n != 1 else ''}"
+            ],
+        )
         if not lenient:
             raise TruncatedRecordingError(
                 path, err.line, err.found, err.expected, partial

@@ -108,8 +108,9 @@ def read_asf(path) -> AcclaimSkeleton:
             if key == "length":
                 scale = float(_floats(path, lineno, words[1:], 1, "the length scale")[0])
                 if not (np.isfinite(scale) and scale > 0):
-                    raise RecordingError(path, lineno, f"length scale {scale}",
-                                         "a length scale > 0")
+                    raise RecordingError(
+                        path, lineno, f"length scale {scale}", "a length scale > 0"
+                    )
             elif key == "angle":
                 unit = words[1].lower() if len(words) > 1 else ""
                 if unit not in ("deg", "rad"):
@@ -197,9 +198,13 @@ def read_asf(path) -> AcclaimSkeleton:
         name, idx = queue.pop(0)
         for child in children.get(name, []):
             if child in placed:
-                raise RecordingError(path, None, f"bone {child!r} reached twice in :hierarchy "
-                                     "(a cycle or a bone with two parents)",
-                                     "a tree rooted at 'root'")
+                raise RecordingError(
+                    path,
+                    None,
+                    f"bone {child!r} reached twice in :hierarchy "
+                    "(a cycle or a bone with two parents)",
+                    "a tree rooted at 'root'",
+                )
             placed.add(child)
             if child not in bones:
                 raise RecordingError(

@@ -124,11 +124,17 @@ def read_bvh(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
             header[key.strip().lower()] = float(val)
         except ValueError:
             raise RecordingError(path, i, f"{line!r}", "'Frames: N' and 'Frame Time: T'") from None
-    if ("frames" not in header or "frame time" not in header
-            or not math.isfinite(header["frames"]) or header["frames"] < 0
-            or not math.isfinite(header["frame time"]) or header["frame time"] <= 0):
-        raise RecordingError(path, i, f"header {header}",
-                             "'Frames: N' (N >= 0) and 'Frame Time: T' (finite, > 0)")
+    if (
+        "frames" not in header
+        or "frame time" not in header
+        or not math.isfinite(header["frames"])
+        or header["frames"] < 0
+        or not math.isfinite(header["frame time"])
+        or header["frame time"] <= 0
+    ):
+        raise RecordingError(
+            path, i, f"header {header}", "'Frames: N' (N >= 0) and 'Frame Time: T' (finite, > 0)"
+        )
     width = sum(len(c) for c in channels)
     rows, warnings = [], []
     for k in range(i, len(lines)):
@@ -147,11 +153,16 @@ def read_bvh(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
             if err_cls is RecordingError or not lenient:
                 raise err
             said = int(header["frames"])
-            lost = f"{said - len(rows)} of the {said} the header announces" \
-                if said > len(rows) else "1"
-            warnings.append(f"{Path(path).name}: frame {len(rows)} (line {k + 1}) is "
-                            f"incomplete (the file was cut off): dropped {lost}, kept "
-                            f"{len(rows)}")
+            lost = (
+                f"{said - len(rows)} of the {said} the header announces"
+                if said > len(rows)
+                else "1"
+            )
+            warnings.append(
+                f"{Path(path).name}: frame {len(rows)} (line {k + 1}) is "
+                f"incomplete (the file was cut off): dropped {lost}, kept "
+                f"{len(rows)}"
+            )
             break
         rows.append(row)
     if len(rows) != int(header["frames"]) and not warnings:

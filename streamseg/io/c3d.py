@@ -42,8 +42,12 @@ def _open(path: Path):
     try:  # a file cut off: ezc3d reads what is there when told to ignore the format
         return ezc3d.c3d(str(path), ignore_bad_formatting=True), first
     except (OSError, RuntimeError, ValueError):
-        raise RecordingError(path, None, f"an unreadable C3D file ({first})",
-                             "a C3D file (a binary file a mocap system exported)") from None
+        raise RecordingError(
+            path,
+            None,
+            f"an unreadable C3D file ({first})",
+            "a C3D file (a binary file a mocap system exported)",
+        ) from None
 
 
 def _param(c, group: str, name: str, default=None):
@@ -60,15 +64,19 @@ def c3d_info(c) -> dict:
     labels += [str(x).strip() for x in _param(c, "POINT", "LABELS2", [])]
     units = _param(c, "POINT", "UNITS", ["mm"])
     company = _param(c, "MANUFACTURER", "COMPANY", [""])
-    return {"rate": float(header["frame_rate"]), "labels": labels,
-            "first_frame": int(header["first_frame"]),
-            "last_frame": int(header["last_frame"]),
-            "units": str(units[0]).strip() if len(units) else "mm",
-            "manufacturer": str(company[0]).strip() if len(company) else ""}
+    return {
+        "rate": float(header["frame_rate"]),
+        "labels": labels,
+        "first_frame": int(header["first_frame"]),
+        "last_frame": int(header["last_frame"]),
+        "units": str(units[0]).strip() if len(units) else "mm",
+        "manufacturer": str(company[0]).strip() if len(company) else "",
+    }
 
 
-def read_c3d(path, skeleton=None, *, lenient: bool = False,
-             fps: float | None = None, markers=None) -> Recording:
+def read_c3d(
+    path, skeleton=None, *, lenient: bool = False, fps: float | None = None, markers=None
+) -> Recording:
     """Read a C3D file's markers as the canonical joints of the set that covers them.
 
     Parameters
@@ -110,15 +118,25 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
     if problem is not None or held < n_said:
         kept = points.shape[2]
         if not lenient or kept == 0:
-            raise TruncatedRecordingError(path, None, f"{kept} readable frames of the {n_said} "
-                                          f"the file announces ({problem or 'cut off'})",
-                                          "a complete C3D file")
-        warnings.append(f"{path.name}: the file was cut off: {kept} frames of the {n_said} "
-                        f"the file announces kept ({n_said - kept} dropped)")
-    labels = info["labels"][:points.shape[1]]
+            raise TruncatedRecordingError(
+                path,
+                None,
+                f"{kept} readable frames of the {n_said} "
+                f"the file announces ({problem or 'cut off'})",
+                "a complete C3D file",
+            )
+        warnings.append(
+            f"{path.name}: the file was cut off: {kept} frames of the {n_said} "
+            f"the file announces kept ({n_said - kept} dropped)"
+        )
+    labels = info["labels"][: points.shape[1]]
     if not labels:
-        raise RecordingError(path, None, "no marker trajectories (POINT:LABELS is empty)",
-                             "a C3D file with labelled markers")
+        raise RecordingError(
+            path,
+            None,
+            "no marker trajectories (POINT:LABELS is empty)",
+            "a C3D file with labelled markers",
+        )
     xyz = np.transpose(points[:3], (2, 1, 0)).copy()  # (n_frames, n_markers, 3)
     meta = c["data"].get("meta_points", {})
     resid = meta.get("residuals")
@@ -128,10 +146,24 @@ def read_c3d(path, skeleton=None, *, lenient: bool = False,
     rate = float(fps or info["rate"])
     if not rate > 0:
         raise RecordingError(path, None, f"point rate {info['rate']}", "a rate > 0, or --fps")
-    meta = {"format": "c3d", "manufacturer": info["manufacturer"],
-            "first_frame": info["first_frame"], "markers": labels, "warnings": warnings}
-    return points_recording(path, xyz, labels, rate, info["units"], meta, up=_screen_up(c),
-                            noun="markers", marker_map=markers)
+    meta = {
+        "format": "c3d",
+        "manufacturer": info["manufacturer"],
+        "first_frame": info["first_frame"],
+        "markers": labels,
+        "warnings": warnings,
+    }
+    return points_recording(
+        path,
+        xyz,
+        labels,
+        rate,
+        info["units"],
+        meta,
+        up=_screen_up(c),
+        noun="markers",
+        marker_map=markers,
+    )
 
 
 def _frames_in_file(path: Path) -> tuple[int, int]:
@@ -163,8 +195,11 @@ def _frames_in_file(path: Path) -> tuple[int, int]:
     s, e = params.get(("TRIAL", "ACTUAL_START_FIELD")), params.get(("TRIAL", "ACTUAL_END_FIELD"))
     if s is not None and e is not None and len(s) == 2 and len(e) == 2:
         # two 16-bit words each: low word first (C3D user guide)
-        span = ((int(e[0]) & 0xFFFF | (int(e[1]) & 0xFFFF) << 16)
-                - (int(s[0]) & 0xFFFF | (int(s[1]) & 0xFFFF) << 16) + 1)
+        span = (
+            (int(e[0]) & 0xFFFF | (int(e[1]) & 0xFFFF) << 16)
+            - (int(s[0]) & 0xFFFF | (int(s[1]) & 0xFFFF) << 16)
+            + 1
+        )
         counts = [span] if span > 65535 else counts + [span]
     scale = params.get(("POINT", "SCALE"), [-1.0])[0]
     start = int(params.get(("POINT", "DATA_START"), [start])[0]) or start
@@ -186,24 +221,26 @@ def _raw_params(data: bytes, block: int, order: str) -> dict:
     dec = data[(block - 1) * 512 + 3] == 85  # DEC floats: IEEE with the words swapped, x4
     pos, groups, found = (block - 1) * 512 + 4, {}, []
     while pos + 4 < len(data):
-        length, ident = struct.unpack("bb", data[pos:pos + 2])
+        length, ident = struct.unpack("bb", data[pos : pos + 2])
         if length == 0:
             break
-        name = data[pos + 2:pos + 2 + abs(length)].decode("latin-1").strip().upper()
+        name = data[pos + 2 : pos + 2 + abs(length)].decode("latin-1").strip().upper()
         here = pos + 2 + abs(length)
-        step = struct.unpack(order + "h", data[here:here + 2])[0]
+        step = struct.unpack(order + "h", data[here : here + 2])[0]
         if ident < 0:
             groups[-ident] = name
         else:
-            kind, ndim = struct.unpack("bb", data[here + 2:here + 4])
-            dims = data[here + 4:here + 4 + ndim]
+            kind, ndim = struct.unpack("bb", data[here + 2 : here + 4])
+            dims = data[here + 4 : here + 4 + ndim]
             count = int(np.prod(list(dims))) if ndim else 1
-            raw = data[here + 4 + ndim:here + 4 + ndim + count * abs(kind)]
+            raw = data[here + 4 + ndim : here + 4 + ndim + count * abs(kind)]
             if kind == 2:
                 found.append((ident, name, list(struct.unpack(f"{order}{count}h", raw))))
             elif kind == 4:
                 if dec:
-                    raw = b"".join(raw[i + 2:i + 4] + raw[i:i + 2] for i in range(0, len(raw), 4))
+                    raw = b"".join(
+                        raw[i + 2 : i + 4] + raw[i : i + 2] for i in range(0, len(raw), 4)
+                    )
                 values = struct.unpack(f"{order}{count}f", raw)
                 found.append((ident, name, [v / 4 if dec else v for v in values]))
         if step == 0:
@@ -221,8 +258,9 @@ def _screen_up(c) -> str:
     return screen if screen in UP_AXES else "z"
 
 
-def write_events(source, out, segments, fps: float, *, method: str = "streamseg",
-                 context: str = "General") -> int:
+def write_events(
+    source, out, segments, fps: float, *, method: str = "streamseg", context: str = "General"
+) -> int:
     """Copy C3D ``source`` to ``out`` with one event per segment start.
 
     Parameters
@@ -248,20 +286,30 @@ def write_events(source, out, segments, fps: float, *, method: str = "streamseg"
     source, out = Path(source), Path(out)
     c, problem = _open(source)
     if problem is not None:
-        raise RecordingError(source, None, f"a damaged C3D file ({problem})",
-                             "a complete C3D file to copy the events into")
+        raise RecordingError(
+            source,
+            None,
+            f"a damaged C3D file ({problem})",
+            "a complete C3D file to copy the events into",
+        )
     first = c3d_info(c)["first_frame"]
     table = _event_table(c)
     n = 0
     for i, seg in enumerate(segments):
-        start, end, label = ((seg["start"], seg["end"], seg.get("label")) if isinstance(seg, dict)
-                             else seg)
+        start, end, label = (
+            (seg["start"], seg["end"], seg.get("label")) if isinstance(seg, dict) else seg
+        )
         if label is None and i == 0:
             continue  # a cut detector's first segment starts at the take's start
-        row = {"TIMES": (0.0, (first + int(start)) / float(fps)), "CONTEXTS": context,
-               "LABELS": f"Action {label}" if label is not None else "Cut",
-               "DESCRIPTIONS": f"streamseg {method}: segment {i}, frames {int(start)}-"
-                               f"{int(end)}", "SUBJECTS": "", "ICON_IDS": 0, "GENERIC_FLAGS": 0}
+        row = {
+            "TIMES": (0.0, (first + int(start)) / float(fps)),
+            "CONTEXTS": context,
+            "LABELS": f"Action {label}" if label is not None else "Cut",
+            "DESCRIPTIONS": f"streamseg {method}: segment {i}, frames {int(start)}-{int(end)}",
+            "SUBJECTS": "",
+            "ICON_IDS": 0,
+            "GENERIC_FLAGS": 0,
+        }
         for name, value in row.items():
             table[name].append(value)
         n += 1
@@ -274,14 +322,21 @@ def write_events(source, out, segments, fps: float, *, method: str = "streamseg"
     try:
         c.write(str(out))
     except (OSError, RuntimeError) as err:
-        raise RecordingError(out, None, f"a file that cannot be written ({err})",
-                             "a writable path for the C3D file") from None
+        raise RecordingError(
+            out, None, f"a file that cannot be written ({err})", "a writable path for the C3D file"
+        ) from None
     return n
 
 
 #: the EVENT parameters of one event each, and the value an exporter that left one out means
-_EVENT_FIELDS = {"CONTEXTS": "General", "LABELS": "", "DESCRIPTIONS": "", "SUBJECTS": "",
-                 "ICON_IDS": 0, "GENERIC_FLAGS": 0}
+_EVENT_FIELDS = {
+    "CONTEXTS": "General",
+    "LABELS": "",
+    "DESCRIPTIONS": "",
+    "SUBJECTS": "",
+    "ICON_IDS": 0,
+    "GENERIC_FLAGS": 0,
+}
 
 
 def _event_table(c) -> dict:
@@ -290,8 +345,9 @@ def _event_table(c) -> dict:
     (Qualisys writes LABELS and TIMES only; OptiTrack an EVENT group with USED = 0 alone)."""
     ev = c["parameters"].get("EVENT") or {}
     used = int(np.asarray(ev.get("USED", {}).get("value", [0])).ravel()[0]) if ev else 0
-    times = np.asarray(ev.get("TIMES", {}).get("value", np.zeros((2, used))),
-                       dtype=np.float64).reshape(2, -1)[:, :used]
+    times = np.asarray(
+        ev.get("TIMES", {}).get("value", np.zeros((2, used))), dtype=np.float64
+    ).reshape(2, -1)[:, :used]
     used = min(used, times.shape[1])
     table = {"TIMES": [(float(times[0, i]), float(times[1, i])) for i in range(used)]}
     for name, fill in _EVENT_FIELDS.items():
@@ -305,6 +361,12 @@ def read_events(path) -> list[dict]:
     """The events of a C3D file: ``label``, ``context``, ``time`` (s), ``description``."""
     c, _ = _open(Path(path))
     t = _event_table(c)
-    return [{"label": t["LABELS"][i], "context": t["CONTEXTS"][i] or "General",
-             "time": minutes * 60 + seconds, "description": t["DESCRIPTIONS"][i]}
-            for i, (minutes, seconds) in enumerate(t["TIMES"])]
+    return [
+        {
+            "label": t["LABELS"][i],
+            "context": t["CONTEXTS"][i] or "General",
+            "time": minutes * 60 + seconds,
+            "description": t["DESCRIPTIONS"][i],
+        }
+        for i, (minutes, seconds) in enumerate(t["TIMES"])
+    ]

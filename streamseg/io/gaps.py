@@ -82,8 +82,11 @@ class GapFiller(Stateful):
     def __init__(self, n_joints: int, max_frames: int, watch=None):
         self.n_joints = int(n_joints)
         self.max_frames = int(max_frames)
-        self.watch = (np.arange(self.n_joints) if watch is None
-                      else np.unique(np.asarray(watch, dtype=np.int64)))
+        self.watch = (
+            np.arange(self.n_joints)
+            if watch is None
+            else np.unique(np.asarray(watch, dtype=np.int64))
+        )
         self._held = None  # (h, J, 3) float64 frames not yet released
         self._lost = None  # (h,) bool: the held frame never arrived (inserted as NaN)
         self._touched = None  # (h,) bool: a joint of the held frame was filled
@@ -102,8 +105,9 @@ class GapFiller(Stateful):
         """Frames held back (waiting for a gap to close)."""
         return 0 if self._held is None else int(self._held.shape[0])
 
-    def push(self, positions: np.ndarray, first_frame: int | None = None,
-             lost: np.ndarray | None = None):
+    def push(
+        self, positions: np.ndarray, first_frame: int | None = None, lost: np.ndarray | None = None
+    ):
         """Take frames ``first_frame ...`` of ``positions`` (n, J, 3).
 
         Parameters
@@ -126,8 +130,10 @@ class GapFiller(Stateful):
         if first_frame is not None and self.held == 0:
             self.next_frame = int(first_frame)
         elif first_frame is not None and first_frame != self.next_frame + self.held:
-            raise ValueError(f"packet at frame {first_frame} does not continue frame "
-                             f"{self.next_frame + self.held}")
+            raise ValueError(
+                f"packet at frame {first_frame} does not continue frame "
+                f"{self.next_frame + self.held}"
+            )
         if self._held is None and np.isfinite(pos).all():  # the common case: no copy, no scan
             return self._pass(pos, lost)
         lost = np.zeros(pos.shape[0], dtype=bool) if lost is None else np.asarray(lost, bool)
@@ -193,8 +199,9 @@ class GapFiller(Stateful):
                     hold = min(hold, int(a))
                     continue
                 nxt_frame = f0 + b
-                t = (np.arange(f0 + a, f0 + b, dtype=np.float64) - prev_frame) \
-                    / float(nxt_frame - prev_frame)
+                t = (np.arange(f0 + a, f0 + b, dtype=np.float64) - prev_frame) / float(
+                    nxt_frame - prev_frame
+                )
                 pos[a:b, j] = prev + (pos[b, j] - prev) * t[:, None]
                 touched[a:b] = True
         return hold
@@ -278,5 +285,6 @@ def fill_gaps(positions: np.ndarray, fps: float, seconds: float = FILL_S, watch=
     a, _ = filler.push(positions, 0)
     b, _ = filler.finish()
     out = a if b.shape[0] == 0 else np.concatenate([a, b])
-    return out, GapReport([(s, e) for s, e, _ in filler.take_gaps()], filler.filled_frames,
-                          filler.max_frames)
+    return out, GapReport(
+        [(s, e) for s, e, _ in filler.take_gaps()], filler.filled_frames, filler.max_frames
+    )

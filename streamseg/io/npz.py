@@ -55,15 +55,23 @@ def _mapped(path: Path, member: str) -> np.ndarray | None:
     with open(path, "rb") as fh:
         fh.seek(info.header_offset)
         local = fh.read(30)  # zip local file header: name and extra lengths at bytes 26-29
-        fh.seek(info.header_offset + 30 + int.from_bytes(local[26:28], "little")
-                + int.from_bytes(local[28:30], "little"))
+        fh.seek(
+            info.header_offset
+            + 30
+            + int.from_bytes(local[26:28], "little")
+            + int.from_bytes(local[28:30], "little")
+        )
         version = np.lib.format.read_magic(fh)
-        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                       else np.lib.format.read_array_header_2_0)
+        read_header = (
+            np.lib.format.read_array_header_1_0
+            if version == (1, 0)
+            else np.lib.format.read_array_header_2_0
+        )
         shape, fortran, dtype = read_header(fh)
         offset = fh.tell()
-    return np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape,
-                     order="F" if fortran else "C")
+    return np.memmap(
+        path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C"
+    )
 
 
 def read_npz(path, skeleton=None, *, lenient: bool = False, fps: float | None = None) -> Recording:

@@ -39,8 +39,19 @@ from streamseg.skeleton.joint_sets import complete, joint_set, sets_of_size
 _AXIS = re.compile(r"^(.+?)[_.\- :]([xyz])$", re.IGNORECASE)
 _TIME_S = ("time", "timestamp", "t", "time_s", "seconds", "sec")
 _TIME_MS = ("time_ms", "timestamp_ms", "ms")
-_ARRAY_KEYS = ("positions", "joints3d", "joints_3d", "keypoints3d", "keypoints_3d",
-               "keypoints", "landmarks", "world_landmarks", "poses", "joints", "data")
+_ARRAY_KEYS = (
+    "positions",
+    "joints3d",
+    "joints_3d",
+    "keypoints3d",
+    "keypoints_3d",
+    "keypoints",
+    "landmarks",
+    "world_landmarks",
+    "poses",
+    "joints",
+    "data",
+)
 _NAME_KEYS = ("names", "joint_names", "joints_names", "landmark_names")
 _FPS_KEYS = ("fps", "framerate", "frame_rate", "mocap_framerate", "rate")
 
@@ -94,8 +105,9 @@ def _read_csv(path: Path, joints: str | None, lenient: bool):
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as err:
-        raise RecordingError(path, data[:err.start].count(b"\n") + 1,
-                             "bytes that are not UTF-8 text", "a text CSV") from None
+        raise RecordingError(
+            path, data[: err.start].count(b"\n") + 1, "bytes that are not UTF-8 text", "a text CSV"
+        ) from None
     lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
     first = next((i for i, line in enumerate(lines) if line.strip()), None)
     if first is None:
@@ -109,9 +121,13 @@ def _read_csv(path: Path, joints: str | None, lenient: bool):
     except ValueError:
         header = header_joints(fields)
         if header is None:
-            raise RecordingError(path, first + 1, f"header {lines[first][:60]!r}",
-                                 "columns named <joint>_x,<joint>_y,<joint>_z (joint names "
-                                 "of a skeleton streamseg knows)") from None
+            raise RecordingError(
+                path,
+                first + 1,
+                f"header {lines[first][:60]!r}",
+                "columns named <joint>_x,<joint>_y,<joint>_z (joint names "
+                "of a skeleton streamseg knows)",
+            ) from None
         start = first + 1
     rows, width, warnings, bad_line = [], None, [], None
     body = [(n, line) for n, line in enumerate(lines[start:], start=start + 1) if line.strip()]
@@ -128,16 +144,25 @@ def _read_csv(path: Path, joints: str | None, lenient: bool):
             if k == len(body) - 1:  # a take cut off mid-line
                 bad_line = (lineno, line)
                 break
-            raise RecordingError(path, lineno, f"{line[:60]!r}",
-                                 f"{width} comma-separated numbers like the first row")
+            raise RecordingError(
+                path,
+                lineno,
+                f"{line[:60]!r}",
+                f"{width} comma-separated numbers like the first row",
+            )
         rows.append(values)
     if bad_line is not None:
         if not lenient:
-            raise TruncatedRecordingError(path, bad_line[0], f"a truncated last row "
-                                          f"({bad_line[1][:40]!r})", f"{width} values; "
-                                          f"{len(rows)} good frame(s) precede it")
-        warnings.append(f"{path.name}: the last row (line {bad_line[0]}) is incomplete "
-                        f"(the file was cut off): dropped 1 frame, kept {len(rows)}")
+            raise TruncatedRecordingError(
+                path,
+                bad_line[0],
+                f"a truncated last row ({bad_line[1][:40]!r})",
+                f"{width} values; {len(rows)} good frame(s) precede it",
+            )
+        warnings.append(
+            f"{path.name}: the last row (line {bad_line[0]}) is incomplete "
+            f"(the file was cut off): dropped 1 frame, kept {len(rows)}"
+        )
     if not rows:
         raise RecordingError(path, None, "no data rows", "at least one row of positions")
     table = np.asarray(rows, dtype=np.float64)
@@ -156,16 +181,27 @@ def _unnamed(path: Path, table: np.ndarray, joints: str | None) -> np.ndarray:
         shape = "x".join(str(d) for d in table.shape)
         count = n_cols // 3 if n_cols % 3 == 0 else None
         fits = sets_of_size(count) if count else []
-        hint = (f"give --joints {'|'.join(fits)}" if fits else
-                "give --joints kinect|blazepose|coco17|body25")
-        raise RecordingError(path, None, f"{shape} numbers without joint names",
-                             f"joint positions: {hint}, or name the joints (a CSV header "
-                             "<joint>_x,<joint>_y,<joint>_z; an .npz names array)")
+        hint = (
+            f"give --joints {'|'.join(fits)}"
+            if fits
+            else "give --joints kinect|blazepose|coco17|body25"
+        )
+        raise RecordingError(
+            path,
+            None,
+            f"{shape} numbers without joint names",
+            f"joint positions: {hint}, or name the joints (a CSV header "
+            "<joint>_x,<joint>_y,<joint>_z; an .npz names array)",
+        )
     js = joint_set(joints)
     want = len(js.names)
     if n_cols != 3 * want:
-        raise RecordingError(path, None, f"{n_cols} coordinates per frame",
-                             f"{3 * want} ({want} joints x 3) for --joints {joints}")
+        raise RecordingError(
+            path,
+            None,
+            f"{n_cols} coordinates per frame",
+            f"{3 * want} ({want} joints x 3) for --joints {joints}",
+        )
     return table.reshape(table.shape[0], want, 3)
 
 
@@ -180,17 +216,20 @@ def _read_array(path: Path, lenient: bool):
                 arrays = [k for k in z.files if z[k].ndim == 3 and z[k].shape[-1] == 3]
                 key = arrays[0] if len(arrays) == 1 else None
             if key is None:
-                raise RecordingError(path, None, f"arrays {sorted(z.files)}",
-                                     "an array of joint positions (n_frames, n_joints, 3) "
-                                     f"named one of {', '.join(_ARRAY_KEYS)}")
-            names = next((tuple(str(x) for x in z[k]) for k in _NAME_KEYS if k in z.files),
-                         None)
-            fps = next((float(z[k]) for k in _FPS_KEYS if k in z.files and z[k].size == 1),
-                       None)
+                raise RecordingError(
+                    path,
+                    None,
+                    f"arrays {sorted(z.files)}",
+                    "an array of joint positions (n_frames, n_joints, 3) "
+                    f"named one of {', '.join(_ARRAY_KEYS)}",
+                )
+            names = next((tuple(str(x) for x in z[k]) for k in _NAME_KEYS if k in z.files), None)
+            fps = next((float(z[k]) for k in _FPS_KEYS if k in z.files and z[k].size == 1), None)
             return np.asarray(z[key]), names, fps, []
     except (zipfile.BadZipFile, ValueError, OSError) as err:
-        raise RecordingError(path, None, f"an unreadable array file ({err})",
-                             "a .npy or .npz written by numpy") from None
+        raise RecordingError(
+            path, None, f"an unreadable array file ({err})", "a .npy or .npz written by numpy"
+        ) from None
 
 
 def _load_npy(path: Path, lenient: bool) -> np.ndarray:
@@ -201,18 +240,24 @@ def _load_npy(path: Path, lenient: bool) -> np.ndarray:
         pass  # numpy: "cannot reshape array of size ..." on a short file
     with open(path, "rb") as fh:
         version = np.lib.format.read_magic(fh)
-        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                       else np.lib.format.read_array_header_2_0)
+        read_header = (
+            np.lib.format.read_array_header_1_0
+            if version == (1, 0)
+            else np.lib.format.read_array_header_2_0
+        )
         shape, fortran, dtype = read_header(fh)
         offset = fh.tell()
     size = path.stat().st_size - offset
     per_frame = int(np.prod(shape[1:], dtype=np.int64)) * dtype.itemsize
     n_good = size // per_frame if per_frame and not fortran else 0
     if not lenient or n_good == 0:
-        raise TruncatedRecordingError(path, None, f"{n_good} whole frames of {shape[0]}",
-                                      f"{shape[0]} frames (the file was cut off)")
-    arr = np.memmap(path, dtype=dtype, mode="r", offset=offset,
-                    shape=(n_good,) + tuple(shape[1:]))
+        raise TruncatedRecordingError(
+            path,
+            None,
+            f"{n_good} whole frames of {shape[0]}",
+            f"{shape[0]} frames (the file was cut off)",
+        )
+    arr = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(n_good,) + tuple(shape[1:]))
     out = np.array(arr)
     out.flags.writeable = True
     return _Truncated(out, shape[0])
@@ -227,8 +272,14 @@ class _Truncated(np.ndarray):
         return obj
 
 
-def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | None = None,
-                   joints: str | None = None) -> Recording:
+def read_positions(
+    path,
+    skeleton=None,
+    *,
+    lenient: bool = False,
+    fps: float | None = None,
+    joints: str | None = None,
+) -> Recording:
     """Read joint positions from ``.csv``, ``.npy`` or ``.npz``.
 
     Parameters
@@ -257,20 +308,30 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
     else:
         arr, names, file_fps, warnings = _read_array(path, lenient)
         if isinstance(arr, _Truncated):
-            warnings.append(f"{path.name}: the file was cut off: {arr.shape[0]} whole frames "
-                            f"of {arr.promised} kept ({arr.promised - arr.shape[0]} dropped)")
+            warnings.append(
+                f"{path.name}: the file was cut off: {arr.shape[0]} whole frames "
+                f"of {arr.promised} kept ({arr.promised - arr.shape[0]} dropped)"
+            )
         arr = np.asarray(arr, dtype=np.float64)
         if joints and arr.ndim == 2 and arr.shape[1] == 2 * len(joint_set(joints).names):
             arr = arr.reshape(arr.shape[0], -1, 2)
         if arr.ndim == 3 and arr.shape[2] == 2 and arr.shape[0]:
             arr, note = _image_keypoints(arr)
             warnings.append(f"{path.name}: {note}")
-        if not np.issubdtype(arr.dtype, np.number) or arr.ndim not in (2, 3) \
-                or (arr.ndim == 3 and arr.shape[2] != 3) or arr.shape[0] == 0:
-            raise RecordingError(path, None, f"an array of shape {arr.shape}",
-                                 "joint positions (n_frames, n_joints, 3) or "
-                                 "(n_frames, n_joints * 3) with --joints; image keypoints "
-                                 "(n_frames, n_joints, 2)")
+        if (
+            not np.issubdtype(arr.dtype, np.number)
+            or arr.ndim not in (2, 3)
+            or (arr.ndim == 3 and arr.shape[2] != 3)
+            or arr.shape[0] == 0
+        ):
+            raise RecordingError(
+                path,
+                None,
+                f"an array of shape {arr.shape}",
+                "joint positions (n_frames, n_joints, 3) or "
+                "(n_frames, n_joints * 3) with --joints; image keypoints "
+                "(n_frames, n_joints, 2)",
+            )
         if names is not None and arr.ndim == 3 and len(names) == arr.shape[1]:
             pos = arr
         else:
@@ -282,8 +343,13 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
         names, units, up, detect = js.names, js.units, js.up, not js.fixed_up
     rate = fps or file_fps or _rate(times)
     if rate is None:
-        raise RecordingError(path, None, "no frame rate", "--fps (frames per second), or a "
-                             "time column (time, timestamp: seconds; time_ms) in the CSV")
+        raise RecordingError(
+            path,
+            None,
+            "no frame rate",
+            "--fps (frames per second), or a "
+            "time column (time, timestamp: seconds; time_ms) in the CSV",
+        )
     if meta_image(warnings):
         units = "image"
     elif pos.size and units in ("m", "unknown"):
@@ -293,8 +359,10 @@ def read_positions(path, skeleton=None, *, lenient: bool = False, fps: float | N
             units = "normalised image"
     absent = int((~np.isfinite(pos).any(axis=(1, 2))).sum()) if pos.size else 0
     if absent:
-        warnings.append(f"{path.name}: {absent} of {pos.shape[0]} frames have no keypoint "
-                        "(no person found): gaps")
+        warnings.append(
+            f"{path.name}: {absent} of {pos.shape[0]} frames have no keypoint "
+            "(no person found): gaps"
+        )
     meta = {"format": "positions", "warnings": warnings}
     if joints:
         meta["joints"] = joints
@@ -306,8 +374,10 @@ def _image_keypoints(arr):
     a keypoint at exactly (0, 0), the "not found" of OpenPose and COCO, is a gap."""
     out = np.concatenate([arr, np.zeros(arr.shape[:2] + (1,))], axis=2)
     out[(arr == 0).all(axis=2)] = np.nan
-    return out, ("2-D keypoints: taken as image coordinates (x right, y down; depth 0), "
-                 "a keypoint at (0, 0) as not found")
+    return out, (
+        "2-D keypoints: taken as image coordinates (x right, y down; depth 0), "
+        "a keypoint at (0, 0) as not found"
+    )
 
 
 def meta_image(warnings) -> bool:
@@ -324,14 +394,17 @@ def _normalised_image(pos) -> str:
     P = pos[good]
     lo, hi = P.min(axis=1), P.max(axis=1)  # (n, 3)
     if np.allclose(lo[:, :2], 0, atol=1e-3) and np.allclose(hi[:, :2], 1, atol=1e-3):
-        return ("every frame spans [0, 1] on x and y: taken as image landmarks normalised "
-                "per frame (x right, y down; z the model's relative depth); body size and "
-                "place in the image are lost, bone directions serve")
+        return (
+            "every frame spans [0, 1] on x and y: taken as image landmarks normalised "
+            "per frame (x right, y down; z the model's relative depth); body size and "
+            "place in the image are lost, bone directions serve"
+        )
     return ""
 
 
-def positions_recording(path, names, pos, rate: float, units: str, up: str, meta: dict, *,
-                        detect: bool = False) -> Recording:
+def positions_recording(
+    path, names, pos, rate: float, units: str, up: str, meta: dict, *, detect: bool = False
+) -> Recording:
     """A recording of named joint positions, the trunk points a pose model lacks added
     (:func:`streamseg.skeleton.joint_sets.complete`); ``detect``: the up axis is the one the
     body stands along (:func:`streamseg.skeleton.bones.upright_axis`), ``up`` when no axis is
@@ -357,8 +430,18 @@ def _rate(times) -> float | None:
     return float(round(1.0 / float(np.median(steps)), 6))
 
 
-def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta: dict, *,
-                     up: str = "y", noun: str = "points", marker_map=None) -> Recording:
+def points_recording(
+    path,
+    xyz: np.ndarray,
+    names,
+    rate: float,
+    units: str,
+    meta: dict,
+    *,
+    up: str = "y",
+    noun: str = "points",
+    marker_map=None,
+) -> Recording:
     """Named 3-D points (C3D, TRC) as a recording.
 
     Markers of a set streamseg maps become its joints (joint centres where the set defines
@@ -393,15 +476,18 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
         from streamseg.skeleton.marker_map import load_marker_map
         from streamseg.skeleton.marker_sets import plan
 
-        mset = marker_map if not isinstance(marker_map, (str, Path)) else load_marker_map(
-            marker_map)
+        mset = (
+            marker_map if not isinstance(marker_map, (str, Path)) else load_marker_map(marker_map)
+        )
         chosen, missing = plan(mset, names)
         if missing:
             lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
-            raise RecordingError(path, None, f"{len(names)} {noun} without the markers "
-                                 f"{mset.name} names, per joint: {lack}",
-                                 f"the file's marker names in the map (streamseg info "
-                                 f"{Path(path).name} lists them)")
+            raise RecordingError(
+                path,
+                None,
+                f"{len(names)} {noun} without the markers {mset.name} names, per joint: {lack}",
+                f"the file's marker names in the map (streamseg info {Path(path).name} lists them)",
+            )
     else:
         mset, chosen, missing = best_set(names)
         if missing:  # a pelvis marker the file leaves out altogether: lost in every frame
@@ -422,22 +508,35 @@ def points_recording(path, xyz: np.ndarray, names, rate: float, units: str, meta
         joints = joint_positions(xyz, names, chosen, mset, min_run=fill_frames(rate) + 1)
         gone = [p for j, p in enumerate(JOINTS) if not np.isfinite(joints[:, j]).any()]
         if gone:
-            notes.append(f"no marker places {', '.join(gone)} in any frame: left out, the "
-                         "other body parts serve")
-        meta = {**meta, "warnings": list(meta.get("warnings", [])) + [
-            f"{Path(str(path)).name}: {n}" for n in notes]}
-        skel = Skeleton(JOINTS, np.array(PARENTS), np.zeros((len(JOINTS), 3)), units,
-                        upright_axis(joints, JOINTS) or up)
+            notes.append(
+                f"no marker places {', '.join(gone)} in any frame: left out, the "
+                "other body parts serve"
+            )
+        meta = {
+            **meta,
+            "warnings": list(meta.get("warnings", []))
+            + [f"{Path(str(path)).name}: {n}" for n in notes],
+        }
+        skel = Skeleton(
+            JOINTS,
+            np.array(PARENTS),
+            np.zeros((len(JOINTS), 3)),
+            units,
+            upright_axis(joints, JOINTS) or up,
+        )
         return Recording(rate, skel, joints, None, str(path), {**meta, "marker_set": mset.name})
     try:
         resolve(complete(names, xyz[:1])[0], tuple(POINTS), POINTS)
     except SkeletonError:
         lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
-        raise RecordingError(path, None, f"{len(names)} {noun} ({', '.join(names[:12])}"
-                             f"{' ...' if len(names) > 12 else ''})",
-                             f"a marker set streamseg maps; closest: {mset.name} "
-                             f"({mset.description}), which lacks, per joint: {lack}; or the "
-                             "joint names of a skeleton streamseg knows (docs/guide/formats.md); "
-                             "or a map of your own: --markers MAP.toml (streamseg info "
-                             f"{Path(path).name} prints a template)") from None
+        raise RecordingError(
+            path,
+            None,
+            f"{len(names)} {noun} ({', '.join(names[:12])}{' ...' if len(names) > 12 else ''})",
+            f"a marker set streamseg maps; closest: {mset.name} "
+            f"({mset.description}), which lacks, per joint: {lack}; or the "
+            "joint names of a skeleton streamseg knows (docs/guide/formats.md); "
+            "or a map of your own: --markers MAP.toml (streamseg info "
+            f"{Path(path).name} prints a template)",
+        ) from None
     return positions_recording(path, names, xyz, rate, units, up, meta, detect=True)

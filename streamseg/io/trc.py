@@ -27,8 +27,9 @@ from streamseg.io.positions import points_recording
 from streamseg.recording import Recording
 
 
-def read_trc(path, skeleton=None, *, lenient: bool = False,
-             fps: float | None = None, markers=None) -> Recording:
+def read_trc(
+    path, skeleton=None, *, lenient: bool = False, fps: float | None = None, markers=None
+) -> Recording:
     """Read a TRC file's points as joints.
 
     Parameters
@@ -82,18 +83,27 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
             if last:
                 warnings.append(f"{path.name}: the last row (line {lineno}) is incomplete")
                 break
-            raise RecordingError(path, lineno, f"{line[:50]!r}", f"{width} tab-separated "
-                                 "numbers (frame, time, x y z per point)")
+            raise RecordingError(
+                path,
+                lineno,
+                f"{line[:50]!r}",
+                f"{width} tab-separated numbers (frame, time, x y z per point)",
+            )
         rows.append(row)
     if not rows:
         raise RecordingError(path, None, "no data rows", "rows of frame, time, x y z ...")
     if warnings or (said and len(rows) < said):
         if not lenient:
-            raise TruncatedRecordingError(path, None, f"{len(rows)} whole frames of the "
-                                          f"{said or len(rows) + 1} the file announces",
-                                          "a complete TRC file")
-        warnings = [f"{path.name}: the file was cut off: {len(rows)} frames of the "
-                    f"{max(said or 0, len(rows) + 1)} it announces kept"]
+            raise TruncatedRecordingError(
+                path,
+                None,
+                f"{len(rows)} whole frames of the {said or len(rows) + 1} the file announces",
+                "a complete TRC file",
+            )
+        warnings = [
+            f"{path.name}: the file was cut off: {len(rows)} frames of the "
+            f"{max(said or 0, len(rows) + 1)} it announces kept"
+        ]
     table = np.asarray(rows, dtype=np.float64)
     xyz = table[:, 2:].reshape(len(rows), len(names), 3)
     rate = fps or _number(keys.get("DataRate")) or _number(keys.get("CameraRate"))
@@ -101,8 +111,15 @@ def read_trc(path, skeleton=None, *, lenient: bool = False,
         raise RecordingError(path, 3, "no DataRate", "a TRC DataRate > 0, or --fps")
     units = (keys.get("Units") or "unknown").strip()
     meta = {"format": "trc", "markers": names, "warnings": warnings}
-    return points_recording(path, xyz, names, float(rate), units, meta,  # OpenSim: y up
-                            marker_map=markers)
+    return points_recording(
+        path,
+        xyz,
+        names,
+        float(rate),
+        units,
+        meta,  # OpenSim: y up
+        marker_map=markers,
+    )
 
 
 def _number(text) -> float | None:

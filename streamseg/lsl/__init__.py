@@ -25,6 +25,8 @@ def pylsl():
     except ImportError:
         raise ParameterError("LSL needs pylsl: pip install 'streamseg[lsl]'") from None
     except RuntimeError as err:  # pylsl found no liblsl it can load
-        raise ParameterError(f"pylsl could not load liblsl ({err}): reinstall pylsl (its "
-                             "wheels ship liblsl) or set PYLSL_LIB") from None
+        raise ParameterError(
+            f"pylsl could not load liblsl ({err}): reinstall pylsl (its "
+            "wheels ship liblsl) or set PYLSL_LIB"
+        ) from None
     return module

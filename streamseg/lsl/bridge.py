@@ -43,8 +43,9 @@ def stream_id_of(info: dict) -> str:
 
 def predicate(kind: str | None, name: str | None, source_id: str | None) -> str:
     """The XPath predicate LSL resolves streams by."""
-    parts = [f"{k}='{v}'" for k, v in (("type", kind), ("name", name),
-                                       ("source_id", source_id)) if v]
+    parts = [
+        f"{k}='{v}'" for k, v in (("type", kind), ("name", name), ("source_id", source_id)) if v
+    ]
     return " and ".join(parts) or "type='MoCap'"
 
 
@@ -69,8 +70,18 @@ class Feeder(threading.Thread):
         sent as the joints it makes (:func:`streamseg.skeleton.marker_map.columns_for`).
     """
 
-    def __init__(self, info, endpoint: str, stream: str | None = None, up: str | None = None,
-                 curve=None, on_error=None, on_open=None, ctx=None, markers=None):
+    def __init__(
+        self,
+        info,
+        endpoint: str,
+        stream: str | None = None,
+        up: str | None = None,
+        curve=None,
+        on_error=None,
+        on_open=None,
+        ctx=None,
+        markers=None,
+    ):
         super().__init__(daemon=True, name=f"lsl-{info.name()}")
         self.info = info
         self.endpoint = endpoint
@@ -94,9 +105,12 @@ class Feeder(threading.Thread):
     def run(self) -> None:
         lsl = pylsl()
         try:
-            inlet = lsl.StreamInlet(self.info, max_buflen=360,
-                                    recover=bool(self.meta["source_id"]),
-                                    processing_flags=lsl.proc_clocksync)
+            inlet = lsl.StreamInlet(
+                self.info,
+                max_buflen=360,
+                recover=bool(self.meta["source_id"]),
+                processing_flags=lsl.proc_clocksync,
+            )
             full = inlet.info(10.0)
             self._plan(full.as_xml())
         except (ParameterError, ValueError) as err:
@@ -126,8 +140,10 @@ class Feeder(threading.Thread):
         skel = stream_skeleton(xml)
         self.fps = float(self.meta["nominal_srate"])
         if not self.fps > 0:
-            raise ParameterError(f"LSL stream {self.meta['name']!r} has an irregular rate: "
-                                 "motion capture needs its nominal_srate (frames per second)")
+            raise ParameterError(
+                f"LSL stream {self.meta['name']!r} has an irregular rate: "
+                "motion capture needs its nominal_srate (frames per second)"
+            )
         self.columns = np.asarray(skel.columns, dtype=np.int64)
         self.units = skel.units
         names = skel.names
@@ -162,12 +178,21 @@ class Feeder(threading.Thread):
 
         up = self.up or upright_axis(positions, self.names) or "y"
         parents = tuple(-1 for _ in self.names)
-        msg = protocol.Announce(self.stream, self.fps, tuple(self.names), parents,
-                                self.units[:64], up, auth=self._auth())
+        msg = protocol.Announce(
+            self.stream,
+            self.fps,
+            tuple(self.names),
+            parents,
+            self.units[:64],
+            up,
+            auth=self._auth(),
+        )
         self._send(sock, protocol.encode(msg))
-        self.on_open(f"LSL stream {self.meta['name']!r} (source id "
-                     f"{self.meta['source_id'] or 'none'}, {len(self.raw_names)} joints at "
-                     f"{self.fps:g} Hz, up {up}) -> stream {self.stream} at {self.endpoint}")
+        self.on_open(
+            f"LSL stream {self.meta['name']!r} (source id "
+            f"{self.meta['source_id'] or 'none'}, {len(self.raw_names)} joints at "
+            f"{self.fps:g} Hz, up {up}) -> stream {self.stream} at {self.endpoint}"
+        )
 
     def _send(self, sock, parts) -> None:
         while not self.stopping.is_set():
@@ -190,8 +215,10 @@ class Feeder(threading.Thread):
                 chunk, stamps = inlet.pull_chunk(timeout=0.0, max_samples=4095)
                 chunk, stamps = [first, *chunk], [when, *stamps]
             except Exception as err:  # LostError: the outlet is gone (no source id)
-                self.on_open(f"LSL stream {self.meta['name']!r} lost ({type(err).__name__}); "
-                             f"ended stream {self.stream}")
+                self.on_open(
+                    f"LSL stream {self.meta['name']!r} lost ({type(err).__name__}); "
+                    f"ended stream {self.stream}"
+                )
                 break
             if not stamps:
                 continue
@@ -205,21 +232,29 @@ class Feeder(threading.Thread):
                 self._announce(sock, pos)
                 announced = True
             # frames missing between samples (the outlet paused or dropped) are lost frames
-            jumps = np.rint(np.diff(np.concatenate([[ts[0] - step if last_ts is None
-                                                     else last_ts], ts])) * self.fps) - 1
+            jumps = (
+                np.rint(
+                    np.diff(np.concatenate([[ts[0] - step if last_ts is None else last_ts], ts]))
+                    * self.fps
+                )
+                - 1
+            )
             edges = [0, *np.flatnonzero(jumps[1:] > 0) + 1, len(ts)]
             for a, b in zip(edges[:-1], edges[1:]):
                 lost = int(jumps[a]) if (a > 0 or last_ts is not None) else 0
                 if lost * step > RESTART_S:
                     self._send(sock, protocol.encode(protocol.End(self.stream, self._auth())))
-                    self.on_open(f"LSL stream {self.meta['name']!r} was silent for "
-                                 f"{lost * step:.1f} s: stream {self.stream} starts anew")
+                    self.on_open(
+                        f"LSL stream {self.meta['name']!r} was silent for "
+                        f"{lost * step:.1f} s: stream {self.stream} starts anew"
+                    )
                     self._announce(sock, pos[a:b])
                     seq = 0
                 elif lost > 0:
                     seq += lost
-                self._send(sock, protocol.encode(
-                    protocol.Frames(self.stream, seq, float(ts[a]), pos[a:b])))
+                self._send(
+                    sock, protocol.encode(protocol.Frames(self.stream, seq, float(ts[a]), pos[a:b]))
+                )
                 seq += b - a
                 self.frames_sent += b - a
             last_ts = float(ts[-1])
@@ -233,8 +268,9 @@ class Feeder(threading.Thread):
 
     def _send_end(self, sock) -> None:
         if sock.poll(1000, zmq.POLLOUT):
-            sock.send_multipart(protocol.encode(protocol.End(self.stream, self._auth())),
-                                zmq.NOBLOCK)
+            sock.send_multipart(
+                protocol.encode(protocol.End(self.stream, self._auth())), zmq.NOBLOCK
+            )
 
 
 class Bridge:
@@ -254,10 +290,19 @@ class Bridge:
         A marker map for streams whose channels are markers (see :class:`Feeder`).
     """
 
-    def __init__(self, endpoint: str, kind: str | None = "MoCap", name: str | None = None,
-                 source_id: str | None = None, up: str | None = None,
-                 stream: str | None = None, curve=None, on_error=None, on_open=None,
-                 markers=None):
+    def __init__(
+        self,
+        endpoint: str,
+        kind: str | None = "MoCap",
+        name: str | None = None,
+        source_id: str | None = None,
+        up: str | None = None,
+        stream: str | None = None,
+        curve=None,
+        on_error=None,
+        on_open=None,
+        markers=None,
+    ):
         self.endpoint = endpoint
         self.predicate = predicate(kind, name, source_id)
         self.up = up
@@ -290,8 +335,16 @@ class Bridge:
                 if old is not None and old.error:
                     self.refused.add(key)
                     continue
-                feeder = Feeder(info, self.endpoint, self.stream, self.up, self.curve,
-                                self.on_error, self.on_open, markers=self.markers)
+                feeder = Feeder(
+                    info,
+                    self.endpoint,
+                    self.stream,
+                    self.up,
+                    self.curve,
+                    self.on_error,
+                    self.on_open,
+                    markers=self.markers,
+                )
                 self.feeders[key] = feeder
                 feeder.start()
             self.stopping.wait(0.5)

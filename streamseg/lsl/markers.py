@@ -66,18 +66,33 @@ class MarkerOutlet:
     curve : ClientKeys or None
     """
 
-    def __init__(self, publish: str, control: str, time_of=None, name: str = "streamseg",
-                 source_id: str | None = None, curve=None, ctx=None):
+    def __init__(
+        self,
+        publish: str,
+        control: str,
+        time_of=None,
+        name: str = "streamseg",
+        source_id: str | None = None,
+        curve=None,
+        ctx=None,
+    ):
         lsl = pylsl()
         self.publish, self.control = publish, control
         self.time_of = time_of
         self.curve = curve
         self.ctx = ctx or zmq.Context.instance()
-        info = lsl.StreamInfo(name, "Markers", 1, lsl.IRREGULAR_RATE, lsl.cf_string,
-                              source_id or f"streamseg-events-{publish}")
+        info = lsl.StreamInfo(
+            name,
+            "Markers",
+            1,
+            lsl.IRREGULAR_RATE,
+            lsl.cf_string,
+            source_id or f"streamseg-events-{publish}",
+        )
         info.desc().append_child_value("manufacturer", "streamseg")
-        info.desc().append_child("channels").append_child("channel") \
-            .append_child_value("label", "event").parent().append_child_value("type", "Marker")
+        info.desc().append_child("channels").append_child("channel").append_child_value(
+            "label", "event"
+        ).parent().append_child_value("type", "Marker")
         self.outlet = lsl.StreamOutlet(info)
         self._clock = lsl.local_clock
         self.clocks: dict = {}  # stream -> (time of frame 0, seconds per frame)

@@ -22,8 +22,10 @@ from dataclasses import dataclass
 from streamseg.exceptions import ParameterError
 
 _SUFFIX = re.compile(r"^(.+?)[_.\- :]([xyz])$", re.IGNORECASE)
-CONVENTION = ("one <channel> per coordinate in <desc><channels>, with <label>, <marker> (or "
-              "<joint>) and <type> PositionX/PositionY/PositionZ (the XDF mocap meta-data)")
+CONVENTION = (
+    "one <channel> per coordinate in <desc><channels>, with <label>, <marker> (or "
+    "<joint>) and <type> PositionX/PositionY/PositionZ (the XDF mocap meta-data)"
+)
 
 
 @dataclass(frozen=True)
@@ -45,11 +47,14 @@ def describe(xml: str) -> dict:
     """``name``, ``type``, ``source_id``, ``channel_count``, ``nominal_srate`` of a stream's
     XML (``StreamInfo.as_xml()``)."""
     root = ET.fromstring(xml)
-    return {"name": _text(root, "name"), "type": _text(root, "type"),
-            "source_id": _text(root, "source_id"),
-            "channel_count": int(_text(root, "channel_count") or 0),
-            "nominal_srate": float(_text(root, "nominal_srate") or 0),
-            "channel_format": _text(root, "channel_format")}
+    return {
+        "name": _text(root, "name"),
+        "type": _text(root, "type"),
+        "source_id": _text(root, "source_id"),
+        "channel_count": int(_text(root, "channel_count") or 0),
+        "nominal_srate": float(_text(root, "nominal_srate") or 0),
+        "channel_format": _text(root, "channel_format"),
+    }
 
 
 def stream_skeleton(xml: str) -> StreamSkeleton:
@@ -63,16 +68,22 @@ def stream_skeleton(xml: str) -> StreamSkeleton:
     """
     root = ET.fromstring(xml)
     info = describe(xml)
-    who = (f"LSL stream {info['name']!r} (type {info['type'] or '?'}, source id "
-           f"{info['source_id'] or 'none'})")
+    who = (
+        f"LSL stream {info['name']!r} (type {info['type'] or '?'}, source id "
+        f"{info['source_id'] or 'none'})"
+    )
     channels = root.findall("./desc/channels/channel")
     if not channels:
-        raise ParameterError(f"{who} has no channel description: streamseg needs "
-                             f"{CONVENTION}; add them to the outlet's desc()")
+        raise ParameterError(
+            f"{who} has no channel description: streamseg needs "
+            f"{CONVENTION}; add them to the outlet's desc()"
+        )
     if len(channels) != info["channel_count"]:
-        raise ParameterError(f"{who} describes {len(channels)} channels but sends "
-                             f"{info['channel_count']}: the description must have one "
-                             "<channel> per channel, in order")
+        raise ParameterError(
+            f"{who} describes {len(channels)} channels but sends "
+            f"{info['channel_count']}: the description must have one "
+            "<channel> per channel, in order"
+        )
     joints: dict = {}
     order: list = []
     units = ""
@@ -99,18 +110,25 @@ def stream_skeleton(xml: str) -> StreamSkeleton:
         joints[key][1][axis] = i
         units = units or _text(ch, "unit")
     if unnamed:
-        raise ParameterError(f"{who}: {', '.join(unnamed[:6])}"
-                             f"{' ...' if len(unnamed) > 6 else ''} name no joint or axis; "
-                             f"streamseg needs {CONVENTION}")
-    partial = [f"{joints[k][0]} (has {''.join(sorted(joints[k][1]))})" for k in order
-               if len(joints[k][1]) != 3]
+        raise ParameterError(
+            f"{who}: {', '.join(unnamed[:6])}"
+            f"{' ...' if len(unnamed) > 6 else ''} name no joint or axis; "
+            f"streamseg needs {CONVENTION}"
+        )
+    partial = [
+        f"{joints[k][0]} (has {''.join(sorted(joints[k][1]))})"
+        for k in order
+        if len(joints[k][1]) != 3
+    ]
     if partial:
         raise ParameterError(f"{who}: joints without all of x, y, z: {', '.join(partial[:8])}")
     if not order:
         raise ParameterError(f"{who} has no position channels: streamseg needs {CONVENTION}")
-    return StreamSkeleton(tuple(joints[k][0] for k in order),
-                          tuple((joints[k][1]["x"], joints[k][1]["y"], joints[k][1]["z"])
-                                for k in order), units or "unknown")
+    return StreamSkeleton(
+        tuple(joints[k][0] for k in order),
+        tuple((joints[k][1]["x"], joints[k][1]["y"], joints[k][1]["z"]) for k in order),
+        units or "unknown",
+    )
 
 
 def add_channels(desc, names, units: str = "millimeters") -> None:

@@ -36,7 +36,18 @@ _EXPORTS = {
     "warmup": ("streamseg.offline.relabel", "warmup"),
     "warmup_aca": ("streamseg.offline.relabel", "warmup"),
 }
-__all__ = ["ACA", "ACAEngine", "ACASegmenter", "HACA", "HACAEngine", "LOFSegmenter",
-           "RepetitionSegmenter", "WindowSegmentation", "fit_aca", "relabel_window", "warmup",
-           "warmup_aca"]
+__all__ = [
+    "ACA",
+    "ACAEngine",
+    "ACASegmenter",
+    "HACA",
+    "HACAEngine",
+    "LOFSegmenter",
+    "RepetitionSegmenter",
+    "WindowSegmentation",
+    "fit_aca",
+    "relabel_window",
+    "warmup",
+    "warmup_aca",
+]
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

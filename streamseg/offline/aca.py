@@ -118,9 +118,12 @@ def cluster_stats(T: np.ndarray, labels: np.ndarray, k: int):
 def objective(T: np.ndarray, labels: np.ndarray, k: int) -> float:
     """Eq. 5 for a segmentation whose (m, m) segment DTAK matrix is ``T``."""
     n_c, const = cluster_stats(T, labels, k)
-    dist = np.diag(T) - 2.0 * np.array(
-        [T[i, labels == labels[i]].sum() / n_c[labels[i]] for i in range(len(labels))]
-    ) + const[labels]
+    dist = (
+        np.diag(T)
+        - 2.0
+        * np.array([T[i, labels == labels[i]].sum() / n_c[labels[i]] for i in range(len(labels))])
+        + const[labels]
+    )
     return float(dist.sum())
 
 
@@ -189,9 +192,23 @@ class ACAEngine(Estimator):
         Coordinate-descent steps of the kept restart.
     """
 
-    def __init__(self, n_clusters, min_len_frames, max_len_frames, *, n_init=10, max_iter=50,
-                 kernel="gaussian", sigma=None, init="random", k_reduce=None, reduce_cap=20,
-                 k_frame=20, n_jobs=1, random_state=None):
+    def __init__(
+        self,
+        n_clusters,
+        min_len_frames,
+        max_len_frames,
+        *,
+        n_init=10,
+        max_iter=50,
+        kernel="gaussian",
+        sigma=None,
+        init="random",
+        k_reduce=None,
+        reduce_cap=20,
+        k_frame=20,
+        n_jobs=1,
+        random_state=None,
+    ):
         self.n_clusters = n_clusters
         self.min_len_frames = min_len_frames
         self.max_len_frames = max_len_frames
@@ -223,18 +240,23 @@ class ACAEngine(Estimator):
         if self.max_len_frames < self.min_len_frames:
             raise ParameterError(
                 f"max_len_frames={self.max_len_frames!r} is invalid: expected >= "
-                f"min_len_frames={self.min_len_frames}")
+                f"min_len_frames={self.min_len_frames}"
+            )
         if self.kernel not in KERNELS + ("precomputed",):
-            raise ParameterError(f"kernel={self.kernel!r} is invalid: expected one of "
-                                 f"{KERNELS + ('precomputed',)}")
+            raise ParameterError(
+                f"kernel={self.kernel!r} is invalid: expected one of {KERNELS + ('precomputed',)}"
+            )
         if self.k_reduce is not None:
             posint("k_reduce", self.k_reduce)
             if self.kernel == "precomputed":
-                raise ParameterError("k_reduce needs frames, not kernel='precomputed'; "
-                                     "set k_reduce=None")
+                raise ParameterError(
+                    "k_reduce needs frames, not kernel='precomputed'; set k_reduce=None"
+                )
         if not (isinstance(self.init, (list, tuple)) or self.init in INITS):
-            raise ParameterError(f"init={self.init!r} is invalid: expected one of {INITS} "
-                                 "or a list of (start, end, label)")
+            raise ParameterError(
+                f"init={self.init!r} is invalid: expected one of {INITS} "
+                "or a list of (start, end, label)"
+            )
 
     def fit(self, X, frame_classes=None):
         """Segment ``X``: (n_frames, d) features, or (n, n) kernel if kernel="precomputed".
@@ -267,8 +289,9 @@ class ACAEngine(Estimator):
                 Xr, runs, classes = reduce_frames(X, self.k_reduce, self.reduce_cap, rng)
             else:
                 Xr = X
-            K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma,
-                                                  binary_dtype=np.int8))
+            K = np.ascontiguousarray(
+                frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma, binary_dtype=np.int8)
+            )
         nr = K.shape[0]
         # Lengths are given in original frames; a reduced frame stands for n / nr of them.
         scale = nr / n
@@ -285,12 +308,14 @@ class ACAEngine(Estimator):
         shared = RandomInits(K, wmin, wmax)
 
         def initial(r, generator=rng):
-            return self._initial(r, K, X if runs is None else Xr, classes, k, wmin, wmax,
-                                 generator, runs, n, shared)
+            return self._initial(
+                r, K, X if runs is None else Xr, classes, k, wmin, wmax, generator, runs, n, shared
+            )
 
         def run(init):
-            return descend(K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp,
-                           ids=ids)
+            return descend(
+                K, *init, k, wmin, wmax, self.max_iter, binary=binary, K_dp=K_dp, ids=ids
+            )
 
         jobs = available_cpus() if self.n_jobs == -1 else self.n_jobs
         with single_threaded_blas():
@@ -365,8 +390,10 @@ class ACAEngine(Estimator):
         else:
             cuts = np.union1d(cuts, starts[1:])
         bounds = np.concatenate([[0], cuts, [n]]).astype(np.int64)
-        self.segments_ = [(int(s), int(e), int(frame[s])) for s, e in
-                          zip(bounds[:-1], bounds[1:], strict=True)]
+        self.segments_ = [
+            (int(s), int(e), int(frame[s])) for s, e in zip(bounds[:-1], bounds[1:], strict=True)
+        ]
+
 
 def _zero_one(K) -> bool:
     """Whether every entry of ``K`` is 0 or 1 (int8: one pass over its bytes)."""
@@ -377,8 +404,12 @@ def _zero_one(K) -> bool:
 
 def _explicit_init(init, runs, n, nr, k):
     segs = sorted((int(s), int(e), int(lab)) for s, e, lab in init)
-    if not segs or segs[0][0] != 0 or segs[-1][1] != n or any(
-            a[1] != b[0] for a, b in zip(segs[:-1], segs[1:], strict=True)):
+    if (
+        not segs
+        or segs[0][0] != 0
+        or segs[-1][1] != n
+        or any(a[1] != b[0] for a, b in zip(segs[:-1], segs[1:], strict=True))
+    ):
         raise ParameterError(f"init segments must tile 0..{n} without gaps or overlaps")
     if runs is not None:
         # map frame bounds to reduced units: unit u covers frames runs[0][u]..runs[1][u]
@@ -393,6 +424,7 @@ def _explicit_init(init, runs, n, nr, k):
         labels = np.array([lab for _, _, lab in segs], dtype=np.int64)
     distinct, labels = np.unique(labels, return_inverse=True)
     if distinct.size > k:
-        raise ParameterError(f"init has {distinct.size} distinct labels; expected at most "
-                             f"n_clusters={k}")
+        raise ParameterError(
+            f"init has {distinct.size} distinct labels; expected at most n_clusters={k}"
+        )
     return starts, ends, labels.astype(np.int64)

@@ -23,8 +23,9 @@ def dp_step(K, starts, ends, labels, n_c, const, wmin: int, wmax: int, *, binary
     return relax(F, n_c, const, wmin, wmax)
 
 
-def candidate_table(K, starts, ends, labels, k: int, wmin: int, wmax: int, *, binary=None,
-                    frame_ids=None):
+def candidate_table(
+    K, starts, ends, labels, k: int, wmin: int, wmax: int, *, binary=None, frame_ids=None
+):
     """``F`` (k, wmax + 1, n + 1): ``F[c, w, t]`` the sum of the DTAKs between candidate
     ``[t, t + w)`` and the old segments of cluster c (``streamseg._kernels.aca``).
 
@@ -115,8 +116,7 @@ def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary, ids=None):
     ``[wmin, wmax]``; a segment of another length (only an initial one can be) costs a row of
     within-cluster DTAKs.
     """
-    F = candidate_table(K_dp, starts, ends, labels, k, wmin, wmax, binary=binary,
-                        frame_ids=ids)
+    F = candidate_table(K_dp, starts, ends, labels, k, wmin, wmax, binary=binary, frame_ids=ids)
     lens = ends - starts
     inside = (lens >= wmin) & (lens <= wmax)
     own = np.zeros(starts.shape[0])
@@ -127,8 +127,20 @@ def _own_sums(K, K_dp, starts, ends, labels, k, wmin, wmax, binary, ids=None):
     return F, own
 
 
-def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int, *,
-            binary=None, K_dp=None, ids=None):
+def descend(
+    K,
+    starts,
+    ends,
+    labels,
+    k: int,
+    wmin: int,
+    wmax: int,
+    max_iter: int,
+    *,
+    binary=None,
+    K_dp=None,
+    ids=None,
+):
     """Coordinate descent from one initial segmentation on frame kernel ``K`` (n, n).
 
     ``binary``: whether K is 0/1 (computed when None); ``K_dp``: K as the DP step reads it
@@ -171,8 +183,12 @@ def descend(K, starts, ends, labels, k: int, wmin: int, wmax: int, max_iter: int
         it += 1
         n_c, const = _stats(own, labels, k)
         ns, ne, nl, _ = relax(F, n_c, const, wmin, wmax)
-        if (ns.shape == starts.shape and np.array_equal(ns, starts) and np.array_equal(ne, ends)
-                and np.array_equal(nl, labels)):
+        if (
+            ns.shape == starts.shape
+            and np.array_equal(ns, starts)
+            and np.array_equal(ne, ends)
+            and np.array_equal(nl, labels)
+        ):
             break
         starts, ends = ns, ne
         labels, F, own = prepared(ns, ne, nl)
@@ -185,5 +201,5 @@ def _stats(own, labels, k):
     sum over the cluster); as :func:`cluster_stats`."""
     n_c = np.bincount(labels, minlength=k).astype(np.float64)
     h = np.bincount(labels, weights=own, minlength=k)
-    const = np.divide(h, n_c ** 2, out=np.zeros(k), where=n_c > 0)
+    const = np.divide(h, n_c**2, out=np.zeros(k), where=n_c > 0)
     return n_c, const

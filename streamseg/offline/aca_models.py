@@ -22,35 +22,56 @@ from streamseg.config import ACAConfig
 from streamseg.exceptions import ParameterError
 from streamseg.segments import Estimator
 
-_OLD = ("n_clusters", "min_len_frames", "max_len_frames", "n_init", "max_iter", "kernel",
-        "sigma", "init", "k_reduce", "reduce_cap", "k_frame", "random_state",
-        "fine_clusters", "fine_min_len_frames", "fine_max_len_frames", "coarse_kernel")
+_OLD = (
+    "n_clusters",
+    "min_len_frames",
+    "max_len_frames",
+    "n_init",
+    "max_iter",
+    "kernel",
+    "sigma",
+    "init",
+    "k_reduce",
+    "reduce_cap",
+    "k_frame",
+    "random_state",
+    "fine_clusters",
+    "fine_min_len_frames",
+    "fine_max_len_frames",
+    "coarse_kernel",
+)
 
 
 class _ACAModel(Estimator):
     _hierarchical = False
     # what help() and inspect show: the convention; *args and **old only catch old calls
-    __signature__ = inspect.Signature([
-        inspect.Parameter("config", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None),
-        inspect.Parameter("fps", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=120.0),
-        inspect.Parameter("n_jobs", inspect.Parameter.KEYWORD_ONLY, default=1)])
+    __signature__ = inspect.Signature(
+        [
+            inspect.Parameter("config", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=None),
+            inspect.Parameter("fps", inspect.Parameter.POSITIONAL_OR_KEYWORD, default=120.0),
+            inspect.Parameter("n_jobs", inspect.Parameter.KEYWORD_ONLY, default=1),
+        ]
+    )
 
-    def __init__(self, config: ACAConfig | None = None, fps: float = 120.0, *args,
-                 n_jobs: int = 1, **old):
+    def __init__(
+        self, config: ACAConfig | None = None, fps: float = 120.0, *args, n_jobs: int = 1, **old
+    ):
         name = type(self).__name__
         if args or old or not (config is None or isinstance(config, ACAConfig)):
             raise ParameterError(
                 f"{name}(n_clusters, min_len_frames, max_len_frames, ...) is the old call: "
                 f"give {name}(ACAConfig(n_clusters=..., min_len_s=..., max_len_s=..., ...), "
                 f"fps=...) with lengths in seconds, or use streamseg.offline.{name}Engine "
-                "for lengths in frames" + (f" (unknown keywords: {', '.join(sorted(old))})"
-                                           if set(old) - set(_OLD) else ""))
+                "for lengths in frames"
+                + (f" (unknown keywords: {', '.join(sorted(old))})" if set(old) - set(_OLD) else "")
+            )
         if not (np.isscalar(fps) and np.isfinite(fps) and float(fps) > 0):
-            raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
-                                 "the features given to fit")
+            raise ParameterError(
+                f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
+                "the features given to fit"
+            )
         if not (n_jobs == -1 or (isinstance(n_jobs, int) and n_jobs >= 1)):
-            raise ParameterError(f"n_jobs={n_jobs!r} is invalid: expected -1 or an integer "
-                                 ">= 1")
+            raise ParameterError(f"n_jobs={n_jobs!r} is invalid: expected -1 or an integer >= 1")
         self.config = ACAConfig() if config is None else config
         self.fps = float(fps)
         self.n_jobs = n_jobs
@@ -108,8 +129,11 @@ _ATTRIBUTES = """
 
 
 class ACA(_ACAModel):
-    __doc__ = """One-level Aligned Cluster Analysis (``config.hierarchical`` is ignored).
-""" + _ATTRIBUTES + """    restart_objectives_ : ndarray, shape (n_init,)
+    __doc__ = (
+        """One-level Aligned Cluster Analysis (``config.hierarchical`` is ignored).
+"""
+        + _ATTRIBUTES
+        + """    restart_objectives_ : ndarray, shape (n_init,)
     n_iter_ : int
         Coordinate-descent steps of the kept restart.
 
@@ -120,13 +144,18 @@ class ACA(_ACAModel):
     >>> cfg = ACAConfig(n_clusters=4, min_len_s=10, max_len_s=15, kernel="equality")
     >>> segments = ACA(cfg, fps=1.0).fit_predict(x)  # doctest: +SKIP
     """
+    )
 
 
 class HACA(_ACAModel):
-    __doc__ = """Two-level (hierarchical) ACA: primitives of ``config.fine_*``, then actions.
-""" + _ATTRIBUTES + """    fine_segments_ : list of (start, end, label)
+    __doc__ = (
+        """Two-level (hierarchical) ACA: primitives of ``config.fine_*``, then actions.
+"""
+        + _ATTRIBUTES
+        + """    fine_segments_ : list of (start, end, label)
         The primitives (fine level) in frames.
     """
+    )
     _hierarchical = True
 
     def _engine_attributes(self, engine) -> None:

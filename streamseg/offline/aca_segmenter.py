@@ -47,8 +47,10 @@ class ACASegmenter(Estimator):
     def __init__(self, config: ACAConfig | None = None, fps: float = 120.0):
         self.config = ACAConfig() if config is None else config
         if not (np.isscalar(fps) and np.isfinite(fps) and float(fps) > 0):
-            raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
-                                 "the features given to fit")
+            raise ParameterError(
+                f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
+                "the features given to fit"
+            )
         self.fps = float(fps)
 
     def fit(self, X) -> ACASegmenter:

@@ -66,8 +66,9 @@ def default_sigma(X) -> float:
     return sigma
 
 
-def frame_kernel(X, Y=None, *, kernel: str = "gaussian", sigma: float | None = None,
-                 binary_dtype=np.float64) -> np.ndarray:
+def frame_kernel(
+    X, Y=None, *, kernel: str = "gaussian", sigma: float | None = None, binary_dtype=np.float64
+) -> np.ndarray:
     """Frame kernel matrix between the rows of ``X`` (n, d) and ``Y`` (n2, d; default ``X``).
 
     Parameters
@@ -91,7 +92,7 @@ def frame_kernel(X, Y=None, *, kernel: str = "gaussian", sigma: float | None = N
         # Compare integer ids of distinct rows: O(n d) memory instead of an (n, n2, d) array.
         _, ids = np.unique(np.vstack([X, Y]), axis=0, return_inverse=True)
         ids = ids.ravel()
-        return (ids[: X.shape[0], None] == ids[None, X.shape[0]:]).astype(binary_dtype)
+        return (ids[: X.shape[0], None] == ids[None, X.shape[0] :]).astype(binary_dtype)
     if kernel != "gaussian":
         raise ParameterError(f"kernel={kernel!r} is invalid: expected one of {KERNELS}")
     if sigma is None:

@@ -53,11 +53,26 @@ class HACAEngine(Estimator):
         Eq. 5 of the coarse level.
     """
 
-    def __init__(self, n_clusters, min_len_frames, max_len_frames, *, fine_clusters=10,
-                 fine_min_len_frames=None,
-                 fine_max_len_frames=None, coarse_kernel="dtak", n_init=10, max_iter=50,
-                 kernel="gaussian", sigma=None, init="random", k_reduce=None, reduce_cap=20,
-                 n_jobs=1, random_state=None):
+    def __init__(
+        self,
+        n_clusters,
+        min_len_frames,
+        max_len_frames,
+        *,
+        fine_clusters=10,
+        fine_min_len_frames=None,
+        fine_max_len_frames=None,
+        coarse_kernel="dtak",
+        n_init=10,
+        max_iter=50,
+        kernel="gaussian",
+        sigma=None,
+        init="random",
+        k_reduce=None,
+        reduce_cap=20,
+        n_jobs=1,
+        random_state=None,
+    ):
         self.n_clusters = n_clusters
         self.min_len_frames = min_len_frames
         self.max_len_frames = max_len_frames
@@ -101,11 +116,13 @@ class HACAEngine(Estimator):
         fmax = self.fine_max_len_frames
         fmax = max(fmin, self.min_len_frames) if fmax is None else fmax
         if self.coarse_kernel not in ("labels", "dtak"):
-            raise ParameterError(f"coarse_kernel={self.coarse_kernel!r} is invalid: expected "
-                                 "'labels' or 'dtak'")
+            raise ParameterError(
+                f"coarse_kernel={self.coarse_kernel!r} is invalid: expected 'labels' or 'dtak'"
+            )
         if self.kernel not in ("gaussian", "equality"):
-            raise ParameterError(f"kernel={self.kernel!r} is invalid: expected 'gaussian' or "
-                                 "'equality'")
+            raise ParameterError(
+                f"kernel={self.kernel!r} is invalid: expected 'gaussian' or 'equality'"
+            )
         rng = np.random.default_rng(self.random_state)
         if self.k_reduce is not None:
             Xr, (rs, re), classes = reduce_frames(X, self.k_reduce, self.reduce_cap, rng)
@@ -114,14 +131,21 @@ class HACAEngine(Estimator):
             classes = kmeans(X, 20, rng) if self.init == "propagated" else None
         nr = Xr.shape[0]
         # the equality kernel as int8 (exact 0/1): both levels read it, never widened
-        K = np.ascontiguousarray(frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma,
-                                              binary_dtype=np.int8))
+        K = np.ascontiguousarray(
+            frame_kernel(Xr, kernel=self.kernel, sigma=self.sigma, binary_dtype=np.int8)
+        )
         scale = nr / n  # reduced frames per frame
-        fine = ACAEngine(self.fine_clusters, max(1, round(fmin * scale)),
-                   max(1, round(fmax * scale)), n_init=self.n_init, max_iter=self.max_iter,
-                   kernel="precomputed", init=self.init, n_jobs=self.n_jobs,
-                   random_state=rng).fit(
-                       K, frame_classes=classes)
+        fine = ACAEngine(
+            self.fine_clusters,
+            max(1, round(fmin * scale)),
+            max(1, round(fmax * scale)),
+            n_init=self.n_init,
+            max_iter=self.max_iter,
+            kernel="precomputed",
+            init=self.init,
+            n_jobs=self.n_jobs,
+            random_state=rng,
+        ).fit(K, frame_classes=classes)
         fs = np.array([s for s, _, _ in fine.segments_], dtype=np.int64)
         fe = np.array([e for _, e, _ in fine.segments_], dtype=np.int64)
         fine_labels = np.array([lab for _, _, lab in fine.segments_])
@@ -135,19 +159,31 @@ class HACAEngine(Estimator):
         # units -> reduced frames -> frames
         unit_frame_start = rs[fs]
         unit_frame_end = re[fe - 1]
-        fine_segments = [(int(unit_frame_start[i]), int(unit_frame_end[i]), int(lab))
-                         for i, (_, _, lab) in enumerate(fine.segments_)]
+        fine_segments = [
+            (int(unit_frame_start[i]), int(unit_frame_end[i]), int(lab))
+            for i, (_, _, lab) in enumerate(fine.segments_)
+        ]
         out = []
         for k in n_clusters:
             # first coarse restart: eq. 10 propagation over the primitives' labels
-            coarse = ACAEngine(k, cmin, cmax, n_init=self.n_init, max_iter=self.max_iter,
-                         kernel="precomputed", init="propagated", n_jobs=self.n_jobs,
-                         random_state=copy.deepcopy(rng)).fit(T, frame_classes=fine_labels)
+            coarse = ACAEngine(
+                k,
+                cmin,
+                cmax,
+                n_init=self.n_init,
+                max_iter=self.max_iter,
+                kernel="precomputed",
+                init="propagated",
+                n_jobs=self.n_jobs,
+                random_state=copy.deepcopy(rng),
+            ).fit(T, frame_classes=fine_labels)
             fitted = copy.copy(self)
             fitted.n_clusters = k
             fitted.fine_segments_ = fine_segments
-            fitted.segments_ = [(int(unit_frame_start[s]), int(unit_frame_end[e - 1]), int(lab))
-                                for s, e, lab in coarse.segments_]
+            fitted.segments_ = [
+                (int(unit_frame_start[s]), int(unit_frame_end[e - 1]), int(lab))
+                for s, e, lab in coarse.segments_
+            ]
             labels = np.empty(n, dtype=np.int64)
             for s, e, lab in fitted.segments_:
                 labels[s:e] = lab
@@ -156,4 +192,3 @@ class HACAEngine(Estimator):
             fitted.fine_objective_ = fine.objective_
             out.append((k, fitted))
         return out
-

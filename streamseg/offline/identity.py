@@ -33,7 +33,7 @@ def frame_labels(start: int, end: int, segs) -> np.ndarray:
     """(end - start,) label of each frame of ``[start, end)``; -1 where no segment covers it."""
     out = np.full(end - start, -1, dtype=np.int64)
     for a, b, lab in segs:
-        out[max(a, start) - start:min(b, end) - start] = lab
+        out[max(a, start) - start : min(b, end) - start] = lab
     return out
 
 
@@ -92,8 +92,8 @@ def stable_labels(window, previous):
         old_segs = [(int(a), int(b), int(c)) for a, b, c in previous.segments]
         old = frame_labels(previous.start, previous.end, old_segs)
         lo, hi = max(window.start, previous.start), max(min(window.end, previous.end), 0)
-        a = new[lo - window.start:max(hi, lo) - window.start]
-        b = old[lo - previous.start:max(hi, lo) - previous.start]
+        a = new[lo - window.start : max(hi, lo) - window.start]
+        b = old[lo - previous.start : max(hi, lo) - previous.start]
         both = (a >= 0) & (b >= 0)  # frames neither window skipped (missing frames are -1)
         seen = max(previous.next_id, 1 + max((lab for _, _, lab in old_segs), default=-1))
         # every id the stream has used is taken: a new cluster gets the next one

@@ -110,7 +110,7 @@ class ExemplarMemory(Stateful):
             new = []
             for p0, p1 in zip(parts[:-1], parts[1:], strict=True):
                 mid, half = (p0 + p1) // 2, min(keep, p1 - p0) // 2
-                rows = np.asarray(features[mid - half:mid + half:self.stride], dtype=np.float32)
+                rows = np.asarray(features[mid - half : mid + half : self.stride], dtype=np.float32)
                 rows = rows[np.isfinite(rows).all(axis=1)]
                 if rows.shape[0] >= 2:
                     new.append(rows)
@@ -121,7 +121,7 @@ class ExemplarMemory(Stateful):
             # forget first the ids this revision does not hold that covered the fewest
             # frames (short-lived ids of unstable revisions), then the ones seen longest ago
             order = sorted(ex, key=lambda i: (i in runs, weight.get(i, 0), seen.get(i, 0), i))
-            for lab in order[:len(ex) - config.max_ids]:
+            for lab in order[: len(ex) - config.max_ids]:
                 ex.pop(lab)
                 weight.pop(lab, None)
         seen = {i: seen[i] for i in ex}

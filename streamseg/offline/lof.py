@@ -36,8 +36,9 @@ from streamseg.exceptions import ParameterError
 from streamseg.segments import Estimator, segments_from_cuts
 
 
-def lof_features(recording_or_angles, config: LOFConfig | None = None,
-                 n_features: int | None = None) -> np.ndarray:
+def lof_features(
+    recording_or_angles, config: LOFConfig | None = None, n_features: int | None = None
+) -> np.ndarray:
     """The LOF features of a Recording, or a given feature array validated.
 
     Parameters
@@ -67,8 +68,13 @@ def lof_features(recording_or_angles, config: LOFConfig | None = None,
     return angles
 
 
-def position_features(positions: np.ndarray, skeleton, fps: float,
-                      config: LOFConfig | None = None, up: str | None = None) -> np.ndarray:
+def position_features(
+    positions: np.ndarray,
+    skeleton,
+    fps: float,
+    config: LOFConfig | None = None,
+    up: str | None = None,
+) -> np.ndarray:
     """The LOF features of joint positions: the bone features, then the root speeds.
 
     Parameters
@@ -89,8 +95,9 @@ def position_features(positions: np.ndarray, skeleton, fps: float,
     from streamseg.skeleton import bone_angles
 
     config = LOFConfig() if config is None else config
-    angles = np.asarray(bone_angles(positions, skeleton, inclinations=config.inclinations,
-                                    up=up), dtype=np.float64)
+    angles = np.asarray(
+        bone_angles(positions, skeleton, inclinations=config.inclinations, up=up), dtype=np.float64
+    )
     if not config.root_columns:
         return angles
     from streamseg.online.root_speed import root_speed_columns
@@ -115,8 +122,7 @@ def frame_bins(angles: np.ndarray, bins: int):
     return fb, valid
 
 
-def window_histograms(angles: np.ndarray, window: int, step: int, bins: int,
-                      min_valid: int = 1):
+def window_histograms(angles: np.ndarray, window: int, step: int, bins: int, min_valid: int = 1):
     """Histogram count vectors of the sliding windows ``[w*step, w*step + window)``.
 
     Parameters
@@ -170,15 +176,19 @@ def lof_scores(vectors: np.ndarray, k: int, centres=None, exclusion: int = 0) ->
         if exclusion > 0:
             raise ParameterError("lof_scores(exclusion > 0) needs the window centres")
         centres = np.arange(x.shape[0], dtype=np.int64)
-    return lof_batch(x, int(k), np.ascontiguousarray(centres, dtype=np.int64),
-                     int(exclusion))[0]
+    return lof_batch(x, int(k), np.ascontiguousarray(centres, dtype=np.int64), int(exclusion))[0]
 
 
 def select_peaks(curve: np.ndarray, delay: int, config: LOFConfig, min_gap: int) -> np.ndarray:
     """Window indices of the cut peaks of a LOF curve (see :func:`peak_windows`)."""
-    return peak_windows(np.ascontiguousarray(curve, dtype=np.float64), int(delay),
-                        config.dp_tolerance, config.threshold_mads, config.min_score,
-                        int(min_gap))
+    return peak_windows(
+        np.ascontiguousarray(curve, dtype=np.float64),
+        int(delay),
+        config.dp_tolerance,
+        config.threshold_mads,
+        config.min_score,
+        int(min_gap),
+    )
 
 
 class LOFSegmenter(Estimator):
@@ -211,8 +221,9 @@ class LOFSegmenter(Estimator):
         :meth:`predict` returns them
     """
 
-    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
-                 n_features: int | None = None):
+    def __init__(
+        self, config: LOFConfig | None = None, fps: float = 120.0, n_features: int | None = None
+    ):
         self.config = LOFConfig() if config is None else config
         if not (np.isscalar(fps) and np.isfinite(fps) and float(fps) > 0):
             raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
@@ -249,8 +260,7 @@ class LOFSegmenter(Estimator):
         self.lof_ = lof_scores(counts, c.k, centres, g["exclusion"])
         m = self.lof_.shape[0]
         thr = robust_threshold(self.lof_, m, c.threshold_mads, np.empty(max(m, 1)))
-        self.threshold_ = (None if c.peak_rule == "paper"
-                           else float(max(thr, c.min_score)))
+        self.threshold_ = None if c.peak_rule == "paper" else float(max(thr, c.min_score))
         from streamseg.online.events import final_cuts
         from streamseg.online.lof import StreamingLOFSegmenter
 
@@ -262,7 +272,6 @@ class LOFSegmenter(Estimator):
         self.decided_at_ = np.array([e.emitted_at for e in events], dtype=np.int64)
         self.segments_ = segments_from_cuts(self.cuts_, self.n_frames_)
         return self
-
 
 
 def warmup() -> None:

@@ -36,7 +36,7 @@ def lof_report(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) 
         # had when it was decided can be recorded for the picture
         for i in range(0, angles.shape[0], step):
             seen = det.n_windows_
-            events += det.learn_many(angles[i:i + step])
+            events += det.learn_many(angles[i : i + step])
             if det.n_windows_ > seen and det.n_windows_ > delay:
                 dec_x.append(int(det.buffer_centres()[-1 - delay]))
                 dec_y.append(float(det.buffer_lof()[-1 - delay]))
@@ -44,20 +44,34 @@ def lof_report(angles: np.ndarray, fps: float, config: LOFConfig, online: bool) 
         from streamseg.online.events import WithdrawEvent, final_cuts, first_emissions
 
         final = final_cuts(events)  # with one stage: every event
-        out = dict(cuts=[c.frame for c in final], latency=[c.latency for c in final],
-                   first_latency=[e - c.frame for e, c in zip(first_emissions(events), final,
-                                                               strict=True)],
-                   withdrawn=[e.frame for e in events if isinstance(e, WithdrawEvent)],
-                   scores=[c.score for c in final], centres=np.array(dec_x),
-                   lof=np.array(dec_y), final=(det.buffer_centres(), det.buffer_lof()),
-                   threshold=None, n_nan_frames=det.n_nan_frames_, geometry=det.geometry)
+        out = dict(
+            cuts=[c.frame for c in final],
+            latency=[c.latency for c in final],
+            first_latency=[
+                e - c.frame for e, c in zip(first_emissions(events), final, strict=True)
+            ],
+            withdrawn=[e.frame for e in events if isinstance(e, WithdrawEvent)],
+            scores=[c.score for c in final],
+            centres=np.array(dec_x),
+            lof=np.array(dec_y),
+            final=(det.buffer_centres(), det.buffer_lof()),
+            threshold=None,
+            n_nan_frames=det.n_nan_frames_,
+            geometry=det.geometry,
+        )
     else:
         from streamseg.offline.lof import LOFSegmenter
 
         seg = LOFSegmenter(config, fps).fit(angles)
-        out = dict(cuts=[int(c) for c in seg.cuts_], latency=None,
-                   scores=[float(v) for v in seg.scores_], centres=seg.centres_,
-                   lof=seg.lof_, threshold=seg.threshold_, n_nan_frames=seg.n_nan_frames_,
-                   geometry=seg.geometry)
+        out = dict(
+            cuts=[int(c) for c in seg.cuts_],
+            latency=None,
+            scores=[float(v) for v in seg.scores_],
+            centres=seg.centres_,
+            lof=seg.lof_,
+            threshold=seg.threshold_,
+            n_nan_frames=seg.n_nan_frames_,
+            geometry=seg.geometry,
+        )
     out["seconds"] = time.perf_counter() - t0
     return out

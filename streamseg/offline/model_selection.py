@@ -86,16 +86,20 @@ class PieceSilhouette:
         stride = max(1, -(-n // SILHOUETTE_FRAMES))
         Kf = frame_kernel(X[::stride], kernel=kernel, sigma=sigma)
         m = Kf.shape[0]
-        bounds = [(min(s // stride, m - 1), max(min(s // stride, m - 1) + 1,
-                                                min((s + self.piece) // stride, m)))
-                  for s in self.starts]
+        bounds = [
+            (
+                min(s // stride, m - 1),
+                max(min(s // stride, m - 1) + 1, min((s + self.piece) // stride, m)),
+            )
+            for s in self.starts
+        ]
         self.D = np.clip(2.0 - 2.0 * segment_dtak(Kf, bounds), 0.0, None)
 
     def score(self, labels) -> float:
         """Mean silhouette of the per-frame ``labels`` (n,); -1 with fewer than two labels
         (a single cluster has no silhouette)."""
         labels = np.asarray(labels)
-        lab = np.array([np.bincount(labels[s:s + self.piece]).argmax() for s in self.starts])
+        lab = np.array([np.bincount(labels[s : s + self.piece]).argmax() for s in self.starts])
         ids = np.unique(lab)
         if ids.size < 2:
             return -1.0
@@ -129,18 +133,34 @@ def model_from_config(config: ACAConfig, fps: float, n_jobs: int = 1):
     def frames(seconds):
         return max(1, int(round(seconds * fps)))
 
-    common = dict(n_init=config.n_init, max_iter=config.max_iter, kernel=config.kernel,
-                  sigma=config.sigma, k_reduce=config.k_reduce,
-                  reduce_cap=frames(config.reduce_cap), random_state=config.random_state,
-                  n_jobs=n_jobs)
+    common = dict(
+        n_init=config.n_init,
+        max_iter=config.max_iter,
+        kernel=config.kernel,
+        sigma=config.sigma,
+        k_reduce=config.k_reduce,
+        reduce_cap=frames(config.reduce_cap),
+        random_state=config.random_state,
+        n_jobs=n_jobs,
+    )
     if config.hierarchical:
-        return HACAEngine(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
-                    fine_clusters=config.fine_clusters,
-                    fine_min_len_frames=frames(config.fine_min_len_s),
-                    fine_max_len_frames=frames(config.fine_max_len_s),
-                    coarse_kernel=config.coarse_kernel, **common)
-    return ACAEngine(config.n_clusters, frames(config.min_len_s), frames(config.max_len_s),
-               init=config.init, **common)
+        return HACAEngine(
+            config.n_clusters,
+            frames(config.min_len_s),
+            frames(config.max_len_s),
+            fine_clusters=config.fine_clusters,
+            fine_min_len_frames=frames(config.fine_min_len_s),
+            fine_max_len_frames=frames(config.fine_max_len_s),
+            coarse_kernel=config.coarse_kernel,
+            **common,
+        )
+    return ACAEngine(
+        config.n_clusters,
+        frames(config.min_len_s),
+        frames(config.max_len_s),
+        init=config.init,
+        **common,
+    )
 
 
 def fit_aca(X, config: ACAConfig, fps: float, n_jobs: int = 1) -> Fitted:
@@ -179,16 +199,16 @@ def fit_aca(X, config: ACAConfig, fps: float, n_jobs: int = 1) -> Fitted:
     # every K each time: HACA's fine level is fitted once for all of them, so the search
     # costs about 1.5 fits (0.23 s against 0.16 s on 60 s of 120 Hz features); searching only
     # around the previous revision's K stuck streams whose actions accumulate at a low K
-    ks = [config.n_clusters] if config.n_clusters is not None else list(
-        range(2, config.k_max + 1))
+    ks = [config.n_clusters] if config.n_clusters is not None else list(range(2, config.k_max + 1))
     ks = [k for k in ks if k * min_len <= m] or [1]
     piece = max(2, int(round(config.max_len_s * fps / 2)))  # half the longest segment
     model = model_from_config(config, fps, n_jobs)
     if config.hierarchical:  # one fine level for every K
         fits = model.fit_each(Xf, ks)
     else:
-        fits = [(k, model_from_config(replace(config, n_clusters=k), fps, n_jobs).fit(Xf))
-                for k in ks]
+        fits = [
+            (k, model_from_config(replace(config, n_clusters=k), fps, n_jobs).fit(Xf)) for k in ks
+        ]
     scores = {}
     if len(fits) > 1:
         sil = PieceSilhouette(Xf, piece, kernel=config.kernel, sigma=config.sigma)
@@ -202,8 +222,9 @@ def fit_aca(X, config: ACAConfig, fps: float, n_jobs: int = 1) -> Fitted:
         idx[idx < 0] = first
         full = labels[np.cumsum(ok)[idx] - 1]
         labels = full
-    return Fitted(labels, _runs(labels, model.segments_, ok), k, scores,
-                  float(model.objective_), model=model)
+    return Fitted(
+        labels, _runs(labels, model.segments_, ok), k, scores, float(model.objective_), model=model
+    )
 
 
 def _runs(labels: np.ndarray, segments, ok: np.ndarray) -> list:
@@ -216,4 +237,3 @@ def _runs(labels: np.ndarray, segments, ok: np.ndarray) -> list:
     starts = [0] + [int(where[s]) for s, _, _ in segments[1:]]
     ends = starts[1:] + [n]
     return [(a, b, int(labels[a])) for a, b in zip(starts, ends) if b > a]
-

@@ -52,8 +52,9 @@ def pieces_of(segments, label, features, frames, keep: int, stride: int, max_pie
     so two pieces can be compared. Returns a list of (L, d) float64 arrays (L >= 2)."""
     from streamseg.offline.label_memory import _runs
 
-    runs = sorted(((a, b) for a, b, lab in _runs(segments) if lab == label),
-                  key=lambda r: r[0] - r[1])
+    runs = sorted(
+        ((a, b) for a, b, lab in _runs(segments) if lab == label), key=lambda r: r[0] - r[1]
+    )
     out = []
     for a, b in runs:
         r0, r1 = (int(x) for x in np.searchsorted(frames, [a, b]))
@@ -64,7 +65,7 @@ def pieces_of(segments, label, features, frames, keep: int, stride: int, max_pie
         bounds = np.linspace(r0, r1, parts + 1).astype(np.int64)
         for p0, p1 in zip(bounds[:-1], bounds[1:], strict=True):
             mid, half = (p0 + p1) // 2, min(keep, p1 - p0) // 2
-            out.append(np.asarray(features[mid - half:mid + half:stride], dtype=np.float64))
+            out.append(np.asarray(features[mid - half : mid + half : stride], dtype=np.float64))
             if len(out) >= max_pieces:
                 break
         if len(out) >= max_pieces:
@@ -156,16 +157,20 @@ def merge_into_present(P: dict, hosts, scores: dict, taken, config, segments=())
             if j == c or (adjacent and not touches(segments, c, j)):
                 continue
             r, other = scores[c, j]
-            if (r >= config.merge_ratio and r >= other + config.merge_margin
-                    and (best is None or r > best[0])):
+            if (
+                r >= config.merge_ratio
+                and r >= other + config.merge_margin
+                and (best is None or r > best[0])
+            ):
                 best = (r, j)
         if best is not None:
             out[c] = best[1]
     return out
 
 
-def recall(stable, previous, memory, features, frames, config, fps: float,
-           sigma: float | None = None):
+def recall(
+    stable, previous, memory, features, frames, config, fps: float, sigma: float | None = None
+):
     """Map candidates of ``stable`` onto remembered ids on strong evidence (module docstring).
 
     Parameters
@@ -204,8 +209,7 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     segs = [(int(a), int(b), int(c)) for a, b, c in stable.segments]
     present = sorted({c for _, _, c in segs})
     seen = previous.next_id if previous is not None else 0
-    cands = [c for c in present
-             if c >= seen or born.get(c, -1) >= rev - config.recall_within + 1]
+    cands = [c for c in present if c >= seen or born.get(c, -1) >= rev - config.recall_within + 1]
     absent = [j for j in memory.exemplars if j not in present]
     merge = bool(getattr(config, "merge_present", False))
     hosts = [j for j in present if j in memory.exemplars and j not in cands]
@@ -215,13 +219,15 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     may_recall = bool(absent) and int(frames[0]) > memory.origin
     if previous is not None and cands and (may_recall or (merge and hosts)):
         keep = max(2, int(round(config.exemplar_s * fps)))
-        P = {c: pieces_of(segs, c, features, frames, keep, memory.stride, config.recall_pieces)
-             for c in cands}
+        P = {
+            c: pieces_of(segs, c, features, frames, keep, memory.stride, config.recall_pieces)
+            for c in cands
+        }
         P = {c: p for c, p in P.items() if len(p) >= 2}
         scores = {}
         if P:
             if sigma is None:
-                sigma = default_sigma(np.asarray(features[::memory.stride], dtype=np.float64))
+                sigma = default_sigma(np.asarray(features[:: memory.stride], dtype=np.float64))
             scores = recall_scores(P, memory, sigma)
         if P and may_recall:
             cs, js = sorted(P), sorted(absent)
@@ -260,6 +266,13 @@ def recall(stable, previous, memory, features, frames, config, fps: float,
     ex = {i: v for i, v in memory.exemplars.items() if i not in gone}
     weight = {i: v for i, v in memory.weight.items() if i not in gone}
     last_seen = {i: v for i, v in memory.last_seen.items() if i not in gone}
-    memory = replace(memory, exemplars=ex, weight=weight, last_seen=last_seen, born=born,
-                     pending=pending, revisions=rev + 1)
+    memory = replace(
+        memory,
+        exemplars=ex,
+        weight=weight,
+        last_seen=last_seen,
+        born=born,
+        pending=pending,
+        revisions=rev + 1,
+    )
     return replace(stable, segments=out, next_id=next_id), memory, {**recalled, **merged}

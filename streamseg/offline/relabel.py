@@ -57,7 +57,7 @@ class WindowSegmentation:
         """(end - start,) int64 label of every frame of the window."""
         out = np.empty(self.end - self.start, dtype=np.int64)
         for s, e, lab in self.segments:
-            out[s - self.start:e - self.start] = lab
+            out[s - self.start : e - self.start] = lab
         return out
 
 
@@ -82,14 +82,16 @@ def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
     new_labels = np.asarray(new_labels, dtype=np.int64)
     old_labels = np.asarray(old_labels, dtype=np.int64)
     seen = np.unique(new_labels)
-    new_ids = np.union1d(seen, np.asarray(list(new_ids) if new_ids is not None else [],
-                                          dtype=np.int64))
+    new_ids = np.union1d(
+        seen, np.asarray(list(new_ids) if new_ids is not None else [], dtype=np.int64)
+    )
     mapping = {}
     if old_labels.size:
         old_ids = np.unique(old_labels)
         C = np.zeros((new_ids.size, old_ids.size))
-        np.add.at(C, (np.searchsorted(new_ids, new_labels),
-                      np.searchsorted(old_ids, old_labels)), 1)
+        np.add.at(
+            C, (np.searchsorted(new_ids, new_labels), np.searchsorted(old_ids, old_labels)), 1
+        )
         for r, c in zip(*linear_sum_assignment(-C), strict=True):
             if C[r, c] > 0:
                 mapping[int(new_ids[r])] = int(old_ids[c])
@@ -101,8 +103,14 @@ def match_labels(new_labels, old_labels, used=(), new_ids=None) -> dict:
     return mapping
 
 
-def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
-                   previous: WindowSegmentation | None = None) -> WindowSegmentation:
+def relabel_window(
+    features,
+    *,
+    start_frame: int,
+    fps: float,
+    config: ACAConfig,
+    previous: WindowSegmentation | None = None,
+) -> WindowSegmentation:
     """Run (H)ACA on a window and keep its cluster ids consistent with ``previous``.
 
     Parameters
@@ -140,10 +148,13 @@ def relabel_window(features, *, start_frame: int, fps: float, config: ACAConfig,
         lo = max(start, previous.start)
         hi = min(start + n, previous.end)
         if hi > lo:
-            old_part = previous.frame_labels()[lo - previous.start:hi - previous.start]
-            new_part = labels[lo - start:hi - start]
-    mapping = (match_labels(new_part, old_part, used, new_ids=np.unique(labels))
-               if previous is not None else {int(u): int(u) for u in np.unique(labels)})
+            old_part = previous.frame_labels()[lo - previous.start : hi - previous.start]
+            new_part = labels[lo - start : hi - start]
+    mapping = (
+        match_labels(new_part, old_part, used, new_ids=np.unique(labels))
+        if previous is not None
+        else {int(u): int(u) for u in np.unique(labels)}
+    )
     segments = [(s + start, e + start, mapping[lab]) for s, e, lab in model.segments_]
     return WindowSegmentation(start, start + n, segments, model.n_clusters_)
 
@@ -155,5 +166,13 @@ def warmup() -> None:
     x = np.array([0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0])
     ACAEngine(2, 2, 3, n_init=1, kernel="equality", random_state=0).fit(x)
     ACAEngine(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, random_state=0).fit(x)
-    ACAEngine(2, 2, 3, n_init=1, kernel="gaussian", sigma=1.0, k_reduce=2,  # k-means kernel too
-        random_state=0).fit(np.repeat(x, 3)[:, None])
+    ACAEngine(
+        2,
+        2,
+        3,
+        n_init=1,
+        kernel="gaussian",
+        sigma=1.0,
+        k_reduce=2,  # k-means kernel too
+        random_state=0,
+    ).fit(np.repeat(x, 3)[:, None])

@@ -65,15 +65,20 @@ def set_summary(rep_set, fps: float, config: RepetitionConfig) -> dict:
     durations = [(b - a) / fps for a, b in rep_set.repetitions]
     dis = [d for d in rep_set.dissimilarity if d is not None]
     conf = 1.0 - float(np.median(dis)) / config.max_dissimilarity if dis else 0.0
-    return {"start": int(rep_set.start), "end": int(rep_set.end), "count": rep_set.count,
-            "tempo_min_s": round(min(durations), 3), "tempo_max_s": round(max(durations), 3),
-            "confidence": round(min(1.0, max(0.0, conf)), 3),
-            "end_reason": rep_set.end_reason,
-            "repetitions": [(int(a), int(b)) for a, b in rep_set.repetitions],
-            "durations_s": [round(d, 3) for d in durations],
-            "rom_joint": rep_set.rom_joint,
-            "rom_deg": list(rep_set.rom_deg) or [None] * rep_set.count,
-            "likeness": list(rep_set.likeness)}
+    return {
+        "start": int(rep_set.start),
+        "end": int(rep_set.end),
+        "count": rep_set.count,
+        "tempo_min_s": round(min(durations), 3),
+        "tempo_max_s": round(max(durations), 3),
+        "confidence": round(min(1.0, max(0.0, conf)), 3),
+        "end_reason": rep_set.end_reason,
+        "repetitions": [(int(a), int(b)) for a, b in rep_set.repetitions],
+        "durations_s": [round(d, 3) for d in durations],
+        "rom_joint": rep_set.rom_joint,
+        "rom_deg": list(rep_set.rom_deg) or [None] * rep_set.count,
+        "likeness": list(rep_set.likeness),
+    }
 
 
 class RepetitionSegmenter(Estimator):
@@ -125,8 +130,9 @@ class RepetitionSegmenter(Estimator):
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0):
         self.config = config or RepetitionConfig()
         if not (np.isscalar(fps) and float(fps) > 0):
-            raise ParameterError(f"fps={fps!r} is invalid: expected the frame rate (> 0) of "
-                                 "the arrays given to fit")
+            raise ParameterError(
+                f"fps={fps!r} is invalid: expected the frame rate (> 0) of the arrays given to fit"
+            )
         self.fps = float(fps)
 
     def fit(self, X) -> RepetitionSegmenter:
@@ -154,19 +160,20 @@ class RepetitionSegmenter(Estimator):
             n = P.shape[0]
             counter = RepetitionCounter(cfg, fps, X.skeleton)
             data = None if (n and unusable) else P
-            self.features_ = (np.zeros((n, 28)) if data is None or n == 0 else
-                              stream_features(X))
+            self.features_ = np.zeros((n, 28)) if data is None or n == 0 else stream_features(X)
         else:
             fps = self.fps
             A = np.asarray(X, dtype=np.float64)
             if A.ndim != 2:
-                raise ParameterError(f"X must be (n_frames, d) feature rows; got shape "
-                                     f"{A.shape}")
+                raise ParameterError(f"X must be (n_frames, d) feature rows; got shape {A.shape}")
             bad = bad_frames(A)
             self.n_missing_frames_ = int(bad.sum())
             n = A.shape[0]
-            data = None if (self.n_missing_frames_ == n and n) else (
-                bridge_rows(A, bad) if self.n_missing_frames_ else A)
+            data = (
+                None
+                if (self.n_missing_frames_ == n and n)
+                else (bridge_rows(A, bad) if self.n_missing_frames_ else A)
+            )
             counter = RepetitionCounter(cfg, fps, None)
             self.features_ = np.zeros_like(A) if data is None else data
         if data is not None and n:
@@ -180,47 +187,56 @@ class RepetitionSegmenter(Estimator):
         self.count_ = len(self.repetitions_)
         self.repetitive_ = bool(self.sets_)
         self.reason_ = "" if self.repetitive_ else self._reason(counter, n, data is None)
-        self.segments_ = [Segment(int(a), int(b), i) for i, (a, b) in
-                          enumerate(self.repetitions_)]
+        self.segments_ = [Segment(int(a), int(b), i) for i, (a, b) in enumerate(self.repetitions_)]
         self.labels_ = np.full(n, -1, dtype=np.int64)
         self.set_labels_ = np.full(n, -1, dtype=np.int64)
         for i, (a, b) in enumerate(self.repetitions_):
             self.labels_[a:b] = i
         for i, s in enumerate(self.sets_):
-            self.set_labels_[s["start"]:s["end"]] = i
+            self.set_labels_[s["start"] : s["end"]] = i
         return self
 
     def _reason(self, counter, n, unusable) -> str:
         cfg = self.config
         if unusable:
-            return (f"every frame ({n}) has missing (NaN) trunk or hip joints: no pose to "
-                    "read the limbs' movement in")
+            return (
+                f"every frame ({n}) has missing (NaN) trunk or hip joints: no pose to "
+                "read the limbs' movement in"
+            )
         if n < 2 * counter._ring.dec + 2:
             return f"too short: {n} frame{'' if n == 1 else 's'}"
         if counter.max_excursion_ < cfg.min_amplitude:
-            return (f"no movement as large as a repetition (the pose went at most "
-                    f"{counter.max_excursion_:.2f} from where it was; min_amplitude "
-                    f"{cfg.min_amplitude:g})")
+            return (
+                f"no movement as large as a repetition (the pose went at most "
+                f"{counter.max_excursion_:.2f} from where it was; min_amplitude "
+                f"{cfg.min_amplitude:g})"
+            )
         if counter.n_loops_ == 0:
             return "the pose never came back to where it was: no cycle"
         if not np.isfinite(counter.best_dissimilarity_):
             return "one cycle only: a repetition needs a second one like it"
         misses = counter.near_misses_
         if counter.best_dissimilarity_ <= cfg.max_dissimilarity and misses:
-            why = {"tempo": f"their durations differ more than start_tempo_ratio "
-                            f"{cfg.start_tempo_ratio:g} times",
-                   "span": f"together they cover a pose range wider than the larger one "
-                           f"(spread_ratio {cfg.spread_ratio:g}): parts of a longer movement",
-                   "amplitude": f"one moved less than amplitude_ratio "
-                                f"{cfg.amplitude_ratio:g} of the other"}
+            why = {
+                "tempo": f"their durations differ more than start_tempo_ratio "
+                f"{cfg.start_tempo_ratio:g} times",
+                "span": f"together they cover a pose range wider than the larger one "
+                f"(spread_ratio {cfg.spread_ratio:g}): parts of a longer movement",
+                "amplitude": f"one moved less than amplitude_ratio "
+                f"{cfg.amplitude_ratio:g} of the other",
+            }
             fault = max(misses, key=misses.get)
             n = sum(misses.values())
-            return (f"consecutive cycles alike in shape ({n} pair{'s' if n > 1 else ''}, the "
-                    f"closest {counter.best_dissimilarity_:.2f} of their amplitude) but not "
-                    f"repetitions of one movement: {why[fault]}")
-        return (f"no two consecutive cycles alike (the closest differ by "
-                f"{counter.best_dissimilarity_:.2f} of their amplitude; max_dissimilarity "
-                f"{cfg.max_dissimilarity:g})")
+            return (
+                f"consecutive cycles alike in shape ({n} pair{'s' if n > 1 else ''}, the "
+                f"closest {counter.best_dissimilarity_:.2f} of their amplitude) but not "
+                f"repetitions of one movement: {why[fault]}"
+            )
+        return (
+            f"no two consecutive cycles alike (the closest differ by "
+            f"{counter.best_dissimilarity_:.2f} of their amplitude; max_dissimilarity "
+            f"{cfg.max_dissimilarity:g})"
+        )
 
     def predict(self) -> list[Segment]:
         """The repetitions, ``Segment(start, end, index)`` (0-based, end exclusive)."""

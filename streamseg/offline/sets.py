@@ -58,7 +58,8 @@ def label_sets(frame_labels, sets) -> list:
     """
     out = []
     for st in sets:
-        mids = [frame_labels[min((a + b) // 2, len(frame_labels) - 1)]
-                for a, b in st["repetitions"]]
+        mids = [
+            frame_labels[min((a + b) // 2, len(frame_labels) - 1)] for a, b in st["repetitions"]
+        ]
         out.append(int(Counter(int(m) for m in mids).most_common(1)[0][0]))
     return out

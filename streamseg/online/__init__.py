@@ -33,6 +33,15 @@ _EXPORTS = {
     "RepEvent": "streamseg.online.repetition",
     "warmup_lof": ("streamseg.online.lof", "warmup"),
 }
-__all__ = ["ConfirmEvent", "CutEvent", "RepEvent", "RepetitionCounter", "StreamingLOFSegmenter",
-           "WithdrawEvent", "final_cuts", "first_emissions", "warmup_lof"]
+__all__ = [
+    "ConfirmEvent",
+    "CutEvent",
+    "RepEvent",
+    "RepetitionCounter",
+    "StreamingLOFSegmenter",
+    "WithdrawEvent",
+    "final_cuts",
+    "first_emissions",
+    "warmup_lof",
+]
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

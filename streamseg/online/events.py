@@ -91,9 +91,11 @@ def final_cuts(events) -> list[CutEvent]:
     each confirmed pending cut at its confirmation (score and ``emitted_at`` of the
     :class:`ConfirmEvent`). With two stages these are the single-stage detector's cuts at the
     confirmation delay, event for event; with one stage, ``events`` unchanged."""
-    return [CutEvent(ev.frame, ev.score, ev.emitted_at) if isinstance(ev, ConfirmEvent) else ev
-            for ev in events
-            if isinstance(ev, ConfirmEvent) or (isinstance(ev, CutEvent) and not ev.pending)]
+    return [
+        CutEvent(ev.frame, ev.score, ev.emitted_at) if isinstance(ev, ConfirmEvent) else ev
+        for ev in events
+        if isinstance(ev, ConfirmEvent) or (isinstance(ev, CutEvent) and not ev.pending)
+    ]
 
 
 def first_emissions(events) -> list[int]:

@@ -78,8 +78,9 @@ class StreamingLOFSegmenter(Stateful):
         of angles in [0, pi] works the same way (e.g. a subset of the bone features).
     """
 
-    def __init__(self, config: LOFConfig | None = None, fps: float = 120.0,
-                 n_features: int | None = None):
+    def __init__(
+        self, config: LOFConfig | None = None, fps: float = 120.0, n_features: int | None = None
+    ):
         self.config = LOFConfig() if config is None else config
         if not fps > 0:
             raise ParameterError(f"fps={fps!r} is invalid: expected a frame rate > 0")
@@ -93,14 +94,35 @@ class StreamingLOFSegmenter(Stateful):
         self._speeds = SpeedColumns(c, self.fps, self.n_features) if c.speed_max > 0 else None
         n, k, d, w = g["capacity"], c.k, self._cols * c.bins, g["window"]
         # in the order of the kernel's GEO_* and P_* slots
-        self._geo = np.array([c.bins, w, g["step"], g["min_valid"], k, g["exclusion"],
-                              g["refine"], g["contrast"], c.check_columns(self.n_features)],
-                             dtype=np.int64)
+        self._geo = np.array(
+            [
+                c.bins,
+                w,
+                g["step"],
+                g["min_valid"],
+                k,
+                g["exclusion"],
+                g["refine"],
+                g["contrast"],
+                c.check_columns(self.n_features),
+            ],
+            dtype=np.int64,
+        )
         # the kernel reads a negative MAD count as the paper's rule (no threshold)
         mads = c.threshold_mads if c.peak_rule == "adaptive" else -1.0
-        self._p = np.array([g["delay"], c.dp_tolerance, mads, c.min_score,
-                            g["min_gap"], c.min_contrast, c.novelty, g["early"]],
-                           dtype=np.float64)
+        self._p = np.array(
+            [
+                g["delay"],
+                c.dp_tolerance,
+                mads,
+                c.min_score,
+                g["min_gap"],
+                c.min_contrast,
+                c.novelty,
+                g["early"],
+            ],
+            dtype=np.float64,
+        )
         assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
         self._st = _ks.new_state()
@@ -113,24 +135,42 @@ class StreamingLOFSegmenter(Stateful):
         # columns * window**2 < 2**31 (7,517 frames for the default 38 columns, 62 s at 120 Hz)
         longest = int(np.sqrt((2**31 - 1) / self._cols))
         if w > longest:
-            raise ParameterError(f"window of {w} frames is too long: at most {longest} frames "
-                                 f"with {self._cols} histogram columns (lower window_s)")
+            raise ParameterError(
+                f"window of {w} frames is too long: at most {longest} frames "
+                f"with {self._cols} histogram columns (lower window_s)"
+            )
         self._vecs = np.zeros((n, d), dtype=np.int16)
         self._seqs = np.full(n, -1, dtype=np.int64)
         self._centres = np.zeros(n, dtype=np.int64)
         # the pending early cuts (window, frame): they lie within delay - early + min_gap
         # windows of the window the final stage decides next
-        self._pend = np.zeros((g["delay"] + g["min_gap"] + 2 if g["early"] else 0, 2),
-                              dtype=np.int64)
+        self._pend = np.zeros(
+            (g["delay"] + g["min_gap"] + 2 if g["early"] else 0, 2), dtype=np.int64
+        )
         self._allocate_derived()
 
     STATE_VERSION = 2  # 2: the two-stage decision (_pend), the decision's columns in _geo
     # Recomputed from the rest (the window vectors, their sequence numbers and centres) or
     # scratch: a state need not store them (streamseg.state), and they are half of what
     # changes between two checkpoints of a full stream (scattered list updates)
-    _transient = ("_norms", "_nn_idx", "_nn_d", "_nn_key", "_nn_cnt", "_trunc", "_lrd",
-                      "_lof", "_mark", "_work", "_curve", "_keep", "_stack", "_left", "_right",
-                      "_ev")
+    _transient = (
+        "_norms",
+        "_nn_idx",
+        "_nn_d",
+        "_nn_key",
+        "_nn_cnt",
+        "_trunc",
+        "_lrd",
+        "_lof",
+        "_mark",
+        "_work",
+        "_curve",
+        "_keep",
+        "_stack",
+        "_left",
+        "_right",
+        "_ev",
+    )
 
     def _allocate_derived(self) -> None:
         g, k, n = self.geometry, self.config.k, self._seqs.shape[0]
@@ -164,9 +204,22 @@ class StreamingLOFSegmenter(Stateful):
         the same LOF values and the same later cuts as the state it was saved from
         (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
         self._allocate_derived()
-        _kl.ext_rebuild(self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d,
-                        self._nn_key, self._nn_cnt, self._trunc, self._lrd, self._lof,
-                        self._mark, self._centres, self.config.k, int(self._geo[_ks.GEO_EXCLUSION]))
+        _kl.ext_rebuild(
+            self._vecs,
+            self._norms,
+            self._seqs,
+            self._nn_idx,
+            self._nn_d,
+            self._nn_key,
+            self._nn_cnt,
+            self._trunc,
+            self._lrd,
+            self._lof,
+            self._mark,
+            self._centres,
+            self.config.k,
+            int(self._geo[_ks.GEO_EXCLUSION]),
+        )
 
     # ---- feeding ---------------------------------------------------------------------------
     def learn_one(self, angles_row) -> list:
@@ -177,16 +230,18 @@ class StreamingLOFSegmenter(Stateful):
         row = np.asarray(angles_row, dtype=np.float64)
         d = self.n_features
         if row.shape != (d,):
-            raise ParameterError(width_message(row.shape, d, self.config, self._explicit_width,
-                                               row=True))
+            raise ParameterError(
+                width_message(row.shape, d, self.config, self._explicit_width, row=True)
+            )
         return self._run(row.reshape(1, d))
 
     def learn_many(self, angles) -> list:
         """Feed feature frames, shape (n, n_features); same cuts as ``learn_one`` per row."""
         a = np.asarray(angles, dtype=np.float64)
         if a.ndim != 2 or a.shape[1] != self.n_features:
-            raise ParameterError(width_message(a.shape, self.n_features, self.config,
-                                               self._explicit_width))
+            raise ParameterError(
+                width_message(a.shape, self.n_features, self.config, self._explicit_width)
+            )
         return self._run(np.ascontiguousarray(a))
 
     def learn_positions(self, positions: np.ndarray, bones: tuple, root=None):
@@ -219,16 +274,43 @@ class StreamingLOFSegmenter(Stateful):
         pos = frames_in(positions)
         width = bones[2].shape[0] + (0 if root is None else 2)
         if pos.ndim != 3 or pos.shape[2] != 3 or width != self.n_features:
-            raise ParameterError(f"positions of shape {pos.shape} with {width} feature "
-                                 f"columns: expected (n, J, 3) and {self.n_features} columns")
+            raise ParameterError(
+                f"positions of shape {pos.shape} with {width} feature "
+                f"columns: expected (n, J, 3) and {self.n_features} columns"
+            )
         ev = self._event_arrays(pos.shape[0] // self.geometry["step"] + 2)
-        angles, ok, n = _sf.push_block(pos, *bones, *_root_args(root), *self._speed_args(),
-                                       self._st, self._geo, self._p, self._rb, self._rv,
-                                       self._cur, self._left, self._right, self._vecs,
-                                       self._norms, self._seqs, self._nn_idx, self._nn_d,
-                                       self._nn_key, self._nn_cnt, self._trunc, self._lrd,
-                                       self._lof, self._mark, self._centres, self._work,
-                                       self._curve, self._keep, self._stack, *ev, self._pend)
+        angles, ok, n = _sf.push_block(
+            pos,
+            *bones,
+            *_root_args(root),
+            *self._speed_args(),
+            self._st,
+            self._geo,
+            self._p,
+            self._rb,
+            self._rv,
+            self._cur,
+            self._left,
+            self._right,
+            self._vecs,
+            self._norms,
+            self._seqs,
+            self._nn_idx,
+            self._nn_d,
+            self._nn_key,
+            self._nn_cnt,
+            self._trunc,
+            self._lrd,
+            self._lof,
+            self._mark,
+            self._centres,
+            self._work,
+            self._curve,
+            self._keep,
+            self._stack,
+            *ev,
+            self._pend,
+        )
         return angles, ok, self._events(n, ev)
 
     def _speed_args(self) -> tuple:
@@ -261,8 +343,13 @@ class StreamingLOFSegmenter(Stateful):
         ev = self._ev
         if ev is not None and ev[0].shape[0] >= m:  # read into events before the next call
             return ev
-        ev = (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m, dtype=np.int64),
-              np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64))
+        ev = (
+            np.empty(m, dtype=np.int64),
+            np.empty(m),
+            np.empty(m, dtype=np.int64),
+            np.empty(m, dtype=np.int64),
+            np.empty(m, dtype=np.int64),
+        )
         if m <= 64:  # kept for the next packets (a few frames each, live); not a huge one's
             self._ev = ev
         return ev
@@ -270,10 +357,24 @@ class StreamingLOFSegmenter(Stateful):
     def _groups(self) -> tuple:
         """The kernel's state arrays in its three groups: frame ring and counts, the LOF
         buffer (:mod:`streamseg._kernels.lof`), scratch."""
-        return ((self._rb, self._rv, self._cur, self._left, self._right),
-                (self._vecs, self._norms, self._seqs, self._nn_idx, self._nn_d, self._nn_key,
-                 self._nn_cnt, self._trunc, self._lrd, self._lof, self._mark, self._centres),
-                (self._work, self._curve, self._keep, self._stack))
+        return (
+            (self._rb, self._rv, self._cur, self._left, self._right),
+            (
+                self._vecs,
+                self._norms,
+                self._seqs,
+                self._nn_idx,
+                self._nn_d,
+                self._nn_key,
+                self._nn_cnt,
+                self._trunc,
+                self._lrd,
+                self._lof,
+                self._mark,
+                self._centres,
+            ),
+            (self._work, self._curve, self._keep, self._stack),
+        )
 
     @staticmethod
     def _events(n, ev) -> list:
@@ -342,10 +443,25 @@ class StreamingLOFSegmenter(Stateful):
         return self.decision_lag_frames() + self.geometry["refine"]
 
 
-_NO_SPEEDS = (np.zeros(3, dtype=np.int64), np.zeros((0, 1)), np.zeros(1), np.zeros(1), 1.0,
-              np.zeros(0, dtype=np.int64))
-_NO_ROOT = (0, np.zeros((0, 2), dtype=np.int64), np.zeros(3), np.zeros(2, dtype=np.int64),
-            np.zeros((1, 3)), np.zeros(3), 0.0, 0.0, 1.0)
+_NO_SPEEDS = (
+    np.zeros(3, dtype=np.int64),
+    np.zeros((0, 1)),
+    np.zeros(1),
+    np.zeros(1),
+    1.0,
+    np.zeros(0, dtype=np.int64),
+)
+_NO_ROOT = (
+    0,
+    np.zeros((0, 2), dtype=np.int64),
+    np.zeros(3),
+    np.zeros(2, dtype=np.int64),
+    np.zeros((1, 3)),
+    np.zeros(3),
+    0.0,
+    0.0,
+    1.0,
+)
 
 
 def _root_args(root) -> tuple:
@@ -353,8 +469,17 @@ def _root_args(root) -> tuple:
     learn_positions` (``root``: a :class:`streamseg.online.root_speed.RootSpeed` or None)."""
     if root is None:
         return _NO_ROOT
-    return (root.root, root.limbs, root.up, root._st, root._ring, root._prev, root.jump,
-            root.fps / root.lag, root.v_max)
+    return (
+        root.root,
+        root.limbs,
+        root.up,
+        root._st,
+        root._ring,
+        root._prev,
+        root.jump,
+        root.fps / root.lag,
+        root.v_max,
+    )
 
 
 def warmup() -> None:
@@ -376,5 +501,4 @@ def warmup() -> None:
     valid = np.empty(angles.shape[0], dtype=np.uint8)
     bin_frames(angles, cfg.bins, fb, valid)
     scratch = np.zeros(fb.shape[1] * cfg.bins, dtype=np.int64)
-    contrast_at(fb, valid, fb.shape[0], 20, 10, cfg.bins, fb.shape[0], 0, scratch,
-                scratch.copy())
+    contrast_at(fb, valid, fb.shape[0], 20, 10, cfg.bins, fb.shape[0], 0, scratch, scratch.copy())

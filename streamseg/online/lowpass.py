@@ -20,13 +20,14 @@ def butter2_sos(cutoff: float, fs: float) -> np.ndarray:
     ``cutoff`` in Hz, ``0 < cutoff < fs / 2``.
     """
     if not (np.isfinite(cutoff) and np.isfinite(fs) and 0 < cutoff < fs / 2):
-        raise ValueError(f"cutoff={cutoff!r} Hz is invalid at fs={fs!r} Hz: expected "
-                         "0 < cutoff < fs / 2")
+        raise ValueError(
+            f"cutoff={cutoff!r} Hz is invalid at fs={fs!r} Hz: expected 0 < cutoff < fs / 2"
+        )
     wn = 2 * cutoff / fs  # normalized to Nyquist
     p = -np.exp(1j * np.pi * np.arange(-1, 2, 2) / 4)  # analogue prototype poles, order 2
     warped = 2 * 2.0 * np.tan(np.pi * wn / 2.0)  # pre-warped, at fs = 2
     p = warped * p
-    k = warped ** 2
+    k = warped**2
     fs2 = 2.0 * 2.0
     p_z = (fs2 + p) / (fs2 - p)  # bilinear transform; both zeros at -1
     k_z = k * np.real(1.0 / np.prod(fs2 - p))

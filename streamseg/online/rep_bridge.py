@@ -93,7 +93,7 @@ class PoseBridge(Stateful):
             k = int(np.argmax(ok))
             lead = self._lead + k
             self._lead = 0
-            X = np.concatenate([np.repeat(X[k:k + 1], lead, axis=0), X[k:]]) if lead else X
+            X = np.concatenate([np.repeat(X[k : k + 1], lead, axis=0), X[k:]]) if lead else X
             first = self.n_in - X.shape[0]
             floor = first + lead if lead else None  # the copies were decided with that frame
         else:
@@ -123,7 +123,7 @@ class PoseBridge(Stateful):
         out = B.copy()
         ready = g.copy()  # the frame whose arrival decided each frame
         if floor is not None:
-            ready[:floor - b0] = floor
+            ready[: floor - b0] = floor
         H = self.hold
         for j in np.flatnonzero(bad.any(axis=0)):
             col = bad[:, j]
@@ -147,8 +147,7 @@ class PoseBridge(Stateful):
                         ready[a:b] = np.maximum(ready[a:b], min(start + H, last))
                     else:
                         ready[a:b] = last
-                    if start + H <= (end if closed else last + 1) - 1 \
-                            and j not in self.long_lost:
+                    if start + H <= (end if closed else last + 1) - 1 and j not in self.long_lost:
                         self.long_lost.append(int(j))
                 else:  # may still close within hold: wait
                     ready[a:b] = np.iinfo(np.int64).max

@@ -35,7 +35,7 @@ class PoseInput:
         b = self._bridge
         if b is None or b.told == len(b.long_lost):
             return []
-        new, b.told = b.long_lost[b.told:], len(b.long_lost)
+        new, b.told = b.long_lost[b.told :], len(b.long_lost)
         return [K.POINTS[j] for j in new]
 
     def _features(self, X, final=False):

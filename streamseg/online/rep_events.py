@@ -94,7 +94,7 @@ def stream_events(counter, X, chunk: int) -> list[RepEvent]:
     stream in packets of ``chunk`` frames gets; the sets do not depend on ``chunk``)."""
     events = []
     for i in range(0, len(X), chunk):
-        events += counter.learn_many(X[i:i + chunk])
+        events += counter.learn_many(X[i : i + chunk])
     return events + counter.finish()
 
 

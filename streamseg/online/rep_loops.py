@@ -77,8 +77,9 @@ class PoseRing(Stateful):
             k = (first + f) // self.dec
             row = k % self.C
             self.Z[row] = Y[f]
-            self.SP[row] = 0.0 if k == 0 else np.sqrt(np.sum((Y[f] - self.Z[(k - 1) % self.C])
-                                                             ** 2))
+            self.SP[row] = (
+                0.0 if k == 0 else np.sqrt(np.sum((Y[f] - self.Z[(k - 1) % self.C]) ** 2))
+            )
             self.k = k
 
     # --- comparing loops -----------------------------------------------------------------
@@ -98,8 +99,7 @@ class PoseRing(Stateful):
         if b - a < 4:
             return idx
         v = self._speeds(a, b)
-        moving = np.flatnonzero(v > self.config.still_ratio * (v.max() if vmax is None
-                                                               else vmax))
+        moving = np.flatnonzero(v > self.config.still_ratio * (v.max() if vmax is None else vmax))
         if moving.size < 2:
             return idx
         keep = np.zeros(idx.size, bool)

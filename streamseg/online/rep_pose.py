@@ -16,9 +16,16 @@ __all__ = ["ROM_JOINTS", "body_scale", "joint_ranges", "pose_features", "stream_
 #: trunk's downward axis), bones as rows of ``rep_track.BONES`` (their directions in the
 #: torso frame are the first 24 pose features): the elbows and knees bend between their two
 #: bones, the shoulders and hips lift their bone from along the trunk.
-ROM_JOINTS = (("l_shoulder", 0, -1), ("l_elbow", 0, 1), ("r_shoulder", 2, -1),
-              ("r_elbow", 2, 3), ("l_hip", 4, -1), ("l_knee", 4, 5), ("r_hip", 6, -1),
-              ("r_knee", 6, 7))
+ROM_JOINTS = (
+    ("l_shoulder", 0, -1),
+    ("l_elbow", 0, 1),
+    ("r_shoulder", 2, -1),
+    ("r_elbow", 2, 3),
+    ("l_hip", 4, -1),
+    ("l_knee", 4, 5),
+    ("r_hip", 6, -1),
+    ("r_knee", 6, 7),
+)
 
 
 OWN = np.arange(len(K.POINTS), dtype=np.int64)  # joint indices of frames holding POINTS
@@ -27,8 +34,9 @@ OWN = np.arange(len(K.POINTS), dtype=np.int64)  # joint indices of frames holdin
 def joint_ranges(Z, which=None) -> np.ndarray:
     """Range of motion (degrees) of each of :data:`ROM_JOINTS` (or of those at indices
     ``which``) over pose rows ``Z`` (n, 28), shape (8,) (or (len(which),))."""
+
     def unit(b):
-        v = Z[:, 3 * b:3 * b + 3]
+        v = Z[:, 3 * b : 3 * b + 3]
         n = np.sqrt(np.einsum("ij,ij->i", v, v))[:, None]
         return np.divide(v, n, out=np.zeros_like(v), where=n > 1e-9)
 
@@ -88,14 +96,17 @@ def pose_features(positions, names, up="y", scale=None):
     if scale is None:
         scale = body_scale(P, idx)
     out = np.empty((P.shape[0], K.N_FEATURES))
-    K.pose_features(P, idx, K.BONES, np.asarray(up_vector(up), dtype=np.float64), float(scale),
-                    out)
+    K.pose_features(P, idx, K.BONES, np.asarray(up_vector(up), dtype=np.float64), float(scale), out)
     return out
 
 
 def body_scale(P, idx) -> float:
     """Median thigh length over frames ``P``; 1.0 when undefined."""
-    th = np.concatenate([np.linalg.norm(P[:, idx[10]] - P[:, idx[2]], axis=1),
-                         np.linalg.norm(P[:, idx[12]] - P[:, idx[3]], axis=1)])
+    th = np.concatenate(
+        [
+            np.linalg.norm(P[:, idx[10]] - P[:, idx[2]], axis=1),
+            np.linalg.norm(P[:, idx[12]] - P[:, idx[3]], axis=1),
+        ]
+    )
     th = th[np.isfinite(th) & (th > 0)]
     return float(np.median(th)) if th.size else 1.0

@@ -104,7 +104,9 @@ class StreamEnd:
             if x >= t - s - 1:
                 cut = min(t, s + e + self._pause // 2)
             else:
-                sp = np.linalg.norm(self._ring.rows(s + e + 1, s + x + 1)
-                                    - self._ring.rows(s + e - 1, s + x - 1), axis=1)
+                sp = np.linalg.norm(
+                    self._ring.rows(s + e + 1, s + x + 1) - self._ring.rows(s + e - 1, s + x - 1),
+                    axis=1,
+                )
                 cut = s + e + int(np.argmin(sp))
         return (s, cut, M)

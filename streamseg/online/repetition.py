@@ -50,7 +50,6 @@ from streamseg.state import Stateful
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
 
 
-
 class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     """Count repetitions in a joint-position stream (or a stream of pose features).
 
@@ -84,8 +83,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     STATE_VERSION = 4  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge, _waits
 
-    def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0,
-                 skeleton=None):
+    def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0, skeleton=None):
         if not np.isscalar(fps) or not fps > 0:
             raise ParameterError(f"fps={fps!r} is invalid: expected the stream's frame rate > 0")
         self.config = cfg = config or RepetitionConfig()
@@ -137,11 +135,13 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         X = np.asarray(X, dtype=np.float64)
         if self._names is not None:
             if X.ndim != 3 or X.shape[1:] != (len(self._names), 3):
-                raise ParameterError(f"positions must have shape (n, {len(self._names)}, 3); "
-                                     f"got {X.shape}")
+                raise ParameterError(
+                    f"positions must have shape (n, {len(self._names)}, 3); got {X.shape}"
+                )
         elif X.ndim != 2 or (self._ring.Z is not None and X.shape[1] != self._ring.Z.shape[1]):
-            raise ParameterError(f"feature rows must have shape (n, d) with one d throughout; "
-                                 f"got {X.shape}")
+            raise ParameterError(
+                f"feature rows must have shape (n, d) with one d throughout; got {X.shape}"
+            )
         if X.shape[0] == 0:
             return []
         self._events = []
@@ -155,7 +155,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         # next ones overwrite what the tracker may still look back at
         step = max(1, (self._ring.C // 4) * self._ring.dec)
         for i in range(0, F.shape[0], step):
-            self._push(F[i:i + step])
+            self._push(F[i : i + step])
             self._run()
 
     def _push(self, F):
@@ -173,21 +173,38 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
             if self._search:
                 thr, timeout = cfg.min_amplitude, self._tmax
             else:
-                thr = max(cfg.min_amplitude,
-                          cfg.amplitude_ratio * float(np.median(self._cur[2][-5:])))
+                thr = max(
+                    cfg.min_amplitude, cfg.amplitude_ratio * float(np.median(self._cur[2][-5:]))
+                )
                 med = float(np.median([b - a for a, b in self._cur[1]]))
                 timeout = min(self._tmax, int(cfg.timeout_cycles * med))
-            t, n = K.advance(ring.Z, ring.SP, self._pos + 1, ring.k + 1, self._search, self._st,
-                             self._Mm, self._na, thr, timeout, cfg.return_ratio,
-                             cfg.rise_ratio, cfg.rise_min, cfg.rest_level, self._pause,
-                             self._tmax, self._gap, cfg.max_anchors, self._closed)
+            t, n = K.advance(
+                ring.Z,
+                ring.SP,
+                self._pos + 1,
+                ring.k + 1,
+                self._search,
+                self._st,
+                self._Mm,
+                self._na,
+                thr,
+                timeout,
+                cfg.return_ratio,
+                cfg.rise_ratio,
+                cfg.rise_min,
+                cfg.rest_level,
+                self._pause,
+                self._tmax,
+                self._gap,
+                cfg.max_anchors,
+                self._closed,
+            )
             self._pos = t
             self._now = t * ring.dec + 1  # frames seen when frame t decided (any chunking)
             for i in range(self._na[0]):
                 self.max_excursion_ = max(self.max_excursion_, float(self._Mm[i, 0]))
             if n:
-                loops = [(int(r[0]), int(r[1]), int(r[2]), float(r[3]))
-                         for r in self._closed[:n]]
+                loops = [(int(r[0]), int(r[1]), int(r[2]), float(r[3])) for r in self._closed[:n]]
                 self.max_excursion_ = max(self.max_excursion_, max(lp[3] for lp in loops))
                 if self._search:
                     self._on_search(loops, t)
@@ -196,7 +213,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     def _set_anchors(self, frames, t):
         """Anchors at ``frames``, caught up to frame ``t``."""
-        frames = frames[-self.config.max_anchors:]
+        frames = frames[-self.config.max_anchors :]
         for i, s in enumerate(frames):
             M, tM, m, tm = K.seed_anchor(self._ring.Z, s, t)
             self._st[i] = (s, tM, tm)
@@ -223,8 +240,11 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
             r = self._ring.dissimilarity(prev, loop) if prev else None
             if r is not None:
                 self.best_dissimilarity_ = min(self.best_dissimilarity_, r)
-            if r is not None and r <= self.config.max_dissimilarity \
-                    and self._alike_pair(prev, loop):
+            if (
+                r is not None
+                and r <= self.config.max_dissimilarity
+                and self._alike_pair(prev, loop)
+            ):
                 self._start_set(prev, loop, r)
                 self._cands = {}
                 if kind == K.PAUSE:
@@ -347,8 +367,11 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         st.repetitions.append((self._frame(a), self._frame(b)))
         st.dissimilarity.append(None if dis is None else float(dis))
         d = dis if dis is not None else next_dis
-        like = None if d is None else round(min(1.0, max(0.0, 1.0 - float(d)
-                                                         / self.config.max_dissimilarity)), 3)
+        like = (
+            None
+            if d is None
+            else round(min(1.0, max(0.0, 1.0 - float(d) / self.config.max_dissimilarity)), 3)
+        )
         st.likeness.append(like)
         rom = None
         if st.rom_joint is not None:
@@ -357,9 +380,19 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
             st.rom_deg.append(rom)
         self.count_ = len(spans)
         s0, s1 = st.repetitions[-1]
-        self._events.append(RepEvent(s0, s1, self.count_, self._emitted(),
-                                     len(self.sets_) - 1, round((s1 - s0) / self.fps, 3),
-                                     rom, st.rom_joint, like))
+        self._events.append(
+            RepEvent(
+                s0,
+                s1,
+                self.count_,
+                self._emitted(),
+                len(self.sets_) - 1,
+                round((s1 - s0) / self.fps, 3),
+                rom,
+                st.rom_joint,
+                like,
+            )
+        )
 
     def _end_set(self, why):
         self._unliked = None
@@ -380,8 +413,14 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 def warmup() -> None:
     """Compile the counter's kernels (a few seconds the first time, then cached)."""
     rng = np.random.default_rng(0)
-    K.pose_features(frames_in(rng.normal(size=(2, 14, 3))), np.arange(14, dtype=np.int64),
-                    K.BONES, np.array([0.0, 1.0, 0.0]), 1.0, np.empty((2, K.N_FEATURES)))
+    K.pose_features(
+        frames_in(rng.normal(size=(2, 14, 3))),
+        np.arange(14, dtype=np.int64),
+        K.BONES,
+        np.array([0.0, 1.0, 0.0]),
+        1.0,
+        np.empty((2, K.N_FEATURES)),
+    )
     c = RepetitionCounter(fps=30.0)
     t = np.arange(300) / 30.0
     X = np.column_stack([np.sin(2 * np.pi * t / 1.5), np.cos(2 * np.pi * t / 1.5)]) * 1.5

@@ -82,12 +82,28 @@ class RootSpeed(Stateful):
     def __call__(self, positions: np.ndarray) -> np.ndarray:
         p = np.ascontiguousarray(positions, dtype=np.float64)
         out = np.empty((p.shape[0], 2))
-        _kr.root_speeds(p, self.root, self.limbs, self.up, self._st, self._ring, self._prev,
-                        self.jump, self.fps / self.lag, self.v_max, out)
+        _kr.root_speeds(
+            p,
+            self.root,
+            self.limbs,
+            self.up,
+            self._st,
+            self._ring,
+            self._prev,
+            self.jump,
+            self.fps / self.lag,
+            self.v_max,
+            out,
+        )
         return out
 
 
-def root_speed_columns(positions: np.ndarray, skeleton, fps: float,
-                       config: LOFConfig | None = None, up: str | None = None) -> np.ndarray:
+def root_speed_columns(
+    positions: np.ndarray,
+    skeleton,
+    fps: float,
+    config: LOFConfig | None = None,
+    up: str | None = None,
+) -> np.ndarray:
     """:class:`RootSpeed` of a whole array of positions (n, J, 3): shape (n, 2)."""
     return RootSpeed(config or LOFConfig(), fps, skeleton, up)(positions)

@@ -37,8 +37,11 @@ class SpeedColumns(Stateful):
         self._ref = np.zeros(self.d)
         self._first = np.zeros(self.d)
         m = self.d - config.root_columns
-        self._order = (None if m == self.d else np.r_[0:m, self.d:self.d + m, m:self.d,
-                                                       self.d + m:2 * self.d])
+        self._order = (
+            None
+            if m == self.d
+            else np.r_[0:m, self.d : self.d + m, m : self.d, self.d + m : 2 * self.d]
+        )
 
     def __call__(self, block: np.ndarray) -> np.ndarray:
         out = np.empty((block.shape[0], 2 * self.d))

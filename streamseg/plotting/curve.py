@@ -12,16 +12,39 @@ import numpy as np
 
 def _bars(ax, spans, colours, fps, label_text=True):
     for i, (s, e, name) in enumerate(spans):
-        ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1), facecolors=colours[i % len(colours)],
-                       edgecolor="white", linewidth=0.8)
+        ax.broken_barh(
+            [(s / fps, (e - s) / fps)],
+            (0, 1),
+            facecolors=colours[i % len(colours)],
+            edgecolor="white",
+            linewidth=0.8,
+        )
         if label_text and name:
-            ax.text((s + (e - s) / 2) / fps, 0.5, str(name), ha="center", va="center", fontsize=7,
-                    clip_on=True)
+            ax.text(
+                (s + (e - s) / 2) / fps,
+                0.5,
+                str(name),
+                ha="center",
+                va="center",
+                fontsize=7,
+                clip_on=True,
+            )
 
 
-def plot_curve(path, x, y, cuts, *, fps: float = 1.0, n_frames: int | None = None,
-               truth=None, threshold: float | None = None, title: str = "",
-               ylabel: str = "score", extra=()) -> None:
+def plot_curve(
+    path,
+    x,
+    y,
+    cuts,
+    *,
+    fps: float = 1.0,
+    n_frames: int | None = None,
+    truth=None,
+    threshold: float | None = None,
+    title: str = "",
+    ylabel: str = "score",
+    extra=(),
+) -> None:
     """Write a PNG: curve ``y`` over frames ``x``, vertical lines at ``cuts``, segment bars.
 
     Parameters
@@ -55,8 +78,13 @@ def plot_curve(path, x, y, cuts, *, fps: float = 1.0, n_frames: int | None = Non
     n = int(n_frames if n_frames is not None else (x[-1] + 1 if x.size else 1))
     cuts = [int(c) for c in cuts]
     rows = 3 if truth else 2
-    fig, axes = plt.subplots(rows, 1, figsize=(11, 2.2 + 0.7 * rows), sharex=True,
-                             gridspec_kw={"height_ratios": [4] + [0.7] * (rows - 1)})
+    fig, axes = plt.subplots(
+        rows,
+        1,
+        figsize=(11, 2.2 + 0.7 * rows),
+        sharex=True,
+        gridspec_kw={"height_ratios": [4] + [0.7] * (rows - 1)},
+    )
     ax = axes[0]
     for ex, ey, elabel in extra:
         ax.plot(np.asarray(ex, dtype=float) / fps, ey, color="0.6", lw=0.8, label=elabel)
@@ -67,8 +95,9 @@ def plot_curve(path, x, y, cuts, *, fps: float = 1.0, n_frames: int | None = Non
         ax.axvline(c / fps, color="#d62728", lw=1.0, label="detected cut" if i == 0 else None)
     if truth:
         for i, (s, _, _) in enumerate(truth[1:]):
-            ax.axvline(s / fps, color="black", lw=0.8, ls=":",
-                       label="human cut" if i == 0 else None)
+            ax.axvline(
+                s / fps, color="black", lw=0.8, ls=":", label="human cut" if i == 0 else None
+            )
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=10)
     ax.legend(loc="upper right", fontsize=7, ncol=4)
@@ -80,8 +109,12 @@ def plot_curve(path, x, y, cuts, *, fps: float = 1.0, n_frames: int | None = Non
     if truth:
         names = sorted({str(t[2]) for t in truth})
         colour = {nm: palette[(2 * i + 1) % len(palette)] for i, nm in enumerate(names)}
-        _bars(axes[2], [(s, e, str(lab)) for s, e, lab in truth],
-              [colour[str(t[2])] for t in truth], fps)
+        _bars(
+            axes[2],
+            [(s, e, str(lab)) for s, e, lab in truth],
+            [colour[str(t[2])] for t in truth],
+            fps,
+        )
         axes[2].set_ylabel("human", rotation=0, ha="right", va="center", fontsize=8)
     for a in axes[1:]:
         a.set_yticks([])

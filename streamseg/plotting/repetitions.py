@@ -11,8 +11,10 @@ def title(segmenter, sets, name: str = "") -> str:
     if not sets:
         return f"{head}no set of repetitions ({segmenter.reason_})"
     counts = ", ".join(str(st["count"]) for st in sets)
-    return (f"{head}{sum(st['count'] for st in sets)} repetitions in {len(sets)} "
-            f"set{'' if len(sets) == 1 else 's'} ({counts})")
+    return (
+        f"{head}{sum(st['count'] for st in sets)} repetitions in {len(sets)} "
+        f"set{'' if len(sets) == 1 else 's'} ({counts})"
+    )
 
 
 def _motion(features, fps):
@@ -34,8 +36,7 @@ def _motion(features, fps):
 def measures(st) -> list:
     """Per repetition of set ``st`` (``segment --method rep`` JSON) ``(start, end, rom_deg,
     likeness)``; None where the counter has none."""
-    return [(r["start"], r["end"], r.get("rom_deg"), r.get("likeness"))
-            for r in st["repetitions"]]
+    return [(r["start"], r["end"], r.get("rom_deg"), r.get("likeness")) for r in st["repetitions"]]
 
 
 def _json_sets(segmenter) -> list:
@@ -43,10 +44,18 @@ def _json_sets(segmenter) -> list:
     out = []
     for st in segmenter.sets_:
         n = len(st["repetitions"])
-        per = zip(st["repetitions"], st.get("rom_deg") or [None] * n,
-                  st.get("likeness") or [None] * n)
-        out.append(dict(st, label=None, repetitions=[
-            {"start": a, "end": b, "rom_deg": r, "likeness": k} for (a, b), r, k in per]))
+        per = zip(
+            st["repetitions"], st.get("rom_deg") or [None] * n, st.get("likeness") or [None] * n
+        )
+        out.append(
+            dict(
+                st,
+                label=None,
+                repetitions=[
+                    {"start": a, "end": b, "rom_deg": r, "likeness": k} for (a, b), r, k in per
+                ],
+            )
+        )
     return out
 
 
@@ -96,13 +105,15 @@ def figure_repetitions(segmenter, sets=None, truth=None, title_file: str = ""):
         sets = _json_sets(segmenter)
     n = int(segmenter.n_frames_)
     t = np.arange(n) / fps
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(12, 6.5), sharex=True,
-                                   gridspec_kw={"height_ratios": [2.2, 1]})
+    fig, (ax1, ax2) = plt.subplots(
+        2, 1, figsize=(12, 6.5), sharex=True, gridspec_kw={"height_ratios": [2.2, 1]}
+    )
     if n:
         Y = _motion(segmenter.features_, fps)
         for j in range(Y.shape[1]):
-            ax1.plot(t, Y[:, j], lw=1.0, color=("0.15", "0.55")[j],
-                     label=f"pose, main direction {j + 1}")
+            ax1.plot(
+                t, Y[:, j], lw=1.0, color=("0.15", "0.55")[j], label=f"pose, main direction {j + 1}"
+            )
     handles = []
     ax3 = None
     for i, st in enumerate(sets):
@@ -110,16 +121,36 @@ def figure_repetitions(segmenter, sets=None, truth=None, title_file: str = ""):
         per = measures(st)
         reps = [(a, b) for a, b, _, _ in per]
         for k, (a, b, rom, like) in enumerate(per):
-            ax1.axvspan(a / fps, b / fps, color=colour, alpha=0.28 if k % 2 == 0 else 0.14,
-                        lw=0)
+            ax1.axvspan(a / fps, b / fps, color=colour, alpha=0.28 if k % 2 == 0 else 0.14, lw=0)
             ax1.axvline(a / fps, color=colour, lw=1.2)
-            ax1.text((a + b) / 2 / fps, 0.98, str(k + 1), transform=ax1.get_xaxis_transform(),
-                     ha="center", va="top", fontsize=7, color=colour)
-            ax2.bar((a + b) / 2 / fps, (b - a) / fps, width=0.9 * (b - a) / fps,
-                    color=colour, alpha=0.75)
+            ax1.text(
+                (a + b) / 2 / fps,
+                0.98,
+                str(k + 1),
+                transform=ax1.get_xaxis_transform(),
+                ha="center",
+                va="top",
+                fontsize=7,
+                color=colour,
+            )
+            ax2.bar(
+                (a + b) / 2 / fps,
+                (b - a) / fps,
+                width=0.9 * (b - a) / fps,
+                color=colour,
+                alpha=0.75,
+            )
             if like is not None:
-                ax2.text((a + b) / 2 / fps, 0.02, f"{like:.2f}", rotation=90, ha="center",
-                         va="bottom", fontsize=6, transform=ax2.get_xaxis_transform())
+                ax2.text(
+                    (a + b) / 2 / fps,
+                    0.02,
+                    f"{like:.2f}",
+                    rotation=90,
+                    ha="center",
+                    va="bottom",
+                    fontsize=6,
+                    transform=ax2.get_xaxis_transform(),
+                )
             if rom is not None:
                 if ax3 is None:
                     ax3 = ax2.twinx()
@@ -128,17 +159,32 @@ def figure_repetitions(segmenter, sets=None, truth=None, title_file: str = ""):
             ax1.axvline(reps[-1][1] / fps, color=colour, lw=1.2)
         label = "" if st.get("label") is None else f" (action {st['label']})"
         joint = f", range of {st['rom_joint']}" if st.get("rom_joint") else ""
-        handles.append(Patch(color=colour, alpha=0.5,
-                             label=f"set {i + 1}{label}: {st['count']} repetitions, "
-                                   f"{st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f} s each, "
-                                   f"confidence {st['confidence']:.2f}{joint}"))
+        handles.append(
+            Patch(
+                color=colour,
+                alpha=0.5,
+                label=f"set {i + 1}{label}: {st['count']} repetitions, "
+                f"{st['tempo_min_s']:.2f}-{st['tempo_max_s']:.2f} s each, "
+                f"confidence {st['confidence']:.2f}{joint}",
+            )
+        )
     for k, (a, _) in enumerate(truth or []):
         for ax in (ax1, ax2):
-            ax.axvline(a / fps, color="0.5", ls="--", lw=0.8,
-                       label="true boundaries" if (k == 0 and ax is ax1) else None)
+            ax.axvline(
+                a / fps,
+                color="0.5",
+                ls="--",
+                lw=0.8,
+                label="true boundaries" if (k == 0 and ax is ax1) else None,
+            )
     line_handles, _ = ax1.get_legend_handles_labels()
-    ax1.legend(handles=line_handles + handles, fontsize=7, loc="upper left",
-               bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    ax1.legend(
+        handles=line_handles + handles,
+        fontsize=7,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        borderaxespad=0.0,
+    )
     ax1.set_ylabel("pose change (unit spread)")
     ax2.set_ylabel("seconds per repetition\n(in the bar: likeness)")
     if ax3 is not None:
@@ -147,8 +193,15 @@ def figure_repetitions(segmenter, sets=None, truth=None, title_file: str = ""):
         ax3.set_ylim(0, 1.15 * top if top > 0 else 1.0)
     ax2.set_xlabel("seconds")
     if not sets:
-        ax2.text(0.5, 0.5, segmenter.reason_, transform=ax2.transAxes, ha="center",
-                 va="center", fontsize=8)
+        ax2.text(
+            0.5,
+            0.5,
+            segmenter.reason_,
+            transform=ax2.transAxes,
+            ha="center",
+            va="center",
+            fontsize=8,
+        )
     ax1.set_xlim(0, max(n / fps, 1e-3))
     fig.suptitle(title(segmenter, sets, title_file), fontsize=10)
     fig.tight_layout()

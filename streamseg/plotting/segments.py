@@ -25,8 +25,16 @@ def _band(ax, runs, fps, colour, name_of, min_share=0.04):
         ax.axvspan(s / fps, e / fps, color=colour(lab), lw=0)
         ax.axvline(s / fps, color="k", lw=0.5)
         if (e - s) / total >= min_share:
-            ax.text((s + e) / 2 / fps, 0.5, name_of(lab), ha="center", va="center",
-                    fontsize=8, transform=ax.get_xaxis_transform(), clip_on=True)
+            ax.text(
+                (s + e) / 2 / fps,
+                0.5,
+                name_of(lab),
+                ha="center",
+                va="center",
+                fontsize=8,
+                transform=ax.get_xaxis_transform(),
+                clip_on=True,
+            )
     ax.set_yticks([])
 
 
@@ -43,12 +51,21 @@ def components(features, k: int = N_COMPONENTS):
     k = min(k, vt.shape[0])
     out = np.full((X.shape[0], k), np.nan)
     out[ok] = Xc @ vt[:k].T
-    var = sv ** 2
+    var = sv**2
     return out, var[:k] / var.sum() if var.sum() > 0 else np.zeros(k)
 
 
-def segments_figure(features, segments, *, fps=1.0, truth=None, truth_names=None,
-                    matching=None, method="HACA", title=""):
+def segments_figure(
+    features,
+    segments,
+    *,
+    fps=1.0,
+    truth=None,
+    truth_names=None,
+    matching=None,
+    method="HACA",
+    title="",
+):
     """The figure :func:`plot_segments` writes (returned for callers that add to it).
 
     Parameters
@@ -86,12 +103,16 @@ def segments_figure(features, segments, *, fps=1.0, truth=None, truth_names=None
 
     def cluster_name(cluster):
         hit = matching.get(cluster)
-        return f"id {cluster}" + (f" ({names[hit]})" if hit is not None and hit < n_names
-                                  else "")
+        return f"id {cluster}" + (f" ({names[hit]})" if hit is not None and hit < n_names else "")
 
     rows = 3 if truth is not None else 2
-    fig, axes = plt.subplots(rows, 1, figsize=(12, 1.2 * rows + 2.4), sharex=True,
-                             gridspec_kw={"height_ratios": [1] * (rows - 1) + [3]})
+    fig, axes = plt.subplots(
+        rows,
+        1,
+        figsize=(12, 1.2 * rows + 2.4),
+        sharex=True,
+        gridspec_kw={"height_ratios": [1] * (rows - 1) + [3]},
+    )
     merged = []  # consecutive segments of one cluster are one action: named once
     for s, e, lab in segments:
         if merged and merged[-1][2] == int(lab) and merged[-1][1] == int(s):
@@ -103,8 +124,13 @@ def segments_figure(features, segments, *, fps=1.0, truth=None, truth_names=None
         axes[0].axvline(int(s) / fps, color="k", lw=0.3, alpha=0.5)
     axes[0].set_ylabel(method, rotation=0, ha="right", va="center")
     if truth is not None:
-        _band(axes[1], _runs(truth), fps, lambda lab: cmap(int(lab) % 10),
-              lambda lab: names[lab] if lab < n_names else str(lab))
+        _band(
+            axes[1],
+            _runs(truth),
+            fps,
+            lambda lab: cmap(int(lab) % 10),
+            lambda lab: names[lab] if lab < n_names else str(lab),
+        )
         axes[1].set_ylabel("human", rotation=0, ha="right", va="center")
     pcs, share = components(X)
     t = np.arange(n) / fps

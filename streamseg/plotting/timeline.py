@@ -8,8 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 
-def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "",
-             key=None) -> None:
+def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "", key=None) -> None:
     """Write a PNG timeline.
 
     Parameters
@@ -39,8 +38,9 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "",
 
     rows = list(rows)
     n_rows = len(rows) + (truth is not None)
-    fig, axes = plt.subplots(n_rows, 1, figsize=(12, 0.9 + 0.42 * n_rows), sharex=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        n_rows, 1, figsize=(12, 0.9 + 0.42 * n_rows), sharex=True, squeeze=False
+    )
     axes = axes[:, 0]
     palette = plt.get_cmap("tab20").colors
     k = 0
@@ -49,10 +49,10 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "",
         ax = axes[0]
         for s, e, lab in truth:
             colour = palette[(2 * names.index(str(lab)) + 1) % len(palette)]
-            ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1), facecolors=colour,
-                           edgecolor="white")
-            ax.text((s + e) / 2 / fps, 0.5, str(lab), ha="center", va="center", fontsize=7,
-                    clip_on=True)
+            ax.broken_barh([(s / fps, (e - s) / fps)], (0, 1), facecolors=colour, edgecolor="white")
+            ax.text(
+                (s + e) / 2 / fps, 0.5, str(lab), ha="center", va="center", fontsize=7, clip_on=True
+            )
         ax.set_ylabel("human", rotation=0, ha="right", va="center", fontsize=8)
         k = 1
     for ax, (name, cuts, labels, *marks) in zip(axes[k:], rows):
@@ -83,10 +83,18 @@ def timeline(path, n_frames: int, fps: float, truth, rows, *, title: str = "",
     if key is not None:
         from matplotlib.patches import Patch
 
-        handles = [Patch(color=palette[(2 * v + 1) % len(palette)], label=str(name))
-                   for v, name in enumerate(key)]
-        fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 8), fontsize=7,
-                   frameon=False, bbox_to_anchor=(0.5, 0.0))
+        handles = [
+            Patch(color=palette[(2 * v + 1) % len(palette)], label=str(name))
+            for v, name in enumerate(key)
+        ]
+        fig.legend(
+            handles=handles,
+            loc="lower center",
+            ncol=min(len(handles), 8),
+            fontsize=7,
+            frameon=False,
+            bbox_to_anchor=(0.5, 0.0),
+        )
         fig.tight_layout(rect=(0, 0.08, 1, 1))
     else:
         fig.tight_layout()

@@ -24,8 +24,11 @@ FILE = "control.token"
 def token_path() -> Path:
     """The token file of the user running this process."""
     run = os.environ.get("XDG_RUNTIME_DIR")
-    base = Path(run) if run else Path(os.environ.get("XDG_STATE_HOME") or
-                                      Path.home() / ".local" / "state")
+    base = (
+        Path(run)
+        if run
+        else Path(os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state")
+    )
     return base / "streamseg" / FILE
 
 
@@ -79,5 +82,8 @@ def daemon_token() -> tuple[str, Path]:
 
 def matches(given, token: str | None) -> bool:
     """Whether a request's ``auth`` is the daemon's token (constant time)."""
-    return (token is not None and isinstance(given, str)
-            and hmac.compare_digest(given.encode(), token.encode()))
+    return (
+        token is not None
+        and isinstance(given, str)
+        and hmac.compare_digest(given.encode(), token.encode())
+    )

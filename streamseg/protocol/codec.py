@@ -49,23 +49,34 @@ def decode_array(obj, what: str = "array") -> np.ndarray:
         shape = tuple(obj["shape"])
         data = obj["data"]
     except (KeyError, TypeError) as err:
-        raise WireError("array", f"{what} must be a map with dtype ('<f4' or '<f8'), shape and "
-                        f"data (bytes); got {_short(obj)}") from err
+        raise WireError(
+            "array",
+            f"{what} must be a map with dtype ('<f4' or '<f8'), shape and "
+            f"data (bytes); got {_short(obj)}",
+        ) from err
     if not isinstance(data, bytes) or not all(type(s) is int and s >= 0 for s in shape):
         raise WireError("array", f"{what}: shape must be non-negative ints and data bytes")
     n = 1
     for s in shape:
         n *= s
     if len(data) != n * dtype.itemsize:
-        raise WireError("array", f"{what}: {len(data)} data bytes do not match shape "
-                        f"{list(shape)} of {dtype.str} ({n * dtype.itemsize} bytes expected)")
+        raise WireError(
+            "array",
+            f"{what}: {len(data)} data bytes do not match shape "
+            f"{list(shape)} of {dtype.str} ({n * dtype.itemsize} bytes expected)",
+        )
     return np.frombuffer(data, dtype=dtype).reshape(shape)
 
 
 # left out when None (older readers)
-_OPTIONAL = {"announce": ("labels", "labels_sequence", "auth"), "end": ("auth",),
-             "cut": ("pending", "revision"), "confirm": ("settled", "revision"),
-             "withdraw": ("revision",), "gap": ("filled",)}
+_OPTIONAL = {
+    "announce": ("labels", "labels_sequence", "auth"),
+    "end": ("auth",),
+    "cut": ("pending", "revision"),
+    "confirm": ("settled", "revision"),
+    "withdraw": ("revision",),
+    "gap": ("filled",),
+}
 
 
 def encode(msg, seq: int | None = None) -> list[bytes]:
@@ -97,21 +108,28 @@ def unpack_body(body: bytes) -> dict:
     try:
         obj = msgpack.unpackb(body, raw=False, strict_map_key=False)
     except Exception as err:  # msgpack raises several unrelated classes on garbage
-        raise WireError("decode", f"body is not valid msgpack ({type(err).__name__}: {err})") \
-            from err
+        raise WireError(
+            "decode", f"body is not valid msgpack ({type(err).__name__}: {err})"
+        ) from err
     if not isinstance(obj, dict):
         raise WireError("decode", f"body must be a msgpack map, got {type(obj).__name__}")
     stream = obj.get("stream")
     stream = stream if isinstance(stream, str) else None
     v = obj.get("v")
     if v != PROTOCOL_VERSION:
-        raise WireError("version", f"protocol version {v!r} is not supported: this daemon "
-                        f"speaks v{PROTOCOL_VERSION} (docs/protocol.md); upgrade the sender",
-                        stream)
+        raise WireError(
+            "version",
+            f"protocol version {v!r} is not supported: this daemon "
+            f"speaks v{PROTOCOL_VERSION} (docs/protocol.md); upgrade the sender",
+            stream,
+        )
     kind = obj.get("type")
     if type(kind) is not str or kind not in MESSAGES:
-        raise WireError("type", f"unknown message type {_short(kind)}; expected one of "
-                        f"{', '.join(MESSAGES)}", stream)
+        raise WireError(
+            "type",
+            f"unknown message type {_short(kind)}; expected one of {', '.join(MESSAGES)}",
+            stream,
+        )
     return obj
 
 
@@ -133,19 +151,22 @@ def from_body(obj: dict):
             msg = replace(msg, seq=_int(obj, "seq", kind, stream, minimum=1))
         return msg
     except KeyError as err:
-        raise WireError("field", f"{kind} message lacks field {err.args[0]!r} "
-                        f"(see docs/protocol.md)", stream) from err
+        raise WireError(
+            "field", f"{kind} message lacks field {err.args[0]!r} (see docs/protocol.md)", stream
+        ) from err
     except (TypeError, ValueError) as err:
         if isinstance(err, WireError):
             raise
-        raise WireError("field", f"{kind} message has a field of the wrong type: {err}",
-                        stream) from err
+        raise WireError(
+            "field", f"{kind} message has a field of the wrong type: {err}", stream
+        ) from err
 
 
 def _need(cond: bool, kind: str, what: str, value, expected: str, stream=None) -> None:
     if not cond:
-        raise WireError("field", f"{kind}.{what}={_short(value)} is invalid: expected {expected}",
-                        stream)
+        raise WireError(
+            "field", f"{kind}.{what}={_short(value)} is invalid: expected {expected}", stream
+        )
 
 
 def _short(value) -> str:
@@ -164,23 +185,41 @@ MAX_INT = 2**53  # frame numbers and counts stay exact as floats and fit msgpack
 
 def _int(obj, key, kind, stream, minimum=0) -> int:
     v = obj[key]
-    _need(type(v) is int and minimum <= v < MAX_INT, kind, key, v,
-          f"an integer in [{minimum}, 2**53)", stream)
+    _need(
+        type(v) is int and minimum <= v < MAX_INT,
+        kind,
+        key,
+        v,
+        f"an integer in [{minimum}, 2**53)",
+        stream,
+    )
     return v
 
 
 def _num(obj, key, kind, stream, finite=True) -> float:
     v = obj[key]
-    _need(type(v) in (int, float) and (not finite or math.isfinite(v)), kind, key, v,
-          "a finite number" if finite else "a number", stream)
+    _need(
+        type(v) in (int, float) and (not finite or math.isfinite(v)),
+        kind,
+        key,
+        v,
+        "a finite number" if finite else "a number",
+        stream,
+    )
     return float(v)
 
 
 def _rep_label(obj):
     """A ``rep`` event's optional action label: int or nil (absent: nil)."""
     v = obj.get("label")
-    _need(v is None or (type(v) is int and 0 <= v < MAX_INT), "rep", "label", v,
-          "nil or an integer in [0, 2**53)", None)
+    _need(
+        v is None or (type(v) is int and 0 <= v < MAX_INT),
+        "rep",
+        "label",
+        v,
+        "nil or an integer in [0, 2**53)",
+        None,
+    )
     return v
 
 
@@ -191,11 +230,23 @@ def _rep_measures(obj):
     for key in ("duration_s", "rom_deg"):
         out.append(None if obj.get(key) is None else _num(obj, key, "rep", None))
     joint = obj.get("rom_joint")
-    _need(joint is None or (isinstance(joint, str) and 0 < len(joint) <= 64), "rep",
-          "rom_joint", joint, "nil or a joint name", None)
+    _need(
+        joint is None or (isinstance(joint, str) and 0 < len(joint) <= 64),
+        "rep",
+        "rom_joint",
+        joint,
+        "nil or a joint name",
+        None,
+    )
     like = obj.get("likeness")
-    _need(like is None or (type(like) in (int, float) and 0 <= like <= 1), "rep", "likeness",
-          like, "nil or a number in [0, 1]", None)
+    _need(
+        like is None or (type(like) in (int, float) and 0 <= like <= 1),
+        "rep",
+        "likeness",
+        like,
+        "nil or a number in [0, 1]",
+        None,
+    )
     return (*out, joint, None if like is None else float(like))
 
 
@@ -204,24 +255,59 @@ def _announce(obj):
     fps = _num(obj, "fps", "announce", s)
     _need(fps > 0, "announce", "fps", fps, "a frame rate > 0", s)
     joints, parents = obj["joints"], obj["parents"]
-    _need(isinstance(joints, list) and 0 < len(joints) <= 1024
-          and all(isinstance(j, str) for j in joints), "announce", "joints", joints,
-          "a list of 1-1024 joint names", s)
-    _need(isinstance(parents, list) and len(parents) == len(joints)
-          and all(type(p) is int and -1 <= p < len(joints) for p in parents),
-          "announce", "parents", parents, f"{len(joints)} parent indices in [-1, n_joints)", s)
+    _need(
+        isinstance(joints, list)
+        and 0 < len(joints) <= 1024
+        and all(isinstance(j, str) for j in joints),
+        "announce",
+        "joints",
+        joints,
+        "a list of 1-1024 joint names",
+        s,
+    )
+    _need(
+        isinstance(parents, list)
+        and len(parents) == len(joints)
+        and all(type(p) is int and -1 <= p < len(joints) for p in parents),
+        "announce",
+        "parents",
+        parents,
+        f"{len(joints)} parent indices in [-1, n_joints)",
+        s,
+    )
     units = obj.get("units", "mm")
-    _need(isinstance(units, str) and len(units) <= 64, "announce", "units", units,
-          "a string of at most 64 characters (e.g. mm, cm, inch*0.45)", s)
+    _need(
+        isinstance(units, str) and len(units) <= 64,
+        "announce",
+        "units",
+        units,
+        "a string of at most 64 characters (e.g. mm, cm, inch*0.45)",
+        s,
+    )
     up = obj.get("up", "y")
     _need(up in UP_AXES, "announce", "up", up, f"one of {', '.join(UP_AXES)}", s)
     labels, seq = obj.get("labels"), obj.get("labels_sequence")
     for key, value in (("labels", labels), ("labels_sequence", seq)):
-        _need(value is None or (isinstance(value, str) and 0 < len(value) <= 4096), "announce",
-              key, value, "a string of 1-4096 characters, or nil", s)
+        _need(
+            value is None or (isinstance(value, str) and 0 < len(value) <= 4096),
+            "announce",
+            key,
+            value,
+            "a string of 1-4096 characters, or nil",
+            s,
+        )
     auth = obj.get("auth")
-    return Announce(s, fps, tuple(joints), tuple(parents), units, up, labels, seq,
-                    auth if isinstance(auth, str) else None)
+    return Announce(
+        s,
+        fps,
+        tuple(joints),
+        tuple(parents),
+        units,
+        up,
+        labels,
+        seq,
+        auth if isinstance(auth, str) else None,
+    )
 
 
 def frames_fields(obj: dict, stream: str | None = None) -> tuple:
@@ -233,8 +319,9 @@ def frames_fields(obj: dict, stream: str | None = None) -> tuple:
     try:
         seq, ts, arr = obj["seq"], obj["timestamp"], obj["positions"]
     except KeyError as err:
-        raise WireError("field", f"frames message lacks field {err.args[0]!r} "
-                        f"(see docs/protocol.md)", stream) from err
+        raise WireError(
+            "field", f"frames message lacks field {err.args[0]!r} (see docs/protocol.md)", stream
+        ) from err
     if type(seq) is not int or not 0 <= seq < MAX_INT:
         _need(False, "frames", "seq", seq, "an integer in [0, 2**53)", stream)
     if type(ts) is not float and type(ts) is not int:
@@ -243,17 +330,37 @@ def frames_fields(obj: dict, stream: str | None = None) -> tuple:
         dtype = _DTYPES[arr["dtype"]]
         shape, data = arr["shape"], arr["data"]
     except (KeyError, TypeError) as err:
-        raise WireError("array", f"frames.positions must be a map with dtype ('<f4' or '<f8'), "
-                        f"shape and data (bytes); got {_short(arr)}", stream) from err
-    if (type(shape) is not list or len(shape) != 3 or type(shape[0]) is not int
-            or type(shape[1]) is not int or shape[0] < 1 or shape[1] < 1 or shape[2] != 3):
-        raise WireError("array", f"frames.positions has shape {_short(shape)}: expected "
-                        f"(n_frames >= 1, n_joints >= 1, 3)", stream)
+        raise WireError(
+            "array",
+            f"frames.positions must be a map with dtype ('<f4' or '<f8'), "
+            f"shape and data (bytes); got {_short(arr)}",
+            stream,
+        ) from err
+    if (
+        type(shape) is not list
+        or len(shape) != 3
+        or type(shape[0]) is not int
+        or type(shape[1]) is not int
+        or shape[0] < 1
+        or shape[1] < 1
+        or shape[2] != 3
+    ):
+        raise WireError(
+            "array",
+            f"frames.positions has shape {_short(shape)}: expected "
+            f"(n_frames >= 1, n_joints >= 1, 3)",
+            stream,
+        )
     if type(data) is not bytes or len(data) != shape[0] * shape[1] * 3 * dtype.itemsize:
-        raise WireError("array", f"frames.positions: {len(data)} data bytes do not match "
-                        f"shape {shape} of {dtype.str} ({shape[0] * shape[1] * 3 * dtype.itemsize}"
-                        " bytes expected)" if type(data) is bytes else
-                        "frames.positions.data must be bytes", stream)
+        raise WireError(
+            "array",
+            f"frames.positions: {len(data)} data bytes do not match "
+            f"shape {shape} of {dtype.str} ({shape[0] * shape[1] * 3 * dtype.itemsize}"
+            " bytes expected)"
+            if type(data) is bytes
+            else "frames.positions.data must be bytes",
+            stream,
+        )
     return seq, float(ts), np.frombuffer(data, dtype=dtype).reshape(shape[0], shape[1], 3)
 
 
@@ -265,28 +372,54 @@ def _frames(obj):
 def _segments(obj):
     s = _stream(obj, "segments")
     segs = obj["segments"]
-    _need(isinstance(segs, list) and all(isinstance(x, list) and len(x) == 3
-                                         and all(type(i) is int for i in x) for x in segs),
-          "segments", "segments", segs, "a list of [start, end, label] integer triples", s)
-    return Segments(s, _int(obj, "revision", "segments", s), _int(obj, "start", "segments", s),
-                    _int(obj, "end", "segments", s), tuple(tuple(x) for x in segs),
-                    bool(obj.get("final", False)), float(obj.get("elapsed", 0.0)))
+    _need(
+        isinstance(segs, list)
+        and all(
+            isinstance(x, list) and len(x) == 3 and all(type(i) is int for i in x) for x in segs
+        ),
+        "segments",
+        "segments",
+        segs,
+        "a list of [start, end, label] integer triples",
+        s,
+    )
+    return Segments(
+        s,
+        _int(obj, "revision", "segments", s),
+        _int(obj, "start", "segments", s),
+        _int(obj, "end", "segments", s),
+        tuple(tuple(x) for x in segs),
+        bool(obj.get("final", False)),
+        float(obj.get("elapsed", 0.0)),
+    )
 
 
 def _error(obj):
     s = obj.get("stream")
     _need(s is None or isinstance(s, str), "error", "stream", s, "a string or nil")
     reason, message = obj["reason"], obj["message"]
-    _need(isinstance(reason, str) and isinstance(message, str), "error", "reason", reason,
-          "strings reason and message", s)
+    _need(
+        isinstance(reason, str) and isinstance(message, str),
+        "error",
+        "reason",
+        reason,
+        "strings reason and message",
+        s,
+    )
     return Error(s, reason, message, _int(obj, "count", "error", s))
 
 
 def _pending(obj):
     """A cut's optional ``pending`` flag: True, or None when absent (final when emitted)."""
     value = obj.get("pending")
-    _need(value is None or isinstance(value, bool), "cut", "pending", value, "a bool",
-          _stream(obj, "cut"))
+    _need(
+        value is None or isinstance(value, bool),
+        "cut",
+        "pending",
+        value,
+        "a bool",
+        _stream(obj, "cut"),
+    )
     return True if value else None
 
 
@@ -294,72 +427,110 @@ def _maybe_int(obj, key: str, kind: str):
     """An optional integer field: the int, or None when absent (older daemons)."""
     if obj.get(key) is None:
         return None
-    return _int(obj, key, kind, obj.get("stream") if isinstance(obj.get("stream"), str)
-                else None)
+    return _int(obj, key, kind, obj.get("stream") if isinstance(obj.get("stream"), str) else None)
 
 
 def _flag(obj, key: str, kind: str):
     """An optional bool field: True/False, or None when absent."""
     value = obj.get(key)
-    _need(value is None or isinstance(value, bool), kind, key, value, "a bool",
-          obj.get("stream") if isinstance(obj.get("stream"), str) else None)
+    _need(
+        value is None or isinstance(value, bool),
+        kind,
+        key,
+        value,
+        "a bool",
+        obj.get("stream") if isinstance(obj.get("stream"), str) else None,
+    )
     return value
 
 
 def _stats(obj):
     totals, streams, last = obj["totals"], obj["streams"], obj.get("last_seq", {})
-    _need(isinstance(totals, dict) and isinstance(streams, dict), "stats", "totals", totals,
-          "maps totals and streams")
-    _need(isinstance(last, dict) and all(type(n) is int for n in last.values()), "stats",
-          "last_seq", last, "a map of stream ids to event numbers")
+    _need(
+        isinstance(totals, dict) and isinstance(streams, dict),
+        "stats",
+        "totals",
+        totals,
+        "maps totals and streams",
+    )
+    _need(
+        isinstance(last, dict) and all(type(n) is int for n in last.values()),
+        "stats",
+        "last_seq",
+        last,
+        "a map of stream ids to event numbers",
+    )
     return Stats(_num(obj, "uptime", "stats", None), totals, streams, last)
 
 
 _BUILDERS = {
     "announce": _announce,
     "frames": _frames,
-    "end": lambda o: End(_stream(o, "end"), o["auth"] if isinstance(o.get("auth"), str)
-                         else None),
-    "cut": lambda o: Cut(_stream(o, "cut"), _int(o, "frame", "cut", None),
-                         _num(o, "time", "cut", None, finite=False),
-                         _num(o, "score", "cut", None, finite=False),
-                         _int(o, "emitted_at", "cut", None), bool(o["provisional"]),
-                         _pending(o), _maybe_int(o, "revision", "cut")),
-    "confirm": lambda o: Confirm(_stream(o, "confirm"), _int(o, "frame", "confirm", None),
-                                 _num(o, "time", "confirm", None, finite=False),
-                                 _num(o, "score", "confirm", None, finite=False),
-                                 _int(o, "emitted_at", "confirm", None),
-                                 _maybe_int(o, "settled", "confirm"),
-                                 _maybe_int(o, "revision", "confirm")),
-    "withdraw": lambda o: Withdraw(_stream(o, "withdraw"), _int(o, "frame", "withdraw", None),
-                                   _num(o, "time", "withdraw", None, finite=False),
-                                   _int(o, "emitted_at", "withdraw", None),
-                                   bool(o.get("moved", False)),
-                                   _maybe_int(o, "revision", "withdraw")),
+    "end": lambda o: End(_stream(o, "end"), o["auth"] if isinstance(o.get("auth"), str) else None),
+    "cut": lambda o: Cut(
+        _stream(o, "cut"),
+        _int(o, "frame", "cut", None),
+        _num(o, "time", "cut", None, finite=False),
+        _num(o, "score", "cut", None, finite=False),
+        _int(o, "emitted_at", "cut", None),
+        bool(o["provisional"]),
+        _pending(o),
+        _maybe_int(o, "revision", "cut"),
+    ),
+    "confirm": lambda o: Confirm(
+        _stream(o, "confirm"),
+        _int(o, "frame", "confirm", None),
+        _num(o, "time", "confirm", None, finite=False),
+        _num(o, "score", "confirm", None, finite=False),
+        _int(o, "emitted_at", "confirm", None),
+        _maybe_int(o, "settled", "confirm"),
+        _maybe_int(o, "revision", "confirm"),
+    ),
+    "withdraw": lambda o: Withdraw(
+        _stream(o, "withdraw"),
+        _int(o, "frame", "withdraw", None),
+        _num(o, "time", "withdraw", None, finite=False),
+        _int(o, "emitted_at", "withdraw", None),
+        bool(o.get("moved", False)),
+        _maybe_int(o, "revision", "withdraw"),
+    ),
     "segments": _segments,
-    "rep": lambda o: Rep(_stream(o, "rep"), _int(o, "start", "rep", None),
-                         _int(o, "end", "rep", None), _int(o, "count", "rep", None),
-                         _num(o, "time", "rep", None, finite=False),
-                         _int(o, "emitted_at", "rep", None),
-                         _rep_label(o), _int(o, "set_index", "rep", None) if "set_index" in o
-                         else 0, *_rep_measures(o)),
-    "gap": lambda o: Gap(_stream(o, "gap"), _int(o, "expected", "gap", None),
-                         _int(o, "got", "gap", None), _flag(o, "filled", "gap")),
+    "rep": lambda o: Rep(
+        _stream(o, "rep"),
+        _int(o, "start", "rep", None),
+        _int(o, "end", "rep", None),
+        _int(o, "count", "rep", None),
+        _num(o, "time", "rep", None, finite=False),
+        _int(o, "emitted_at", "rep", None),
+        _rep_label(o),
+        _int(o, "set_index", "rep", None) if "set_index" in o else 0,
+        *_rep_measures(o),
+    ),
+    "gap": lambda o: Gap(
+        _stream(o, "gap"),
+        _int(o, "expected", "gap", None),
+        _int(o, "got", "gap", None),
+        _flag(o, "filled", "gap"),
+    ),
     "error": _error,
     "stats": _stats,
     "hello": lambda o: Hello(str(o["token"])),
-    "closed": lambda o: Closed(_stream(o, "closed"), str(o["reason"]),
-                               _int(o, "frames", "closed", None)),
+    "closed": lambda o: Closed(
+        _stream(o, "closed"), str(o["reason"]), _int(o, "frames", "closed", None)
+    ),
 }
 
 
-_NUMBERED = frozenset({"cut", "confirm", "withdraw", "segments", "rep", "gap", "error",
-                       "closed"})
+_NUMBERED = frozenset({"cut", "confirm", "withdraw", "segments", "rep", "gap", "error", "closed"})
 
 
 # left out when None, as on the wire
-_JSON_OPTIONAL = {"cut": ("pending", "revision"), "confirm": ("settled", "revision"),
-                  "withdraw": ("revision",), "gap": ("filled",)}
+_JSON_OPTIONAL = {
+    "cut": ("pending", "revision"),
+    "confirm": ("settled", "revision"),
+    "withdraw": ("revision",),
+    "gap": ("filled",),
+}
 
 
 def to_json(msg) -> dict:

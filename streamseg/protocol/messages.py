@@ -13,8 +13,7 @@ from streamseg.exceptions import ProtocolError
 PROTOCOL_VERSION = 1
 INGEST_TYPES = ("announce", "frames", "end")
 CHANGING_OPS = ("shutdown", "checkpoint")  # control ops that need CURVE or the control token
-EVENT_TYPES = ("cut", "confirm", "withdraw", "segments", "rep", "gap", "error", "stats",
-               "closed")
+EVENT_TYPES = ("cut", "confirm", "withdraw", "segments", "rep", "gap", "error", "stats", "closed")
 DAEMON_WIDE = "*"
 # a stream resumed after a crash continues its event numbers this far on: the events of the
 # moments before the crash may not have reached the log, and their numbers are never reused
@@ -61,6 +60,7 @@ def subscriptions(stream: str | None = None, kind: str | None = None) -> list[by
 
 # --- messages ------------------------------------------------------------------------------
 
+
 # The event sequence number (docs/protocol.md, "Sequence numbers"): set by the daemon when it
 # publishes, so it is not part of an event's identity (two runs' events compare equal).
 def _seq():
@@ -102,11 +102,14 @@ class Frames:
     def __eq__(self, other):
         if not isinstance(other, Frames):
             return NotImplemented
-        return (self.stream == other.stream and self.seq == other.seq
-                and _same_float(self.timestamp, other.timestamp)
-                and self.positions.dtype == other.positions.dtype
-                and self.positions.shape == other.positions.shape
-                and np.array_equal(self.positions, other.positions, equal_nan=True))
+        return (
+            self.stream == other.stream
+            and self.seq == other.seq
+            and _same_float(self.timestamp, other.timestamp)
+            and self.positions.dtype == other.positions.dtype
+            and self.positions.shape == other.positions.shape
+            and np.array_equal(self.positions, other.positions, equal_nan=True)
+        )
 
     __hash__ = None
 
@@ -293,8 +296,24 @@ class Hello:
     type = "hello"
 
 
-MESSAGES = {cls.type: cls for cls in (Announce, Frames, End, Cut, Confirm, Withdraw, Segments,
-                                      Rep, Gap, Error, Stats, Closed, Hello)}
+MESSAGES = {
+    cls.type: cls
+    for cls in (
+        Announce,
+        Frames,
+        End,
+        Cut,
+        Confirm,
+        Withdraw,
+        Segments,
+        Rep,
+        Gap,
+        Error,
+        Stats,
+        Closed,
+        Hello,
+    )
+}
 
 
 def _same_float(a: float, b: float) -> bool:

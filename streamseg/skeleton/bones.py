@@ -107,8 +107,9 @@ def bone_point_indices(skeleton) -> np.ndarray:
     return np.array([[idx[a], idx[b]] for a, b in BONES])
 
 
-def bone_angles(positions: np.ndarray, skeleton, inclinations: bool = True,
-                up: str | None = None) -> np.ndarray:
+def bone_angles(
+    positions: np.ndarray, skeleton, inclinations: bool = True, up: str | None = None
+) -> np.ndarray:
     """The 8 bone angles of every frame, followed (by default) by the 9 bone inclinations.
 
     The default gives the 17 features the cut detector expects (``LOFConfig.inclinations``);
@@ -137,8 +138,9 @@ def bone_angles(positions: np.ndarray, skeleton, inclinations: bool = True,
     """
     if up is None:
         up = getattr(skeleton, "up", "y")
-    return angles_at(positions, bone_point_indices(skeleton),
-                     up_vector(up) if inclinations else None)
+    return angles_at(
+        positions, bone_point_indices(skeleton), up_vector(up) if inclinations else None
+    )
 
 
 _FIRST = np.array([i for i, _ in ANGLES + INCLINATIONS], dtype=np.int64)
@@ -165,18 +167,26 @@ def angles_at(positions: np.ndarray, points: np.ndarray, up=None) -> np.ndarray:
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     if positions.ndim != 3 or positions.shape[2] != 3:
-        raise ParameterError(f"positions has shape {positions.shape}; "
-                             "expected (n_frames, n_joints, 3)")
+        raise ParameterError(
+            f"positions has shape {positions.shape}; expected (n_frames, n_joints, 3)"
+        )
     points = np.asarray(points, dtype=np.int64)
     if points.shape != (len(BONES), 2) or points.min() < 0 or points.max() >= positions.shape[1]:
-        raise ParameterError(f"points {points.tolist()} do not index the "
-                             f"{positions.shape[1]} joints")
+        raise ParameterError(
+            f"points {points.tolist()} do not index the {positions.shape[1]} joints"
+        )
     if up is None:
         m, up = len(ANGLES), _NO_UP
     else:
         m, up = len(ANGLES) + len(INCLINATIONS), _unit(up)
-    return angles_kernel(positions, np.ascontiguousarray(points[:, 0]),
-                         np.ascontiguousarray(points[:, 1]), _FIRST[:m], _SECOND[:m], up)
+    return angles_kernel(
+        positions,
+        np.ascontiguousarray(points[:, 0]),
+        np.ascontiguousarray(points[:, 1]),
+        _FIRST[:m],
+        _SECOND[:m],
+        up,
+    )
 
 
 def _unit(up) -> np.ndarray:
@@ -186,8 +196,10 @@ def _unit(up) -> np.ndarray:
     v = np.asarray(up, dtype=np.float64)
     norm = float(np.linalg.norm(v)) if v.shape == (3,) else 0.0
     if not (np.isfinite(norm) and norm > 0):
-        raise ParameterError(f"up={up!r} is invalid: expected an axis name ({', '.join(UP_AXES)}) "
-                         "or a finite nonzero 3-vector")
+        raise ParameterError(
+            f"up={up!r} is invalid: expected an axis name ({', '.join(UP_AXES)}) "
+            "or a finite nonzero 3-vector"
+        )
     return v / norm
 
 

@@ -46,34 +46,139 @@ class JointSet:
 
 
 KINECT_V2 = JointSet(
-    ("SpineBase", "SpineMid", "Neck", "Head", "ShoulderLeft", "ElbowLeft", "WristLeft",
-     "HandLeft", "ShoulderRight", "ElbowRight", "WristRight", "HandRight", "HipLeft",
-     "KneeLeft", "AnkleLeft", "FootLeft", "HipRight", "KneeRight", "AnkleRight", "FootRight",
-     "SpineShoulder", "HandTipLeft", "ThumbLeft", "HandTipRight", "ThumbRight"),
-    "y", "m", "Kinect for Windows SDK 2.0, JointType enumeration (camera space, metres)")
+    (
+        "SpineBase",
+        "SpineMid",
+        "Neck",
+        "Head",
+        "ShoulderLeft",
+        "ElbowLeft",
+        "WristLeft",
+        "HandLeft",
+        "ShoulderRight",
+        "ElbowRight",
+        "WristRight",
+        "HandRight",
+        "HipLeft",
+        "KneeLeft",
+        "AnkleLeft",
+        "FootLeft",
+        "HipRight",
+        "KneeRight",
+        "AnkleRight",
+        "FootRight",
+        "SpineShoulder",
+        "HandTipLeft",
+        "ThumbLeft",
+        "HandTipRight",
+        "ThumbRight",
+    ),
+    "y",
+    "m",
+    "Kinect for Windows SDK 2.0, JointType enumeration (camera space, metres)",
+)
 
 BLAZEPOSE = JointSet(
-    ("nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye",
-     "right_eye_outer", "left_ear", "right_ear", "mouth_left", "mouth_right", "left_shoulder",
-     "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_pinky",
-     "right_pinky", "left_index", "right_index", "left_thumb", "right_thumb", "left_hip",
-     "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle", "left_heel",
-     "right_heel", "left_foot_index", "right_foot_index"),
-    "-y", "m", "MediaPipe Pose (BlazePose) landmarks 0-32; pose_world_landmarks are metres "
-    "about the hips' centre, y down")
+    (
+        "nose",
+        "left_eye_inner",
+        "left_eye",
+        "left_eye_outer",
+        "right_eye_inner",
+        "right_eye",
+        "right_eye_outer",
+        "left_ear",
+        "right_ear",
+        "mouth_left",
+        "mouth_right",
+        "left_shoulder",
+        "right_shoulder",
+        "left_elbow",
+        "right_elbow",
+        "left_wrist",
+        "right_wrist",
+        "left_pinky",
+        "right_pinky",
+        "left_index",
+        "right_index",
+        "left_thumb",
+        "right_thumb",
+        "left_hip",
+        "right_hip",
+        "left_knee",
+        "right_knee",
+        "left_ankle",
+        "right_ankle",
+        "left_heel",
+        "right_heel",
+        "left_foot_index",
+        "right_foot_index",
+    ),
+    "-y",
+    "m",
+    "MediaPipe Pose (BlazePose) landmarks 0-32; pose_world_landmarks are metres "
+    "about the hips' centre, y down",
+)
 
 COCO17 = JointSet(
-    ("nose", "left_eye", "right_eye", "left_ear", "right_ear", "left_shoulder",
-     "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist", "left_hip",
-     "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle"),
-    "-y", "unknown", "COCO keypoints (person_keypoints), 17 in their order", fixed_up=False)
+    (
+        "nose",
+        "left_eye",
+        "right_eye",
+        "left_ear",
+        "right_ear",
+        "left_shoulder",
+        "right_shoulder",
+        "left_elbow",
+        "right_elbow",
+        "left_wrist",
+        "right_wrist",
+        "left_hip",
+        "right_hip",
+        "left_knee",
+        "right_knee",
+        "left_ankle",
+        "right_ankle",
+    ),
+    "-y",
+    "unknown",
+    "COCO keypoints (person_keypoints), 17 in their order",
+    fixed_up=False,
+)
 
 BODY25 = JointSet(
-    ("Nose", "Neck", "RShoulder", "RElbow", "RWrist", "LShoulder", "LElbow", "LWrist",
-     "MidHip", "RHip", "RKnee", "RAnkle", "LHip", "LKnee", "LAnkle", "REye", "LEye", "REar",
-     "LEar", "LBigToe", "LSmallToe", "LHeel", "RBigToe", "RSmallToe", "RHeel"),
-    "-y", "unknown", "OpenPose BODY_25 keypoints (output/keypoints JSON order)",
-    fixed_up=False)
+    (
+        "Nose",
+        "Neck",
+        "RShoulder",
+        "RElbow",
+        "RWrist",
+        "LShoulder",
+        "LElbow",
+        "LWrist",
+        "MidHip",
+        "RHip",
+        "RKnee",
+        "RAnkle",
+        "LHip",
+        "LKnee",
+        "LAnkle",
+        "REye",
+        "LEye",
+        "REar",
+        "LEar",
+        "LBigToe",
+        "LSmallToe",
+        "LHeel",
+        "RBigToe",
+        "RSmallToe",
+        "RHeel",
+    ),
+    "-y",
+    "unknown",
+    "OpenPose BODY_25 keypoints (output/keypoints JSON order)",
+    fixed_up=False,
+)
 
 #: ``--joints`` values.
 JOINT_SETS = {"kinect": KINECT_V2, "blazepose": BLAZEPOSE, "coco17": COCO17, "body25": BODY25}
@@ -84,8 +189,9 @@ def joint_set(name: str) -> JointSet:
     try:
         return JOINT_SETS[name.lower()]
     except KeyError:
-        raise ParameterError(f"--joints {name}: unknown joint set; expected one of "
-                             f"{', '.join(JOINT_SETS)}") from None
+        raise ParameterError(
+            f"--joints {name}: unknown joint set; expected one of {', '.join(JOINT_SETS)}"
+        ) from None
 
 
 def sets_of_size(n_joints: int) -> list[str]:

@@ -131,31 +131,46 @@ def fill_from_clusters(markers: np.ndarray, labels, clusters, pairs=()):
             others = [c for c in cols if c != m]
             filled = _rigid_fill(X, out, others, m) if len(others) >= 3 else 0
             _, before, used = done.get(m, (lost, 0, []))
-            done[m] = (lost, before + filled, used + ([c for c in others if c not in used]
-                                                      if filled else []))
+            done[m] = (
+                lost,
+                before + filled,
+                used + ([c for c in others if c not in used] if filled else []),
+            )
     for m, (lost, filled, used) in done.items():
         if lost >= REPORT_SHARE * n:
-            notes.append(f"marker {labels[m]} lost in {lost / n:.0%} of the frames: "
-                         + (f"placed in {filled} of them from the markers of its segment "
-                            f"({' '.join(labels[c] for c in used)})" if filled else
-                            "not placed (fewer than three markers of its segment seen "
-                            "with it)"))
+            notes.append(
+                f"marker {labels[m]} lost in {lost / n:.0%} of the frames: "
+                + (
+                    f"placed in {filled} of them from the markers of its segment "
+                    f"({' '.join(labels[c] for c in used)})"
+                    if filled
+                    else "not placed (fewer than three markers of its segment seen with it)"
+                )
+            )
     for (a, b), (c, d) in list(pairs) + [(q, p) for p, q in pairs]:
         have = [x.upper() in index for x in (a, b, c, d)]
         if not all(have):
             continue
         ia, ib, ic, id_ = (index[x.upper()] for x in (a, b, c, d))
         for m, twin in ((ia, ib), (ib, ia)):
-            if m in lost_all and twin not in lost_all and ic not in lost_all \
-                    and id_ not in lost_all:
+            if (
+                m in lost_all
+                and twin not in lost_all
+                and ic not in lost_all
+                and id_ not in lost_all
+            ):
                 out[:, m] = _mirror(out, out[:, twin], (out[:, ic], out[:, id_]))
                 lost_all.discard(m)
-                notes.append(f"marker {labels[m]} lost in every frame: placed as "
-                             f"{labels[twin]} mirrored across the mid-plane of "
-                             f"{labels[ic]} and {labels[id_]}")
+                notes.append(
+                    f"marker {labels[m]} lost in every frame: placed as "
+                    f"{labels[twin]} mirrored across the mid-plane of "
+                    f"{labels[ic]} and {labels[id_]}"
+                )
     for m in sorted(lost_all):
-        notes.append(f"marker {labels[m]} lost in every frame: the joints made of it come "
-                     "from the other markers of the joint where there are some")
+        notes.append(
+            f"marker {labels[m]} lost in every frame: the joints made of it come "
+            "from the other markers of the joint where there are some"
+        )
     return out, notes
 
 

@@ -39,20 +39,29 @@ def load_marker_map(path) -> MarkerSet:
     doc = read_toml(path, f"--markers {path}")
     unknown = sorted(set(doc) - set(JOINTS))
     if unknown:
-        raise ParameterError(f"--markers {path}: {', '.join(unknown)} is not a joint of the "
-                             f"map; expected keys among {', '.join(JOINTS)}")
+        raise ParameterError(
+            f"--markers {path}: {', '.join(unknown)} is not a joint of the "
+            f"map; expected keys among {', '.join(JOINTS)}"
+        )
     missing = [j for j in JOINTS if j not in doc]
     if missing:
-        raise ParameterError(f"--markers {path}: no markers for {', '.join(missing)}: every "
-                             f"joint of {', '.join(JOINTS)} needs a marker or a list of them")
+        raise ParameterError(
+            f"--markers {path}: no markers for {', '.join(missing)}: every "
+            f"joint of {', '.join(JOINTS)} needs a marker or a list of them"
+        )
     points = {}
     for joint in JOINTS:
         value = doc[joint]
         names = [value] if isinstance(value, str) else value
-        if not (isinstance(names, list) and names
-                and all(isinstance(n, str) and bare(n.strip()) for n in names)):
-            raise ParameterError(f"--markers {path}: {joint} = {value!r}: expected a marker "
-                                 "name or a list of marker names (their mean)")
+        if not (
+            isinstance(names, list)
+            and names
+            and all(isinstance(n, str) and bare(n.strip()) for n in names)
+        ):
+            raise ParameterError(
+                f"--markers {path}: {joint} = {value!r}: expected a marker "
+                "name or a list of marker names (their mean)"
+            )
         points[joint] = (tuple(bare(n.strip()) for n in names),)
     return MarkerSet(f"{Path(path).name} (--markers)", f"the marker map {path}", points)
 
@@ -61,8 +70,10 @@ def template(markers) -> str:
     """A marker map to fill in for a file with these ``markers``: every joint, with the
     file's markers listed in a comment."""
     shown = ", ".join(markers[:60]) + (" ..." if len(markers) > 60 else "")
-    lines = ["# streamseg marker map (--markers FILE.toml): joint = marker, or [markers] "
-             "(their mean)", f"# this file's markers: {shown}"]
+    lines = [
+        "# streamseg marker map (--markers FILE.toml): joint = marker, or [markers] (their mean)",
+        f"# this file's markers: {shown}",
+    ]
     lines += [f'{j} = ["?"]' for j in JOINTS]
     return "\n".join(lines)
 
@@ -103,8 +114,9 @@ def columns_for(mset: MarkerSet, names):
         bone_point_indices(tuple(names))
     except SkeletonError as err:
         lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in list(missing.items())[:6])
-        raise SkeletonError(f"{err}; nor are they the markers of {mset.name}, which lacks, "
-                            f"per joint: {lack}") from None
+        raise SkeletonError(
+            f"{err}; nor are they the markers of {mset.name}, which lacks, per joint: {lack}"
+        ) from None
     return None
 
 
@@ -116,6 +128,7 @@ def joints_of_markers(positions, columns):
     positions = np.asarray(positions, dtype=np.float64)
     out = np.empty((positions.shape[0], len(columns), 3))
     for j, cols in enumerate(columns):
-        out[:, j] = positions[:, cols[0]] if len(cols) == 1 else \
-            positions[:, list(cols)].mean(axis=1)
+        out[:, j] = (
+            positions[:, cols[0]] if len(cols) == 1 else positions[:, list(cols)].mean(axis=1)
+        )
     return out

@@ -30,8 +30,11 @@ from streamseg.skeleton.names import bare
 
 # recipe: tuple of alternatives; an alternative is a tuple of marker names (their mean), or
 # ("@hip", side) for a Bell hip centre from the pelvis markers.
-_PIG_PELVIS = (("LASI", "RASI", "LPSI", "RPSI"), ("LASI", "RASI", "SACR"),
-               ("LFWT", "RFWT", "LBWT", "RBWT"))
+_PIG_PELVIS = (
+    ("LASI", "RASI", "LPSI", "RPSI"),
+    ("LASI", "RASI", "SACR"),
+    ("LFWT", "RFWT", "LBWT", "RBWT"),
+)
 
 
 def _sides(left: dict) -> dict:
@@ -40,8 +43,9 @@ def _sides(left: dict) -> dict:
     for point, alts in left.items():
         if not point.startswith("l_"):
             continue
-        out["r_" + point[2:]] = tuple(("@hip", "r") if alt[0] == "@hip" else
-                                      tuple(_swap(m) for m in alt) for alt in alts)
+        out["r_" + point[2:]] = tuple(
+            ("@hip", "r") if alt[0] == "@hip" else tuple(_swap(m) for m in alt) for alt in alts
+        )
     return out
 
 
@@ -83,32 +87,44 @@ class MarkerSet:
 
 def _both(*clusters) -> tuple:
     """Clusters given for the left side, with their right-side twins."""
-    return tuple(clusters) + tuple(tuple(_swap(m) for m in c) for c in clusters
-                                   if all(m.startswith("L") for m in c))
+    return tuple(clusters) + tuple(
+        tuple(_swap(m) for m in c) for c in clusters if all(m.startswith("L") for m in c)
+    )
 
 
 PLUG_IN_GAIT = MarkerSet(
     "plug-in-gait",
     "Vicon Plug-in Gait full body (CMU variant: LFWT/RFWT/LBWT/RBWT)",
-    _sides({
-        "pelvis": _PIG_PELVIS,
-        "spine": (("T10", "STRN"), ("T10",), ("STRN",)),
-        "sternum": (("CLAV", "STRN"), ("CLAV",), ("STRN",)),
-        "neck": (("C7", "CLAV"), ("C7",), ("CLAV",)),
-        "l_shoulder": (("LSHO",),),
-        "l_elbow": (("LELB",),),
-        "l_wrist": (("LWRA", "LWRB"), ("LWRA",), ("LWRB",)),
-        "l_hip": (("@hip", "l"),),
-        "l_knee": (("LKNE",), ("LTHI", "LTIB")),
-        "l_ankle": (("LANK",), ("LHEE",)),
-    }),
-    pelvis=(("LASI", "RASI", "LPSI", "RPSI"), ("LASI", "RASI", "SACR"),
-            ("LFWT", "RFWT", "LBWT", "RBWT")),
-    clusters=_both(("LASI", "RASI", "LPSI", "RPSI", "SACR"), ("LFWT", "RFWT", "LBWT", "RBWT"),
-                   ("C7", "T10", "CLAV", "STRN"), ("LFHD", "RFHD", "LBHD", "RBHD"),
-                   ("LSHO", "LUPA", "LELB"), ("LELB", "LFRM", "LWRA", "LWRB"),
-                   ("LWRA", "LWRB", "LFIN"), ("LKNE", "LTIB", "LANK"),
-                   ("LANK", "LHEE", "LTOE")),
+    _sides(
+        {
+            "pelvis": _PIG_PELVIS,
+            "spine": (("T10", "STRN"), ("T10",), ("STRN",)),
+            "sternum": (("CLAV", "STRN"), ("CLAV",), ("STRN",)),
+            "neck": (("C7", "CLAV"), ("C7",), ("CLAV",)),
+            "l_shoulder": (("LSHO",),),
+            "l_elbow": (("LELB",),),
+            "l_wrist": (("LWRA", "LWRB"), ("LWRA",), ("LWRB",)),
+            "l_hip": (("@hip", "l"),),
+            "l_knee": (("LKNE",), ("LTHI", "LTIB")),
+            "l_ankle": (("LANK",), ("LHEE",)),
+        }
+    ),
+    pelvis=(
+        ("LASI", "RASI", "LPSI", "RPSI"),
+        ("LASI", "RASI", "SACR"),
+        ("LFWT", "RFWT", "LBWT", "RBWT"),
+    ),
+    clusters=_both(
+        ("LASI", "RASI", "LPSI", "RPSI", "SACR"),
+        ("LFWT", "RFWT", "LBWT", "RBWT"),
+        ("C7", "T10", "CLAV", "STRN"),
+        ("LFHD", "RFHD", "LBHD", "RBHD"),
+        ("LSHO", "LUPA", "LELB"),
+        ("LELB", "LFRM", "LWRA", "LWRB"),
+        ("LWRA", "LWRB", "LFIN"),
+        ("LKNE", "LTIB", "LANK"),
+        ("LANK", "LHEE", "LTOE"),
+    ),
     pairs=((("LASI", "RASI"), ("LPSI", "RPSI")), (("LFWT", "RFWT"), ("LBWT", "RBWT"))),
 )
 
@@ -116,18 +132,20 @@ QUALISYS_ISB = MarkerSet(
     "qualisys-isb",
     "Qualisys full body with ISB landmark names (IAS, IPS, FLE/FME, FAL/TAM, HLE/HME, "
     "RSP/UHE, SAJ, CV7, SNJ, SXS, TV8)",
-    _sides({
-        "pelvis": (("L_IAS", "R_IAS", "L_IPS", "R_IPS"),),
-        "spine": (("TV8", "SXS"),),
-        "sternum": (("SNJ", "SXS"),),
-        "neck": (("CV7", "SNJ"),),
-        "l_shoulder": (("L_SAJ",),),
-        "l_elbow": (("L_HLE", "L_HME"), ("L_HLE",)),
-        "l_wrist": (("L_RSP", "L_UHE"),),
-        "l_hip": (("@hip", "l"),),
-        "l_knee": (("L_FLE", "L_FME"), ("L_FLE",)),
-        "l_ankle": (("L_FAL", "L_TAM"), ("L_FAL",)),
-    }),
+    _sides(
+        {
+            "pelvis": (("L_IAS", "R_IAS", "L_IPS", "R_IPS"),),
+            "spine": (("TV8", "SXS"),),
+            "sternum": (("SNJ", "SXS"),),
+            "neck": (("CV7", "SNJ"),),
+            "l_shoulder": (("L_SAJ",),),
+            "l_elbow": (("L_HLE", "L_HME"), ("L_HLE",)),
+            "l_wrist": (("L_RSP", "L_UHE"),),
+            "l_hip": (("@hip", "l"),),
+            "l_knee": (("L_FLE", "L_FME"), ("L_FLE",)),
+            "l_ankle": (("L_FAL", "L_TAM"), ("L_FAL",)),
+        }
+    ),
     pelvis=(("L_IAS", "R_IAS", "L_IPS", "R_IPS"),),
     clusters=(("L_IAS", "R_IAS", "L_IPS", "R_IPS"),),
     pairs=((("L_IAS", "R_IAS"), ("L_IPS", "R_IPS")),),
@@ -137,18 +155,20 @@ QUALISYS_SPORTS = MarkerSet(
     "qualisys-sports",
     "Qualisys sports / running full body (LASIS, LBackAsis, LKneeLat, LAnkleLat, LElbowLat, "
     "LWristLat/Med, LAcromium, C7, Sternum, T10)",
-    _sides({
-        "pelvis": (("LASIS", "RASIS", "LBackAsis", "RBackAsis"),),
-        "spine": (("T10", "Sternum"),),
-        "sternum": (("Clav", "Sternum"),),
-        "neck": (("C7", "Clav"),),
-        "l_shoulder": (("LAcromium",),),
-        "l_elbow": (("LElbowLat",),),
-        "l_wrist": (("LWristLat", "LWristMed"),),
-        "l_hip": (("@hip", "l"),),
-        "l_knee": (("LKneeLat",),),
-        "l_ankle": (("LAnkleLat",),),
-    }),
+    _sides(
+        {
+            "pelvis": (("LASIS", "RASIS", "LBackAsis", "RBackAsis"),),
+            "spine": (("T10", "Sternum"),),
+            "sternum": (("Clav", "Sternum"),),
+            "neck": (("C7", "Clav"),),
+            "l_shoulder": (("LAcromium",),),
+            "l_elbow": (("LElbowLat",),),
+            "l_wrist": (("LWristLat", "LWristMed"),),
+            "l_hip": (("@hip", "l"),),
+            "l_knee": (("LKneeLat",),),
+            "l_ankle": (("LAnkleLat",),),
+        }
+    ),
     pelvis=(("LASIS", "RASIS", "LBackAsis", "RBackAsis"),),
     clusters=(("LASIS", "RASIS", "LBackAsis", "RBackAsis"),),
     pairs=((("LASIS", "RASIS"), ("LBackAsis", "RBackAsis")),),
@@ -157,9 +177,24 @@ QUALISYS_SPORTS = MarkerSet(
 MARKER_SETS = {s.name: s for s in (PLUG_IN_GAIT, QUALISYS_ISB, QUALISYS_SPORTS)}
 
 #: the points a set produces, in this order, with a parent each (a tree the view can draw)
-JOINTS = ("pelvis", "spine", "sternum", "neck", "l_shoulder", "l_elbow", "l_wrist",
-          "r_shoulder", "r_elbow", "r_wrist", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee",
-          "r_ankle")
+JOINTS = (
+    "pelvis",
+    "spine",
+    "sternum",
+    "neck",
+    "l_shoulder",
+    "l_elbow",
+    "l_wrist",
+    "r_shoulder",
+    "r_elbow",
+    "r_wrist",
+    "l_hip",
+    "l_knee",
+    "l_ankle",
+    "r_hip",
+    "r_knee",
+    "r_ankle",
+)
 PARENTS = (-1, 0, 1, 2, 2, 4, 5, 2, 7, 8, 0, 10, 11, 0, 13, 14)
 
 
@@ -178,8 +213,7 @@ def _plan(mset: MarkerSet, index: dict):
     for point in JOINTS:
         for alt in mset.points[point]:
             if alt[0] == "@hip":
-                pel = next((p for p in mset.pelvis if all(m.upper() in index for m in p)),
-                           None)
+                pel = next((p for p in mset.pelvis if all(m.upper() in index for m in p)), None)
                 if pel is not None:
                     chosen[point] = ("@hip", alt[1], pel)
                     break
@@ -211,8 +245,9 @@ def best_set(labels):
     return best
 
 
-def joint_positions(markers: np.ndarray, labels, chosen: dict, mset: MarkerSet | None = None,
-                    min_run: int = 1) -> np.ndarray:
+def joint_positions(
+    markers: np.ndarray, labels, chosen: dict, mset: MarkerSet | None = None, min_run: int = 1
+) -> np.ndarray:
     """Canonical points from marker trajectories.
 
     Parameters
@@ -252,11 +287,17 @@ def joint_positions(markers: np.ndarray, labels, chosen: dict, mset: MarkerSet |
         if mset is None:
             continue
         if recipe[0] == "@hip":
-            spare = [(recipe, p) for p in mset.pelvis if p != recipe[2]
-                     and all(m.upper() in index for m in p)]
+            spare = [
+                (recipe, p)
+                for p in mset.pelvis
+                if p != recipe[2] and all(m.upper() in index for m in p)
+            ]
         else:
-            spare = [(alt, None) for alt in mset.points[point] if alt != recipe
-                     and alt[0] != "@hip" and all(m.upper() in index for m in alt)]
+            spare = [
+                (alt, None)
+                for alt in mset.points[point]
+                if alt != recipe and alt[0] != "@hip" and all(m.upper() in index for m in alt)
+            ]
         for alt, pel in spare:
             lost = _long_runs(~np.isfinite(out[:, j]).all(axis=1), min_run)
             if not lost.any():
@@ -277,8 +318,7 @@ def _long_runs(mask: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
-def bell_hip(lasis: np.ndarray, rasis: np.ndarray, posterior: np.ndarray,
-             side: str) -> np.ndarray:
+def bell_hip(lasis: np.ndarray, rasis: np.ndarray, posterior: np.ndarray, side: str) -> np.ndarray:
     """Hip joint centre from the pelvis markers (Bell, Pedersen & Brand 1990).
 
     In the pelvis frame (origin mid-ASIS; y from the right to the left ASIS, x forward,

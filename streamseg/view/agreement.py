@@ -59,7 +59,7 @@ class HumanLabels:
         end = min(max((b for _, b, _ in segments), default=0), self.n)
         relab = np.full(end, -1, dtype=np.int64)
         for a, b, lab in segments:
-            relab[a:min(b, end)] = lab
+            relab[a : min(b, end)] = lab
         truth = frame_labels(self.segments, end)
         ok = (relab >= 0) & (truth >= 0)
         acc, match = matched_frame_accuracy(relab[ok], truth[ok]) if ok.any() else (None, {})
@@ -69,8 +69,10 @@ class HumanLabels:
         truth_cuts = [true_cuts(self.segments)[i] for i in passed]
         pred = [c["frame"] for c in cuts if c["frame"] < end]
         recall = cut_scores(pred, truth_cuts, windows=windows)["recall"] if passed else None
-        return {"frame_accuracy": None if acc is None else round(acc, 4),
-                "frames": int(ok.sum()),
-                "match": {str(k): self.names[v] for k, v in match.items()},
-                "cut_recall": None if recall is None else round(recall, 4),
-                "boundaries": len(passed)}
+        return {
+            "frame_accuracy": None if acc is None else round(acc, 4),
+            "frames": int(ok.sum()),
+            "match": {str(k): self.names[v] for k, v in match.items()},
+            "cut_recall": None if recall is None else round(recall, 4),
+            "boundaries": len(passed),
+        }

@@ -42,8 +42,16 @@ class Feed:
         them on; the page itself still has no authentication (loopback).
     """
 
-    def __init__(self, hub, publish: str, control: str | None = None, poll: float = 1.0,
-                 labels: bool = True, timeout: float = 5.0, curve=None):
+    def __init__(
+        self,
+        hub,
+        publish: str,
+        control: str | None = None,
+        poll: float = 1.0,
+        labels: bool = True,
+        timeout: float = 5.0,
+        curve=None,
+    ):
         self.hub = hub
         self.curve = curve
         self.publish = publish
@@ -70,11 +78,14 @@ class Feed:
         if self.curve is not None:
             self.curve.apply(self.sub)
         # watched from before the connection starts: is a daemon there at all?
-        self._monitor = self.sub.get_monitor_socket(zmq.EVENT_HANDSHAKE_SUCCEEDED
-                                                    | zmq.EVENT_DISCONNECTED)
+        self._monitor = self.sub.get_monitor_socket(
+            zmq.EVENT_HANDSHAKE_SUCCEEDED | zmq.EVENT_DISCONNECTED
+        )
         self.sub.connect(self.publish)
-        self._tasks = [asyncio.create_task(self._events(), name="view-events"),
-                       asyncio.create_task(self._watch(), name="view-watch")]
+        self._tasks = [
+            asyncio.create_task(self._events(), name="view-events"),
+            asyncio.create_task(self._watch(), name="view-watch"),
+        ]
         if self.control:
             self._tasks.append(asyncio.create_task(self._snapshots(), name="view-control"))
 
@@ -139,10 +150,12 @@ class Feed:
                 self.curve.apply(self._req)
             self._req.connect(self.control)
         try:
-            await self._req.send(msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op,
-                                                **fields}))
-            reply = msgpack.unpackb(await asyncio.wait_for(self._req.recv(), self.timeout),
-                                    raw=False)
+            await self._req.send(
+                msgpack.packb({"v": protocol.PROTOCOL_VERSION, "op": op, **fields})
+            )
+            reply = msgpack.unpackb(
+                await asyncio.wait_for(self._req.recv(), self.timeout), raw=False
+            )
         except (asyncio.TimeoutError, zmq.ZMQError):
             self._req.close()  # a REQ socket that lost its reply cannot send again
             self._req = None
@@ -162,17 +175,24 @@ class Feed:
                     if listed and listed.get("ok"):
                         self.listed = True
                         self.hub.want_state.update(
-                            c["stream"] for c in listed.get("closed") or []
-                            if isinstance(c, dict) and isinstance(c.get("stream"), str)
-                            and c["stream"] not in self.hub.streams)
+                            c["stream"]
+                            for c in listed.get("closed") or []
+                            if isinstance(c, dict)
+                            and isinstance(c.get("stream"), str)
+                            and c["stream"] not in self.hub.streams
+                        )
                 stats = await self.request("stats")
                 if stats and stats.get("ok"):
-                    self.hub.apply(protocol.Stats(float(stats["uptime"]), stats["totals"],
-                                                  stats["streams"]))
+                    self.hub.apply(
+                        protocol.Stats(float(stats["uptime"]), stats["totals"], stats["streams"])
+                    )
                     self.hub.applied -= 1  # a polled snapshot, not a forwarded event
                     # open here, unknown to the daemon's table: closing, or lost in a crash
-                    self.check.update(s for s, sv in self.hub.streams.items()
-                                      if sv.closed is None and s not in stats["streams"])
+                    self.check.update(
+                        s
+                        for s, sv in self.hub.streams.items()
+                        if sv.closed is None and s not in stats["streams"]
+                    )
                     self.hub.want_state.update(self.check)
                     self.changed.set()
             self.wanted.clear()

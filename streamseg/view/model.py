@@ -170,30 +170,48 @@ class StreamView:
 
     def summary(self, now: float) -> dict:
         """The list row: identity and health."""
-        return {"stream": self.stream, "fps": self.fps, "frame": self.frame,
-                "fps_in": None if self.fps_in is None or self.closed else round(self.fps_in, 1),
-                "lag": None if self.last_cut_lag is None else round(self.last_cut_lag, 3),
-                "buffer_fill": self.buffer_fill, "errors": dict(self.errors),
-                "gaps": self.gaps, "revision": self.revision,
-                "cuts": self.cut_base + len(self.cuts), "action": self.current_action(),
-                "reps": self.rep_count(), "closed": self.closed,
-                "last": None if self.last_type is None else
-                {"type": self.last_type, "at": round(self.last_at, 3)},
-                "agreement": self.agreement, "labels_error": self.labels_error,
-                "events": self.events, "created": round(self.created, 3)}
+        return {
+            "stream": self.stream,
+            "fps": self.fps,
+            "frame": self.frame,
+            "fps_in": None if self.fps_in is None or self.closed else round(self.fps_in, 1),
+            "lag": None if self.last_cut_lag is None else round(self.last_cut_lag, 3),
+            "buffer_fill": self.buffer_fill,
+            "errors": dict(self.errors),
+            "gaps": self.gaps,
+            "revision": self.revision,
+            "cuts": self.cut_base + len(self.cuts),
+            "action": self.current_action(),
+            "reps": self.rep_count(),
+            "closed": self.closed,
+            "last": None
+            if self.last_type is None
+            else {"type": self.last_type, "at": round(self.last_at, 3)},
+            "agreement": self.agreement,
+            "labels_error": self.labels_error,
+            "events": self.events,
+            "created": round(self.created, 3),
+        }
 
-    def timeline(self, cut_from: int = 0, rep_from: int = 0, seg_version: int = -1,
-                 human: bool = True) -> dict:
+    def timeline(
+        self, cut_from: int = 0, rep_from: int = 0, seg_version: int = -1, human: bool = True
+    ) -> dict:
         """What a page needs to draw this stream, from the given cursors on (0 and -1: all);
         the human labels when ``human`` (the page does not have them yet) and they are known."""
-        out = {"stream": self.stream, "fps": self.fps, "frame": self.frame,
-               "cuts": self.cuts[max(0, cut_from - self.cut_base):],
-               "cut_next": self.cut_base + len(self.cuts),
-               "reps": self.reps[max(0, rep_from - self.rep_base):],
-               "rep_next": self.rep_base + len(self.reps),
-               "seg_version": self.seg_version, "cut_version": self.cut_version,
-               "closed": self.closed,
-               "revision": self.revision, "seg_range": self.seg_range}
+        out = {
+            "stream": self.stream,
+            "fps": self.fps,
+            "frame": self.frame,
+            "cuts": self.cuts[max(0, cut_from - self.cut_base) :],
+            "cut_next": self.cut_base + len(self.cuts),
+            "reps": self.reps[max(0, rep_from - self.rep_base) :],
+            "rep_next": self.rep_base + len(self.reps),
+            "seg_version": self.seg_version,
+            "cut_version": self.cut_version,
+            "closed": self.closed,
+            "revision": self.revision,
+            "seg_range": self.seg_range,
+        }
         if seg_version != self.seg_version:
             out["segments"] = self.segments
         if human and self.human is not None:
@@ -327,9 +345,12 @@ class Hub:
     def header(self) -> dict:
         """Daemon-wide figures for the page's header."""
         t = self.totals or {}
-        return {"streams": len(self.streams),
-                "open": sum(sv.closed is None for sv in self.streams.values()),
-                "uptime": self.uptime, "applied": self.applied,
-                "latency_p50_ms": t.get("latency_p50_ms"),
-                "latency_p99_ms": t.get("latency_p99_ms"),
-                "errors_by_reason": t.get("errors_by_reason", {})}
+        return {
+            "streams": len(self.streams),
+            "open": sum(sv.closed is None for sv in self.streams.values()),
+            "uptime": self.uptime,
+            "applied": self.applied,
+            "latency_p50_ms": t.get("latency_p50_ms"),
+            "latency_p99_ms": t.get("latency_p99_ms"),
+            "errors_by_reason": t.get("errors_by_reason", {}),
+        }

@@ -41,8 +41,16 @@ def _loopback(host: str) -> bool:
 class _Page:
     """One connected page: its socket and what it has of its open stream."""
 
-    __slots__ = ("ws", "stream", "cut_next", "rep_next", "seg_version", "has_human", "sent",
-                 "cut_version")
+    __slots__ = (
+        "ws",
+        "stream",
+        "cut_next",
+        "rep_next",
+        "seg_version",
+        "has_human",
+        "sent",
+        "cut_version",
+    )
 
     def __init__(self, ws):
         self.ws = ws
@@ -70,9 +78,17 @@ class ViewServer:
         CURVE keys for a daemon that has them on (see :class:`Feed`).
     """
 
-    def __init__(self, publish: str, control: str | None = None, host: str = "127.0.0.1",
-                 port: int = 0, interval: float = 0.1, poll: float = 1.0, labels: bool = True,
-                 curve=None):
+    def __init__(
+        self,
+        publish: str,
+        control: str | None = None,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        interval: float = 0.1,
+        poll: float = 1.0,
+        labels: bool = True,
+        curve=None,
+    ):
         self.publish, self.control = publish, control
         self.host, self.port = host, port
         self.interval = interval
@@ -131,8 +147,9 @@ class ViewServer:
         if _loopback(self.host):
             name = urlsplit(f"//{request.host}").hostname or ""
             if name not in LOOPBACK_NAMES:
-                raise web.HTTPForbidden(text=f"host {request.host!r} refused: open the page "
-                                             f"as {self.url}")
+                raise web.HTTPForbidden(
+                    text=f"host {request.host!r} refused: open the page as {self.url}"
+                )
         return await handler(request)
 
     async def _index(self, request):
@@ -143,8 +160,12 @@ class ViewServer:
 
     async def _api_streams(self, request):
         now = self.hub.clock()
-        return self._json({"header": self.header(),
-                           "rows": [self.hub.streams[s].summary(now) for s in self.hub.order]})
+        return self._json(
+            {
+                "header": self.header(),
+                "rows": [self.hub.streams[s].summary(now) for s in self.hub.order],
+            }
+        )
 
     async def _api_stream(self, request):
         sv = self.hub.streams.get(request.match_info["stream"])
@@ -153,10 +174,15 @@ class ViewServer:
         return self._json({"row": sv.summary(self.hub.clock()), "timeline": sv.timeline()})
 
     def header(self) -> dict:
-        return {**self.hub.header(), "publish": self.publish, "control": self.control,
-                "connected": self.feed.connected, "daemon": self.feed.daemon_ok,
-                "live": self.feed.live.is_set(),
-                "now": self.hub.clock()}
+        return {
+            **self.hub.header(),
+            "publish": self.publish,
+            "control": self.control,
+            "connected": self.feed.connected,
+            "daemon": self.feed.daemon_ok,
+            "live": self.feed.live.is_set(),
+            "now": self.hub.clock(),
+        }
 
     # --- WebSocket ------------------------------------------------------------------------------
 
@@ -164,17 +190,25 @@ class ViewServer:
         origin = request.headers.get("Origin")
         if origin is not None and urlsplit(origin).netloc != request.host:
             # another site open in the same browser must not read the streams
-            raise web.HTTPForbidden(text=f"WebSocket from origin {origin!r} refused: only "
-                                         f"the view's own page ({request.host}) may connect")
+            raise web.HTTPForbidden(
+                text=f"WebSocket from origin {origin!r} refused: only "
+                f"the view's own page ({request.host}) may connect"
+            )
         ws = web.WebSocketResponse(heartbeat=30)
         await ws.prepare(request)
         page = _Page(ws)
         self.pages.add(page)
         try:
             now = self.hub.clock()
-            await self._send(page, {"t": "rows", "all": True, "header": self.header(),
-                                    "rows": [self.hub.streams[s].summary(now)
-                                             for s in self.hub.order]})
+            await self._send(
+                page,
+                {
+                    "t": "rows",
+                    "all": True,
+                    "header": self.header(),
+                    "rows": [self.hub.streams[s].summary(now) for s in self.hub.order],
+                },
+            )
             async for msg in ws:
                 if msg.type != WSMsgType.TEXT:
                     continue
@@ -183,8 +217,7 @@ class ViewServer:
                 except ValueError:
                     continue
                 if isinstance(req, dict) and req.get("op") == "open":
-                    page.stream = req.get("stream") if isinstance(req.get("stream"), str) \
-                        else None
+                    page.stream = req.get("stream") if isinstance(req.get("stream"), str) else None
                     page.cut_next = page.rep_next = 0
                     page.seg_version = -1
                     page.has_human = False
@@ -230,8 +263,13 @@ class ViewServer:
                 continue
             now = self.hub.clock()
             rows = [self.hub.streams[s].summary(now) for s in dirty if s in self.hub.streams]
-            msg = {"t": "rows", "all": False, "header": self.header(), "rows": rows,
-                   "removed": gone}
+            msg = {
+                "t": "rows",
+                "all": False,
+                "header": self.header(),
+                "rows": rows,
+                "removed": gone,
+            }
             changed = set(dirty)
             for page in list(self.pages):
                 await self._send(page, msg)

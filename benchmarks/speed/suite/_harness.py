@@ -81,8 +81,10 @@ def encoded_stream(n_frames: int, batch: int, stream: str = "bench") -> list:
     rec = recording()
     idx = np.arange(n_frames) % rec.n_frames
     msgs = [P.encode(announce_of(rec, stream))]
-    msgs += [P.encode(P.Frames(stream, a, 0.0, rec.positions[idx[a:a + batch]]))
-             for a in range(0, n_frames, batch)]
+    msgs += [
+        P.encode(P.Frames(stream, a, 0.0, rec.positions[idx[a : a + batch]]))
+        for a in range(0, n_frames, batch)
+    ]
     msgs.append(P.encode(P.End(stream)))
     return msgs
 
@@ -178,8 +180,9 @@ def _live(endpoint, templates, announce, n_streams, batch, fps, seconds, preload
     period = batch / fps
     while time.perf_counter() - t0 < seconds:
         now = time.perf_counter() - t0
-        due = np.minimum(np.maximum(((now - offset) // period).astype(np.int64) + 1, 0),
-                         len(templates))
+        due = np.minimum(
+            np.maximum(((now - offset) // period).astype(np.int64) + 1, 0), len(templates)
+        )
         for k in np.flatnonzero(due > sent):
             sid = ids[k]
             for i in range(sent[k], due[k]):
@@ -192,8 +195,15 @@ def _live(endpoint, templates, announce, n_streams, batch, fps, seconds, preload
     ctx.term()
 
 
-def live_run(n_streams: int, seconds: float, *, batch: int = 4, preload: float = 0.0,
-             settle: float = 2.0, **overrides) -> dict:
+def live_run(
+    n_streams: int,
+    seconds: float,
+    *,
+    batch: int = 4,
+    preload: float = 0.0,
+    settle: float = 2.0,
+    **overrides,
+) -> dict:
     """``n_streams`` real-time 120 Hz streams of 86_01 (repeated) into a daemon with
     ``overrides``; measured after ``settle`` s (and the preload) for the rest of ``seconds``.
 
@@ -205,12 +215,15 @@ def live_run(n_streams: int, seconds: float, *, batch: int = 4, preload: float =
     rec = recording()
     reps = int(np.ceil((seconds + preload + 2) * rec.fps / rec.n_frames))
     pos = np.concatenate([rec.positions] * reps)
-    tmpl = [P.encode(P.Frames(PLACEHOLDER, a, 0.0, pos[a:a + batch]))[1]
-            for a in range(0, pos.shape[0], batch)]
+    tmpl = [
+        P.encode(P.Frames(PLACEHOLDER, a, 0.0, pos[a : a + batch]))[1]
+        for a in range(0, pos.shape[0], batch)
+    ]
     announce = P.encode(announce_of(rec, PLACEHOLDER))[1]
     d, ep, t = start_daemon(max_streams=n_streams + 10, max_streams_per_client=0, **overrides)
-    p, go = spawn(_live, ep["ingest"], tmpl, announce, n_streams, batch, rec.fps,
-                  seconds + preload, preload)
+    p, go = spawn(
+        _live, ep["ingest"], tmpl, announce, n_streams, batch, rec.fps, seconds + preload, preload
+    )
     go.set()
     start = time.perf_counter()
     if preload:  # the histories first: wait until every stream holds them
@@ -227,5 +240,10 @@ def live_run(n_streams: int, seconds: float, *, batch: int = 4, preload: float =
     p50, p99 = d.intake.latency.percentiles()
     p.join()
     stop_daemon(d, t)
-    return {"offered": n_streams * rec.fps, "taken": (f1 - f0) / dt, "p50": p50, "p99": p99,
-            "relabels": (r1 - r0) / dt}
+    return {
+        "offered": n_streams * rec.fps,
+        "taken": (f1 - f0) / dt,
+        "p50": p50,
+        "p99": p99,
+        "relabels": (r1 - r0) / dt,
+    }

@@ -43,8 +43,11 @@ class Synthetic:
         out = {}
         for n in SIZES:
             x, fit, accuracy = _fit(int(round(n / 12.5)))
-            out[n] = {"frames": len(x), "seconds": median_time(fit, 1 if n > 5000 else 3),
-                      "accuracy": accuracy()}
+            out[n] = {
+                "frames": len(x),
+                "seconds": median_time(fit, 1 if n > 5000 else 3),
+                "accuracy": accuracy(),
+            }
         return out
 
     def track_seconds(self, cache, n):
@@ -85,10 +88,14 @@ class Revision:
 
         asf = DATA / "cmu86" / "86.asf"
         parts = [read(DATA / "cmu86" / "86_01.amc.gz", skeleton=asf)]
-        parts += [read(DATA / "cmu_exercise" / f"{n}.amc.gz", skeleton=asf)
-                  for n in ("14_14", "14_20")]
-        X = np.concatenate([bone_angles(r.positions, r.skeleton, inclinations=True)
-                            for r in parts]).astype(np.float32).astype(np.float64)
+        parts += [
+            read(DATA / "cmu_exercise" / f"{n}.amc.gz", skeleton=asf) for n in ("14_14", "14_20")
+        ]
+        X = (
+            np.concatenate([bone_angles(r.positions, r.skeleton, inclinations=True) for r in parts])
+            .astype(np.float32)
+            .astype(np.float64)
+        )
         fit_aca(X[:1200], ACAConfig(), 120.0)  # kernels loaded
         feats = X[-7200:]
         frames = np.arange(feats.shape[0])

@@ -29,8 +29,24 @@ import numpy as np
 
 from ._harness import DATA
 
-SYNTH_ARGS = ["--fps", "1", "--method", "aca", "--clusters", "4", "--min-len", "10",
-              "--max-len", "15", "--kernel", "equality", "--restarts", "10", "--seed", "1"]
+SYNTH_ARGS = [
+    "--fps",
+    "1",
+    "--method",
+    "aca",
+    "--clusters",
+    "4",
+    "--min-len",
+    "10",
+    "--max-len",
+    "15",
+    "--kernel",
+    "equality",
+    "--restarts",
+    "10",
+    "--seed",
+    "1",
+]
 REPLAY_CYCLES = 10
 
 
@@ -44,8 +60,7 @@ def best_time(fn, runs: int = 3) -> float:
 
 
 def _process(argv):
-    subprocess.run([sys.executable, "-m", "streamseg.cli", *argv], check=True,
-                   capture_output=True)
+    subprocess.run([sys.executable, "-m", "streamseg.cli", *argv], check=True, capture_output=True)
 
 
 def _in_process(argv):
@@ -88,8 +103,10 @@ class Segment:
         with tempfile.TemporaryDirectory() as tmp:
             for key, argv in _cases(_synthetic_csv(Path(tmp))).items():
                 _in_process(argv)  # kernels compiled or loaded, files cached by the OS
-                out[key] = {"process": best_time(lambda a=argv: _process(a)),
-                            "warm": best_time(lambda a=argv: _in_process(a))}
+                out[key] = {
+                    "process": best_time(lambda a=argv: _process(a)),
+                    "warm": best_time(lambda a=argv: _in_process(a)),
+                }
         return out
 
     def track_seconds_with_process_start(self, cache, take, method):
@@ -109,8 +126,20 @@ def track_batch_recordings_per_s():
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "batch.jsonl"
         t = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "streamseg.cli", "batch", str(DATA),
-                               "--method", "lof", "--output", str(out)], capture_output=True)
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "streamseg.cli",
+                "batch",
+                str(DATA),
+                "--method",
+                "lof",
+                "--output",
+                str(out),
+            ],
+            capture_output=True,
+        )
         seconds = time.perf_counter() - t
         if proc.returncode not in (0, 1):  # 1: some recording failed, its line says why
             raise RuntimeError(proc.stderr.decode()[-2000:])
@@ -124,8 +153,18 @@ track_batch_recordings_per_s.timeout = 1800
 
 def _serve():
     """A ``streamseg serve`` process on free loopback ports: (process, ingest, publish)."""
-    cmd = [sys.executable, "-m", "streamseg.cli", "serve", "--ingest", "tcp://127.0.0.1:0",
-           "--publish", "tcp://127.0.0.1:0", "--control", ""]
+    cmd = [
+        sys.executable,
+        "-m",
+        "streamseg.cli",
+        "serve",
+        "--ingest",
+        "tcp://127.0.0.1:0",
+        "--publish",
+        "tcp://127.0.0.1:0",
+        "--control",
+        "",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     for line in proc.stdout:
         if line.startswith("streamseg serve: ") and "ingest=" in line:
@@ -138,9 +177,23 @@ def _replay_once(npz: Path, ingest: str, sub, stream: str) -> float:
     import msgpack
 
     t = time.perf_counter()
-    replay = subprocess.Popen([sys.executable, "-m", "streamseg.cli", "replay", str(npz),
-                               "--to", ingest, "--speed", "0", "--stream", stream],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    replay = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "streamseg.cli",
+            "replay",
+            str(npz),
+            "--to",
+            ingest,
+            "--speed",
+            "0",
+            "--stream",
+            stream,
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     deadline = t + 600
     while time.perf_counter() < deadline:
         if not sub.poll(1000):

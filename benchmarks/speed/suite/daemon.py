@@ -86,8 +86,9 @@ class Cadence:
     number = repeat = rounds = 1
 
     def setup_cache(self):
-        return live_run(500, 40.0, preload=60.0, settle=5.0, relabel_backend="process",
-                        relabel_processes=2)
+        return live_run(
+            500, 40.0, preload=60.0, settle=5.0, relabel_backend="process", relabel_processes=2
+        )
 
     def track_500_seconds_between_relabels(self, run):
         return 500 / run["relabels"] if run["relabels"] else float("inf")
@@ -189,8 +190,9 @@ def track_idle_kb_per_stream():
 
     from ._harness import recording
 
-    d, ep, t = start_daemon(max_streams=2000, max_streams_per_client=0, relabel_interval=0.0,
-                            idle_timeout=3600.0)
+    d, ep, t = start_daemon(
+        max_streams=2000, max_streams_per_client=0, relabel_interval=0.0, idle_timeout=3600.0
+    )
     ctx = zmq.Context()
     s = ctx.socket(zmq.PUSH)
     s.connect(ep["ingest"])

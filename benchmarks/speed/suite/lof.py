@@ -31,7 +31,7 @@ class Pipeline:
         def run():
             p = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), 60.0)
             for a in range(0, N, PACKET):
-                p.push(pos[a:a + PACKET], a)
+                p.push(pos[a : a + PACKET], a)
 
         run()
         return N / median_time(run, 3)
@@ -65,7 +65,7 @@ class Detector:
 
             t = time.perf_counter()
             for a in range(full, N, PACKET):
-                det.learn_many(X[a:a + PACKET])
+                det.learn_many(X[a : a + PACKET])
             return (time.perf_counter() - t) / (N - full)
 
         steady()

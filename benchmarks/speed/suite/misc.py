@@ -27,12 +27,14 @@ track_help_seconds.unit = "s"
 
 
 #: (key, file under data/sources, read options): the reading speed of each format
-SOURCES = [("c3d_vicon_01_01", "c3d/cmu_01_01.c3d", {}),
-           ("amc_01_01", "cmu01/01_01.amc.gz", {"skeleton": "cmu01/01.asf"}),
-           ("bvh_01_01", "bvh/cc_01_01.bvh.gz", {}),
-           ("c3d_qualisys", "c3d/qualisys_isb.c3d", {}),
-           ("trc_opencap", "trc/opencap_walk.trc", {}),
-           ("csv_kinect", "keraal/kinect_ctk.csv", {"joints": "kinect", "fps": 30})]
+SOURCES = [
+    ("c3d_vicon_01_01", "c3d/cmu_01_01.c3d", {}),
+    ("amc_01_01", "cmu01/01_01.amc.gz", {"skeleton": "cmu01/01.asf"}),
+    ("bvh_01_01", "bvh/cc_01_01.bvh.gz", {}),
+    ("c3d_qualisys", "c3d/qualisys_isb.c3d", {}),
+    ("trc_opencap", "trc/opencap_walk.trc", {}),
+    ("csv_kinect", "keraal/kinect_ctk.csv", {"joints": "kinect", "fps": 30}),
+]
 
 
 class Read:
@@ -49,12 +51,18 @@ class Read:
         with tempfile.TemporaryDirectory() as tmp:
             npz = Path(tmp) / "86_01.npz"
             write_npz(npz, rec)
-            out = {"amc": median_time(lambda: read(amc, skeleton=asf), 5),
-                   "npz": median_time(lambda: read(npz), 5)}
+            out = {
+                "amc": median_time(lambda: read(amc, skeleton=asf), 5),
+                "npz": median_time(lambda: read(npz), 5),
+            }
         src = DATA / "sources"
         for key, path, kw in SOURCES:
-            out[key] = median_time(lambda p=src / path, kw=kw: read(p, **{
-                k: src / v if k == "skeleton" else v for k, v in kw.items()}), 5)
+            out[key] = median_time(
+                lambda p=src / path, kw=kw: read(
+                    p, **{k: src / v if k == "skeleton" else v for k, v in kw.items()}
+                ),
+                5,
+            )
         return out
 
     def track_amc_seconds(self, cache):
@@ -86,7 +94,7 @@ def track_rep_counter_us_per_frame():
     counter = RepetitionCounter(None, rec.fps, rec.skeleton)
     t = time.perf_counter()
     for a in range(0, rec.n_frames, 4):
-        counter.learn_many(rec.positions[a:a + 4])
+        counter.learn_many(rec.positions[a : a + 4])
     return (time.perf_counter() - t) / rec.n_frames * 1e6
 
 

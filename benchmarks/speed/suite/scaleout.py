@@ -27,10 +27,8 @@ def _features():
 
     asf = DATA / "cmu86" / "86.asf"
     parts = [read(DATA / "cmu86" / "86_01.amc.gz", skeleton=asf)]
-    parts += [read(DATA / "cmu_exercise" / f"{n}.amc.gz", skeleton=asf)
-              for n in ("14_14", "14_20")]
-    a = np.concatenate([bone_angles(r.positions, r.skeleton, inclinations=True)
-                        for r in parts])
+    parts += [read(DATA / "cmu_exercise" / f"{n}.amc.gz", skeleton=asf) for n in ("14_14", "14_20")]
+    a = np.concatenate([bone_angles(r.positions, r.skeleton, inclinations=True) for r in parts])
     return a.astype(np.float32).astype(np.float64)
 
 
@@ -41,8 +39,7 @@ def _jobs(X, n):
     out = []
     for i in range(n):
         a = (i * 997) % (X.shape[0] - m)
-        out.append(RelabelJob((f"s{i}", 1), X[a:a + m].copy(), np.arange(a, a + m), 120.0,
-                              None))
+        out.append(RelabelJob((f"s{i}", 1), X[a : a + m].copy(), np.arange(a, a + m), 120.0, None))
     return out
 
 
