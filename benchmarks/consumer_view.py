@@ -61,7 +61,7 @@ DELAYS = (1.0, 3.0, 10.0)
 def _algorithms(args):
     from streamseg.config import LOFConfig
     from streamseg.config.memory import LabelMemoryConfig
-    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.daemon.algorithms import Algorithms
 
     lof = LOFConfig(**_lof_overrides(args))
     return Algorithms(
@@ -84,7 +84,7 @@ def _lof_overrides(args) -> dict:
 
 
 def _settle_kw(args) -> dict:
-    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.daemon.algorithms import Algorithms
 
     kw = {}
     params = Algorithms.__init__.__code__.co_varnames
@@ -125,7 +125,8 @@ def simulate(item, algorithms, history: float, interval: float, lag_s: float, pa
     published; the daemon's scheduling (server.py, intake.py) on stream time."""
     from streamseg import protocol
     from streamseg.daemon.options import skeleton_from
-    from streamseg.daemon.pipeline import StreamPipeline, relabel
+    from streamseg.daemon.pipeline import StreamPipeline
+    from streamseg.daemon.relabel_job import relabel
 
     rec = item.recording
     fps, n = float(rec.fps), rec.n_frames

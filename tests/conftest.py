@@ -48,7 +48,7 @@ def bd_squats(data_dir):
 def warm_kernels() -> None:
     """Every numba kernel compiled (or loaded from the cache) once per session, so that no
     test's waits include compilation: a daemon started after this is ready at once."""
-    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.daemon.algorithms import Algorithms
 
     Algorithms(repetitions=True).warmup()
 

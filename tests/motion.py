@@ -22,10 +22,10 @@ def cyclic_blocks(levels, seconds=3.0, seed=0, d=6):
 
 
 def revisions(algorithms, X, fps=FPS, history=6.0, interval=1.0):
-    """The daemon's job function (``pipeline.relabel``) every ``interval`` s over the last
+    """The daemon's job function (``relabel_job.relabel``) every ``interval`` s over the last
     ``history`` s of ``X`` (n, d), no live cuts: per-frame ids of the newest revision (n,)
     and the last revision's window."""
-    from streamseg.daemon.pipeline import relabel
+    from streamseg.daemon.relabel_job import relabel
 
     n = X.shape[0]
     step, span = int(round(interval * fps)), int(round(history * fps))

@@ -453,7 +453,7 @@ def naive_lloyd(X, centres, n_iter):
 
 
 def naive_settle(pending, finals, g, n_frames):
-    """The two-stage detector's live events (``streamseg.daemon.pipeline.cut_kind`` kinds)
+    """The two-stage detector's live events (``streamseg.daemon.cut_events.cut_kind`` kinds)
     rebuilt from its pending cuts and the one-stage detector's cuts at the confirming delay,
     each ``(frame, score, emitted_at)`` (no NaN frames: window ``s`` completes on frame
     ``s * step + window - 1``), by the rule of ``LOFConfig.early_delay_s``: when the final

@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+from streamseg.daemon.algorithms import Algorithms
 from streamseg.daemon.alternation import merge_alternations
 from streamseg.daemon.options import skeleton_from
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel
+from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.relabel_job import relabel
 
 
 def _changes(segs) -> list:

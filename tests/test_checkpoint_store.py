@@ -8,9 +8,10 @@ import sqlite3
 import numpy as np
 import pytest
 
+from streamseg.daemon.algorithms import Algorithms
 from streamseg.daemon.checkpoint import snapshot
 from streamseg.daemon.checkpoint_store import CheckpointStore
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.state_codec import CHUNK
 from streamseg.daemon.streams import StreamState
 

@@ -15,7 +15,7 @@ from streamseg.client import listen, request, subscribe
 from streamseg.commands.replay import announce_of, replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
-from streamseg.daemon.pipeline import Algorithms
+from streamseg.daemon.algorithms import Algorithms
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.io.gaps import fill_gaps

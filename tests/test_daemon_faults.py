@@ -17,7 +17,7 @@ import zmq
 from streamseg import protocol as P
 from streamseg.client import fetch_since, listen, request, subscribe
 from streamseg.commands.replay import announce_of
-from streamseg.daemon.pipeline import Algorithms
+from streamseg.daemon.algorithms import Algorithms
 from streamseg.online.lof import StreamingLOFSegmenter
 from tests.motion import lof_input
 from tests.waiting import wait_until

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel, stable_labels
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.relabel_job import relabel
 from streamseg.io.gaps import fill_gaps
+from streamseg.offline.identity import stable_labels
 from streamseg.offline.relabel import WindowSegmentation
 from streamseg.online.lof import StreamingLOFSegmenter
 from streamseg.online.root_speed import root_speed_columns
@@ -108,7 +111,8 @@ _WARM_THEN_STREAM = """
 import importlib, json, pkgutil, sys
 import numpy as np
 import streamseg._kernels as kernels
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.state_codec import dump, load, packable, stored
 from streamseg.io import read
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from streamseg.config.memory import LabelMemoryConfig
-from streamseg.daemon.pipeline import Algorithms, relabel
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.relabel_job import relabel
 from streamseg.exceptions import ParameterError
 from streamseg.offline.label_memory import new_memory
 from tests.motion import FPS, cyclic_blocks, revisions

@@ -15,7 +15,9 @@ import pytest
 from streamseg import protocol
 from streamseg.cli import main
 from streamseg.config import LOFConfig
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline, cut_kind
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.cut_events import cut_kind
+from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.streams import StreamState
 from streamseg.evaluation.datasets import CMU02_SEQUENCES, cmu02_sequence
 from streamseg.exceptions import ParameterError

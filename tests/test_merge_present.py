@@ -11,7 +11,8 @@ import pytest
 
 from streamseg.config import ACAConfig
 from streamseg.config.memory import LabelMemoryConfig
-from streamseg.daemon.pipeline import Algorithms, relabel
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.relabel_job import relabel
 from streamseg.exceptions import ParameterError
 from streamseg.offline.recall import merge_into_present, touches
 from tests.motion import FPS, cyclic_blocks, revisions

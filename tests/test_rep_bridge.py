@@ -123,7 +123,7 @@ def test_a_daemon_counts_a_take_with_lost_markers_as_offline(start_daemon, lossy
     counted in the ``nan`` error."""
     from streamseg.client import listen, subscribe
     from streamseg.commands.replay import replay
-    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.daemon.algorithms import Algorithms
     from streamseg.io import with_gaps_filled
 
     rec = with_gaps_filled(lossy_squat)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from streamseg.config import LOFConfig
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.exceptions import ParameterError
 from streamseg.offline.lof import LOFSegmenter, lof_features
 from streamseg.online.lof import StreamingLOFSegmenter

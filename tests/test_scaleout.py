@@ -22,7 +22,9 @@ from streamseg.commands import batch_tasks as batch  # noqa: E402
 from streamseg.commands.replay import replay  # noqa: E402
 from streamseg.config import DaemonConfig  # noqa: E402
 from streamseg.daemon import Daemon  # noqa: E402
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel  # noqa: E402
+from streamseg.daemon.algorithms import Algorithms  # noqa: E402
+from streamseg.daemon.pipeline import StreamPipeline  # noqa: E402
+from streamseg.daemon.relabel_job import relabel  # noqa: E402
 from streamseg.scaleout import local_cluster  # noqa: E402
 
 LOOP = "tcp://127.0.0.1:0"

@@ -27,7 +27,7 @@ from streamseg.client import listen, subscriber  # noqa: E402
 from streamseg.commands.replay import replay  # noqa: E402
 from streamseg.config import DaemonConfig  # noqa: E402
 from streamseg.daemon import Daemon  # noqa: E402
-from streamseg.daemon.pipeline import Algorithms  # noqa: E402
+from streamseg.daemon.algorithms import Algorithms  # noqa: E402
 from streamseg.io import read  # noqa: E402
 from streamseg.online.lof import StreamingLOFSegmenter  # noqa: E402
 from tests import dask_gate  # noqa: E402

@@ -10,8 +10,10 @@ import pytest
 import zmq
 
 from streamseg import protocol
+from streamseg.daemon.algorithms import Algorithms
 from streamseg.daemon.options import skeleton_from
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel
+from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.relabel_job import relabel
 from streamseg.daemon.settle import Settlement
 
 FPS = 100.0

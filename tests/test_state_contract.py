@@ -20,8 +20,10 @@ import pytest
 
 import streamseg
 from streamseg.config.memory import LabelMemoryConfig
+from streamseg.daemon.algorithms import Algorithms
 from streamseg.daemon.checkpoint_store import CheckpointStore
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline, relabel
+from streamseg.daemon.pipeline import StreamPipeline
+from streamseg.daemon.relabel_job import relabel
 from streamseg.daemon.state_codec import dump, load, packable, stored
 from streamseg.daemon.streams import StreamState
 from streamseg.online.lof import StreamingLOFSegmenter

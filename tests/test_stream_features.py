@@ -9,7 +9,8 @@ import pytest
 
 from streamseg._kernels.stream_features import lof_columns
 from streamseg.config import LOFConfig
-from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+from streamseg.daemon.algorithms import Algorithms
+from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.offline.lof import LOFSegmenter, lof_features
 from streamseg.online.lof import StreamingLOFSegmenter, _root_args
 from streamseg.online.root_speed import RootSpeed

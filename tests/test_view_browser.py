@@ -318,7 +318,7 @@ def test_a_withdrawn_pending_cut_leaves_the_page(live, browser, rec):
     """The two-stage decision: the page draws 86_01's first pending cut that is later
     withdrawn (the replay pauses right after it was emitted), then, once the rest arrives and
     it is withdrawn, redraws without it; the page ends with the final cuts."""
-    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.daemon.algorithms import Algorithms
     from streamseg.online import StreamingLOFSegmenter, WithdrawEvent, final_cuts
     from tests.motion import lof_input
 

@@ -222,8 +222,9 @@ def measure_checkpoint_cost(repeats: int = 20) -> list:
     history is full (60 s at 120 Hz): its first checkpoint (every chunk new) and the next
     ones, one checkpoint interval of frames apart (only the chunks that changed)."""
     from streamseg.config import DaemonConfig
+    from streamseg.daemon.algorithms import Algorithms
     from streamseg.daemon.checkpoint import snapshot
-    from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+    from streamseg.daemon.pipeline import StreamPipeline
     from streamseg.daemon.state_codec import load, packable
     from streamseg.daemon.state_codec import stored as stored_bytes
     from streamseg.daemon.streams import StreamState

@@ -105,7 +105,7 @@ def add_arguments(parser) -> None:
 def build(args):
     """``(DaemonConfig, Algorithms)`` from parsed arguments."""
     from streamseg.daemon import load_config
-    from streamseg.daemon.pipeline import Algorithms
+    from streamseg.daemon.algorithms import Algorithms
 
     config, lof, aca, rep = DaemonConfig(), None, None, None
     if args.config:

@@ -1,4 +1,5 @@
-"""The streamseg daemon: sockets and lifecycle (algorithms: :mod:`streamseg.daemon.pipeline`).
+"""The streamseg daemon: sockets and lifecycle (what each stream runs:
+:mod:`streamseg.daemon.pipeline`, :mod:`streamseg.daemon.algorithms`).
 
 Start one with :class:`Daemon` (``bind()`` then ``run()`` until ``stop()``), or from the command
 line with ``streamseg serve``. See ``docs/architecture.md`` and ``docs/protocol.md``.

@@ -13,6 +13,21 @@ from __future__ import annotations
 import dataclasses
 
 from streamseg import protocol
+from streamseg.online.events import ConfirmEvent, WithdrawEvent
+
+#: kinds of the cut events a pipeline step returns: a cut final when emitted, a pending cut
+#: (two-stage detector), its confirmation, its withdrawal, its withdrawal before a cut nearby
+CUT_KINDS = ("cut", "pending", "confirm", "withdraw", "moved")
+
+
+def cut_kind(ev) -> str:
+    """The :data:`CUT_KINDS` entry of a cut detector event."""
+    if isinstance(ev, ConfirmEvent):
+        return "confirm"
+    if isinstance(ev, WithdrawEvent):
+        return "moved" if ev.moved else "withdraw"
+    return "pending" if ev.pending else "cut"
+
 
 #: kinds of the events that settle provisional cuts (:meth:`StreamPipeline.relabelled`)
 SETTLE_KINDS = ("confirmed", "rejected", "found")

@@ -4,7 +4,7 @@
 RelabelWorker` (``submit``, ``pending``, ``queued``, ``results``, ``busy_key``, ``stop``), so
 the daemon's loop is the same for every backend. Its own thread takes jobs from the same
 newest-snapshot-wins queue and submits each (the features window, the stream frame numbers,
-the previous revision's window, the live cuts: :func:`streamseg.daemon.pipeline.relabel`'s
+the previous revision's window, the live cuts: :func:`streamseg.daemon.relabel_job.relabel`'s
 arguments) to a :class:`distributed.Client`; results come back through future callbacks and
 the daemon publishes them as they arrive. A stream has at most one job out at a time, so its
 revisions return in order, and a job queued behind a running one gets that one's window as
@@ -26,7 +26,7 @@ import logging
 import threading
 import time
 
-from streamseg.daemon.pipeline import relabel
+from streamseg.daemon.relabel_job import relabel
 from streamseg.daemon.worker import RelabelWorker
 from streamseg.scaleout import require_distributed
 

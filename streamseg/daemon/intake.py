@@ -63,7 +63,7 @@ class Intake:
     ----------
     config : streamseg.config.DaemonConfig
         Limits (``max_streams``, quotas, ``drain``, ...), ``relabel_interval``.
-    algorithms : streamseg.daemon.pipeline.Algorithms
+    algorithms : streamseg.daemon.algorithms.Algorithms
         What each stream's pipeline runs.
     ingest : streamseg.daemon.ingest.Ingest
         The receiver's queue.

@@ -29,6 +29,7 @@ import zmq
 from streamseg import protocol
 from streamseg.config import DaemonConfig
 from streamseg.daemon import checkpoint, checkpoint_store, limits
+from streamseg.daemon.algorithms import algorithms_for
 from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.closed_streams import ClosedStreams
 from streamseg.daemon.control import Control
@@ -37,7 +38,6 @@ from streamseg.daemon.eventlog import LogReadError
 from streamseg.daemon.ingest import Ingest
 from streamseg.daemon.intake import Intake
 from streamseg.daemon.options import skeleton_from
-from streamseg.daemon.pipeline import algorithms_for
 from streamseg.daemon.publication import Publication
 from streamseg.daemon.relabel_queue import RelabelQueue
 from streamseg.daemon.security import (

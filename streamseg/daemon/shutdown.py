@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
-from streamseg.daemon.pipeline import relabel
+from streamseg.daemon.relabel_job import relabel
 from streamseg.daemon.worker import RelabelJob
 
 log = logging.getLogger("streamseg.daemon")
@@ -51,7 +51,7 @@ class Shutdown:
         The streams side.
     worker : streamseg.daemon.worker.RelabelWorker
         Runs the final relabels; whatever it has not started by the deadline is run here.
-    algorithms : streamseg.daemon.pipeline.Algorithms
+    algorithms : streamseg.daemon.algorithms.Algorithms
         For the relabels run here.
     budget : float
         ``shutdown_relabel``: seconds the final relabels may take together.

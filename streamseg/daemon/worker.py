@@ -8,7 +8,7 @@ import os
 import threading
 import time
 
-from streamseg.daemon.pipeline import relabel
+from streamseg.daemon.relabel_job import relabel
 
 #: Relabel processes run this much nicer than the daemon: a relabel takes the CPU ingest
 #: leaves, so cuts stay on time whatever the number of streams and the cadence adapts.

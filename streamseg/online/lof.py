@@ -255,7 +255,7 @@ class StreamingLOFSegmenter(Stateful):
         bones : tuple
             ``(parent, child, first, second, up)``: the bones' end points and the angle pairs
             of :func:`streamseg._kernels.bones.angles_kernel`
-            (:meth:`streamseg.daemon.pipeline.Algorithms.prepare` resolves them per stream);
+            (:meth:`streamseg.daemon.algorithms.Algorithms.prepare` resolves them per stream);
             ``m = len(first)`` features, ``m + 2`` columns with ``root`` must be
             ``n_features``.
         root : RootSpeed or None

@@ -81,7 +81,8 @@ class Revision:
 
     def setup_cache(self):
         from streamseg.config import ACAConfig
-        from streamseg.daemon.pipeline import Algorithms, relabel
+        from streamseg.daemon.algorithms import Algorithms
+        from streamseg.daemon.relabel_job import relabel
         from streamseg.io import read
         from streamseg.offline.model_selection import fit_aca
         from streamseg.skeleton import bone_angles

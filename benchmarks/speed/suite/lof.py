@@ -23,7 +23,8 @@ class Pipeline:
     number = repeat = rounds = 1
 
     def setup_cache(self):
-        from streamseg.daemon.pipeline import Algorithms, StreamPipeline
+        from streamseg.daemon.algorithms import Algorithms
+        from streamseg.daemon.pipeline import StreamPipeline
 
         rec = recording()
         pos = rec.positions[np.arange(N) % rec.n_frames]

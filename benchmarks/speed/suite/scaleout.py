@@ -1,7 +1,7 @@
 """Relabel capacity per backend, the figure ``docs/scaling.md``'s cost model starts from.
 
 Eight relabel jobs of distinct streams, each the daemon's revision
-(``streamseg.daemon.pipeline.relabel``: HACA, K found) over a 60 s window of real 120 Hz
+(``streamseg.daemon.relabel_job.relabel``: HACA, K found) over a 60 s window of real 120 Hz
 features (86_01, 14_14, 14_20 joined, float32 as the daemon keeps them), handed at once to
 the daemon's own relabel workers: the thread backend (share 1: the best it does), the process
 backend with 2 processes, and the dask backend on a local cluster of 2 worker processes
@@ -65,8 +65,8 @@ class Relabel:
     number = repeat = rounds = 1
 
     def setup_cache(self):
+        from streamseg.daemon.algorithms import Algorithms
         from streamseg.daemon.dask_worker import DaskRelabelWorker
-        from streamseg.daemon.pipeline import Algorithms
         from streamseg.daemon.worker import RelabelWorker
         from streamseg.scaleout import local_cluster
 
