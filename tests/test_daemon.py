@@ -281,65 +281,142 @@ def test_ingest_does_not_wait_for_a_long_relabel(start_daemon, rec):
     assert during, f"no cut arrived while the relabel ran: {arrivals}"
 
 
-def test_takes_waiting_for_their_final_relabel_are_bounded(start_daemon, rec):
-    """Takes that end faster than the worker relabels wait for their final relabel, each
-    holding its state and a history snapshot; beyond FINAL_RELABELS_WAITING a take closes at
-    once without it (its live cuts stand, an error says why): memory stays bounded."""
-    from streamseg.daemon.server import FINAL_RELABELS_WAITING as cap
+def _final_job_bytes(rec, history: float) -> int:
+    """Bytes the final relabel job of a take of ``rec`` holds (features and frame numbers)."""
+    from streamseg.daemon.pipeline import StreamPipeline
 
-    gate = threading.Event()
+    pipe = StreamPipeline(rec.skeleton, rec.fps, Algorithms(), history)
+    pipe.push(rec.positions, 0)
+    pipe.finish()
+    feats, frames, _ = pipe.relabel_snapshot(True)
+    return feats.nbytes + frames.nbytes
 
-    def gated_relabel(features, *, start_frame, fps, config, previous):
+
+def _gated_relabel(gate, armed, starts=None):
+    """A relabel that, once ``armed`` (after the daemon's warm-up), waits for ``gate`` (the
+    worker is behind until the test lets it go), recording each job's first frame in
+    ``starts``."""
+
+    def relabel(features, *, start_frame, fps, config, previous):
         from streamseg.config import ACAConfig
         from streamseg.offline import relabel_window
 
-        gate.wait(60)  # the worker is behind until the test lets it go
+        if armed.is_set():
+            if starts is not None:
+                starts.append(start_frame)
+            if isinstance(gate, threading.Event):
+                gate.wait(60)
+            else:
+                gate.acquire(timeout=60)
         return relabel_window(
             features, start_frame=start_frame, fps=fps, config=ACAConfig(), previous=previous
         )
 
-    d, ep = start_daemon(
-        Algorithms(relabel=gated_relabel), relabel_interval=60.0, relabel_history=2.0
-    )
-    n = cap + 5
-    s = sub(ep)
+    return relabel
+
+
+def test_takes_waiting_for_their_final_relabel_are_bounded_in_bytes(start_daemon, rec):
+    """Takes that end faster than the worker relabels wait for their final relabel, each
+    holding the snapshot of its history (its detector state freed); beyond
+    ``final_relabel_bytes`` a take closes at once without it (its live cuts stand, an error
+    says why): memory stays bounded."""
+    gate, armed = threading.Event(), threading.Event()
     part = rec.slice(0, 240)
+    per_take = _final_job_bytes(part, 2.0)
+    waiting = 4
+    limit = waiting * per_take + per_take // 2
+    d, ep = start_daemon(
+        Algorithms(relabel=_gated_relabel(gate, armed)),
+        relabel_interval=60.0,
+        relabel_history=2.0,
+        final_relabel_bytes=limit,
+    )
+    armed.set()
+    n = waiting + 6
+    s = sub(ep)
     for k in range(n):
         replay(part, ep["ingest"], stream=f"t{k}", speed=0, batch=120)
     try:
         events, closed = [], []
-        deadline = time.monotonic() + 30  # heartbeats keep listen's own timeout from firing
-        for e in listen(s, timeout=30):  # while the worker is held: only the skipped ones close
+        # while the worker is held only the skipped takes close; the last one surely is
+        for e in listen(s, timeout=30):
             events.append(e)
-            if time.monotonic() > deadline:
-                break
             if e.type == "closed":
                 closed.append(e.stream)
-                if len(closed) == n - cap:
+                if e.stream == f"t{n - 1}":
                     break
-        assert closed == [f"t{k}" for k in range(cap, n)]
-        assert len(d.closing) == cap
+        kept = n - len(closed)
+        # the first take's job may have gone to the worker before the next ones ended
+        assert kept in (waiting, waiting + 1), closed
+        assert closed == [f"t{k}" for k in range(kept, n)]
+        assert len(d.closing) == kept
+        assert d.relabels.final_bytes <= limit
     finally:
         gate.set()  # the worker goes on, pass or fail (the daemon must stop)
-    deadline = time.monotonic() + 30
     for e in listen(s, timeout=30):
         events.append(e)
-        if time.monotonic() > deadline:
-            break
         if e.type == "closed":
             closed.append(e.stream)
             if len(closed) == n:
                 break
     assert sorted(closed) == sorted(f"t{k}" for k in range(n))
+    assert d.relabels.final_bytes == 0 and not d.closing
     for k in range(n):
         mine = [e for e in events if getattr(e, "stream", None) == f"t{k}"]
         final = [e for e in mine if e.type == "segments" and e.final]
         skipped = [e for e in mine if e.type == "error" and e.reason == "relabel"]
         assert mine[-1].type == "closed"
-        if k < cap:
+        if k < kept:
             assert len(final) == 1 and not skipped
         else:
             assert not final and len(skipped) == 1 and "final relabel skipped" in skipped[0].message
+
+
+def test_a_backlog_of_final_relabels_does_not_stop_live_revisions(start_daemon, rec):
+    """The worker's free slots go to ended takes' final relabels and live streams' revisions
+    in turn: a live stream is relabelled before the backlog of finals is through."""
+    gate, armed = threading.Semaphore(0), threading.Event()  # one relabel per release
+    starts = []  # each job's first frame: the ended takes' are 0, the live stream's later
+    d, ep = start_daemon(
+        Algorithms(relabel=_gated_relabel(gate, armed, starts)),
+        relabel_interval=1.0,
+        relabel_history=2.0,
+    )
+    armed.set()
+    s = sub(ep)
+    n = 4
+    part = rec.slice(0, 240)
+    try:
+        for k in range(n):
+            replay(part, ep["ingest"], stream=f"t{k}", speed=0, batch=120)
+        wait_until(lambda: len(d.closing) == n, "the ended takes wait for their finals", 30)
+        sock = push(ep)
+        sock.send_multipart(P.encode(announce_of(rec, "live")))
+        for a in range(1000, 1600, 40):  # 5 s of frames: the ring holds the last 2 s
+            sock.send_multipart(
+                P.encode(P.Frames("live", a - 1000, 0.0, rec.positions[a : a + 40]))
+            )
+        wait_until(
+            lambda: "live" in d.streams and d.streams["live"].next_seq == 600,
+            "the live stream's frames are in",
+            30,
+        )
+        for _ in range(n + 3):  # the finals and a few live revisions
+            gate.release()
+        finals_done = []
+        for e in listen(s, timeout=30):
+            if e.type == "segments" and e.final:
+                finals_done.append(e.stream)
+                if len(finals_done) == n:
+                    break
+        live = [i for i, a in enumerate(starts) if a > 0]
+        assert live, f"no live relabel ran: {starts}"
+        assert live[0] < n, f"the live stream waited behind every final relabel: {starts}"
+        sock.send_multipart(P.encode(P.End("live")))
+        sock.close()
+    finally:
+        for _ in range(100):  # the daemon must stop, pass or fail
+            gate.release()
 
 
 def test_limits_max_streams_and_idle(start_daemon, rec):

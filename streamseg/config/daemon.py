@@ -47,6 +47,9 @@ class DaemonConfig:
         ASF file, rate and up axis for streams sent without announcement (``""``: refuse them).
     shutdown_relabel : float
         Seconds at most spent on final relabels at shutdown (then ``closed`` events follow).
+    final_relabel_bytes : int
+        Bytes of history that ended takes may hold while they wait for their final relabel
+        (each its float64 features); a take that ends beyond it closes without one.
     repetitions : bool
         Count repetitions live (``rep`` events; 5-25 us of CPU per frame).
     relabel_processes : int
@@ -110,6 +113,7 @@ class DaemonConfig:
     default_fps: float = 120.0
     default_up: str = "y"
     shutdown_relabel: float = 5.0
+    final_relabel_bytes: int = 64 << 20
     repetitions: bool = False
     relabel_processes: int = 0
     relabel_backend: str = "thread"
@@ -292,6 +296,12 @@ class DaemonConfig:
                 type(v) is int and v >= (name == "max_message_bytes"),
                 "an integer >= 1" if name == "max_message_bytes" else "an integer >= 0",
             )
+        _check(
+            "final_relabel_bytes",
+            self.final_relabel_bytes,
+            type(self.final_relabel_bytes) is int and self.final_relabel_bytes >= 0,
+            "an integer >= 0 (bytes; 0: no ended take waits for a final relabel)",
+        )
         _check(
             "ingest_bytes",
             self.ingest_bytes,

@@ -369,6 +369,14 @@ class StreamPipeline(Stateful):
             )
         return cuts + self._cuts(self.segmenter.finish())
 
+    def release(self) -> None:
+        """The take ended and its final relabel's snapshot is taken: free what only new
+        frames need (the detector, the counter, the gap filler, the feature ring). What
+        settles its cuts and names its labels stays (:meth:`relabelled`)."""
+        self.segmenter = self.reps = self.root = self.filler = None
+        self._feat = None
+        self._frames = np.zeros(0, dtype=np.int64)
+
     def _remember(self, angles: np.ndarray, frames) -> None:
         """Append feature rows to the ring; ``frames``: their stream frames (int64 array),
         or an int, the first of consecutive frames."""

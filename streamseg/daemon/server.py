@@ -50,15 +50,10 @@ from streamseg.daemon.security import (
 from streamseg.daemon.shutdown import Shutdown
 from streamseg.daemon.state_lock import lock_state_dir, unlock
 from streamseg.daemon.storage_report import StorageReport
-from streamseg.daemon.streams import ErrorBook, StreamState
+from streamseg.daemon.streams import Closing, ErrorBook, StreamState
 
 log = logging.getLogger("streamseg.daemon")
 SWITCH_INTERVAL = 0.0005  # s: CPython's GIL switch interval while a daemon runs
-# takes that may wait for their final relabel at once: each holds its stream's state and a
-# snapshot of its history until the worker gets to it (docs/decisions.md, Ingest memory)
-FINAL_RELABELS_WAITING = 16
-
-
 def _bindable(endpoint: str) -> str:
     # port 0 means "any free port", which ZeroMQ spells "*"
     return (
@@ -89,7 +84,7 @@ class Daemon:
         self.config = config or DaemonConfig()
         self.algorithms = algorithms_for(self.config, algorithms)
         self.ctx = zmq.Context()
-        self.closing: dict = {}  # (stream, gen) -> (state, reason) awaiting the final relabel
+        self.closing: dict = {}  # (stream, gen) -> Closing: ended takes awaiting a final relabel
         self.gone = ClosedStreams()  # for late joiners, and the heartbeats' last numbers
         self.errors = ErrorBook()
         self.totals = collections.Counter()
@@ -122,7 +117,9 @@ class Daemon:
         )
         self.storage = StorageReport(self.eventlog, self.checkpoints, self.error)
         self.worker = relabel_worker(self.algorithms, self.config)
-        self.relabels = RelabelQueue(self.worker, self.config.relabel_interval)
+        self.relabels = RelabelQueue(
+            self.worker, self.config.relabel_interval, self.config.final_relabel_bytes
+        )
         self.default_skeleton = None
         if self.config.default_skeleton:
             from streamseg.io.asf import read_asf
@@ -276,7 +273,7 @@ class Daemon:
                     if self.out.wake_fd in events:
                         self.out.woken()
                     self.out.publish_logged()
-                self.relabels.feed(self.streams)
+                self.feed()
                 if now >= self._next_sweep:
                     self._sweep(now)
                 if self.config.heartbeat and now >= self._next_beat:
@@ -366,7 +363,9 @@ class Daemon:
         self.totals["streams_opened"] += 1
         if self.closing:  # its events wait for older takes' `closed`
             older = sorted(g for (s, g) in self.closing if s == st.stream)
-            self.order.opened(st, [(g, self.closing[(st.stream, g)][0]) for g in older])
+            self.order.opened(st, [(g, self.closing[(st.stream, g)].st) for g in older])
+            for g in older:  # this take's events wait for theirs: their final relabels first
+                self.relabels.hurry((st.stream, g))
 
     def flushed(self, st: StreamState) -> None:
         self.relabels.check(st)  # its snapshot is taken when the worker has a free slot
@@ -388,24 +387,26 @@ class Daemon:
             self.error(st.stream, "rep", f"final repetitions lost: {type(err).__name__}: {err}")
         self.notices(st)
         self.results(st, final, final_reps)
-        relabel = self.config.relabel_interval > 0
-        if relabel and len(self.closing) >= FINAL_RELABELS_WAITING:
-            relabel = False  # takes end faster than the worker relabels: memory stays bounded
+        job = self.relabels.final_job(st) if self.config.relabel_interval > 0 else None
+        if job is not None and not self.relabels.room_for(job):
+            job = None  # takes end faster than the worker relabels: memory stays bounded
             self.error(
                 st.stream,
                 "relabel",
-                f"final relabel skipped: "
-                f"{len(self.closing)} ended takes already wait for theirs (the "
-                f"relabel worker is behind); the live cuts stand",
+                f"final relabel skipped: {len(self.relabels.finals)} ended takes already wait "
+                f"for theirs with {self.relabels.final_bytes / 2**20:.0f} MiB of history "
+                f"(final_relabel_bytes; the relabel worker is behind); the live cuts stand",
             )
         self.intake.remove(st)
+        st.pipeline.release()  # what only new frames need (the job holds the history)
         if self.checkpoints is not None:  # the take is over: nothing to resume, even if the
             self.checkpoints.forget(st.stream)  # daemon dies before its final relabel
             self.rounds.forget(st.stream)
-        if relabel and self.relabels.submit(st, final=True):
-            self.closing[(st.stream, st.gen)] = (st, reason)
-        else:
+        if job is None:
             self.closed(st, reason)
+        else:
+            self.closing[job.key] = Closing(st, reason, job)
+            self.relabels.wait_final(job)
 
     def closed(self, st: StreamState, reason: str) -> None:
         # cuts no final relabel settled (none ran: too few frames, or shutdown's time ran
@@ -425,6 +426,12 @@ class Daemon:
         self.gone.add(st.stream, st.state(), reason)
         log.info("stream %s closed (%s) after %d frames", st.stream, reason, st.next_seq)
 
+    def feed(self) -> None:
+        self.relabels.feed(self.streams)
+
+    def unqueue(self, key):
+        return self.relabels.take_waiting(key)
+
     def collect(self) -> None:
         for stream, reason, message in self.worker.notices():  # e.g. the cluster was lost
             self.error(stream if stream in self.streams else None, reason, message)
@@ -436,7 +443,7 @@ class Daemon:
         st = self.streams.get(stream)
         reason = None
         if st is None or st.gen != gen:
-            st, reason = self.closing.get(job.key, (None, None))
+            st, reason, _ = self.closing.get(job.key, (None, None, None))
             if st is None:
                 return  # the stream was re-announced since; the result is stale
         failed = isinstance(result, Exception)
@@ -530,9 +537,9 @@ class Daemon:
         st = self.streams.get(stream)
         if st is not None:
             return st.state()
-        for (s, _), (cst, reason) in self.closing.items():
+        for (s, _), waiting in self.closing.items():
             if s == stream:
-                return {**cst.state(), "closed": reason}
+                return {**waiting.st.state(), "closed": waiting.reason}
         return self.gone.get(stream)
 
     def open_ids(self) -> list:

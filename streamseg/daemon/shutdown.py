@@ -21,7 +21,7 @@ log = logging.getLogger("streamseg.daemon")
 class Finishing(Protocol):
     """What the final events need of the daemon (the loop thread)."""
 
-    closing: dict  # (stream, gen) -> (state, reason): takes awaiting their final relabel
+    closing: dict  # (stream, gen) -> streams.Closing: takes awaiting their final relabel
 
     def take_queued(self) -> None:
         """Process every packet the ingest already received (it reads no more)."""
@@ -31,6 +31,12 @@ class Finishing(Protocol):
 
     def collect(self) -> None:
         """Publish the relabel results the worker has finished."""
+
+    def feed(self) -> None:
+        """Hand the worker the waiting relabel jobs it has room for."""
+
+    def unqueue(self, key):
+        """Take back the final job of ``key`` if it still waits for the worker (else None)."""
 
     def relabelled(self, job: RelabelJob, result) -> None:
         """Publish one relabel result (or failure) and what it settles."""
@@ -72,22 +78,18 @@ class Shutdown:
         d.close_all("shutdown")
         # let the worker finish what it has (bounded), then do the rest here if time allows
         while d.closing and time.monotonic() < deadline:
+            d.feed()
             d.collect()
             if not self.worker.is_alive():
                 break
             time.sleep(0.005)
         d.collect()
-        for key, (st, reason) in list(d.closing.items()):
-            feats, frames = st.pipeline.snapshot()
-            if time.monotonic() < deadline and not self.worker.running(key) and feats.shape[0] >= 2:
+        for key, (st, reason, job) in list(d.closing.items()):
+            d.unqueue(key)  # the worker would not start it now
+            if time.monotonic() < deadline and not self.worker.running(key):
                 try:
                     res = relabel(
-                        self.algorithms,
-                        feats,
-                        frames,
-                        st.fps,
-                        st.pipeline.previous,
-                        tuple(st.pipeline.cut_frames),
+                        self.algorithms, job.features, job.frames, st.fps, job.previous, job.cuts
                     )
                 except Exception as err:
                     res = err

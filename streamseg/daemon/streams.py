@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import collections
 import logging
+from typing import NamedTuple
 
 import numpy as np
 
@@ -13,6 +14,14 @@ from streamseg.state import Stateful
 log = logging.getLogger("streamseg.daemon")
 
 RECENT_CUTS = 256  # cuts kept per stream for a late joiner's catch-up (after the last relabel)
+
+
+class Closing(NamedTuple):
+    """A take that ended and waits for its final relabel (``job``) before its ``closed``."""
+
+    st: StreamState
+    reason: str
+    job: object  # the RelabelJob, waiting in the relabel queue or the worker's
 
 
 class StreamState(Stateful):
