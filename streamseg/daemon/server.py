@@ -54,6 +54,8 @@ from streamseg.daemon.streams import Closing, ErrorBook, StreamState
 
 log = logging.getLogger("streamseg.daemon")
 SWITCH_INTERVAL = 0.0005  # s: CPython's GIL switch interval while a daemon runs
+
+
 def _bindable(endpoint: str) -> str:
     # port 0 means "any free port", which ZeroMQ spells "*"
     return (
