@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from streamseg.exceptions import RecordingError, TruncatedRecordingError
+from streamseg.io.npz import npy_header
 
 _ARRAY_KEYS = (
     "positions",
@@ -61,14 +62,7 @@ def _load_npy(path: Path, lenient: bool) -> np.ndarray:
     except ValueError:
         pass  # numpy: "cannot reshape array of size ..." on a short file
     with open(path, "rb") as fh:
-        version = np.lib.format.read_magic(fh)
-        read_header = (
-            np.lib.format.read_array_header_1_0
-            if version == (1, 0)
-            else np.lib.format.read_array_header_2_0
-        )
-        shape, fortran, dtype = read_header(fh)
-        offset = fh.tell()
+        shape, fortran, dtype, offset = npy_header(fh)
     size = path.stat().st_size - offset
     per_frame = int(np.prod(shape[1:], dtype=np.int64)) * dtype.itemsize
     n_good = size // per_frame if per_frame and not fortran else 0
