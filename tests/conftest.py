@@ -56,8 +56,14 @@ def warm_kernels() -> None:
 def wait_ready(daemon, thread) -> None:
     """Wait for ``daemon.ready`` (set once its kernels are warm) however long compilation
     takes, failing at once if the daemon's thread died instead."""
-    while not daemon.ready.wait(1.0):
-        assert thread.is_alive(), "the daemon thread ended before it was ready"
+    from tests.waiting import wait_until
+
+    wait_until(
+        lambda: daemon.ready.is_set() or not thread.is_alive(),
+        "the daemon ready",
+        timeout=600,  # compilation on a loaded machine: a bound, far above its usual seconds
+    )
+    assert daemon.ready.is_set(), "the daemon thread ended before it was ready"
 
 
 @pytest.fixture(autouse=True)

@@ -10,6 +10,8 @@ import os
 import time
 from pathlib import Path
 
+from tests.waiting import wait_until
+
 GATED_ROWS = 1000  # windows at least this long wait for the gate
 
 
@@ -38,9 +40,8 @@ def started(gate_dir) -> list[int]:
 
 def wait_started(gate_dir, count: int, timeout: float = 120.0) -> list[int]:
     """Wait until ``count`` gated jobs have started; their pids."""
-    deadline = time.monotonic() + timeout
-    while len(started(gate_dir)) < count:
-        if time.monotonic() > deadline:
-            raise TimeoutError(f"{count} gated relabel(s) did not start in {timeout} s")
-        time.sleep(0.01)
-    return started(gate_dir)
+    return wait_until(
+        lambda: len(pids := started(gate_dir)) >= count and pids,
+        f"{count} gated relabel(s) started",
+        timeout,
+    )

@@ -11,6 +11,10 @@ from streamseg.cli import main
 from streamseg.exceptions import RecordingError
 from streamseg.io.matrix import read_matrix
 
+#: ACA on the hand-made flat sequence of these tests: three symbols, runs of 4 to 6 frames
+FLAT_SEQUENCE = ("--method", "aca", "--fps", "1", "--flat", "--clusters", "3")
+FLAT_SEQUENCE += ("--kernel", "equality", "--min-len", "4", "--max-len", "6")
+
 
 def _sequence():
     # three classes, each a fixed pattern repeated; 60 rows
@@ -46,19 +50,7 @@ def test_segment_matrix_json(tmp_path, capsys):
         [
             "segment",
             str(tmp_path / "seq.npy"),
-            "--method",
-            "aca",
-            "--fps",
-            "1",
-            "--flat",
-            "--clusters",
-            "3",
-            "--kernel",
-            "equality",
-            "--min-len",
-            "4",
-            "--max-len",
-            "6",
+            *FLAT_SEQUENCE,
             "--restarts",
             "10",
             "--json",
@@ -89,19 +81,7 @@ def test_eval_matrix_prints_accuracy_and_confusion(tmp_path, capsys):
         [
             "eval",
             str(tmp_path / "seq.csv"),
-            "--method",
-            "aca",
-            "--fps",
-            "1",
-            "--flat",
-            "--clusters",
-            "3",
-            "--kernel",
-            "equality",
-            "--min-len",
-            "4",
-            "--max-len",
-            "6",
+            *FLAT_SEQUENCE,
             "--json",
             "--labels",
             str(tmp_path / "labels.csv"),

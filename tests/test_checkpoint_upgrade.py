@@ -10,7 +10,6 @@ an uninterrupted run decides from frame 2,000 on.
 from __future__ import annotations
 
 import shutil
-import time
 from pathlib import Path
 
 import zmq
@@ -20,6 +19,7 @@ from streamseg.client import fetch_since, request
 from streamseg.online.lof import StreamingLOFSegmenter
 from tests.motion import lof_input
 from tests.test_daemon_restart import config, serve, wait_ping
+from tests.waiting import wait_until
 
 FIXTURE = Path(__file__).parent / "fixtures" / "checkpoints_3e14a8b"
 RESUMED_AT = 2000
@@ -38,12 +38,13 @@ def test_checkpoints_of_the_previous_release_restore(tmp_path, rec):
         for a in range(RESUMED_AT, rec.n_frames, 20):
             push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + 20])))
         push.send_multipart(P.encode(P.End("k")))
-        deadline = time.monotonic() + 120
-        events = []
-        while not events or events[-1].type != "closed":
-            assert time.monotonic() < deadline, "the resumed take never closed"
-            events = fetch_since(ep["control"], "k", 0)
-            time.sleep(0.05)
+        events = wait_until(
+            lambda: (
+                (evs := fetch_since(ep["control"], "k", 0)) and evs[-1].type == "closed" and evs
+            ),
+            "the resumed take closed",
+            timeout=120,
+        )
         push.close(linger=0)
     finally:
         proc.terminate()

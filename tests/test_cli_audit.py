@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from streamseg.cli import main
+from tests.cli_words import FREE_PORTS, STREAMSEG
 
 
 def _one_line(capsys, argv, code=2) -> str:
@@ -128,14 +128,7 @@ def test_listen_refuses_bad_numbers_before_connecting(capsys, argv, said):
 def test_serve_refuses_a_state_dir_that_is_a_file_and_a_bad_http_before_binding(capsys, tmp_path):
     afile = tmp_path / "afile"
     afile.write_text("x")
-    free = [
-        "--ingest",
-        "tcp://127.0.0.1:0",
-        "--publish",
-        "tcp://127.0.0.1:0",
-        "--control",
-        "tcp://127.0.0.1:0",
-    ]
+    free = FREE_PORTS
     line = _one_line(capsys, ["serve", *free, "--state-dir", afile / "sub"])
     assert "is a file, not a folder" in line
     out = capsys.readouterr().out
@@ -252,9 +245,7 @@ def test_no_traceback_from_the_installed_command(tmp_path):
     (tmp_path / "empty.npy").write_bytes(b"")
     run = subprocess.run(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             "segment",
             str(tmp_path / "empty.npy"),
             "--fps",

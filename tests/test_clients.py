@@ -18,6 +18,7 @@ from streamseg.daemon import Daemon
 from streamseg.exceptions import ParameterError
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
+from tests.cli_words import STREAMSEG, listen_to
 from tests.conftest import wait_ready
 from tests.motion import lof_input
 
@@ -47,19 +48,20 @@ def files(data_dir):
     ]
 
 
+def _replay(daemon, sources, stream, *more) -> int:
+    """``streamseg replay SOURCES`` to the daemon as ``stream``, as fast as it takes them."""
+    return main(
+        ["replay", *sources, "--to", daemon["ingest"], "--speed", "0", "--stream", stream, *more]
+    )
+
+
 def _listener(daemon, *argv):
     """`streamseg listen --control` in its own process; returns it once its first line (the
     late-join state, written after the subscription handshake) is out."""
     proc = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
-            "listen",
-            "--from",
-            daemon["publish"],
-            "--control",
-            daemon["control"],
+            *STREAMSEG,
+            *listen_to(daemon),
             *argv,
         ],
         stdout=subprocess.PIPE,
@@ -74,23 +76,7 @@ def _listener(daemon, *argv):
 def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
     proc, first = _listener(daemon, "--stream", "x", "--jsonl", "--until-end", "--idle", "30")
     assert json.loads(first) == {"type": "state", "stream": "x", "open": False}
-    assert (
-        main(
-            [
-                "replay",
-                *files(data_dir),
-                "--to",
-                daemon["ingest"],
-                "--speed",
-                "0",
-                "--batch",
-                "50",
-                "--stream",
-                "x",
-            ]
-        )
-        == 0
-    )
+    assert _replay(daemon, files(data_dir), "x", "--batch", "50") == 0
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert capsys.readouterr().out.startswith("streamseg replay: x: sent 4579 frames")
@@ -130,7 +116,7 @@ def test_replay_then_listen_jsonl_until_end(daemon, data_dir, capsys):
 
 def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
     closed = subscribe(daemon["publish"], daemon["control"], stream="y", kind="closed")
-    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream", "y"])
+    _replay(daemon, files(data_dir), "y")
     capsys.readouterr()
     next(listen(closed, timeout=30))  # the daemon has taken the whole first take
     closed.close()
@@ -139,7 +125,7 @@ def test_listen_count_type_and_control_state(daemon, data_dir, capsys):
         daemon, "--stream", "y", "--type", "cut", "--count", "2", "--idle", "20"
     )
     assert first.startswith("[y] state    frame 4579  revision 0")
-    main(["replay", *files(data_dir), "--to", daemon["ingest"], "--speed", "0", "--stream", "y"])
+    _replay(daemon, files(data_dir), "y")
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     cuts = [x for x in out.splitlines() if "] cut " in x]
@@ -185,23 +171,7 @@ def test_minimal_listener_needs_only_pyzmq_and_msgpack(daemon, data_dir):
         text=True,
     )
     assert proc.stdout.readline().startswith("listening on")  # after its hello handshake
-    assert (
-        main(
-            [
-                "replay",
-                *files(data_dir),
-                "--to",
-                daemon["ingest"],
-                "--speed",
-                "0",
-                "--batch",
-                "60",
-                "--stream",
-                "m",
-            ]
-        )
-        == 0
-    )
+    assert _replay(daemon, files(data_dir), "m", "--batch", "60") == 0
     out, _ = proc.communicate(timeout=60)
     lines = out.splitlines()
     assert lines, "the listener printed nothing"
@@ -234,24 +204,6 @@ def test_replay_and_segment_up_option_fix_a_z_up_file(daemon, data_dir, capsys, 
     assert main(["segment", str(f), "--json"]) == 0
     assert "--up z" in capsys.readouterr().err
     s = subscribe(daemon["publish"], daemon["control"], "zf")
-    assert (
-        main(
-            [
-                "replay",
-                str(f),
-                "--to",
-                daemon["ingest"],
-                "--speed",
-                "0",
-                "--batch",
-                "60",
-                "--stream",
-                "zf",
-                "--up",
-                "z",
-            ]
-        )
-        == 0
-    )
+    assert _replay(daemon, [str(f)], "zf", "--batch", "60", "--up", "z") == 0
     events = list(listen(s, stream="zf", until_end=True, timeout=30))
     assert [e.frame for e in events if e.type == "cut"] == want

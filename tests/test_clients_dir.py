@@ -23,6 +23,7 @@ import pytest
 
 from streamseg.cli import main
 from streamseg.client import request
+from tests.cli_words import FREE_PORTS, STREAMSEG, listen_to
 
 pytestmark = pytest.mark.daemon
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,19 +41,11 @@ def _missing(what: str, fix: str):
 def _serve(state_dir, *extra, curve=None):
     """``streamseg serve`` in its own process on free loopback ports, ready (it answers
     ``ping``); its endpoints. Stopped with SIGTERM at the end; it must exit 0."""
-    loop = "tcp://127.0.0.1:0"
     proc = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             "serve",
-            "--ingest",
-            loop,
-            "--publish",
-            loop,
-            "--control",
-            loop,
+            *FREE_PORTS,
             "--state-dir",
             str(state_dir),
             "--log-level",
@@ -152,14 +145,8 @@ def _listen_jsonl(ep, stream):
     keys = ["--curve-dir", ep["keys"]] if "keys" in ep else []
     proc = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
-            "listen",
-            "--from",
-            ep["publish"],
-            "--control",
-            ep["control"],
+            *STREAMSEG,
+            *listen_to(ep),
             "--stream",
             stream,
             "--jsonl",
@@ -182,10 +169,14 @@ def _events(proc):
     return [json.loads(x) for x in out.splitlines()]
 
 
-def _check_sender(cmd, ep, take_csv, stream):
-    """Run a sender ``cmd``; the daemon's cuts of its stream are the CSV's offline cuts."""
+def _check_sender(program, ep, take_csv, stream, *more):
+    """Run a sender ``program`` (its command words) on the CSV as ``stream``, at full speed
+    in packets of 50 frames, ``more`` words after; the daemon's cuts of its stream are the
+    CSV's offline cuts."""
     path, cuts = take_csv
     listener = _listen_jsonl(ep, stream)
+    cmd = [*program, str(path), "--to", ep["ingest"], "--stream", stream]
+    cmd += ["--speed", "0", "--batch", "50", *more]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert f"{stream}: sent {N_FRAMES} frames" in done.stdout, done.stdout
@@ -248,22 +239,7 @@ def test_python_clients_import_only_pyzmq_and_msgpack():
 
 def test_python_sender_streams_a_csv_segmented_as_the_file(serve, take_csv):
     _check_sender(
-        [
-            sys.executable,
-            str(CLIENTS / "python" / "sender.py"),
-            str(take_csv[0]),
-            "--to",
-            serve["ingest"],
-            "--stream",
-            "py-send",
-            "--speed",
-            "0",
-            "--batch",
-            "50",
-        ],
-        serve,
-        take_csv,
-        "py-send",
+        [sys.executable, str(CLIENTS / "python" / "sender.py")], serve, take_csv, "py-send"
     )
 
 
@@ -335,23 +311,7 @@ def c_clients():
 
 
 def test_c_sender_streams_a_csv_segmented_as_the_file(serve, take_csv, c_clients):
-    _check_sender(
-        [
-            str(c_clients / "streamseg-send"),
-            str(take_csv[0]),
-            "--to",
-            serve["ingest"],
-            "--stream",
-            "c-send",
-            "--speed",
-            "0",
-            "--batch",
-            "50",
-        ],
-        serve,
-        take_csv,
-        "c-send",
-    )
+    _check_sender([str(c_clients / "streamseg-send")], serve, take_csv, "c-send")
 
 
 def test_c_listener_prints_what_the_daemon_published(serve, take_csv, c_clients):
@@ -408,24 +368,7 @@ def test_js_listener_prints_what_the_daemon_published(serve, take_csv, js_client
 
 
 def test_js_sender_streams_a_csv_segmented_as_the_file(serve, take_csv, js_client):
-    _check_sender(
-        [
-            "node",
-            str(js_client / "sender.js"),
-            str(take_csv[0]),
-            "--to",
-            serve["ingest"],
-            "--stream",
-            "js-send",
-            "--speed",
-            "0",
-            "--batch",
-            "50",
-        ],
-        serve,
-        take_csv,
-        "js-send",
-    )
+    _check_sender(["node", str(js_client / "sender.js")], serve, take_csv, "js-send")
 
 
 def test_every_client_has_a_readme_and_the_protocol_links_them():
@@ -462,23 +405,7 @@ def test_clients_speak_curve(lang, serve_curve, take_csv):
     prints every cut and the close, on a daemon with CURVE on every socket."""
     ep, c, js = serve_curve, CLIENTS / "c", CLIENTS / "js"
     _check_sender(
-        _client(lang, "send", c, js)
-        + [
-            str(take_csv[0]),
-            "--to",
-            ep["ingest"],
-            "--stream",
-            f"{lang}-curve-send",
-            "--speed",
-            "0",
-            "--batch",
-            "50",
-            "--keys",
-            ep["keys"],
-        ],
-        ep,
-        take_csv,
-        f"{lang}-curve-send",
+        _client(lang, "send", c, js), ep, take_csv, f"{lang}-curve-send", "--keys", ep["keys"]
     )
     _check_listener(
         _client(lang, "listen", c, js)

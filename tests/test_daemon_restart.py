@@ -6,7 +6,6 @@ import json
 import signal
 import sqlite3
 import subprocess
-import sys
 import threading
 import time
 
@@ -16,10 +15,11 @@ import zmq
 
 from streamseg import protocol as P
 from streamseg.cli import main
-from streamseg.client import fetch_since, request, subscriber
+from streamseg.client import fetch_since, handshake, request, subscriber
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
 from streamseg.online.lof import StreamingLOFSegmenter
+from tests.cli_words import STREAMSEG, listen_to
 from tests.motion import lof_input
 from tests.waiting import wait_until
 
@@ -35,9 +35,7 @@ def offline_cuts(rec, positions):
 def serve(toml):
     proc = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             "serve",
             "--config",
             str(toml),
@@ -93,6 +91,8 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
     try:
         wait_ping(ep, first)
         s = subscriber(ep["publish"], stream="k")
+        s.setsockopt(zmq.SUBSCRIBE, P.topic("error", "barrier"))  # see `before` below
+        assert handshake(s, ep["control"]) == []  # live, with both subscriptions
         # a listener that stays on across the crash: it must end with every logged event
         capsys.readouterr()
         lis = threading.Thread(
@@ -100,11 +100,7 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
                 "rc",
                 main(
                     [
-                        "listen",
-                        "--from",
-                        ep["publish"],
-                        "--control",
-                        ep["control"],
+                        *listen_to(ep),
                         "--stream",
                         "k",
                         "--jsonl",
@@ -137,9 +133,15 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         for a in range(mid, crash, step):
             push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + step])))
         wait_frame(ep, "k", crash)
+        # every event of the first daemon published by now: a barrier behind them, the
+        # `error` a frame of a stream never announced draws (events go out in the order they
+        # are numbered, each once committed)
+        push.send_multipart(P.encode(P.Frames("barrier", 0, 0.0, rec.positions[:1])))
         before = []
-        while s.poll(500):  # every event of the first daemon has been published by now
+        while not before or before[-1].stream != "barrier":
+            assert s.poll(60_000), "no error event for the barrier"
             before.append(P.decode(s.recv_multipart()))
+        assert before.pop().type == "error"
         first.send_signal(signal.SIGKILL)
         first.wait(10)
         con = sqlite3.connect(state / "checkpoints.sqlite")
@@ -150,7 +152,6 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         wait_ping(ep, second)
         restored = {x["stream"]: x for x in request(ep["control"], "streams")["streams"]}
         assert restored["k"]["frame"] == ckpt  # resumed, no re-announce needed
-        t_restart = time.monotonic()
         for a in range(crash, rec.n_frames, step):  # the same sender keeps sending
             push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + step])))
         push.send_multipart(P.encode(P.End("k")))
@@ -158,11 +159,12 @@ def test_kill9_and_restart_resumes_the_stream(tmp_path, data_dir, capsys):
         # reconnection to the new process is ZeroMQ's business and may come late: a listener
         # that must not miss anything fills from the log, as `listen --control` does)
         n1 = max(e.seq for e in before)
-        after = []
-        while not after or after[-1].type != "closed":
-            assert time.monotonic() - t_restart < 60
-            after = [e for e in fetch_since(ep["control"], "k", n1)]
-            time.sleep(0.02)
+        after = wait_until(
+            lambda: (
+                (evs := fetch_since(ep["control"], "k", n1)) and evs[-1].type == "closed" and evs
+            ),
+            "the resumed take closed",
+        )
         push.close(linger=0)
         gaps = [(e.expected, e.got) for e in after if e.type == "gap"]
         assert gaps == ([(ckpt, crash)] if ckpt < crash else [])
@@ -324,20 +326,18 @@ def test_listen_since_0_says_numbers_skipped_at_a_restart(tmp_path, rec, capsys)
             push.send_multipart(P.encode(P.Frames("k", a, 0.0, rec.positions[a : a + 50])))
         push.send_multipart(P.encode(P.End("k")))
         push.close(linger=5000)
-        deadline = time.monotonic() + 60
-        while not (logged := fetch_since(ep["control"], "k", 0)) or logged[-1].type != "closed":
-            assert time.monotonic() < deadline
-            time.sleep(0.02)
+        logged = wait_until(
+            lambda: (
+                (evs := fetch_since(ep["control"], "k", 0)) and evs[-1].type == "closed" and evs
+            ),
+            "the take closed",
+        )
         assert logged[0].seq == P.SEQ_SKIP + 1 and logged[-1].type == "closed"
         capsys.readouterr()
         assert (
             main(
                 [
-                    "listen",
-                    "--from",
-                    ep["publish"],
-                    "--control",
-                    ep["control"],
+                    *listen_to(ep),
                     "--stream",
                     "k",
                     "--since",
@@ -382,10 +382,13 @@ def test_a_take_the_crash_ended_is_closed_at_restart(tmp_path, rec):
         push.send_multipart(P.encode(announce_of(rec, "x")))  # the next take
         push.send_multipart(P.encode(P.End("x")))
         push.close(linger=5000)
-        deadline = time.monotonic() + 30
-        while getattr((log := fetch_since(ep["control"], "x", 0))[-1], "reason", "") != "end":
-            assert time.monotonic() < deadline
-            time.sleep(0.01)
+        log = wait_until(
+            lambda: (
+                getattr((evs := fetch_since(ep["control"], "x", 0))[-1], "reason", "") == "end"
+                and evs
+            ),
+            "the next take closed",
+        )
         assert [e.reason for e in log if e.type == "closed"] == ["restart", "end"]
     finally:
         if proc.poll() is None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import functools
-import time
 
 import pytest
 import zmq
@@ -18,7 +17,9 @@ from streamseg.daemon import Daemon
 from streamseg.daemon.security import ClientKeys, generate, is_loopback
 from streamseg.exceptions import ParameterError
 from streamseg.online.lof import StreamingLOFSegmenter
+from tests.cli_words import listen_to
 from tests.motion import lof_input
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -125,11 +126,7 @@ def test_cli_replay_and_listen_take_keys(secure_daemon, keys, data_dir, capsys, 
     assert (
         main(
             [
-                "listen",
-                "--from",
-                ep["publish"],
-                "--control",
-                ep["control"],
+                *listen_to(ep),
                 "--stream",
                 "k",
                 "--since",
@@ -215,7 +212,6 @@ def test_quota_keeps_a_slot_for_another_client(secure_daemon, keys, rec):
 def test_the_view_follows_a_curve_daemon_with_keys(secure_daemon, keys, rec):
     pytest.importorskip("aiohttp")
     import json
-    import time
     import urllib.request
 
     from streamseg.view.server import ViewThread
@@ -235,16 +231,12 @@ def test_the_view_follows_a_curve_daemon_with_keys(secure_daemon, keys, rec):
             wait=20,
             end=False,
         )
-        deadline = time.monotonic() + 30
-        while True:  # the page's stream list, as a browser polls it
-            rows = {
-                r["stream"]: r
-                for r in json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
-            }
-            if rows.get("seen", {}).get("frame") == 600:
-                break
-            assert time.monotonic() < deadline, f"the view never saw the stream: {rows}"
-            time.sleep(0.05)
+
+        def seen():  # the page's stream list, as a browser polls it
+            rows = json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
+            return any(r["stream"] == "seen" and r.get("frame") == 600 for r in rows)
+
+        wait_until(seen, "the view listed stream seen at frame 600", timeout=30)
     finally:
         view.stop()
 
@@ -255,11 +247,7 @@ def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, t
     stranger = tmp_path / "stranger"
     (stranger / "server.key").write_bytes((keys / "server.key").read_bytes())
     args = [
-        "listen",
-        "--from",
-        ep["publish"],
-        "--control",
-        ep["control"],
+        *listen_to(ep),
         "--stream",
         "x",
         "--count",
@@ -287,11 +275,7 @@ def test_listen_says_why_its_key_is_refused(secure_daemon, keys, start_daemon, t
     assert (
         main(
             [
-                "listen",
-                "--from",
-                plain["publish"],
-                "--control",
-                plain["control"],
+                *listen_to(plain),
                 "--count",
                 "1",
                 "--curve-dir",
@@ -313,12 +297,12 @@ class _RefusedFirst(zmq.Socket):
     def connect(self, addr):
         out = super().connect(addr)
         if self.type == zmq.REQ:
-            for _ in range(30_000):  # until the refusal (a state of the socket, polled)
-                if not self.getsockopt(zmq.EVENTS) & zmq.POLLOUT:
-                    break
-                time.sleep(0.001)
-            else:
-                raise AssertionError("the handshake was never refused")
+            wait_until(  # the refusal: a state of the socket, polled
+                lambda: not self.getsockopt(zmq.EVENTS) & zmq.POLLOUT,
+                "the daemon refused the handshake",
+                timeout=30,
+                interval=0.001,
+            )
         return out
 
 

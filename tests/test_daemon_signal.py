@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import signal
-import subprocess
-import sys
-import time
 
 import pytest
 import zmq
@@ -14,6 +11,7 @@ from streamseg import protocol as P
 from streamseg.client import listen, request, subscribe
 from streamseg.commands.replay import announce_of
 from streamseg.io import read
+from tests.test_daemon_restart import serve, wait_ping
 from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
@@ -29,30 +27,9 @@ def test_sigterm_mid_stream_publishes_final_events(tmp_path, data_dir):
         f'control = "{ep["control"]}"\nrelabel_interval = 2.0\n'
         "relabel_history = 8.0\nheartbeat = 0.5\n"
     )
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
-            "serve",
-            "--config",
-            str(toml),
-            "--log-level",
-            "WARNING",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc = serve(toml)
     try:
-        assert proc.stdout.readline().startswith("streamseg serve: ingest=")
-        deadline = time.monotonic() + 30
-        while True:  # the daemon answers once its kernels are warm and the loop runs
-            try:
-                if request(ep["control"], "ping", timeout=1)["ok"]:
-                    break
-            except TimeoutError:
-                assert time.monotonic() < deadline
+        wait_ping(ep, proc)
         s = subscribe(ep["publish"], ep["control"], stream="t")
         push = zmq.Context.instance().socket(zmq.PUSH)
         push.setsockopt(zmq.LINGER, 2000)

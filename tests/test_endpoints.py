@@ -7,8 +7,8 @@ import socket
 import pytest
 
 from benchmarks.faults._machine import has_ipv6_loopback
-from streamseg import client, endpoints
-from streamseg.client import listen, request, subscribe
+from streamseg import endpoints
+from streamseg.client import control, listen, request, subscribe, subscription
 from streamseg.commands.replay import replay
 from streamseg.daemon import security
 
@@ -32,7 +32,7 @@ def test_which_endpoints_need_ipv6(endpoint, six):
 
 
 def test_the_daemon_and_the_client_share_one_helper():
-    assert client.ipv6 is security.ipv6 is endpoints.ipv6
+    assert control.ipv6 is subscription.ipv6 is security.ipv6 is endpoints.ipv6
 
 
 @pytest.mark.skipif(

@@ -30,6 +30,7 @@ from streamseg.online import (
     WithdrawEvent,
     final_cuts,
 )
+from tests.cli_words import STREAMSEG, listen_to
 from tests.naive import naive_settle
 from tests.test_checkpoint_store import through_sqlite
 
@@ -197,14 +198,8 @@ def test_daemon_withdraws_a_pending_cut_and_the_listeners_drop_it(
     assert mini.stdout.readline().startswith("listening on")
     cli = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
-            "listen",
-            "--from",
-            ep["publish"],
-            "--control",
-            ep["control"],
+            *STREAMSEG,
+            *listen_to(ep),
             "--stream",
             "w",
             "--jsonl",

@@ -19,6 +19,8 @@ import pytest
 
 from streamseg.cli import main
 from streamseg.client import request
+from tests.cli_words import FREE_PORTS, STREAMSEG
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 
@@ -78,16 +80,9 @@ def push_take(out, positions, fps, t0, first=0, step=60):
 def serve(*extra):
     """`streamseg serve` on free loopback ports; returns (process, endpoints)."""
     cmd = [
-        sys.executable,
-        "-m",
-        "streamseg.cli",
+        *STREAMSEG,
         "serve",
-        "--ingest",
-        "tcp://127.0.0.1:0",
-        "--publish",
-        "tcp://127.0.0.1:0",
-        "--control",
-        "tcp://127.0.0.1:0",
+        *FREE_PORTS,
         "--state-dir",
         "none",
         *extra,
@@ -101,13 +96,14 @@ def serve(*extra):
 
 def wait_frames(control, stream, n, timeout=60.0):
     """Wait until the daemon has taken ``n`` frames of ``stream`` (its control reply)."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        streams = {s["stream"]: s for s in request(control, "streams")["streams"]}
-        if stream in streams and streams[stream]["frame"] >= n:
-            return
-        time.sleep(0.05)
-    raise TimeoutError(f"{stream}: fewer than {n} frames after {timeout} s")
+    wait_until(
+        lambda: any(
+            s["stream"] == stream and s["frame"] >= n
+            for s in request(control, "streams")["streams"]
+        ),
+        f"{stream} reached {n} frames",
+        timeout,
+    )
 
 
 def pull_markers(inlet, want_closed: str, timeout=30.0):
@@ -170,9 +166,7 @@ def test_an_lsl_take_gives_the_cuts_of_the_file_and_lsl_markers(
         out = outlet_of(lsl, rec, source)
         bridge = subprocess.Popen(
             [
-                sys.executable,
-                "-m",
-                "streamseg.cli",
+                *STREAMSEG,
                 "lsl",
                 "--to",
                 ep["ingest"],
@@ -272,9 +266,7 @@ def test_lsl_input_sends_markers_as_the_joints_of_the_map(lsl, start_daemon, rec
     out = lsl.StreamOutlet(info, chunk_size=0, max_buffered=600)
     bridge = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             "lsl",
             "--to",
             ep["ingest"],

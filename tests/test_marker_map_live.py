@@ -13,6 +13,7 @@ from streamseg import protocol as P
 from streamseg.cli import main
 from streamseg.client import listen, subscribe
 from streamseg.skeleton.marker_sets import JOINTS
+from tests.cli_words import FREE_PORTS
 
 # the CMU joint of 86_01 that stands for each canonical joint of the map
 CMU = {
@@ -125,12 +126,7 @@ def test_serve_takes_the_map_from_its_option_or_its_config(tmp_path, capsys):
                     "serve",
                     "--state-dir",
                     "none",
-                    "--ingest",
-                    "tcp://127.0.0.1:0",
-                    "--publish",
-                    "tcp://127.0.0.1:0",
-                    "--control",
-                    "tcp://127.0.0.1:0",
+                    *FREE_PORTS,
                     *extra,
                 ]
             )

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from tests.test_cli_audit import _one_line
+from tests.waiting import wait_until
 
 
 @pytest.fixture(scope="module")
@@ -64,47 +65,15 @@ def test_batch_skips_what_it_cannot_read_and_a_rerun_with_the_missing_skeleton_r
     shutil.copy(data_dir / "cmu_exercise" / "labels.csv", lone)
     files = [str(data_dir / "cmu86" / "86_01.amc.gz"), str(lone / "14_14.amc.gz")]
     out = tmp_path / "o.jsonl"
-    assert (
-        main(
-            [
-                "batch",
-                *files,
-                "--method",
-                "lof",
-                "--workers",
-                "1",
-                "--output",
-                str(out),
-                "--labels",
-                str(lone),
-            ]
-        )
-        == 0
-    )
+    batch = ["batch", *files, "--method", "lof", "--workers", "1", "--output", str(out)]
+    batch += ["--labels", str(lone)]
+    assert main(batch) == 0
     printed = capsys.readouterr()
     lines = {o["file"]: o for o in map(json.loads, out.read_text().splitlines())}
     assert lines[files[1]]["skipped"] is True and "--skeleton" in lines[files[1]]["error"]
     assert "2 recordings (2 run now, 0 already in" in printed.out
     assert "1 segmented; 1 skipped" in printed.out and "0 failed; 0 scored against" in printed.out
-    assert (
-        main(
-            [
-                "batch",
-                *files,
-                "--method",
-                "lof",
-                "--workers",
-                "1",
-                "--output",
-                str(out),
-                "--labels",
-                str(lone),
-                "--skeleton",
-                str(data_dir / "cmu86" / "86.asf"),
-            ]
-        )
-        == 0
-    )
+    assert main([*batch, "--skeleton", str(data_dir / "cmu86" / "86.asf")]) == 0
     printed = capsys.readouterr()
     assert "2 recordings (1 run now, 1 already in" in printed.out
     assert "2 segmented; 0 skipped" in printed.out and "0 failed; 1 scored against" in printed.out
@@ -124,7 +93,6 @@ def test_a_view_started_after_a_stream_closed_lists_it(start_daemon, rec):
     pytest.importorskip("aiohttp")
     import dataclasses
     import json
-    import time
     import urllib.request
 
     from streamseg.client import listen, request, subscribe
@@ -148,13 +116,10 @@ def test_a_view_started_after_a_stream_closed_lists_it(start_daemon, rec):
     view = ViewThread(ep["publish"], ep["control"], poll=0.2)
     url = view.start()
     try:
-        deadline = time.monotonic() + 60  # a bound on a wait for the view, not a timing
-        while True:
-            rows = json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
-            if rows:
-                break
-            assert time.monotonic() < deadline, "the view never listed the closed stream"
-            time.sleep(0.1)
+        rows = wait_until(
+            lambda: json.load(urllib.request.urlopen(url + "api/streams"))["rows"],
+            "the view listed the closed stream",
+        )
     finally:
         view.stop()
     assert [(r["stream"], r["closed"]) for r in rows] == [("done", "end")]

@@ -10,6 +10,9 @@ from pathlib import Path
 
 import pytest
 
+from tests.cli_words import FREE_PORTS, STREAMSEG
+from tests.waiting import wait_until
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -124,23 +127,14 @@ def _serve(line, tmp_path, name):
     on a shared machine) with a state folder of its own; ``(process, endpoints, url)``."""
     import shlex
     import subprocess
-    import sys
 
     words = shlex.split(line)[1:]
     words = [("127.0.0.1:0" if w.startswith("127.0.0.1:") else w) for w in words]
-    loop = "tcp://127.0.0.1:0"
     proc = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             *words,
-            "--ingest",
-            loop,
-            "--publish",
-            loop,
-            "--control",
-            loop,
+            *FREE_PORTS,
             "--state-dir",
             str(tmp_path / name),
             "--log-level",
@@ -224,7 +218,6 @@ def test_the_live_view_commands_run_as_written(tmp_path):
     """serve --http and the replay with --labels: the page lists the stream with its human
     labels."""
     import json
-    import time
     import urllib.request
 
     pytest.importorskip("aiohttp")
@@ -234,13 +227,14 @@ def test_the_live_view_commands_run_as_written(tmp_path):
     try:
         done = _run(_on(replay, ep), timeout=600)
         assert done.returncode == 0, done.stderr
-        deadline = time.monotonic() + 60  # a bound on the wait, not a timing
-        while True:
-            rows = json.load(urllib.request.urlopen(url + "api/streams"))["rows"]
-            if rows and rows[0].get("closed"):
-                break
-            assert time.monotonic() < deadline, rows
-            time.sleep(0.2)
+        rows = wait_until(
+            lambda: (
+                (rows := json.load(urllib.request.urlopen(url + "api/streams"))["rows"])
+                and rows[0].get("closed")
+                and rows
+            ),
+            "the view listed the replayed stream as closed",
+        )
         assert rows[0]["stream"] == "86_01" and rows[0]["closed"] == "end"
     finally:
         _stop(proc)

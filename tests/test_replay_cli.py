@@ -6,7 +6,6 @@ import os
 import signal
 import socket
 import subprocess
-import sys
 import threading
 import time
 
@@ -15,6 +14,7 @@ import pytest
 from streamseg.client import listen, request, subscriber
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
+from tests.cli_words import STREAMSEG
 from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
@@ -23,9 +23,7 @@ LOOP = "tcp://127.0.0.1:0"
 
 def replay_cmd(data_dir, to, *extra):
     return [
-        sys.executable,
-        "-m",
-        "streamseg.cli",
+        *STREAMSEG,
         "replay",
         str(data_dir / "cmu86" / "86_01.amc.gz"),
         "--skeleton",

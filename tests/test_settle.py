@@ -15,6 +15,7 @@ from streamseg.daemon.options import skeleton_from
 from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.daemon.relabel_job import relabel
 from streamseg.daemon.settle import Settlement
+from tests.waiting import wait_until
 
 FPS = 100.0
 
@@ -172,9 +173,12 @@ def _send_take(ep, rec, stream, got, done, end=True):
 
     push = zmq.Context.instance().socket(zmq.PUSH)
     push.connect(ep["ingest"])
-    while not got:
+
+    def probed():
         push.send_multipart(protocol.encode(protocol.Frames(stream, 0, 0.0, rec.positions[:1])))
-        done.wait(0.2)
+        return got
+
+    wait_until(probed, "a probe's error came back through the subscription", interval=0.2)
     got.clear()
     push.send_multipart(protocol.encode(announce_of(rec, stream)))
     for i in range(0, rec.n_frames, 120):
@@ -231,8 +235,8 @@ def test_cuts_stand_when_shutdown_leaves_no_time_for_the_final_relabel(start_dae
     got, done = [], threading.Event()
     th = _listen_until_closed(ep, "w", got, done)
     _send_take(ep, rec, "w", got, done, end=False)
-    while d.n_frames < rec.n_frames:  # every frame taken (counted as they are received)
-        done.wait(0.05)
+    # every frame taken (counted as they are received)
+    wait_until(lambda: d.n_frames >= rec.n_frames, "every frame taken", timeout=300)
     d.stop()
     assert done.wait(60), "no closed event"
     th.join(5)

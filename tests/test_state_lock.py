@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import sqlite3
 import threading
-import time
 
 import pytest
 
@@ -19,6 +18,7 @@ from streamseg.commands.replay import replay
 from streamseg.config import DaemonConfig
 from streamseg.daemon import Daemon
 from streamseg.daemon.state_lock import StateDirInUse
+from tests.waiting import wait_until
 
 pytestmark = pytest.mark.daemon
 LOOP = "tcp://127.0.0.1:0"
@@ -37,10 +37,11 @@ def test_a_second_daemon_on_the_same_state_dir_is_refused(start_daemon, rec, tmp
         batch=20,
         end=False,
     )
-    deadline = time.monotonic() + 30
-    while request(ep["control"], "state", stream="held").get("frame") != 600:
-        assert time.monotonic() < deadline, "the daemon did not take the 600 frames"
-        time.sleep(0.01)
+    wait_until(
+        lambda: request(ep["control"], "state", stream="held").get("frame") == 600,
+        "the daemon took the 600 frames",
+        timeout=30,
+    )
     assert request(ep["control"], "checkpoint")["streams"] == 1
     s.close()
     logged = (

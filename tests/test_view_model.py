@@ -16,6 +16,7 @@ from streamseg.daemon import Daemon
 from streamseg.evaluation.labels import read_labels
 from streamseg.view.agreement import HumanLabels
 from streamseg.view.model import Hub
+from tests.cli_words import FREE_PORTS, STREAMSEG
 
 LOOP = "tcp://127.0.0.1:0"
 
@@ -180,22 +181,13 @@ def test_serve_http_and_view_commands_serve_the_page():
     import json
     import signal
     import subprocess
-    import sys
     import urllib.request
 
-    loop = "tcp://127.0.0.1:0"
     serve = subprocess.Popen(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             "serve",
-            "--ingest",
-            loop,
-            "--publish",
-            loop,
-            "--control",
-            loop,
+            *FREE_PORTS,
             "--http",
             "127.0.0.1:0",
             "--log-level",
@@ -223,9 +215,7 @@ def test_serve_http_and_view_commands_serve_the_page():
         assert api["rows"] == [] and api["header"]["control"] == ep["control"]
         view = subprocess.Popen(
             [
-                sys.executable,
-                "-m",
-                "streamseg.cli",
+                *STREAMSEG,
                 "view",
                 "--from",
                 ep["publish"],
@@ -314,7 +304,6 @@ def test_a_stream_lost_in_a_daemon_crash_is_marked_lost(rec):
     import json
     import signal
     import subprocess
-    import sys
     import urllib.request
 
     from streamseg.view.server import ViewThread
@@ -322,9 +311,7 @@ def test_a_stream_lost_in_a_daemon_crash_is_marked_lost(rec):
     def serve(ingest="tcp://127.0.0.1:0", publish="tcp://127.0.0.1:0", control="tcp://127.0.0.1:0"):
         p = subprocess.Popen(
             [
-                sys.executable,
-                "-m",
-                "streamseg.cli",
+                *STREAMSEG,
                 "serve",
                 "--ingest",
                 ingest,

@@ -7,13 +7,13 @@ import gc
 import logging
 import socket
 import subprocess
-import sys
 
 import pytest
 
 pytest.importorskip("aiohttp", reason="aiohttp is not installed (pip install -e '.[view]')")
 
 from streamseg.view.server import ViewThread  # noqa: E402
+from tests.cli_words import FREE_PORTS, STREAMSEG
 
 
 @pytest.fixture
@@ -36,21 +36,13 @@ def test_a_view_that_cannot_bind_leaves_no_pending_task(taken, caplog):
 
 @pytest.mark.daemon
 def test_serve_http_on_a_taken_port_is_one_line(taken):
-    loop = "tcp://127.0.0.1:0"
     proc = subprocess.run(
         [
-            sys.executable,
-            "-m",
-            "streamseg.cli",
+            *STREAMSEG,
             "serve",
             "--http",
             f"127.0.0.1:{taken}",
-            "--ingest",
-            loop,
-            "--publish",
-            loop,
-            "--control",
-            loop,
+            *FREE_PORTS,
             "--state-dir",
             "none",
         ],

@@ -11,7 +11,6 @@ high-water mark) is reported on stderr and, with ``--control``, filled from the 
 from __future__ import annotations
 
 import sys
-import time
 
 import zmq
 
@@ -25,6 +24,17 @@ from streamseg.client import (
     request,
     subscriber,
 )
+from streamseg.commands.listen_history import _every_history, _history, _not_fetched
+from streamseg.commands.listen_lines import (
+    CutBook,
+    _json_state,
+    _state_line,
+    format_event,
+    json_event,
+    merged_runs,
+)
+
+__all__ = ["CutBook", "add_arguments", "format_event", "json_event", "merged_runs", "run"]
 
 
 def add_arguments(parser) -> None:
@@ -82,127 +92,6 @@ def add_arguments(parser) -> None:
         metavar="S",
         help="give up (exit 1) after this many seconds without an event",
     )
-
-
-def json_event(ev) -> dict:
-    """An event as ``listen --jsonl`` prints it (docs/output.md): its fields, with segments
-    as ``{"start", "end", "label"}`` objects like ``segment --json`` prints them."""
-    out = protocol.to_json(ev)
-    if ev.type == "segments":
-        out["segments"] = [
-            {"start": int(a), "end": int(b), "label": int(lab)} for a, b, lab in ev.segments
-        ]
-    return out
-
-
-def _json_state(state: dict) -> dict:
-    segs = state.get("segments")
-    if isinstance(segs, dict) and isinstance(segs.get("segments"), list):
-        segs = dict(
-            segs, segments=[{"start": a, "end": b, "label": lab} for a, b, lab in segs["segments"]]
-        )
-        state = dict(state, segments=segs)
-    return state
-
-
-def merged_runs(segments) -> list:
-    """Consecutive segments of one label joined: ACA's segments are cycles of an action, a
-    reader wants the actions."""
-    runs = []
-    for a, b, lab in segments:
-        if runs and runs[-1][2] == lab and runs[-1][1] == a:
-            runs[-1] = (runs[-1][0], b, lab)
-        else:
-            runs.append((a, b, lab))
-    return runs
-
-
-def format_event(ev) -> str:
-    """One readable line per event."""
-    t = ev.type
-    if t == "cut":
-        ms = f".{int(ev.time * 1000) % 1000:03d}"
-        when = (
-            time.strftime("%H:%M:%S", time.gmtime(ev.time)) + ms + "Z"
-            if ev.time > 1e8
-            else f"{ev.time:9.3f}s"
-        )  # a sender clock, or stream seconds
-        return (
-            f"[{ev.stream}] cut      frame {ev.frame:7d}  t={when}  score "
-            f"{ev.score:6.2f}  (emitted at frame {ev.emitted_at}, "
-            f"{'pending' if ev.pending else 'provisional'})"
-        )
-    if t == "confirm":
-        return (
-            f"[{ev.stream}] confirm  frame {ev.frame:7d}  the pending cut stands "
-            f"(at frame {ev.emitted_at})"
-        )
-    if t == "withdraw":
-        why = "moved: a cut nearby follows" if ev.moved else "no cut there"
-        return (
-            f"[{ev.stream}] withdraw frame {ev.frame:7d}  the pending cut is taken back "
-            f"(at frame {ev.emitted_at}, {why})"
-        )
-    if t == "segments":
-        runs = merged_runs(ev.segments)
-        segs = " ".join(f"{a}-{b}:{lab}" for a, b, lab in runs[:12])
-        more = f" +{len(runs) - 12}" if len(runs) > 12 else ""
-        return (
-            f"[{ev.stream}] relabel  rev {ev.revision:3d}  frames {ev.start}-{ev.end}  "
-            f"{len(runs)} runs of {len({r[2] for r in runs})} labels"
-            f"{' FINAL' if ev.final else ''} ({ev.elapsed * 1000:.0f} ms): {segs}{more}"
-        )
-    if t == "error":
-        return f"[{ev.stream or '-'}] error    {ev.reason} x{ev.count}: {ev.message}"
-    if t == "gap":
-        return f"[{ev.stream}] gap      frames {ev.expected}..{ev.got - 1} missing"
-    if t == "rep":
-        return f"[{ev.stream}] rep      #{ev.count} frames {ev.start}-{ev.end}"
-    if t == "closed":
-        return f"[{ev.stream}] closed   ({ev.reason}) after {ev.frames} frames"
-    if t == "stats":
-        tot = ev.totals
-        return (
-            f"[*] stats    up {ev.uptime:.1f}s  streams {tot.get('streams', 0)}  frames "
-            f"{tot.get('frames', 0)}  events {tot.get('events', 0)}  errors "
-            f"{tot.get('errors', 0)}"
-        )
-    return repr(ev)
-
-
-class CutBook:
-    """Each stream's cuts with its ``withdraw`` events applied (two-stage detector).
-
-    :meth:`apply` returns, at a stream's ``closed`` event when the stream had pending cuts,
-    the line ``{"type": "cuts", "stream", "frames", "withdrawn"}`` listing its cuts minus
-    the withdrawn ones (the final cuts, in frame order); else None.
-    """
-
-    def __init__(self):
-        self.cuts: dict = {}  # stream -> frames (emission order)
-        self.withdrawn: dict = {}  # stream -> count; present once a pending cut was seen
-
-    def apply(self, ev):
-        stream = getattr(ev, "stream", None)
-        if ev.type == "cut":
-            self.cuts.setdefault(stream, []).append(ev.frame)
-            if ev.pending:
-                self.withdrawn.setdefault(stream, 0)
-        elif ev.type == "withdraw":
-            frames = self.cuts.get(stream, [])
-            if ev.frame in frames:
-                del frames[len(frames) - 1 - frames[::-1].index(ev.frame)]
-                self.withdrawn[stream] = self.withdrawn.get(stream, 0) + 1
-        elif ev.type == "closed":
-            frames = self.cuts.pop(stream, [])
-            if stream in self.withdrawn:
-                return {
-                    "type": "cuts",
-                    "stream": stream,
-                    "frames": sorted(frames),
-                    "withdrawn": self.withdrawn.pop(stream),
-                }
-        return None
 
 
 def _bad_option(args):
@@ -372,124 +261,3 @@ def run(args) -> int:
         monitor.close(linger=0)
         sock.close()
     return 0
-
-
-def _history(args, state: dict, ctx, curve=None):
-    """The logged events of the stream since ``--since`` (or since it opened, for a stream
-    that is open), ``--type`` applied; None when there is nothing to fetch or no log."""
-    if args.since is None and (state.get("closed") or "seq_base" not in state):
-        return None
-    start = args.since if args.since is not None else state["seq_base"]
-    try:
-        return _stream_history(args, args.stream, start, ctx, curve, say_newest=True)
-    except (LookupError, TimeoutError) as err:
-        if args.since is not None:
-            print(f"streamseg listen: --since: {err}", file=sys.stderr)
-        return None
-
-
-def _every_history(args, ctx, curve=None) -> list:
-    """``--since N`` without ``--stream``: the logged events above N of every stream id the
-    log holds (``*`` for daemon-wide events), stream by stream in the order of their oldest
-    event held, ``--type`` applied."""
-    try:
-        reply = request(args.control, "logged", ctx, curve=curve)
-        if not reply.get("ok"):
-            raise LookupError(reply.get("error"))
-        out = []
-        for row in reply["streams"]:
-            if row["last"] > args.since:
-                out += _stream_history(args, row["stream"], args.since, ctx, curve)
-    except (LookupError, TimeoutError) as err:
-        print(f"streamseg listen: --since: {err}", file=sys.stderr)
-        return []
-    if reply.get("more"):
-        print(
-            f"streamseg listen: --since: the log holds more stream ids than one reply "
-            f"lists; fetched those of the first {len(reply['streams'])}",
-            file=sys.stderr,
-        )
-    if not reply["streams"] or max(r["last"] for r in reply["streams"]) <= args.since:
-        newest = max((r["last"] for r in reply["streams"]), default=0)
-        print(
-            f"streamseg listen: --since {args.since}: the newest event number of any "
-            f"stream is {newest}: nothing to fetch, following live events",
-            file=sys.stderr,
-        )
-    return out
-
-
-def _stream_history(
-    args, stream: str, start: int, ctx, curve=None, say_newest: bool = False
-) -> list:
-    """The logged events of ``stream`` above ``start``, ``--type`` applied; what the log
-    cannot give (retention, numbers skipped at a restart) is said on stderr. Raises
-    LookupError (no log) and TimeoutError."""
-    said, skipped = [], []
-
-    def say_range(first, last):  # what the log cannot give, said rather than left silent
-        if say_newest and args.since is not None and args.since > last:
-            newest = f"is {last}" if last else "does not exist (no event logged)"
-            print(
-                f"streamseg listen: --since {args.since}: the newest event of stream "
-                f"{stream} {newest}: nothing to fetch, following live events",
-                file=sys.stderr,
-            )
-        elif first > start + 1:
-            said.append((start + 1, first - 1))
-
-    evs = fetch_since(
-        args.control, stream, start, ctx, curve=curve, on_range=say_range, skipped=skipped
-    )
-    for lo, hi in said:
-        n_skipped = count_in(skipped, lo, hi)
-        if n_skipped == hi - lo + 1:
-            print(
-                f"streamseg listen: numbers {lo}..{hi} of stream {stream} were "
-                "skipped at a restart after a crash (no event had them); fetching from "
-                f"{hi + 1}",
-                file=sys.stderr,
-            )
-        else:
-            print(
-                f"streamseg listen: events {lo}..{hi} of stream {stream} are no "
-                "longer in the event log (retention: --log-max-mb, --log-max-days"
-                + (f"; {n_skipped} of the numbers were skipped at a restart" if n_skipped else "")
-                + f"); fetching from {hi + 1}",
-                file=sys.stderr,
-            )
-    return [e for e in evs if args.kind is None or e.type == args.kind]
-
-
-def _not_fetched(missing: int, skipped: int) -> str:
-    """What a hole report says of the numbers the log did not give."""
-    if not missing:
-        return ""
-    text = (
-        (f"; {skipped} numbers were skipped at a restart after a crash (no event had them)")
-        if skipped
-        else ""
-    )
-    if missing > skipped:
-        text += (
-            f"; {missing - skipped} events are not in the log (retention, or a disk "
-            "that refused them: the daemon's `error` events say)"
-        )
-    return text
-
-
-def _state_line(state: dict) -> str:
-    seg = state.get("segments")
-    if seg is None:
-        segs = "none"
-    else:  # in the unit of the relabel lines: runs of one label
-        runs = merged_runs(seg["segments"])
-        segs = (
-            f"{len(runs)} runs of {len({r[2] for r in runs})} labels over "
-            f"{seg['start']}-{seg['end']}"
-        )
-    return (
-        f"[{state['stream']}] state    frame {state['frame']}  revision {state['revision']}  "
-        f"{segs}  + {len(state['cuts'])} newer cuts"
-        + (f"  closed ({state['closed']})" if state.get("closed") else "")
-    )

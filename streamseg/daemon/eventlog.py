@@ -15,7 +15,8 @@ while the checkpoints pause.
 A damaged file is found at start (opening fails or ``PRAGMA quick_check`` does not answer
 ``ok``) and moved aside as ``events.corrupt-<time>.sqlite``; :attr:`EventLog.quarantined`
 says so, for the daemon to publish. Read errors later are counted (:attr:`EventLog.read_failed`)
-and raised as :class:`LogReadError`, which names the file.
+and raised as :class:`LogReadError`, which names the file. The file's schema, batch
+transaction and retention step are in :mod:`~streamseg.daemon.eventlog_file`.
 """
 
 from __future__ import annotations
@@ -27,7 +28,13 @@ import threading
 import time
 from pathlib import Path
 
-from streamseg import protocol
+from streamseg.daemon.eventlog_file import (
+    SCHEMA,
+    live_size,
+    reserve,
+    retain_step,
+    write_rows,
+)
 
 # moved out of this module; server.py still takes them from here
 from streamseg.daemon.numbering import Numbering as Numbering
@@ -35,33 +42,6 @@ from streamseg.daemon.state_files import LogReadError as LogReadError
 from streamseg.daemon.state_files import connect, move_aside
 
 log = logging.getLogger("streamseg.daemon")
-
-SCHEMA = """
-CREATE TABLE IF NOT EXISTS events (
-    id INTEGER PRIMARY KEY,
-    stream TEXT NOT NULL,
-    seq INTEGER NOT NULL,
-    type TEXT NOT NULL,
-    t REAL NOT NULL,
-    body BLOB NOT NULL
-);
-CREATE INDEX IF NOT EXISTS events_stream_seq ON events (stream, seq);
-CREATE TABLE IF NOT EXISTS skips (
-    stream TEXT NOT NULL,
-    lo INTEGER NOT NULL,
-    hi INTEGER NOT NULL,
-    t REAL NOT NULL
-);
-CREATE INDEX IF NOT EXISTS skips_stream ON skips (stream, hi);
-CREATE TABLE IF NOT EXISTS open_takes (stream TEXT PRIMARY KEY);
-"""
-
-#: free pages the log keeps in its own file (4 kB each: 4 MB, some 20,000 events), so it can
-#: still write when the disk is full (the checkpoints pause first)
-RESERVE_PAGES = 1024
-#: rows deleted by one retention step at most (the next step follows at once): a long delete
-#: would hold back the commits, and so the publication, of the events behind it
-RETAIN_STEP = 20_000
 
 
 def open_log(config, notify=None) -> EventLog | None:
@@ -172,22 +152,9 @@ class EventLog:
                     pass
 
     def _reserve(self) -> None:
-        """Grow the file's free pages to :data:`RESERVE_PAGES` (a blob written and deleted:
-        its pages stay in the file, and the WAL keeps the size it reached)."""
-        free = self._w.execute("PRAGMA freelist_count").fetchone()[0]
-        if free >= RESERVE_PAGES:
-            return
-        size = self._w.execute("PRAGMA page_size").fetchone()[0]
         try:
-            self._w.execute("BEGIN")
-            self._w.execute("CREATE TABLE IF NOT EXISTS reserve (b BLOB)")
-            self._w.execute(
-                "INSERT INTO reserve VALUES (zeroblob(?))", ((RESERVE_PAGES - free) * size,)
-            )
-            self._w.execute("DROP TABLE reserve")
-            self._w.execute("COMMIT")
+            reserve(self._w)
         except sqlite3.OperationalError as err:  # no room for it: the log goes on without
-            self._w.execute("ROLLBACK")
             log.warning("event log %s: no room for its reserve (%s)", self.path, err)
 
     # --- the loop's side ---------------------------------------------------------------------
@@ -372,26 +339,7 @@ class EventLog:
     def _write(self, batch: list, skips: list = ()) -> None:
         t0 = time.perf_counter()
         try:
-            self._w.execute("BEGIN")
-            self._w.executemany(
-                "INSERT INTO events (stream, seq, type, t, body) VALUES (?, ?, ?, ?, ?)", batch
-            )
-            self._w.executemany("INSERT INTO skips VALUES (?, ?, ?, ?)", skips)
-            opened: dict = {}  # stream -> its take is open after this batch
-            for row in batch:
-                if row[2] == "closed":
-                    opened[row[0]] = False
-                elif row[2] != "error" and row[0] != protocol.DAEMON_WIDE:
-                    opened[row[0]] = True
-            self._w.executemany(
-                "INSERT OR IGNORE INTO open_takes VALUES (?)",
-                [(k,) for k, v in opened.items() if v],
-            )
-            self._w.executemany(
-                "DELETE FROM open_takes WHERE stream = ?",
-                [(k,) for k, v in opened.items() if not v],
-            )
-            self._w.execute("COMMIT")
+            write_rows(self._w, batch, skips)
             self.written += len(batch)
         except sqlite3.Error as err:  # a full disk must not stop the daemon: say so, go on
             if not self.failed:
@@ -411,41 +359,10 @@ class EventLog:
 
     def _retain(self) -> bool:
         """One step of retention: delete events older than ``max_age``, then the oldest while
-        over ``max_bytes``, at most :data:`RETAIN_STEP` rows; True when more is due."""
+        over ``max_bytes`` (:func:`~streamseg.daemon.eventlog_file.retain_step`); True when more is
+        due."""
         try:
-            more, before = False, self.deleted
-            # the first young row by id (ids grow with time): no scan of the old rows' bodies
-            young = self._w.execute(
-                "SELECT id FROM events WHERE t >= ? ORDER BY id LIMIT 1",
-                (time.time() - self.max_age,),
-            ).fetchone()
-            low = self._w.execute("SELECT min(id) FROM events").fetchone()[0]
-            if low is not None:
-                end = young[0] if young else low + RETAIN_STEP + 1
-                cut = min(end - 1, low + RETAIN_STEP - 1)
-                if cut >= low:
-                    self._delete(cut)
-                    more = cut < end - 1
-            budget = RETAIN_STEP - (self.deleted - before)
-            while not more and self.size() > self.max_bytes:
-                n = self._w.execute("SELECT count(*) FROM events").fetchone()[0]
-                if not n:
-                    break
-                if budget <= 0:
-                    more = True
-                    break
-                step = min(max(n // 10, 1), budget)
-                cut = self._w.execute(
-                    "SELECT id FROM events ORDER BY id LIMIT 1 OFFSET ?", (step - 1,)
-                ).fetchone()[0]
-                self._delete(cut)
-                budget -= step
-            if not more:
-                self._w.execute("DELETE FROM skips WHERE t < ?", (time.time() - self.max_age,))
-                free = self._w.execute("PRAGMA freelist_count").fetchone()[0]
-                if free > RESERVE_PAGES:  # the rest of the freed pages go back to the disk
-                    # (executescript: a cursor would step it once, one page)
-                    self._w.executescript(f"PRAGMA incremental_vacuum({free - RESERVE_PAGES});")
+            more = retain_step(self._w, self.max_age, self.max_bytes, self._count_deleted)
             self.live_bytes = self.size()
             self.retentions += 1
             self._retain_error = None
@@ -462,12 +379,9 @@ class EventLog:
                 self._retain_error = str(err)
             return False
 
-    def _delete(self, cut: int) -> None:
-        cur = self._w.execute("DELETE FROM events WHERE id <= ?", (cut,))
-        self.deleted += cur.rowcount
+    def _count_deleted(self, n: int) -> None:
+        self.deleted += n
 
     def size(self) -> int:
         """Bytes in use by live pages (the file may be larger until vacuumed)."""
-        pages = self._w.execute("PRAGMA page_count").fetchone()[0]
-        free = self._w.execute("PRAGMA freelist_count").fetchone()[0]
-        return (pages - free) * self._w.execute("PRAGMA page_size").fetchone()[0]
+        return live_size(self._w)

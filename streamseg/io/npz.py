@@ -46,6 +46,19 @@ def write_npz(path, recording: Recording, *, compress: bool = False) -> None:
     (np.savez_compressed if compress else np.savez)(path, **arrays)
 
 
+def npy_header(fh) -> tuple:
+    """``(shape, fortran_order, dtype, data_offset)`` of the ``.npy`` header at ``fh``'s
+    position (format 1.0 or 2.0)."""
+    version = np.lib.format.read_magic(fh)
+    read_header = (
+        np.lib.format.read_array_header_1_0
+        if version == (1, 0)
+        else np.lib.format.read_array_header_2_0
+    )
+    shape, fortran, dtype = read_header(fh)
+    return shape, fortran, dtype, fh.tell()
+
+
 def _mapped(path: Path, member: str) -> np.ndarray | None:
     """Read-only memory map of an uncompressed ``.npy`` member of a zip archive, else None."""
     with zipfile.ZipFile(path) as zf:
@@ -61,14 +74,7 @@ def _mapped(path: Path, member: str) -> np.ndarray | None:
             + int.from_bytes(local[26:28], "little")
             + int.from_bytes(local[28:30], "little")
         )
-        version = np.lib.format.read_magic(fh)
-        read_header = (
-            np.lib.format.read_array_header_1_0
-            if version == (1, 0)
-            else np.lib.format.read_array_header_2_0
-        )
-        shape, fortran, dtype = read_header(fh)
-        offset = fh.tell()
+        shape, fortran, dtype, offset = npy_header(fh)
     return np.memmap(
         path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C"
     )
