@@ -30,6 +30,7 @@ from streamseg import protocol
 from streamseg.config import DaemonConfig
 from streamseg.daemon import checkpoint, checkpoint_store, limits
 from streamseg.daemon.algorithms import algorithms_for
+from streamseg.daemon.allocation import fix_mmap_threshold
 from streamseg.daemon.backends import relabel_worker
 from streamseg.daemon.closed_streams import ClosedStreams
 from streamseg.daemon.control import Control
@@ -218,6 +219,7 @@ class Daemon:
         # switch interval than CPython's 5 ms keeps ingest flowing while such a thread runs
         # (docs/decisions.md, Ingest memory)
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL))
+        fix_mmap_threshold()  # packets' memory goes back to the system when freed
         try:
             # the control socket answers only once this is done: say why a first start waits
             log.info(
