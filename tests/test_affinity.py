@@ -1,6 +1,7 @@
 """The spectral initialization's normalized affinity (``streamseg._kernels.affinity``) and the
 DP step's merging of old segments of identical frames: both the same to the bit as the plain
-computation."""
+computation; the embedding of a 0/1 affinity of repeated rows solved on its distinct rows:
+the embedding over every item."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from streamseg._kernels.affinity import scale_both, symmetrized
 from streamseg.offline.aca_descent import _identical_merged, candidate_table, descend, frame_ids
 from streamseg.offline.aca_init import (
     _normalized_affinity,
+    grouped_embedding,
     propagated_similarity,
     random_tiling,
 )
@@ -26,14 +28,25 @@ def _matrices(m, rng):
     A = rng.random((m, m))
     A[rng.random((m, m)) < 0.3] = 0.0  # some exact zeros, a row of them
     A[m // 2] = 0.0
-    return {"float64": A, "symmetric": (A + A.T) / 2, "bool": A > 0.5}
+    B = A > 0.5
+    S = B | B.T
+    S[m // 3] = False  # a row of zeros left by the symmetric cases too
+    S[:, m // 3] = False
+    return {
+        "float64": A,
+        "symmetric": (A + A.T) / 2,
+        "bool": B,
+        "symmetric bool": S,
+        "symmetric int8": S.astype(np.int8),
+        "int8": B.astype(np.int8),
+    }
 
 
 @pytest.mark.parametrize("m", [1, 2, 63, 64, 65, 130, 1001])
 def test_normalized_affinity_equals_the_numpy_expression(m):
     rng = np.random.default_rng(m)
     for name, A in _matrices(m, rng).items():
-        got = _normalized_affinity(A)
+        got = _normalized_affinity(A, symmetric=name.startswith("symmetric "))
         want = naive_normalized_affinity(A)
         assert got.dtype == want.dtype == np.float32
         assert np.array_equal(got, want), name
@@ -64,6 +77,7 @@ def test_propagated_similarity_equals_the_numpy_loops(seed):
     wmax = int(rng.integers(1, 25))
     got = propagated_similarity(classes, wmax)
     assert got.dtype == np.bool_
+    assert np.array_equal(got, got.T)  # spectral_labels is told so (propagated_init)
     assert np.array_equal(got, naive_propagated_similarity(classes, wmax))
 
 
@@ -123,3 +137,43 @@ def test_identical_segments_are_grouped_as_by_their_keys(seed):
 def test_frame_ids_group_identical_rows():
     K = frame_kernel(np.array([3, 1, 3, 2, 1, 3]), kernel="equality")
     assert frame_ids(K).tolist() == [0, 1, 0, 2, 1, 0]
+
+
+def _dense_embedding(A, k):
+    """The k leading eigenvectors of the normalized affinity over every item, unit rows."""
+    M = naive_normalized_affinity(A, np.float64)
+    _, vecs = np.linalg.eigh(M)
+    V = vecs[:, -k:]
+    return V / np.linalg.norm(V, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_grouped_embedding_is_the_embedding_over_every_item(seed):
+    rng = np.random.default_rng(seed)
+    g, k = int(rng.integers(6, 14)), int(rng.integers(2, 5))
+    B = rng.random((g, g)) < 0.3
+    B = B | B.T
+    np.fill_diagonal(B, True)
+    ids = rng.permutation(np.arange(3 * g) % g)  # every group, three items each, shuffled
+    A = B[np.ix_(ids, ids)]
+    got = grouped_embedding(A, k)
+    if got is None:  # allowed only when the k leading vectors are not group-constant
+        w = np.linalg.eigvalsh(naive_normalized_affinity(A, np.float64))
+        deg = A.sum(1) - 1
+        assert w[-k] <= (-1.0 / deg[deg > 0]).max() + 1e-9
+        return
+    want = _dense_embedding(A, k)
+    # unit rows are unique up to a rotation of the k columns: compare their inner products
+    np.testing.assert_allclose(got @ got.T, want @ want.T, atol=1e-8)
+
+
+def test_grouped_embedding_declines_what_it_does_not_solve():
+    rng = np.random.default_rng(3)
+    x = rng.integers(0, 5, 60)
+    K = x[:, None] == x[None, :]
+    assert grouped_embedding(K.astype(np.float64), 2) is None  # not a 0/1 dtype
+    assert grouped_embedding(K, 5) is None  # no more groups than k
+    A = K.copy()
+    A[0, 1:] = True  # row 0 differs from the rest of its group, so its column does too
+    assert grouped_embedding(A, 2) is None  # not P B P^T (and not symmetric)
+    assert frame_ids(np.eye(8, dtype=np.uint8), 5) is None  # 8 distinct rows, more than 5

@@ -55,6 +55,23 @@ def scale_both(M, s):
 
 
 @njit(cache=True, nogil=True)
+def scaled_symmetric(A, s, out):
+    """``out[i, j] = (A[i, j] * s[i]) * s[j]`` off the diagonal, 0 on it, each product
+    rounded to ``out``'s dtype: for a symmetric 0/1 ``A`` (uint8 or int8) the same to the bit as
+    :func:`symmetrized` then :func:`scale_both`, in one pass reading rows only."""
+    m = A.shape[0]
+    T = out.dtype.type
+    for i in range(m):
+        si = s[i]
+        row = out[i]
+        arow = A[i]
+        for j in range(m):
+            row[j] = (T(arow[j]) * si) * s[j]
+        row[i] = 0
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _buckets(key, n_keys, lo):
     """Frames ``i >= lo`` grouped by ``key[i]`` in ``0..n_keys-1``: ``(first, members)``,
     the frames of key ``g`` being ``members[first[g]:first[g + 1]]`` in increasing order."""

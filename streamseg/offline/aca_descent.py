@@ -77,14 +77,17 @@ def _identical_merged(starts, ends, labels, frame_ids):
     return starts[keep], ends[keep], labels[keep], counts.astype(np.int64)
 
 
-def frame_ids(K) -> np.ndarray:
+def frame_ids(K, limit: int | None = None):
     """(n,) int64: frames with identical rows of ``K`` (n, n) share an id (ids in order of
-    first appearance). For the equality kernel these are the frames of one value."""
+    first appearance). For the equality kernel these are the frames of one value. None
+    once more than ``limit`` distinct rows are found (when a limit is given)."""
     K = np.ascontiguousarray(K)
     ids = np.empty(K.shape[0], dtype=np.int64)
     seen: dict = {}
     for i in range(K.shape[0]):
         ids[i] = seen.setdefault(K[i].tobytes(), len(seen))
+        if limit is not None and len(seen) > limit:
+            return None
     return ids
 
 

@@ -11,9 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from streamseg._kernels.affinity import propagated, scale_both, symmetrized
+from streamseg._kernels.affinity import (
+    propagated,
+    scale_both,
+    scaled_symmetric,
+    symmetrized,
+)
 from streamseg._kernels.dtak import segment_kernel
 from streamseg._kernels.kmeans import lloyd
+from streamseg.offline.aca_descent import frame_ids
 
 
 def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray:
@@ -43,28 +49,34 @@ def kmeans(X, k: int, rng: np.random.Generator, n_iter: int = 100) -> np.ndarray
 DENSE_EIGH_MAX = 1000
 
 
-def spectral_labels(A, k: int, rng: np.random.Generator) -> np.ndarray:
+def spectral_labels(A, k: int, rng: np.random.Generator, *, symmetric: bool = False) -> np.ndarray:
     """Spectral clustering of Ng, Jordan & Weiss on affinity ``A`` (m, m). Returns (m,) labels.
 
     Embedding (:func:`spectral_embedding`), then k-means. With ``m <= k`` every item is its
     own cluster. At most O(m^2) time per matrix-vector product and O(m^2) memory (see
-    :data:`DENSE_EIGH_MAX`).
+    :data:`DENSE_EIGH_MAX`). ``symmetric``: the caller knows ``A == A.T`` (spares a pass).
     """
     m = np.shape(A)[0]
     if m <= k:
         return np.arange(m)
-    return kmeans(spectral_embedding(A, k, rng), k, rng)
+    return kmeans(spectral_embedding(A, k, rng, symmetric=symmetric), k, rng)
 
 
-def spectral_embedding(A, k: int, rng: np.random.Generator) -> np.ndarray:
+def spectral_embedding(
+    A, k: int, rng: np.random.Generator, *, symmetric: bool = False
+) -> np.ndarray:
     """The ``k`` leading eigenvectors of ``D^-1/2 A D^-1/2`` (zero diagonal) of affinity
     ``A`` (m, m), ``m > k``, rows normalized to unit length: (m, k)."""
     m = np.shape(A)[0]
     if m > DENSE_EIGH_MAX:
+        # drawn either way, so the restarts after this one draw what they always did
+        v0 = rng.uniform(0.5, 1.0, m).astype(np.float32)
+        grouped = grouped_embedding(A, k)
+        if grouped is not None:
+            return grouped
         from scipy.sparse.linalg import eigsh  # imported here: small fits never need it
 
-        M = _normalized_affinity(A)
-        v0 = rng.uniform(0.5, 1.0, m).astype(np.float32)
+        M = _normalized_affinity(A, symmetric)
         _, vecs = eigsh(M, k, which="LA", v0=v0)
         vecs = vecs.astype(np.float64)
     else:
@@ -83,19 +95,70 @@ def spectral_embedding(A, k: int, rng: np.random.Generator) -> np.ndarray:
     return vecs / np.where(norms > 0, norms, 1.0)
 
 
+def grouped_embedding(A, k: int):
+    """:func:`spectral_embedding` of a 0/1 affinity whose rows repeat, solved exactly on
+    its distinct rows, or None when that does not apply.
+
+    Items of one group (identical rows, hence identical columns when ``A`` is symmetric)
+    are the blocks of ``A = P B P^T`` (``P`` the (m, g) membership, ``c`` the group sizes,
+    ``b`` the diagonal of ``B``). ``M = D^-1/2 (A - diag A) D^-1/2`` maps the group-constant
+    vectors onto themselves, where it is the (g, g) matrix ``N = E B E - diag(b / delta)``
+    (``delta = B c - b`` the degrees, ``E = diag(sqrt(c / delta))``) in the basis ``P
+    C^-1/2``; on the vectors summing to 0 in every group it is ``-b / delta``. When the
+    ``k`` largest eigenvalues of ``N`` exceed every one of the latter, the ``k`` leading
+    eigenvectors of ``M`` are ``P C^-1/2 Z`` (``Z`` those of ``N``), whose unit rows are the
+    unit rows of ``Z``: one dense eigenproblem of g instead of ARPACK over m (the equality
+    kernel of HACA's one-frame units on the paper's synthetic take: g = 19, m = 4,923).
+    """
+    A = np.asarray(A)
+    if A.dtype not in (np.bool_, np.int8, np.uint8):
+        return None
+    ids = frame_ids(A, DENSE_EIGH_MAX)
+    if ids is None:
+        return None
+    g = int(ids.max()) + 1
+    if g <= k:
+        return None
+    reps = np.unique(ids, return_index=True)[1]
+    R = A[reps].astype(np.float64)  # (g, m): one row per group
+    B = R[:, reps]
+    if not (np.array_equal(R, B[:, ids]) and np.array_equal(B, B.T)):
+        return None  # columns do not follow the groups: A is not P B P^T
+    c = np.bincount(ids, minlength=g).astype(np.float64)
+    b = np.diag(B).copy()
+    inv = _inv_sqrt(B @ c - b)
+    e = np.sqrt(c) * inv
+    N = e[:, None] * B * e[None, :]
+    N[np.diag_indices(g)] -= b * inv * inv
+    w, Z = np.linalg.eigh(N)
+    outside = -(b * inv * inv)[c > 1]
+    if outside.size and w[g - k] <= outside.max() + 1e-9:
+        return None  # the k leading eigenvectors are not all group-constant
+    Z = Z[:, g - k :]
+    norms = np.linalg.norm(Z, axis=1, keepdims=True)
+    return (Z / np.where(norms > 0, norms, 1.0))[ids]
+
+
 def _inv_sqrt(deg):
     return np.where(deg > 0, 1.0 / np.sqrt(np.where(deg > 0, deg, 1.0)), 0.0)
 
 
-def _normalized_affinity(A) -> np.ndarray:
+def _normalized_affinity(A, symmetric: bool = False) -> np.ndarray:
     """``D^-1/2 S D^-1/2`` in float32 of ``S = (A + A.T) / 2`` with a zero diagonal: the
-    matrix ARPACK multiplies, in three passes (``streamseg._kernels.affinity``); the same
-    to the bit as the numpy expression in ``tests/naive.py``."""
+    matrix ARPACK multiplies, in three passes (``streamseg._kernels.affinity``), or in one
+    pass over the rows of an integer ``A`` its caller knows to be symmetric (``S = A``, eq.
+    10's similarity); the same to the bit as the numpy expression in ``tests/naive.py``."""
     A = np.asarray(A)
     if A.dtype == np.bool_:
         A = A.view(np.uint8)
     elif A.dtype not in (np.int8, np.uint8):  # a 0/1 kernel stays narrow: 1/8 of the reads
         A = A.astype(np.float64, copy=False)
+    if symmetric and A.dtype != np.float64:  # neither its transpose nor halving needed
+        A = np.ascontiguousarray(A)
+        # integer degrees: exact in any order, so numpy's sum of the float32 copy's rows
+        deg = A.sum(1, dtype=np.int64) - np.diagonal(A).astype(np.int64)
+        inv = _inv_sqrt(deg.astype(np.float64)).astype(np.float32)
+        return scaled_symmetric(A, inv, np.empty(A.shape, np.float32))
     M = symmetrized(np.ascontiguousarray(A), np.empty(A.shape, np.float32))
     inv = _inv_sqrt(M.sum(1, dtype=np.float64))  # numpy's own summation order
     scale_both(M, inv.astype(np.float32))
@@ -256,6 +319,6 @@ def propagated_init(frame_classes, k: int, wmin: int, wmax: int, rng: np.random.
     """Section 4.2 initialization: spectral clustering of the eq. 10 similarity, then lengths
     forced into [wmin, wmax]. ``frame_classes``: (n,) k-means class of each frame."""
     S = propagated_similarity(frame_classes, wmax)
-    labels = spectral_labels(S, k, rng)
+    labels = spectral_labels(S, k, rng, symmetric=True)  # by construction
     starts, ends, seg_labels = runs_to_segments(labels, wmin, wmax)
     return starts, ends, seg_labels
