@@ -153,7 +153,7 @@ STORED = {
         {"C", "SP", "Z", "_sos", "_state", "config", "cutoff", "dec", "k"},
     ),
     "streamseg.online.repetition:RepetitionCounter": (
-        4,
+        5,
         {
             "_Mm",
             "_bridge",
@@ -176,6 +176,7 @@ STORED = {
             "_ring",
             "_scale",
             "_search",
+            "_skip",
             "_st",
             "_tmax",
             "_unliked",

@@ -81,7 +81,8 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         Farthest the pose went from any anchor.
     """
 
-    STATE_VERSION = 4  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge, _waits
+    STATE_VERSION = 5  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge,
+    # _waits; 5: _skip
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0, skeleton=None):
         if not np.isscalar(fps) or not fps > 0:
@@ -113,6 +114,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         self._cands = {}
         self._cur = None
         self._unliked = None
+        self._skip = None  # start of the fidgets since the set's last repetition
         self._events = []
         self.n_seen_ = 0
         self.count_ = 0
@@ -271,12 +273,21 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     def _on_track(self, loop, t):
         s, kind, cut, M = loop
         if kind == K.TIMEOUT:
+            if self._skip is not None:
+                s = self._skip
             self._end_set("timeout")
             self._search_from(s)
             return
         self.n_loops_ += 1
         new = (s, cut, M)
         r = self._ring.dissimilarity(self._last(), new)
+        if kind == K.CLOSE and r > self.config.max_dissimilarity and self._fidget(new):
+            # a small movement in the rest between repetitions: no repetition, no end of the
+            # set; the next repetition is reported from where this one began
+            if self._skip is None:
+                self._skip = s
+            self._track_from(cut, t)
+            return
         if r <= self.config.max_dissimilarity:
             self._add(new, r)
             if kind == K.PAUSE:
@@ -286,10 +297,26 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
                 self._track_from(cut, t)
         else:
             cur, last = self._cur, self._last()
+            if self._skip is not None:  # the fidgets may have begun the next set
+                s = self._skip
             self._end_set("unlike")
             self._unliked = (cur, last, s)
             self._cands = {s: None}
             self._search_from(s)
+
+    def _fidget(self, loop) -> bool:
+        """Whether ``loop``, unlike the set's last repetition, is a fidget: moving less than
+        ``fidget_ratio`` as long as the set's median repetition, within the set's timeout of
+        its last repetition's end."""
+        f = self.config.fidget_ratio
+        if not f:
+            return False
+        spans = self._cur[1]
+        med = float(np.median([self._ring.length((a, b, 0.0)) for a, b in spans[-5:]]))
+        dur = float(np.median([b - a for a, b in spans]))
+        if loop[1] - spans[-1][1] > self.config.timeout_cycles * dur:
+            return False
+        return self._ring.length(loop) < f * med
 
     def _last(self):
         (a, b), M = self._cur[1][-1], self._cur[2][-1]
@@ -364,7 +391,9 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         st, spans, amps = self._cur
         spans.append((a, b))
         amps.append(M)
-        st.repetitions.append((self._frame(a), self._frame(b)))
+        start = a if self._skip is None else self._skip
+        self._skip = None
+        st.repetitions.append((self._frame(start), self._frame(b)))
         st.dissimilarity.append(None if dis is None else float(dis))
         d = dis if dis is not None else next_dis
         like = (
@@ -396,6 +425,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     def _end_set(self, why):
         self._unliked = None
+        self._skip = None
         if self._cur is not None:
             self._cur[0].end_reason = why
             self._cur = None
