@@ -66,9 +66,6 @@ def _counter_3(fields: dict) -> dict:
 
 def _counter_4(fields: dict) -> dict:
     fields.setdefault("_skip", None)  # no fidget since the set's last repetition
-    fields.setdefault("_pair", False)  # one loop a repetition
-    fields.setdefault("_half", None)
-    fields.setdefault("_ref", None)
     return fields
 
 

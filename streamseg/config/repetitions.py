@@ -65,9 +65,6 @@ class RepetitionConfig:
     fidget_ratio : float
         In a set, a loop unlike the last repetition that moves less than this share of the
         set's median repetition is a fidget in the rest, not the set's end (0: never).
-    every_other_ratio : float
-        A set whose third loop is under this share as unlike its first as its second counts
-        two loops a repetition (sub-movements that pass the same pose; 0: never).
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -101,7 +98,6 @@ class RepetitionConfig:
     edge_ratio: float = 0.4
     resume_dissimilarity: float = 0.3
     fidget_ratio: float = 0.6
-    every_other_ratio: float = 0.5
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True
@@ -141,7 +137,6 @@ class RepetitionConfig:
             "edge_ratio",
             "resume_dissimilarity",
             "fidget_ratio",
-            "every_other_ratio",
         ):
             v = getattr(self, name)
             _check(

@@ -38,15 +38,11 @@ class StreamEnd:
         n = self._na[0]
         if not self._search and self._cur is not None:
             loop = self._last_loop(0, t, True)
-            ref, start = self._ref or self._last(), int(self._st[0, 0])
-            if self._half is not None:  # two loops a repetition: the first closed
-                start = self._half[0]
-                loop = None if loop is None else (start, loop[1], max(loop[2], self._half[2]))
-            r = None if loop is None else self._ring.dissimilarity(ref, loop)
+            r = None if loop is None else self._ring.dissimilarity(self._last(), loop)
             if r is not None and r <= cfg.max_dissimilarity:
                 self._add(loop, r)
             elif cfg.extend_edges:
-                piece = self._ring.edge_after(ref, start, t)
+                piece = self._ring.edge_after(self._last(), int(self._st[0, 0]), t)
                 if piece is not None:
                     self._add(*piece)
             self._end_set("end")

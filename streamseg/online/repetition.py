@@ -82,7 +82,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     """
 
     STATE_VERSION = 5  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge,
-    # _waits; 5: _skip, _pair, _half, _ref
+    # _waits; 5: _skip
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0, skeleton=None):
         if not np.isscalar(fps) or not fps > 0:
@@ -115,9 +115,6 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         self._cur = None
         self._unliked = None
         self._skip = None  # start of the fidgets since the set's last repetition
-        self._pair = False  # the current set's repetitions are two loops each
-        self._half = None  # ...and the first of the next one's, closed
-        self._ref = None  # ...and what the next is compared with, until one is counted
         self._events = []
         self.n_seen_ = 0
         self.count_ = 0
@@ -276,25 +273,14 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     def _on_track(self, loop, t):
         s, kind, cut, M = loop
         if kind == K.TIMEOUT:
-            s = self._restart_at(s)
+            if self._skip is not None:
+                s = self._skip
             self._end_set("timeout")
             self._search_from(s)
             return
         self.n_loops_ += 1
         new = (s, cut, M)
-        if self._pair:  # a repetition is two loops: the first waits for the second
-            if self._half is None and kind == K.CLOSE:
-                self._half = new
-                self._track_from(cut, t)
-                return
-            if self._half is not None:
-                h, self._half = self._half, None
-                new = (h[0], cut, max(h[2], M))
-                s = h[0]
-        r = self._ring.dissimilarity(self._ref or self._last(), new)
-        if kind == K.CLOSE and r <= self.config.max_dissimilarity and self._two_loops(new, r):
-            self._track_from(cut, t)
-            return
+        r = self._ring.dissimilarity(self._last(), new)
         if kind == K.CLOSE and r > self.config.max_dissimilarity and self._fidget(new):
             # a small movement in the rest between repetitions: no repetition, no end of the
             # set; the next repetition is reported from where this one began
@@ -311,39 +297,12 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
                 self._track_from(cut, t)
         else:
             cur, last = self._cur, self._last()
-            s = self._restart_at(s)
+            if self._skip is not None:  # the fidgets may have begun the next set
+                s = self._skip
             self._end_set("unlike")
             self._unliked = (cur, last, s)
             self._cands = {s: None}
             self._search_from(s)
-
-    def _restart_at(self, s) -> int:
-        """Where the search starts after a set ends at anchor ``s``: at the fidgets or the
-        half repetition since its last repetition, which may begin the next set."""
-        if self._half is not None:
-            s = min(s, self._half[0])
-        return s if self._skip is None else min(s, self._skip)
-
-    def _two_loops(self, loop, r) -> bool:
-        """Whether the set's third loop shows that each repetition is two loops (a movement
-        with two sub-movements that pass the same pose, as a hurdle step's leg up and leg
-        down): it is more like the first loop, by ``every_other_ratio``, than like the second
-        one it follows, from which it differs by at least half ``max_dissimilarity``. Then
-        the set's repetitions from here on are two loops each, compared
-        with the first two together, and ``loop`` is the first half of the next."""
-        f = self.config.every_other_ratio
-        if not f or self._pair or len(self._cur[1]) != 2:
-            return False
-        if r < 0.5 * self.config.max_dissimilarity:
-            return False  # alike loops: a ratio of two small distances says nothing
-        (a, b), (_, e) = self._cur[1]
-        M0, M1 = self._cur[2]
-        if self._ring.dissimilarity((a, b, M0), loop) >= f * r:
-            return False
-        self._pair = True
-        self._ref = (a, e, max(M0, M1))
-        self._half = loop
-        return True
 
     def _fidget(self, loop) -> bool:
         """Whether ``loop``, unlike the set's last repetition, is a fidget: moving less than
@@ -433,7 +392,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         spans.append((a, b))
         amps.append(M)
         start = a if self._skip is None else self._skip
-        self._skip = self._ref = None
+        self._skip = None
         st.repetitions.append((self._frame(start), self._frame(b)))
         st.dissimilarity.append(None if dis is None else float(dis))
         d = dis if dis is not None else next_dis
@@ -466,8 +425,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     def _end_set(self, why):
         self._unliked = None
-        self._skip = self._half = self._ref = None
-        self._pair = False
+        self._skip = None
         if self._cur is not None:
             self._cur[0].end_reason = why
             self._cur = None
