@@ -65,6 +65,10 @@ class RepetitionConfig:
     fidget_ratio : float
         In a set, a loop unlike the last repetition that moves less than this share of the
         set's median repetition is a fidget in the rest, not the set's end (0: never).
+    split_ratio : float
+        In a set, a loop at least this many times as long as the set's median repetition is
+        cut in two where the pose comes closest back when both pieces are more alike the
+        repetition before them than the whole loop (0: never).
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -98,6 +102,7 @@ class RepetitionConfig:
     edge_ratio: float = 0.4
     resume_dissimilarity: float = 0.3
     fidget_ratio: float = 0.6
+    split_ratio: float = 1.6
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True

@@ -39,6 +39,10 @@ class StreamEnd:
         if not self._search and self._cur is not None:
             loop = self._last_loop(0, t, True)
             r = None if loop is None else self._ring.dissimilarity(self._last(), loop)
+            pair = None if loop is None else self._two_in_one(loop, r)
+            if pair is not None:
+                self._add(*pair[0])
+                loop, r = pair[1]
             if r is not None and r <= cfg.max_dissimilarity:
                 self._add(loop, r)
             elif cfg.extend_edges:

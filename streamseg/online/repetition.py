@@ -281,6 +281,10 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         self.n_loops_ += 1
         new = (s, cut, M)
         r = self._ring.dissimilarity(self._last(), new)
+        pair = self._two_in_one(new, r)
+        if pair is not None:
+            self._add(*pair[0])
+            new, r = pair[1]
         if kind == K.CLOSE and r > self.config.max_dissimilarity and self._fidget(new):
             # a small movement in the rest between repetitions: no repetition, no end of the
             # set; the next repetition is reported from where this one began
@@ -303,6 +307,28 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
             self._unliked = (cur, last, s)
             self._cands = {s: None}
             self._search_from(s)
+
+    def _two_in_one(self, loop, r):
+        """((first, dissimilarity), (second, dissimilarity)) when ``loop``, at least
+        ``split_ratio`` as long as the set's median repetition, is two repetitions: cut where
+        the pose comes closest back to its start's (:meth:`PoseRing.split`), both pieces alike
+        the one before them, each more alike than the whole loop; else None."""
+        f, ring = self.config.split_ratio, self._ring
+        if not f:
+            return None
+        spans = self._cur[1]
+        med = float(np.median([ring.length((a, b, 0.0)) for a, b in spans[-5:]]))
+        if ring.length(loop) < f * med:
+            return None
+        parts = ring.split(loop)
+        if parts is None:
+            return None
+        r1 = ring.dissimilarity(self._last(), parts[0])
+        r2 = ring.dissimilarity(parts[0], parts[1])
+        lim = self.config.max_dissimilarity
+        if max(r1, r2) > lim:
+            return None
+        return (parts[0], r1), (parts[1], r2)
 
     def _fidget(self, loop) -> bool:
         """Whether ``loop``, unlike the set's last repetition, is a fidget: moving less than
