@@ -142,12 +142,12 @@ class PoseRing(Stateful):
         least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
         return not self.spread_fault(p, q)
 
-    def spread_fault(self, p, q) -> str:
-        """Which test of :meth:`spread` loops ``p`` and ``q`` fail: "tempo", "span",
-        "amplitude", or "" (none)."""
+    def spread_fault(self, p, q, tempo=True) -> str:
+        """Which test of :meth:`spread` loops ``p`` and ``q`` fail: "tempo" (not tested
+        unless ``tempo``), "span", "amplitude", or "" (none)."""
         cfg = self.config
         da, db = self.length(p), self.length(q)
-        if max(da, db) > cfg.start_tempo_ratio * min(da, db):
+        if tempo and max(da, db) > cfg.start_tempo_ratio * min(da, db):
             return "tempo"
         W = self.rows(p[0], q[1])
         i = int(np.argmax(np.linalg.norm(W - W[0], axis=1)))

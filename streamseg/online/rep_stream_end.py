@@ -69,7 +69,7 @@ class StreamEnd:
                     if prev is None:
                         continue
                     piece = self._ring.edge_after(prev, e, t)
-                    if piece is not None and self._alike_pair(prev, piece[0]):
+                    if piece is not None and self._alike_pair(prev, piece[0], tempo=False):
                         self._start_set(prev, piece[0], piece[1])
                         done = True
                         break
@@ -79,7 +79,7 @@ class StreamEnd:
                     if prev is None:
                         continue
                     piece = self._ring.edge_before(prev, self._origin)
-                    if piece is not None and self._alike_pair(piece[0], prev):
+                    if piece is not None and self._alike_pair(piece[0], prev, tempo=False):
                         self._start_set(piece[0], prev, piece[1])
                         break
             self._end_set("end")

@@ -262,10 +262,12 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
                 self._set_anchors(frames, t)
         self._cands = {k: v for k, v in self._cands.items() if t - k <= self._tmax}
 
-    def _alike_pair(self, p, q) -> bool:
-        """Whether alike loops ``p``, ``q`` pass :meth:`PoseRing.spread`; a failure is
-        tallied in ``near_misses_`` (the reason a take without a set is given)."""
-        fault = self._ring.spread_fault(p, q)
+    def _alike_pair(self, p, q, tempo=True) -> bool:
+        """Whether alike loops ``p``, ``q`` pass :meth:`PoseRing.spread` (without its tempo
+        test for a piece at the stream's edge, cut short by it: the edge test's
+        ``edge_ratio`` holds instead); a failure is tallied in ``near_misses_`` (the reason a
+        take without a set is given)."""
+        fault = self._ring.spread_fault(p, q, tempo)
         if fault:
             self.near_misses_[fault] = self.near_misses_.get(fault, 0) + 1
         return not fault
