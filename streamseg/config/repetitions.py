@@ -69,10 +69,6 @@ class RepetitionConfig:
         In a set, a loop at least this many times as long as the set's median repetition is
         cut in two where the pose comes closest back when both pieces are more alike the
         repetition before them than the whole loop (0: never).
-    every_other_ratio : float
-        A set's first two loops alike at half ``max_dissimilarity`` or more wait for the
-        next; if it is under this share as unlike the first as the second, a repetition is
-        two loops (sub-movements that pass the same pose; 0: never).
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -107,7 +103,6 @@ class RepetitionConfig:
     resume_dissimilarity: float = 0.3
     fidget_ratio: float = 0.6
     split_ratio: float = 1.6
-    every_other_ratio: float = 0.5
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True
@@ -147,7 +142,6 @@ class RepetitionConfig:
             "edge_ratio",
             "resume_dissimilarity",
             "fidget_ratio",
-            "every_other_ratio",
         ):
             v = getattr(self, name)
             _check(

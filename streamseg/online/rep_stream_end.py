@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from streamseg._kernels import rep_track as K
 from streamseg.online.rep_events import RepEvent
 
 __all__ = ["StreamEnd"]
@@ -35,21 +34,10 @@ class StreamEnd:
         self._final = True
         self._now = self.n_seen_
         cfg = self.config
-        if self._held is not None and self._held_end(self._ring.k):
-            return flushed + self._events
-        if self._held is not None:  # a held pair: it starts the set, its next loop follows
-            half = self._held[3]
-            self._release()
-            if half is not None:
-                self._on_track((half[0], K.CLOSE, half[1], half[2]), self._ring.k)
         t = self._ring.k
         n = self._na[0]
         if not self._search and self._cur is not None:
             loop = self._last_loop(0, t, True)
-            start = int(self._st[0, 0])
-            if self._half is not None:  # two loops a repetition: the first closed
-                start = self._half[0]
-                loop = None if loop is None else (start, loop[1], max(loop[2], self._half[2]))
             r = None if loop is None else self._ring.dissimilarity(self._last(), loop)
             pair = None if loop is None else self._two_in_one(loop, r)
             if pair is not None:
@@ -58,7 +46,7 @@ class StreamEnd:
             if r is not None and r <= cfg.max_dissimilarity:
                 self._add(loop, r)
             elif cfg.extend_edges:
-                piece = self._ring.edge_after(self._last(), start, t)
+                piece = self._ring.edge_after(self._last(), int(self._st[0, 0]), t)
                 if piece is not None:
                     self._add(*piece)
             self._end_set("end")

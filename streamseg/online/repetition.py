@@ -42,7 +42,6 @@ from streamseg.config import RepetitionConfig
 from streamseg.exceptions import ParameterError
 from streamseg.online.rep_counter_input import PoseInput
 from streamseg.online.rep_events import RepEvent, RepSet, sets_of, stream_events
-from streamseg.online.rep_halves import TwoLoops
 from streamseg.online.rep_loops import PoseRing
 from streamseg.online.rep_pose import ROM_JOINTS, joint_ranges
 from streamseg.online.rep_stream_end import StreamEnd
@@ -51,7 +50,7 @@ from streamseg.state import Stateful
 __all__ = ["RepEvent", "RepSet", "RepetitionCounter", "sets_of", "stream_events"]
 
 
-class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
+class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     """Count repetitions in a joint-position stream (or a stream of pose features).
 
     Parameters
@@ -83,7 +82,7 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
     """
 
     STATE_VERSION = 5  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge,
-    # _waits; 5: _skip, _held, _pair, _half
+    # _waits; 5: _skip
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0, skeleton=None):
         if not np.isscalar(fps) or not fps > 0:
@@ -116,9 +115,6 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
         self._cur = None
         self._unliked = None
         self._skip = None  # start of the fidgets since the set's last repetition
-        self._held = None  # a set's first pair waiting for the loop after it (rep_halves)
-        self._pair = False  # the current set's repetitions are two loops each
-        self._half = None  # ...and the first of the next one's, closed
         self._events = []
         self.n_seen_ = 0
         self.count_ = 0
@@ -179,9 +175,10 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
             if self._search:
                 thr, timeout = cfg.min_amplitude, self._tmax
             else:
-                amps, spans = self._held_stats() if self._held else self._cur[2:0:-1]
-                thr = max(cfg.min_amplitude, cfg.amplitude_ratio * float(np.median(amps[-5:])))
-                med = float(np.median([b - a for a, b in spans]))
+                thr = max(
+                    cfg.min_amplitude, cfg.amplitude_ratio * float(np.median(self._cur[2][-5:]))
+                )
+                med = float(np.median([b - a for a, b in self._cur[1]]))
                 timeout = min(self._tmax, int(cfg.timeout_cycles * med))
             t, n = K.advance(
                 ring.Z,
@@ -250,9 +247,6 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
                 and r <= self.config.max_dissimilarity
                 and self._alike_pair(prev, loop)
             ):
-                if kind == K.CLOSE and self._holds(r):
-                    self._hold(prev, loop, r, t)
-                    return
                 self._start_set(prev, loop, r)
                 self._cands = {}
                 if kind == K.PAUSE:
@@ -279,22 +273,15 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
         return not fault
 
     def _on_track(self, loop, t):
-        if self._held is not None:
-            self._on_held(loop, t)
-            return
         s, kind, cut, M = loop
         if kind == K.TIMEOUT:
-            s = self._restart_at(s)
+            if self._skip is not None:
+                s = self._skip
             self._end_set("timeout")
             self._search_from(s)
             return
         self.n_loops_ += 1
         new = (s, cut, M)
-        if self._pair:  # a repetition is two loops: the first waits for the second
-            new = self._pair_loop(new, kind, t)
-            if new is None:
-                return
-            s = new[0]
         r = self._ring.dissimilarity(self._last(), new)
         pair = self._two_in_one(new, r)
         if pair is not None:
@@ -316,7 +303,8 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
                 self._track_from(cut, t)
         else:
             cur, last = self._cur, self._last()
-            s = self._restart_at(s)
+            if self._skip is not None:  # the fidgets may have begun the next set
+                s = self._skip
             self._end_set("unlike")
             self._unliked = (cur, last, s)
             self._cands = {s: None}
@@ -463,17 +451,9 @@ class RepetitionCounter(PoseInput, StreamEnd, TwoLoops, Stateful):
             )
         )
 
-    def _restart_at(self, s) -> int:
-        """Where the search starts after a set ends at anchor ``s``: at the fidgets or the
-        half repetition since its last repetition, which may begin the next set."""
-        if self._half is not None:
-            s = min(s, self._half[0])
-        return s if self._skip is None else min(s, self._skip)
-
     def _end_set(self, why):
         self._unliked = None
-        self._skip = self._half = None
-        self._pair = False
+        self._skip = None
         if self._cur is not None:
             self._cur[0].end_reason = why
             self._cur = None
