@@ -66,6 +66,11 @@ def _counter_3(fields: dict) -> dict:
 
 def _counter_4(fields: dict) -> dict:
     fields.setdefault("_skip", None)  # no fidget since the set's last repetition
+    ring = fields["_ring"]
+    # a set under way ([set, spans, amplitudes]) gets its repetitions' moving lengths
+    for cur in (fields.get("_cur"), (fields.get("_unliked") or (None,))[0]):
+        if cur is not None and len(cur) == 3:
+            cur.append([ring.length((a, b, 0.0)) for a, b in cur[1]])
     return fields
 
 

@@ -82,7 +82,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     """
 
     STATE_VERSION = 5  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge,
-    # _waits; 5: _skip
+    # _waits; 5: _skip, _cur's moving lengths
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0, skeleton=None):
         if not np.isscalar(fps) or not fps > 0:
@@ -318,9 +318,8 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         f, ring = self.config.split_ratio, self._ring
         if not f:
             return None
-        spans = self._cur[1]
-        med = float(np.median([ring.length((a, b, 0.0)) for a, b in spans[-5:]]))
-        if ring.length(loop) < f * med:
+        med = float(np.median(self._cur[3][-5:]))
+        if loop[1] - loop[0] < f * med or ring.length(loop) < f * med:  # moving <= all
             return None
         parts = ring.split(loop)
         if parts is None:
@@ -340,7 +339,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         if not f:
             return False
         spans = self._cur[1]
-        med = float(np.median([self._ring.length((a, b, 0.0)) for a, b in spans[-5:]]))
+        med = float(np.median(self._cur[3][-5:]))
         dur = float(np.median([b - a for a, b in spans]))
         if loop[1] - spans[-1][1] > self.config.timeout_cycles * dur:
             return False
@@ -374,7 +373,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         if self._resumed(loops, dis):
             return
         loops[0] = self._trimmed(loops[0])
-        self._cur = [RepSet(), [], []]
+        self._cur = [RepSet(), [], [], []]  # the set, spans, amplitudes, moving lengths
         self.sets_.append(self._cur[0])
         if self._names is not None:  # the joint that moves most over the first loops
             rom = np.median([joint_ranges(self._ring.rows(a, b)) for a, b, _ in loops], axis=0)
@@ -416,9 +415,10 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     def _add(self, loop, dis, next_dis=None):
         a, b, M = loop
-        st, spans, amps = self._cur
+        st, spans, amps, lengths = self._cur
         spans.append((a, b))
         amps.append(M)
+        lengths.append(self._ring.length(loop))
         start = a if self._skip is None else self._skip
         self._skip = None
         st.repetitions.append((self._frame(start), self._frame(b)))
