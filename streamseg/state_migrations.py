@@ -64,6 +64,16 @@ def _counter_3(fields: dict) -> dict:
     return fields
 
 
+def _counter_4(fields: dict) -> dict:
+    fields.setdefault("_skip", None)  # no fidget since the set's last repetition
+    ring = fields["_ring"]
+    # a set under way ([set, spans, amplitudes]) gets its repetitions' moving lengths
+    for cur in (fields.get("_cur"), (fields.get("_unliked") or (None,))[0]):
+        if cur is not None and len(cur) == 3:
+            cur.append([ring.length((a, b, 0.0)) for a, b in cur[1]])
+    return fields
+
+
 def _speeds_1(fields: dict) -> dict:
     fields.setdefault("_order", None)  # columns in the order they are computed
     return fields
@@ -81,6 +91,7 @@ MIGRATIONS = {
     (COUNTER, 1): _counter_1,
     (COUNTER, 2): _counter_2,
     (COUNTER, 3): _counter_3,
+    (COUNTER, 4): _counter_4,
     (SPEEDS, 1): _speeds_1,
 }
 

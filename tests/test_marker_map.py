@@ -59,24 +59,30 @@ def renamed(tmp_path_factory, data_dir):
     pts = np.asarray(c["data"]["points"], dtype=np.float64)
     labels = info["labels"][: pts.shape[1]]
     xyz = np.transpose(pts[:3], (2, 1, 0))
-    n, m = xyz.shape[:2]
+    m = xyz.shape[1]
     folder = tmp_path_factory.mktemp("trc")
     for stem, names in (("renamed", [f"Marker_{i + 1}" for i in range(m)]), ("named", labels)):
-        lines = [
-            f"PathFileType\t4\t(X/Y/Z)\t{stem}.trc",
-            "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
-            f"{info['rate']:g}\t{info['rate']:g}\t{n}\t{m}\tmm",
-            "Frame#\tTime\t" + "\t\t\t".join(names),
-            "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(m) for a in "XYZ"),
-            "",
-        ]
-        for f in range(n):
-            lines.append(
-                f"{f + 1}\t{f / info['rate']:.5f}\t"
-                + "\t".join(repr(float(v)) for v in xyz[f].ravel())
-            )
-        (folder / f"{stem}.trc").write_text("\n".join(lines) + "\n")
+        _write_trc(folder / f"{stem}.trc", names, xyz, info["rate"])
     return folder / "renamed.trc", labels, xyz
+
+
+def _write_trc(path, names, xyz, rate):
+    """A TRC of markers ``names`` (mm; an empty cell where NaN)."""
+    n, m = xyz.shape[:2]
+    lines = [
+        f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+        f"{rate:g}\t{rate:g}\t{n}\t{m}\tmm",
+        "Frame#\tTime\t" + "\t\t\t".join(names),
+        "\t\t" + "\t".join(f"{a}{i + 1}" for i in range(m) for a in "XYZ"),
+        "",
+    ]
+    for f in range(n):
+        lines.append(
+            f"{f + 1}\t{f / rate:.5f}\t"
+            + "\t".join("" if not np.isfinite(v) else repr(float(v)) for v in xyz[f].ravel())
+        )
+    path.write_text("\n".join(lines) + "\n")
 
 
 def test_a_map_makes_each_joint_the_mean_of_its_markers(renamed, tmp_path):
@@ -130,6 +136,8 @@ def test_segment_and_info_with_and_without_the_map(renamed, tmp_path, capsys):
             "neck = 3: expected a marker name",
         ),
         ("pelvis = [", "not valid TOML"),
+        ("clusters = [['A', 'B']]\n", "four marker names or more"),
+        ("pairs = [['A', 'B']]\n", "two left/right pairs of one segment"),
     ],
 )
 def test_a_bad_map_is_one_line_naming_the_fix(tmp_path, text, said):
@@ -144,3 +152,42 @@ def test_a_map_naming_markers_the_file_lacks_says_which(renamed, tmp_path, capsy
     assert main(["segment", str(path), "--markers", str(_toml(tmp_path / "m.toml", MAP))]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "without the markers" in err[0] and "pelvis (LASIS RASIS)" in err[0]
+
+
+def test_a_maps_clusters_and_pairs_place_lost_markers(renamed, tmp_path):
+    """A pelvis of four markers is a cluster without saying so: LASIS lost for a stretch is
+    placed from the other three (the pelvis where the full markers put it); with ``pairs``,
+    LASIS absent from the file altogether is RASIS mirrored across the mid-plane of the back
+    pair, and the file reads (it was a NaN joint, or a refusal, before)."""
+    from streamseg.io import read
+
+    _, labels, xyz = renamed
+    pelvis = ["LASIS", "RASIS", "LBackAsis", "RBackAsis"]
+    mapping = {**MAP, "pelvis": pelvis}
+    cols = [labels.index(m) for m in pelvis]
+    truth = xyz[:, cols].mean(axis=1)
+    seen = np.isfinite(truth).all(axis=1)
+    lost = xyz.copy()
+    a = xyz.shape[0] // 3
+    lost[a : 2 * a, labels.index("LASIS")] = np.nan
+    path = tmp_path / "lost.trc"
+    _write_trc(path, labels, lost, 100.0)
+    rec = read(path, markers=_toml(tmp_path / "map.toml", mapping))
+    p = rec.positions[:, JOINTS.index("pelvis")]
+    assert np.isfinite(p[a : 2 * a][seen[a : 2 * a]]).all()
+    ok = seen[a : 2 * a]
+    err = np.linalg.norm(p[a : 2 * a][ok] - truth[a : 2 * a][ok], axis=1)
+    assert np.median(err) < 3.0 and err.max() < 5.0, (np.median(err), err.max())  # mm: 1.8, 2.6
+
+    keep = [i for i, m in enumerate(labels) if m != "LASIS"]
+    path = tmp_path / "absent.trc"
+    _write_trc(path, [labels[i] for i in keep], xyz[:, keep], 100.0)
+    text = "".join(f"{j} = {json.dumps(ms)}\n" for j, ms in mapping.items())
+    pairs = [[["LASIS", "RASIS"], ["LBackAsis", "RBackAsis"]]]
+    (tmp_path / "pairs.toml").write_text(f"pairs = {json.dumps(pairs)}\n" + text)
+    rec = read(path, markers=tmp_path / "pairs.toml")
+    p = rec.positions[:, JOINTS.index("pelvis")]
+    assert np.isfinite(p[seen]).all()
+    err = np.linalg.norm(p[seen] - truth[seen], axis=1)
+    assert np.median(err) < 15.0, np.median(err)  # mm, 9.6: a mirror image, not the marker
+    assert any("LASIS" in w and "mirrored" in w for w in rec.metadata["warnings"])

@@ -155,7 +155,7 @@ STORED = {
         {"C", "SP", "Z", "_sos", "_state", "config", "cutoff", "dec", "k"},
     ),
     "streamseg.online.repetition:RepetitionCounter": (
-        4,
+        5,
         {
             "_Mm",
             "_bridge",
@@ -178,6 +178,7 @@ STORED = {
             "_ring",
             "_scale",
             "_search",
+            "_skip",
             "_st",
             "_tmax",
             "_unliked",

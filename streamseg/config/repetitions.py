@@ -62,6 +62,13 @@ class RepetitionConfig:
     resume_dissimilarity : float
         A set ended by an unlike loop goes on when the next set starts within one of its
         repetitions and within this dissimilarity of its last one (0: never).
+    fidget_ratio : float
+        In a set, a loop unlike the last repetition that moves less than this share of the
+        set's median repetition is a fidget in the rest, not the set's end (0: never).
+    split_ratio : float
+        In a set, a loop at least this many times as long as the set's median repetition is
+        cut in two where the pose comes closest back when both pieces are more alike the
+        repetition before them than the whole loop (0: never).
     anchor_gap_s : float
         While looking for a set, loops start at speed minima at least this far apart.
     max_anchors : int
@@ -94,6 +101,8 @@ class RepetitionConfig:
     extend_edges: bool = True
     edge_ratio: float = 0.4
     resume_dissimilarity: float = 0.3
+    fidget_ratio: float = 0.6
+    split_ratio: float = 1.6
     anchor_gap_s: float = 0.2
     max_anchors: int = 41
     lag_compensation: bool = True
@@ -132,6 +141,7 @@ class RepetitionConfig:
             "still_ratio",
             "edge_ratio",
             "resume_dissimilarity",
+            "fidget_ratio",
         ):
             v = getattr(self, name)
             _check(

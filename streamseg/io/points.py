@@ -79,6 +79,14 @@ def points_recording(
             marker_map if not isinstance(marker_map, (str, Path)) else load_marker_map(marker_map)
         )
         chosen, missing = plan(mset, names)
+        if missing and mset.pairs:  # a pair's marker the file leaves out: lost in every frame
+            from streamseg.skeleton.marker_fill import with_absent_pair_markers
+
+            more, wider = with_absent_pair_markers(names, xyz, (mset,))
+            again = plan(mset, more) if len(more) > len(names) else (None, missing)
+            if not again[1]:
+                names, xyz = more, wider
+                chosen, missing = again
         if missing:
             lack = "; ".join(f"{p} ({' '.join(m)})" for p, m in missing.items())
             raise RecordingError(

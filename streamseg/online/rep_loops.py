@@ -142,12 +142,12 @@ class PoseRing(Stateful):
         least ``amplitude_ratio`` of it and moves at least 1 / ``start_tempo_ratio`` as long."""
         return not self.spread_fault(p, q)
 
-    def spread_fault(self, p, q) -> str:
-        """Which test of :meth:`spread` loops ``p`` and ``q`` fail: "tempo", "span",
-        "amplitude", or "" (none)."""
+    def spread_fault(self, p, q, tempo=True) -> str:
+        """Which test of :meth:`spread` loops ``p`` and ``q`` fail: "tempo" (not tested
+        unless ``tempo``), "span", "amplitude", or "" (none)."""
         cfg = self.config
         da, db = self.length(p), self.length(q)
-        if max(da, db) > cfg.start_tempo_ratio * min(da, db):
+        if tempo and max(da, db) > cfg.start_tempo_ratio * min(da, db):
             return "tempo"
         W = self.rows(p[0], q[1])
         i = int(np.argmax(np.linalg.norm(W - W[0], axis=1)))
@@ -156,6 +156,22 @@ class PoseRing(Stateful):
         if big < cfg.spread_ratio * span:
             return "span"
         return "" if small >= cfg.amplitude_ratio * big else "amplitude"
+
+    def split(self, p):
+        """Loop ``p`` cut in two where, in its middle half, the pose comes closest back to
+        its start's: ((start, u, amplitude), (u, end, amplitude)) (a loop that did not close
+        at a repetition's end because the pose came back a little too far from the anchor's)."""
+        a, b = p[0], p[1]
+        W = self.rows(a, b)
+        n = W.shape[0]
+        lo, hi = n // 4, n - n // 4
+        if hi - lo < 2:
+            return None
+        d0 = np.linalg.norm(W - W[0], axis=1)
+        u = lo + int(np.argmin(d0[lo:hi]))
+        first = (a, a + u, float(d0[: u + 1].max()))
+        second = (a + u, b, float(np.linalg.norm(W[u:] - W[u], axis=1).max()))
+        return first, second
 
     def _oldest(self) -> int:
         return max(0, self.k - self.C + 1)

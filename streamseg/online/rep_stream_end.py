@@ -39,6 +39,10 @@ class StreamEnd:
         if not self._search and self._cur is not None:
             loop = self._last_loop(0, t, True)
             r = None if loop is None else self._ring.dissimilarity(self._last(), loop)
+            pair = None if loop is None else self._two_in_one(loop, r)
+            if pair is not None:
+                self._add(*pair[0])
+                loop, r = pair[1]
             if r is not None and r <= cfg.max_dissimilarity:
                 self._add(loop, r)
             elif cfg.extend_edges:
@@ -65,7 +69,7 @@ class StreamEnd:
                     if prev is None:
                         continue
                     piece = self._ring.edge_after(prev, e, t)
-                    if piece is not None and self._alike_pair(prev, piece[0]):
+                    if piece is not None and self._alike_pair(prev, piece[0], tempo=False):
                         self._start_set(prev, piece[0], piece[1])
                         done = True
                         break
@@ -75,7 +79,7 @@ class StreamEnd:
                     if prev is None:
                         continue
                     piece = self._ring.edge_before(prev, self._origin)
-                    if piece is not None and self._alike_pair(piece[0], prev):
+                    if piece is not None and self._alike_pair(piece[0], prev, tempo=False):
                         self._start_set(piece[0], prev, piece[1])
                         break
             self._end_set("end")

@@ -81,7 +81,8 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         Farthest the pose went from any anchor.
     """
 
-    STATE_VERSION = 4  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge, _waits
+    STATE_VERSION = 5  # 2: near_misses_, _unliked; 3: _final always stored; 4: _bridge,
+    # _waits; 5: _skip, _cur's moving lengths
 
     def __init__(self, config: RepetitionConfig | None = None, fps: float = 120.0, skeleton=None):
         if not np.isscalar(fps) or not fps > 0:
@@ -113,6 +114,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         self._cands = {}
         self._cur = None
         self._unliked = None
+        self._skip = None  # start of the fidgets since the set's last repetition
         self._events = []
         self.n_seen_ = 0
         self.count_ = 0
@@ -260,10 +262,12 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
                 self._set_anchors(frames, t)
         self._cands = {k: v for k, v in self._cands.items() if t - k <= self._tmax}
 
-    def _alike_pair(self, p, q) -> bool:
-        """Whether alike loops ``p``, ``q`` pass :meth:`PoseRing.spread`; a failure is
-        tallied in ``near_misses_`` (the reason a take without a set is given)."""
-        fault = self._ring.spread_fault(p, q)
+    def _alike_pair(self, p, q, tempo=True) -> bool:
+        """Whether alike loops ``p``, ``q`` pass :meth:`PoseRing.spread` (without its tempo
+        test for a piece at the stream's edge, cut short by it: the edge test's
+        ``edge_ratio`` holds instead); a failure is tallied in ``near_misses_`` (the reason a
+        take without a set is given)."""
+        fault = self._ring.spread_fault(p, q, tempo)
         if fault:
             self.near_misses_[fault] = self.near_misses_.get(fault, 0) + 1
         return not fault
@@ -271,12 +275,25 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
     def _on_track(self, loop, t):
         s, kind, cut, M = loop
         if kind == K.TIMEOUT:
+            if self._skip is not None:
+                s = self._skip
             self._end_set("timeout")
             self._search_from(s)
             return
         self.n_loops_ += 1
         new = (s, cut, M)
         r = self._ring.dissimilarity(self._last(), new)
+        pair = self._two_in_one(new, r)
+        if pair is not None:
+            self._add(*pair[0])
+            new, r = pair[1]
+        if kind == K.CLOSE and r > self.config.max_dissimilarity and self._fidget(new):
+            # a small movement in the rest between repetitions: no repetition, no end of the
+            # set; the next repetition is reported from where this one began
+            if self._skip is None:
+                self._skip = s
+            self._track_from(cut, t)
+            return
         if r <= self.config.max_dissimilarity:
             self._add(new, r)
             if kind == K.PAUSE:
@@ -286,10 +303,47 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
                 self._track_from(cut, t)
         else:
             cur, last = self._cur, self._last()
+            if self._skip is not None:  # the fidgets may have begun the next set
+                s = self._skip
             self._end_set("unlike")
             self._unliked = (cur, last, s)
             self._cands = {s: None}
             self._search_from(s)
+
+    def _two_in_one(self, loop, r):
+        """((first, dissimilarity), (second, dissimilarity)) when ``loop``, at least
+        ``split_ratio`` as long as the set's median repetition, is two repetitions: cut where
+        the pose comes closest back to its start's (:meth:`PoseRing.split`), both pieces alike
+        the one before them, each more alike than the whole loop; else None."""
+        f, ring = self.config.split_ratio, self._ring
+        if not f:
+            return None
+        med = float(np.median(self._cur[3][-5:]))
+        if loop[1] - loop[0] < f * med or ring.length(loop) < f * med:  # moving <= all
+            return None
+        parts = ring.split(loop)
+        if parts is None:
+            return None
+        r1 = ring.dissimilarity(self._last(), parts[0])
+        r2 = ring.dissimilarity(parts[0], parts[1])
+        lim = self.config.max_dissimilarity
+        if max(r1, r2) > lim:
+            return None
+        return (parts[0], r1), (parts[1], r2)
+
+    def _fidget(self, loop) -> bool:
+        """Whether ``loop``, unlike the set's last repetition, is a fidget: moving less than
+        ``fidget_ratio`` as long as the set's median repetition, within the set's timeout of
+        its last repetition's end."""
+        f = self.config.fidget_ratio
+        if not f:
+            return False
+        spans = self._cur[1]
+        med = float(np.median(self._cur[3][-5:]))
+        dur = float(np.median([b - a for a, b in spans]))
+        if loop[1] - spans[-1][1] > self.config.timeout_cycles * dur:
+            return False
+        return self._ring.length(loop) < f * med
 
     def _last(self):
         (a, b), M = self._cur[1][-1], self._cur[2][-1]
@@ -319,7 +373,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
         if self._resumed(loops, dis):
             return
         loops[0] = self._trimmed(loops[0])
-        self._cur = [RepSet(), [], []]
+        self._cur = [RepSet(), [], [], []]  # the set, spans, amplitudes, moving lengths
         self.sets_.append(self._cur[0])
         if self._names is not None:  # the joint that moves most over the first loops
             rom = np.median([joint_ranges(self._ring.rows(a, b)) for a, b, _ in loops], axis=0)
@@ -361,10 +415,13 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     def _add(self, loop, dis, next_dis=None):
         a, b, M = loop
-        st, spans, amps = self._cur
+        st, spans, amps, lengths = self._cur
         spans.append((a, b))
         amps.append(M)
-        st.repetitions.append((self._frame(a), self._frame(b)))
+        lengths.append(self._ring.length(loop))
+        start = a if self._skip is None else self._skip
+        self._skip = None
+        st.repetitions.append((self._frame(start), self._frame(b)))
         st.dissimilarity.append(None if dis is None else float(dis))
         d = dis if dis is not None else next_dis
         like = (
@@ -396,6 +453,7 @@ class RepetitionCounter(PoseInput, StreamEnd, Stateful):
 
     def _end_set(self, why):
         self._unliked = None
+        self._skip = None
         if self._cur is not None:
             self._cur[0].end_reason = why
             self._cur = None

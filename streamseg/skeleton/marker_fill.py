@@ -174,15 +174,16 @@ def fill_from_clusters(markers: np.ndarray, labels, clusters, pairs=()):
     return out, notes
 
 
-def with_absent_pair_markers(labels, markers):
+def with_absent_pair_markers(labels, markers, msets=None):
     """``(labels, markers)`` with a lost-in-every-frame (NaN) column added for each marker of
-    a marker set's pairs (:attr:`MarkerSet.pairs`) that the file leaves out while the other
-    three are there (so that :func:`fill_from_clusters` mirrors it)."""
+    a marker set's pairs (:attr:`MarkerSet.pairs`; ``msets``, default the built-in sets) that
+    the file leaves out while the other three are there (so that :func:`fill_from_clusters`
+    mirrors it)."""
     from streamseg.skeleton.marker_sets import MARKER_SETS, _index
 
     index = _index(labels)
     add = []
-    for mset in MARKER_SETS.values():
+    for mset in MARKER_SETS.values() if msets is None else msets:
         for (a, b), (c, d) in mset.pairs:
             absent = [m for m in (a, b, c, d) if m.upper() not in index]
             if len(absent) == 1 and absent[0] not in add:

@@ -14,6 +14,16 @@ cluster on the segment)::
 Namespaces (``Subject:``) may be left out, case does not matter (as for the built-in sets).
 Every joint is needed: the bone angles use hips, knees, ankles, shoulders, elbows, wrists and
 the trunk. ``streamseg info FILE`` lists a file's markers and prints a template of this file.
+
+Two optional keys say how lost markers are placed (as the built-in sets do)::
+
+    # markers on one rigid segment: one lost for a stretch is placed from three others seen
+    clusters = [["Daphnee:T10", "Daphnee:C7", "Daphnee:CLAV", "Daphnee:STRN"]]
+    # two left/right pairs of one segment: a marker of one pair lost in every frame (or
+    # absent from the file) is its twin mirrored across the other pair's mid-plane
+    pairs = [[["Daphnee:ASISl", "Daphnee:ASISr"], ["Daphnee:PSISl", "Daphnee:PSISr"]]]
+
+A joint made of four markers or more is a cluster without saying so.
 """
 
 from __future__ import annotations
@@ -37,6 +47,8 @@ def load_marker_map(path) -> MarkerSet:
     from streamseg.config._toml import read_toml
 
     doc = read_toml(path, f"--markers {path}")
+    clusters = _clusters(path, doc.pop("clusters", []))
+    pairs = _pairs(path, doc.pop("pairs", []))
     unknown = sorted(set(doc) - set(JOINTS))
     if unknown:
         raise ParameterError(
@@ -63,7 +75,42 @@ def load_marker_map(path) -> MarkerSet:
                 "name or a list of marker names (their mean)"
             )
         points[joint] = (tuple(bare(n.strip()) for n in names),)
-    return MarkerSet(f"{Path(path).name} (--markers)", f"the marker map {path}", points)
+    for (alt,) in points.values():  # a joint of four markers or more: a segment's cluster
+        if len(alt) >= 4 and alt not in clusters:
+            clusters.append(alt)
+    return MarkerSet(
+        f"{Path(path).name} (--markers)",
+        f"the marker map {path}",
+        points,
+        clusters=tuple(clusters),
+        pairs=tuple(pairs),
+    )
+
+
+def _names(value) -> bool:
+    return isinstance(value, list) and all(isinstance(n, str) and bare(n.strip()) for n in value)
+
+
+def _clusters(path, value) -> list:
+    if not (isinstance(value, list) and all(_names(c) and len(c) >= 4 for c in value)):
+        raise ParameterError(
+            f"--markers {path}: clusters = {value!r}: expected a list of lists of four "
+            "marker names or more (the markers of one rigid segment)"
+        )
+    return [tuple(bare(n.strip()) for n in c) for c in value]
+
+
+def _pairs(path, value) -> list:
+    ok = isinstance(value, list) and all(
+        isinstance(p, list) and len(p) == 2 and all(_names(q) and len(q) == 2 for q in p)
+        for p in value
+    )
+    if not ok:
+        raise ParameterError(
+            f"--markers {path}: pairs = {value!r}: expected a list of [[left, right], "
+            "[left, right]] marker names (two left/right pairs of one segment)"
+        )
+    return [tuple(tuple(bare(n.strip()) for n in q) for q in p) for p in value]
 
 
 def template(markers) -> str:
