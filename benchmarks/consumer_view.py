@@ -46,6 +46,7 @@ import bisect
 import json
 import statistics
 import sys
+import threading
 import time
 from types import SimpleNamespace
 
@@ -80,6 +81,12 @@ def _lof_overrides(args) -> dict:
         out["early_delay_s"] = args.early
     if args.window is not None:
         out["window_s"] = args.window
+    if args.refine is not None:
+        out["refine_s"] = args.refine
+    if args.step is not None:
+        out["step_s"] = args.step
+    if args.k is not None:
+        out["k"] = args.k
     return out
 
 
@@ -213,7 +220,6 @@ WORK: dict = {}  # recording -> relabels [count, seconds] of the cadence (final 
 
 def from_daemon(item, algorithms, history, interval, speed):
     """The same through a real daemon on loopback: replay at ``speed`` x real time."""
-    import threading
 
     import zmq
 
@@ -280,11 +286,12 @@ def from_daemon(item, algorithms, history, interval, speed):
     return out, n
 
 
-def from_cli(item, args, port0):
+def from_cli(item, args):
     """``streamseg serve`` + ``streamseg replay --speed`` + ``streamseg listen --jsonl`` as
-    separate processes; an event's time is the stream frame the replay had reached when its
-    line arrived (its start, taken as the latest that no event's ``emitted_at`` contradicts,
-    + elapsed wall time x fps x speed)."""
+    separate processes on free loopback ports (``serve`` binds port 0 and prints the ports it
+    got, so runs can go side by side); an event's time is the stream frame the replay had
+    reached when its line arrived (its start, taken as the latest that no event's
+    ``emitted_at`` contradicts, + elapsed wall time x fps x speed)."""
     import os
     import subprocess
     import tempfile
@@ -293,26 +300,28 @@ def from_cli(item, args, port0):
     from streamseg.io import write_npz
 
     exe = os.path.join(os.path.dirname(sys.executable), "streamseg")
-    ing, pub, ctl = (f"tcp://127.0.0.1:{port0 + i}" for i in range(3))
+    loop = "tcp://127.0.0.1:0"
     state = tempfile.mkdtemp(prefix="consumer-view-")
     serve = subprocess.Popen(
         [
             exe,
             "serve",
             "--ingest",
-            ing,
+            loop,
             "--publish",
-            pub,
+            loop,
             "--control",
-            ctl,
+            loop,
             "--state-dir",
             state,
             *_serve_flags(args),
         ],
-        stdout=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
+        text=True,
     )
     try:
+        ing, pub, ctl = _bound(serve)
         deadline = time.monotonic() + 600
         while True:  # ready once control answers (the kernels are warm)
             try:
@@ -379,6 +388,18 @@ def from_cli(item, args, port0):
     finally:
         serve.terminate()
         serve.wait(60)
+
+
+def _bound(serve) -> tuple:
+    """The ingest, publish and control endpoints of ``serve``'s first line (``streamseg serve:
+    ingest=... publish=... control=...``, printed once its sockets are bound)."""
+    line = serve.stdout.readline()
+    if not line.startswith("streamseg serve: "):
+        raise RuntimeError(f"streamseg serve did not start: {line.strip()!r}")
+    got = dict(kv.split("=", 1) for kv in line.split(": ", 1)[1].split())
+    # whatever it prints later is read and dropped, so a full pipe never blocks it
+    threading.Thread(target=serve.stdout.read, daemon=True).start()
+    return got["ingest"], got["publish"], got["control"]
 
 
 def _serve_flags(args) -> list:
@@ -551,7 +572,7 @@ def run(args) -> list:
         elif args.source == "daemon":
             events, n = from_daemon(item, algorithms, args.history, args.interval, args.speed)
         else:
-            events, n = from_cli(item, args, 20000 + 10 * len(rows))
+            events, n = from_cli(item, args)
         if args.save and saved is None:
             from streamseg import protocol, strict_json
 
@@ -649,6 +670,9 @@ def main(argv=None) -> None:
     p.add_argument("--delay", type=float, default=None, help="LOFConfig.delay_s")
     p.add_argument("--early", type=float, default=None, help="LOFConfig.early_delay_s")
     p.add_argument("--window", type=float, default=None, help="LOFConfig.window_s")
+    p.add_argument("--refine", type=float, default=None, help="LOFConfig.refine_s")
+    p.add_argument("--step", type=float, default=None, help="LOFConfig.step_s")
+    p.add_argument("--k", type=int, default=None, help="LOFConfig.k")
     p.add_argument("--settle", type=float, default=None)
     p.add_argument("--focus", type=float, default=None)
     p.add_argument("--radius", type=float, default=None)
