@@ -73,21 +73,19 @@ def _algorithms(args):
     )
 
 
+#: option -> the LOFConfig field it sets
+LOF_OPTIONS = {
+    "delay": "delay_s",
+    "early": "early_delay_s",
+    "window": "window_s",
+    "refine": "refine_s",
+    "step": "step_s",
+    "k": "k",
+}
+
+
 def _lof_overrides(args) -> dict:
-    out = {}
-    if args.delay is not None:
-        out["delay_s"] = args.delay
-    if args.early is not None:
-        out["early_delay_s"] = args.early
-    if args.window is not None:
-        out["window_s"] = args.window
-    if args.refine is not None:
-        out["refine_s"] = args.refine
-    if args.step is not None:
-        out["step_s"] = args.step
-    if args.k is not None:
-        out["k"] = args.k
-    return out
+    return {f: getattr(args, o) for o, f in LOF_OPTIONS.items() if getattr(args, o) is not None}
 
 
 def _settle_kw(args) -> dict:
@@ -667,12 +665,9 @@ def main(argv=None) -> None:
     p.add_argument("--history", type=float, default=60.0)
     p.add_argument("--interval", type=float, default=5.0)
     p.add_argument("--tolerance", type=float, default=1.5)
-    p.add_argument("--delay", type=float, default=None, help="LOFConfig.delay_s")
-    p.add_argument("--early", type=float, default=None, help="LOFConfig.early_delay_s")
-    p.add_argument("--window", type=float, default=None, help="LOFConfig.window_s")
-    p.add_argument("--refine", type=float, default=None, help="LOFConfig.refine_s")
-    p.add_argument("--step", type=float, default=None, help="LOFConfig.step_s")
-    p.add_argument("--k", type=int, default=None, help="LOFConfig.k")
+    for opt, field in LOF_OPTIONS.items():
+        kind = int if field == "k" else float
+        p.add_argument(f"--{opt}", type=kind, default=None, help=f"LOFConfig.{field}")
     p.add_argument("--settle", type=float, default=None)
     p.add_argument("--focus", type=float, default=None)
     p.add_argument("--radius", type=float, default=None)
