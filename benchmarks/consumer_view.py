@@ -644,7 +644,8 @@ def table(rows, chosen=()) -> str:
     return markdown_table(header, out)
 
 
-def main(argv=None) -> None:
+def parser() -> argparse.ArgumentParser:
+    """The command line (also :mod:`view_tradeoff`'s, per detector setting)."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--sets", default="cmu,cmu02,hdm")
     p.add_argument("--only", default="", help="comma-separated recording names")
@@ -680,7 +681,11 @@ def main(argv=None) -> None:
     p.add_argument("--verbose", action="store_true")
     p.add_argument("--save", default="", help="append every event as JSON lines to this file")
     p.add_argument("--load", default="", help="score the events of a --save file instead")
-    args = p.parse_args(argv)
+    return p
+
+
+def main(argv=None) -> None:
+    args = parser().parse_args(argv)
     rows = run(args)
     chosen = set(filter(None, args.chosen_on.split(",")))
     print("The view (cut, confirm, withdraw and segments events):")
