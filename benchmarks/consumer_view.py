@@ -46,6 +46,7 @@ import bisect
 import json
 import statistics
 import sys
+import threading
 import time
 from types import SimpleNamespace
 
@@ -72,15 +73,19 @@ def _algorithms(args):
     )
 
 
+#: option -> the LOFConfig field it sets
+LOF_OPTIONS = {
+    "delay": "delay_s",
+    "early": "early_delay_s",
+    "window": "window_s",
+    "refine": "refine_s",
+    "step": "step_s",
+    "k": "k",
+}
+
+
 def _lof_overrides(args) -> dict:
-    out = {}
-    if args.delay is not None:
-        out["delay_s"] = args.delay
-    if args.early is not None:
-        out["early_delay_s"] = args.early
-    if args.window is not None:
-        out["window_s"] = args.window
-    return out
+    return {f: getattr(args, o) for o, f in LOF_OPTIONS.items() if getattr(args, o) is not None}
 
 
 def _settle_kw(args) -> dict:
@@ -214,7 +219,6 @@ WORK: dict = {}  # recording -> relabels [count, seconds] of the cadence (final 
 
 def from_daemon(item, algorithms, history, interval, speed):
     """The same through a real daemon on loopback: replay at ``speed`` x real time."""
-    import threading
 
     import zmq
 
@@ -281,11 +285,12 @@ def from_daemon(item, algorithms, history, interval, speed):
     return out, n
 
 
-def from_cli(item, args, port0):
+def from_cli(item, args):
     """``streamseg serve`` + ``streamseg replay --speed`` + ``streamseg listen --jsonl`` as
-    separate processes; an event's time is the stream frame the replay had reached when its
-    line arrived (its start, taken as the latest that no event's ``emitted_at`` contradicts,
-    + elapsed wall time x fps x speed)."""
+    separate processes on free loopback ports (``serve`` binds port 0 and prints the ports it
+    got, so runs can go side by side); an event's time is the stream frame the replay had
+    reached when its line arrived (its start, taken as the latest that no event's
+    ``emitted_at`` contradicts, + elapsed wall time x fps x speed)."""
     import os
     import subprocess
     import tempfile
@@ -294,26 +299,28 @@ def from_cli(item, args, port0):
     from streamseg.io import write_npz
 
     exe = os.path.join(os.path.dirname(sys.executable), "streamseg")
-    ing, pub, ctl = (f"tcp://127.0.0.1:{port0 + i}" for i in range(3))
+    loop = "tcp://127.0.0.1:0"
     state = tempfile.mkdtemp(prefix="consumer-view-")
     serve = subprocess.Popen(
         [
             exe,
             "serve",
             "--ingest",
-            ing,
+            loop,
             "--publish",
-            pub,
+            loop,
             "--control",
-            ctl,
+            loop,
             "--state-dir",
             state,
             *_serve_flags(args),
         ],
-        stdout=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
+        text=True,
     )
     try:
+        ing, pub, ctl = _bound(serve)
         deadline = time.monotonic() + 600
         while True:  # ready once control answers (the kernels are warm)
             try:
@@ -380,6 +387,18 @@ def from_cli(item, args, port0):
     finally:
         serve.terminate()
         serve.wait(60)
+
+
+def _bound(serve) -> tuple:
+    """The ingest, publish and control endpoints of ``serve``'s first line (``streamseg serve:
+    ingest=... publish=... control=...``, printed once its sockets are bound)."""
+    line = serve.stdout.readline()
+    if not line.startswith("streamseg serve: "):
+        raise RuntimeError(f"streamseg serve did not start: {line.strip()!r}")
+    got = dict(kv.split("=", 1) for kv in line.split(": ", 1)[1].split())
+    # whatever it prints later is read and dropped, so a full pipe never blocks it
+    threading.Thread(target=serve.stdout.read, daemon=True).start()
+    return got["ingest"], got["publish"], got["control"]
 
 
 def _serve_flags(args) -> list:
@@ -552,7 +571,7 @@ def run(args) -> list:
         elif args.source == "daemon":
             events, n = from_daemon(item, algorithms, args.history, args.interval, args.speed)
         else:
-            events, n = from_cli(item, args, 20000 + 10 * len(rows))
+            events, n = from_cli(item, args)
         if args.save and saved is None:
             from streamseg import protocol, strict_json
 
@@ -626,7 +645,8 @@ def table(rows, chosen=()) -> str:
     return markdown_table(header, out)
 
 
-def main(argv=None) -> None:
+def parser() -> argparse.ArgumentParser:
+    """The command line (also :mod:`view_tradeoff`'s, per detector setting)."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--sets", default="cmu,cmu02,hdm")
     p.add_argument("--only", default="", help="comma-separated recording names")
@@ -647,9 +667,9 @@ def main(argv=None) -> None:
     p.add_argument("--history", type=float, default=60.0)
     p.add_argument("--interval", type=float, default=5.0)
     p.add_argument("--tolerance", type=float, default=1.5)
-    p.add_argument("--delay", type=float, default=None, help="LOFConfig.delay_s")
-    p.add_argument("--early", type=float, default=None, help="LOFConfig.early_delay_s")
-    p.add_argument("--window", type=float, default=None, help="LOFConfig.window_s")
+    for opt, field in LOF_OPTIONS.items():
+        kind = int if field == "k" else float
+        p.add_argument(f"--{opt}", type=kind, default=None, help=f"LOFConfig.{field}")
     p.add_argument("--settle", type=float, default=None)
     p.add_argument("--focus", type=float, default=None)
     p.add_argument("--radius", type=float, default=None)
@@ -662,7 +682,11 @@ def main(argv=None) -> None:
     p.add_argument("--verbose", action="store_true")
     p.add_argument("--save", default="", help="append every event as JSON lines to this file")
     p.add_argument("--load", default="", help="score the events of a --save file instead")
-    args = p.parse_args(argv)
+    return p
+
+
+def main(argv=None) -> None:
+    args = parser().parse_args(argv)
     rows = run(args)
     chosen = set(filter(None, args.chosen_on.split(",")))
     print("The view (cut, confirm, withdraw and segments events):")
