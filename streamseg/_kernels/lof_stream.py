@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from streamseg._kernels.histogram import contrast_at, refine_cut, span_contrast
-from streamseg._kernels.lof import ext_evict, ext_insert
+from streamseg._kernels.lof_buffer import ext_evict, ext_insert
 from streamseg._kernels.peaks import (
     curve_range,
     dominates,
@@ -349,19 +349,19 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     refine radius frames, contrast frames, check columns); ``p`` (float64, slots ``P_*``) =
     (delay, tol, n_mads, min_score, min_gap, min_contrast, novelty, early delay: 0 for one
     stage). The arrays come in groups (tuples):
-    ``frames = (rb, rv, cur, left, right)``, ``lofs = (vecs, norms, seqs, nn_idx, nn_d, nn_key,
-    nn_cnt, trunc, lrd, lof, mark, centres)``, ``scratch = (work, curve, keep, stack)``,
+    ``frames = (rb, rv, cur, left, right)``, ``lofs`` the LOF buffer (the arrays of
+    :data:`streamseg._kernels.lof_buffer.FIELDS`), ``scratch = (work, curve, keep, stack)``,
     ``events = (ev_frame, ev_score, ev_emit, ev_kind, ev_window)``, ``pend`` (int64, rows
     window and frame) the pending early cuts (two stages, ``p[P_EARLY] > 0``). ``rb``/``rv``
     are a ring of
     the last ``len(rb) >= window`` frames' bins and validity (frame ``f`` at ``f % len(rb)``),
     ``cur`` the current window's counts, ``left``/``right`` scratch counts. The LOF state
-    (``vecs`` .. ``centres``) is described in :mod:`streamseg._kernels.lof`; its candidate
+    is described in :mod:`streamseg._kernels.lof_buffer`; its candidate
     lists may hold more than ``k`` entries. Events: cut frame, score (LOF), frame index at
     emission, kind (``KIND_*``), the decided window's sequence number.
     """
     rb, rv, cur, left, right = frames
-    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres = lofs
+    vecs, seqs, centres = lofs[0], lofs[2], lofs[11]
     bins, window, step = geo[GEO_BINS], geo[GEO_WINDOW], geo[GEO_STEP]
     min_valid, k, excl = geo[GEO_MIN_VALID], geo[GEO_K], geo[GEO_EXCLUSION]
     n_slots = seqs.shape[0]
@@ -371,10 +371,15 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     scale = bins / np.pi
     n_ev = 0
     size = rb.shape[0]
+    # ring rows of the entering frame and of the one leaving the window, advanced without a
+    # modulo per frame
+    pos = st[ST_FRAMES] % size
+    old = (st[ST_FRAMES] - window) % size
     for i in range(angles.shape[0]):
         f = st[ST_FRAMES]
-        pos = f % size
-        old = (f - window) % size
+        if i > 0:
+            pos = pos + 1 if pos + 1 < size else 0
+            old = old + 1 if old + 1 < size else 0
         if f >= window and rv[old]:
             st[ST_WINDOW_VALID] -= 1
             for a in range(n_ang):
@@ -406,48 +411,14 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
             oldest = st[ST_NEXT_SEQ] - n_slots
             # lrd and LOF are brought up to date once, after the insert below (Pokrajac's
             # update is exact from the marks of both changes)
-            ext_evict(
-                vecs,
-                norms,
-                seqs,
-                nn_idx,
-                nn_d,
-                nn_key,
-                nn_cnt,
-                trunc,
-                lrd,
-                lof,
-                mark,
-                centres,
-                oldest % n_slots,
-                k,
-                excl,
-            )
+            ext_evict(lofs, oldest % n_slots, k, excl)
             st[ST_BUFFERED] -= 1
         seq = st[ST_NEXT_SEQ]
         slot = seq % n_slots
         for d in range(vec.shape[0]):
             vec[d] = cur[d]
         centres[slot] = f - window + 1 + window // 2
-        st[ST_RECOMPUTES] += ext_insert(
-            vecs,
-            norms,
-            seqs,
-            nn_idx,
-            nn_d,
-            nn_key,
-            nn_cnt,
-            trunc,
-            lrd,
-            lof,
-            mark,
-            centres,
-            slot,
-            vec,
-            seq,
-            k,
-            excl,
-        )
+        st[ST_RECOMPUTES] += ext_insert(lofs, slot, vec, seq, k, excl)
         st[ST_BUFFERED] += 1
         st[ST_NEXT_SEQ] = seq + 1
         n_ev = _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from streamseg._kernels import frames_in
-from streamseg._kernels import lof as _kl
+from streamseg._kernels import lof_buffer as _kb
 from streamseg._kernels import lof_stream as _ks
 from streamseg._kernels import stream_features as _sf
 from streamseg.config import LOFConfig
@@ -29,8 +29,9 @@ class StreamingLOFSegmenter(Stateful):
     ``capacity`` windows (``config.buffer_s`` seconds) whose LOF values are maintained
     incrementally (Pokrajac et al. 2007): on insert and on evicting the oldest window only the
     points whose neighbour list, reachability or lrd change are recomputed (once per window,
-    for the eviction and the insert together). Each window keeps its ``2 * k`` nearest
-    windows as candidates, so an eviction almost never forces an O(capacity) rescan for a
+    for the eviction and the insert together), found through reverse lists (which lists
+    hold each window) instead of passes over the buffer. Each window keeps its ``2 * k``
+    nearest windows as candidates, so an eviction seldom forces an O(capacity) rescan for a
     new k-th neighbour; the median and MAD of the threshold use selection, not sorting.
     Window ``w`` is decided once, when window ``w + delay`` is complete: it is a cut when it is a
     peak vertex of the Douglas-Peucker simplification of the LOF curve over windows ``w - delay ..
@@ -61,13 +62,13 @@ class StreamingLOFSegmenter(Stateful):
     and enters no histogram; it still advances the frame clock. A window with fewer than
     ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
 
-    Memory: fixed at construction, ``capacity * (2 * d * bins + 40 * k + 73)`` +
+    Memory: fixed at construction, ``capacity * (2 * d * bins + 56 * k + 81)`` +
     ``(d + 1) * history`` bytes, ``d`` the histogrammed columns (``n_features``, doubled by
     the speed columns of ``config.speed_max``: 38 by default, 34 without the root speeds),
     ``history = delay * step + window + refine + max(window, contrast) + 1`` frames, plus
     ``(lag + 2) * n_features`` floats for the speeds (defaults at 120 Hz: 375 windows and 739
-    frames, 311 kB per stream, 311 MB for 1,000 streams; without the root speeds 289 kB,
-    without any speeds 195 kB; the ``2 * k`` candidates take 30 kB).
+    frames, 344 kB per stream, 344 MB for 1,000 streams; without the root speeds 322 kB,
+    without any speeds 228 kB; the ``2 * k`` candidates take 30 kB, their reverse lists 33 kB).
 
     Parameters
     ----------
@@ -163,6 +164,9 @@ class StreamingLOFSegmenter(Stateful):
         "_lrd",
         "_lof",
         "_mark",
+        "_rev",
+        "_rev_cnt",
+        "_queue",
         "_work",
         "_curve",
         "_keep",
@@ -179,9 +183,9 @@ class StreamingLOFSegmenter(Stateful):
         self._left = np.zeros(d, dtype=np.int64)
         self._right = np.zeros(d, dtype=np.int64)
         self._norms = np.zeros(n)
-        # 2k nearest candidates per window: an eviction then almost never empties a list below
-        # k, which would force an O(n d) rescan of the buffer (on 86_01, about 9 rescans per
-        # window with k candidates, 0.8 with 1.5k, 0.002 with 2k)
+        # 2k nearest candidates per window: an eviction then seldom empties a list below k,
+        # which forces an O(n d) rescan of the buffer (86_01 cycled, full buffer: 0.46 rescans
+        # per eviction with 2k, none with 3k, whose longer lists cost as much as the rescans)
         kk = 2 * k
         self._nn_idx = np.zeros((n, kk), dtype=np.int32)
         self._nn_d = np.zeros((n, kk))
@@ -191,6 +195,11 @@ class StreamingLOFSegmenter(Stateful):
         self._lrd = np.zeros(n)
         self._lof = np.zeros(n)
         self._mark = np.zeros(n, dtype=np.int64)
+        # which lists hold each window: an update visits those instead of every list; a
+        # window held by more than 2 * kk (none on 86_01: at most 26) is looked for in all
+        self._rev = np.zeros((n, 2 * kk), dtype=np.int32)
+        self._rev_cnt = np.zeros(n, dtype=np.int32)
+        self._queue = np.zeros(n + 1, dtype=np.int32)
         self._work = np.zeros(n)
         self._curve = np.zeros(n)
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
@@ -202,24 +211,9 @@ class StreamingLOFSegmenter(Stateful):
     def _rebuild_derived(self) -> None:
         """Recompute :attr:`_transient` from the buffered windows (after a restore):
         the same LOF values and the same later cuts as the state it was saved from
-        (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
+        (:func:`streamseg._kernels.lof_buffer.ext_rebuild`). O(capacity^2 * columns * bins)."""
         self._allocate_derived()
-        _kl.ext_rebuild(
-            self._vecs,
-            self._norms,
-            self._seqs,
-            self._nn_idx,
-            self._nn_d,
-            self._nn_key,
-            self._nn_cnt,
-            self._trunc,
-            self._lrd,
-            self._lof,
-            self._mark,
-            self._centres,
-            self.config.k,
-            int(self._geo[_ks.GEO_EXCLUSION]),
-        )
+        _kb.ext_rebuild(self._buffer(), self.config.k, int(self._geo[_ks.GEO_EXCLUSION]))
 
     # ---- feeding ---------------------------------------------------------------------------
     def learn_one(self, angles_row) -> list:
@@ -304,6 +298,9 @@ class StreamingLOFSegmenter(Stateful):
             self._lof,
             self._mark,
             self._centres,
+            self._rev,
+            self._rev_cnt,
+            self._queue,
             self._work,
             self._curve,
             self._keep,
@@ -359,22 +356,13 @@ class StreamingLOFSegmenter(Stateful):
         buffer (:mod:`streamseg._kernels.lof`), scratch."""
         return (
             (self._rb, self._rv, self._cur, self._left, self._right),
-            (
-                self._vecs,
-                self._norms,
-                self._seqs,
-                self._nn_idx,
-                self._nn_d,
-                self._nn_key,
-                self._nn_cnt,
-                self._trunc,
-                self._lrd,
-                self._lof,
-                self._mark,
-                self._centres,
-            ),
+            self._buffer(),
             (self._work, self._curve, self._keep, self._stack),
         )
+
+    def _buffer(self) -> tuple:
+        """The LOF buffer's arrays (:data:`streamseg._kernels.lof_buffer.FIELDS`)."""
+        return tuple(getattr(self, "_" + name) for name in _kb.FIELDS)
 
     @staticmethod
     def _events(n, ev) -> list:
