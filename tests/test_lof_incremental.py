@@ -43,6 +43,7 @@ class Buffer:
         self.rev = np.zeros((cap, r), dtype=np.int32)
         self.rev_cnt = np.zeros(cap, dtype=np.int32)
         self.queue = np.zeros(cap + 1, dtype=np.int32)
+        self.gate = np.full(cap, -1.0)
         self.next, self.size = 0, 0
 
     def _args(self):
@@ -189,7 +190,8 @@ def test_extended_candidate_lists_are_exact_and_change_no_value(
 
 
 def assert_reverse_lists(buf, live):
-    """Each live point's reverse list holds exactly the lists that hold it (or overflowed)."""
+    """Each live point's reverse list holds exactly the lists that hold it (or overflowed),
+    and its gate is its list's last candidate's distance (infinite with room)."""
     holders = {int(q): [] for q in live}
     for p in live:
         for t_ in range(buf.nn_cnt[p]):
@@ -202,6 +204,10 @@ def assert_reverse_lists(buf, live):
             continue
         assert sorted(buf.rev[q, :c].tolist()) == sorted(want)
     assert not buf.mark.any() and buf.queue[-1] == 0
+    for p in live:  # the gate: where a new point enters the list
+        c, kk = buf.nn_cnt[p], buf.nn_idx.shape[1]
+        closed = c > 0 and (c == kk or buf.trunc[p])
+        assert buf.gate[p] == (buf.nn_d[p, c - 1] if closed else np.inf)
 
 
 def rebuilt(ext):

@@ -22,6 +22,9 @@ State (one set per stream), capacity N slots, candidate lists of length K >= k:
   ``q`` (unordered, first ``rev_cnt[q]``), ``rev_cnt`` int32 (N,); ``rev_cnt[q] > R``: more
   than ``R`` lists hold ``q`` and its row is not kept (the kernels then scan every list for
   it, as without reverse lists);
+- ``gate`` float64 (N,): a new point enters the list of ``p`` when its distance is below
+  ``gate[p]`` (the last candidate's distance; +inf for a complete list with room; -1 for
+  an empty slot), so an insert looks at one contiguous array to find the lists it enters;
 - scratch: ``mark`` int64 (N,) zero between calls (1 = A, 2 = B, 3 = C), ``queue`` int32
   (N + 1,): the marked slots in the order marked, their number in ``queue[N]``.
 
@@ -57,6 +60,7 @@ FIELDS = (
     "rev",
     "rev_cnt",
     "queue",
+    "gate",
 )
 
 
@@ -92,6 +96,17 @@ def _mark_changed(mark, queue, p):
         queue[queue[n]] = p
         queue[n] += 1
     mark[p] = 1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _set_gate(nn_d, nn_cnt, trunc, gate, p):
+    """``gate[p]`` from ``p``'s list: the newest point, last among equal distances, enters a
+    full or truncated list only when strictly closer than its last candidate."""
+    c = nn_cnt[p]
+    if c > 0 and (c == nn_d.shape[1] or trunc[p]):
+        gate[p] = nn_d[p, c - 1]
+    else:
+        gate[p] = np.inf
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -212,6 +227,7 @@ def _own_list(buf, p, dist, excl):
             cnt = _insert_sorted(nn_idx[p], nn_d[p], nn_key[p], cnt, kk, j, dj, seqs[j])
     nn_cnt[p] = cnt
     trunc[p] = 1 if n_elig > kk else 0
+    _set_gate(nn_d, nn_cnt, trunc, buf[15], p)
     for t in range(cnt):
         _rev_add(rev, rev_cnt, nn_idx[p, t], p)
 
@@ -249,7 +265,7 @@ def ext_insert(buf, slot, vec, seq, k, excl):
     Returns the number of points whose LOF was recomputed.
     """
     vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc = buf[:8]
-    mark, centres, rev, rev_cnt, queue = buf[10:]
+    mark, centres, rev, rev_cnt, queue = buf[10:15]
     n_slots = seqs.shape[0]
     kk = nn_idx.shape[1]
     s = 0.0
@@ -264,23 +280,24 @@ def ext_insert(buf, slot, vec, seq, k, excl):
     dist = np.empty(n_slots)
     _distances_to(vecs, norms, slot, dist)
     _own_list(buf, slot, dist, excl)
+    gate = buf[15]
+    # every full list of an eligible point now leaves out the new point or its own last one
     for j in range(n_slots):
-        if j == slot or seqs[j] < 0 or abs(centres[slot] - centres[j]) < excl:
-            continue
+        full = nn_cnt[j] == kk and seqs[j] >= 0 and j != slot
+        if full and abs(centres[slot] - centres[j]) >= excl:
+            trunc[j] = 1
+    for j in range(n_slots):
         dj = dist[j]
-        # the new point is the youngest, last among equal distances: it enters j's list when
-        # strictly closer than its last candidate, or after it when the list is complete
+        # the lists the new point enters (empty slots never: their gate is -1)
+        if dj >= gate[j] or j == slot or abs(centres[slot] - centres[j]) < excl:
+            continue
         c = nn_cnt[j]
         if c == kk:
-            trunc[j] = 1  # a full list leaves out the new point or its own last candidate
-            if dj >= nn_d[j, kk - 1]:
-                continue
             _rev_drop(rev, rev_cnt, nn_idx[j, kk - 1], j)
-        elif trunc[j] and dj >= nn_d[j, c - 1]:
-            continue
         if c < k or dj < nn_d[j, k - 1]:
             _mark_changed(mark, queue, j)  # its k-neighbours changed
         nn_cnt[j] = _insert_sorted(nn_idx[j], nn_d[j], nn_key[j], c, kk, slot, dj, seq)
+        _set_gate(nn_d, nn_cnt, trunc, gate, j)
         _rev_add(rev, rev_cnt, slot, j)
     return _update(buf, k)
 
@@ -306,6 +323,8 @@ def _unlist(buf, p, slot, k, excl):
     nn_cnt[p] = c - 1
     if c - 1 < k and trunc[p]:
         _scan(buf, p, excl)
+    else:
+        _set_gate(nn_d, nn_cnt, trunc, buf[15], p)
 
 
 @njit(cache=True, nogil=True)
@@ -324,6 +343,7 @@ def ext_evict(buf, slot, k, excl):
         _rev_drop(rev, rev_cnt, nn_idx[slot, t], slot)
     nn_cnt[slot] = 0
     trunc[slot] = 0
+    buf[15][slot] = -1.0
     lof[slot] = 0.0
     lrd[slot] = 0.0
     c = rev_cnt[slot]
@@ -374,6 +394,8 @@ def ext_rebuild(buf, k, excl):
         if seqs[p] >= 0:
             _scan(buf, p, excl)
             _mark_changed(buf[10], buf[14], p)
+        else:
+            buf[15][p] = -1.0
     return _update(buf, k)
 
 
@@ -390,5 +412,8 @@ def plain_lists(buf, k):
         rev_cnt[p] = 0
     for p in range(seqs.shape[0]):
         if seqs[p] >= 0:
+            _set_gate(buf[4], nn_cnt, trunc, buf[15], p)
             for t in range(nn_cnt[p]):
                 _rev_add(rev, rev_cnt, nn_idx[p, t], p)
+        else:
+            buf[15][p] = -1.0

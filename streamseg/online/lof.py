@@ -30,8 +30,8 @@ class StreamingLOFSegmenter(Stateful):
     incrementally (Pokrajac et al. 2007): on insert and on evicting the oldest window only the
     points whose neighbour list, reachability or lrd change are recomputed (once per window,
     for the eviction and the insert together), found through reverse lists (which lists
-    hold each window) instead of passes over the buffer. Each window keeps its ``2 * k``
-    nearest windows as candidates, so an eviction seldom forces an O(capacity) rescan for a
+    hold each window) instead of passes over the buffer. Each window keeps its ``3 * k``
+    nearest windows as candidates, so an eviction almost never forces an O(capacity) rescan for a
     new k-th neighbour; the median and MAD of the threshold use selection, not sorting.
     Window ``w`` is decided once, when window ``w + delay`` is complete: it is a cut when it is a
     peak vertex of the Douglas-Peucker simplification of the LOF curve over windows ``w - delay ..
@@ -62,13 +62,14 @@ class StreamingLOFSegmenter(Stateful):
     and enters no histogram; it still advances the frame clock. A window with fewer than
     ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
 
-    Memory: fixed at construction, ``capacity * (2 * d * bins + 56 * k + 81)`` +
+    Memory: fixed at construction, ``capacity * (2 * d * bins + 78 * k + 89)`` +
     ``(d + 1) * history`` bytes, ``d`` the histogrammed columns (``n_features``, doubled by
     the speed columns of ``config.speed_max``: 38 by default, 34 without the root speeds),
     ``history = delay * step + window + refine + max(window, contrast) + 1`` frames, plus
     ``(lag + 2) * n_features`` floats for the speeds (defaults at 120 Hz: 375 windows and 739
-    frames, 344 kB per stream, 344 MB for 1,000 streams; without the root speeds 322 kB,
-    without any speeds 228 kB; the ``2 * k`` candidates take 30 kB, their reverse lists 33 kB).
+    frames, 388 kB per stream, 388 MB for 1,000 streams; without the root speeds 366 kB,
+    without any speeds 273 kB; the ``3 * k`` candidates take 113 kB, their reverse lists
+    37 kB).
 
     Parameters
     ----------
@@ -167,6 +168,7 @@ class StreamingLOFSegmenter(Stateful):
         "_rev",
         "_rev_cnt",
         "_queue",
+        "_gate",
         "_work",
         "_curve",
         "_keep",
@@ -183,10 +185,10 @@ class StreamingLOFSegmenter(Stateful):
         self._left = np.zeros(d, dtype=np.int64)
         self._right = np.zeros(d, dtype=np.int64)
         self._norms = np.zeros(n)
-        # 2k nearest candidates per window: an eviction then seldom empties a list below k,
-        # which forces an O(n d) rescan of the buffer (86_01 cycled, full buffer: 0.46 rescans
-        # per eviction with 2k, none with 3k, whose longer lists cost as much as the rescans)
-        kk = 2 * k
+        # 3k nearest candidates per window: an eviction then almost never empties a list
+        # below k, which forces an O(n d) rescan of the buffer (86_01 cycled, full buffer:
+        # 0.46 rescans per eviction with 2k, none with 3k; 3k is 4 % faster in all)
+        kk = 3 * k
         self._nn_idx = np.zeros((n, kk), dtype=np.int32)
         self._nn_d = np.zeros((n, kk))
         self._nn_key = np.zeros((n, kk), dtype=np.int64)
@@ -196,10 +198,12 @@ class StreamingLOFSegmenter(Stateful):
         self._lof = np.zeros(n)
         self._mark = np.zeros(n, dtype=np.int64)
         # which lists hold each window: an update visits those instead of every list; a
-        # window held by more than 2 * kk (none on 86_01: at most 26) is looked for in all
-        self._rev = np.zeros((n, 2 * kk), dtype=np.int32)
+        # window held by more than 3 * kk (none on 86_01, 02_01, 02_05: at most 38 of 45) is
+        # looked for in every list
+        self._rev = np.zeros((n, 3 * kk), dtype=np.int16 if n < 1 << 15 else np.int32)
         self._rev_cnt = np.zeros(n, dtype=np.int32)
         self._queue = np.zeros(n + 1, dtype=np.int32)
+        self._gate = np.full(n, -1.0)  # see streamseg._kernels.lof_buffer
         self._work = np.zeros(n)
         self._curve = np.zeros(n)
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
@@ -301,6 +305,7 @@ class StreamingLOFSegmenter(Stateful):
             self._rev,
             self._rev_cnt,
             self._queue,
+            self._gate,
             self._work,
             self._curve,
             self._keep,
