@@ -6,6 +6,7 @@ import numpy as np
 
 from streamseg._kernels import frames_in
 from streamseg._kernels import lof_buffer as _kb
+from streamseg._kernels import lof_decide as _kd
 from streamseg._kernels import lof_stream as _ks
 from streamseg._kernels import stream_features as _sf
 from streamseg.config import LOFConfig
@@ -125,9 +126,9 @@ class StreamingLOFSegmenter(Stateful):
             ],
             dtype=np.float64,
         )
-        assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
+        assert self._geo.size == _kd.GEO_SIZE and self._p.size == _kd.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
-        self._st = _ks.new_state()
+        self._st = _kd.new_state()
         # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
         # cut localisation reads back to refine + w frames before a peak window's centre
         self._rb = np.zeros((g["history"], self._cols), dtype=np.int8)
@@ -217,7 +218,7 @@ class StreamingLOFSegmenter(Stateful):
         the same LOF values and the same later cuts as the state it was saved from
         (:func:`streamseg._kernels.lof_buffer.ext_rebuild`). O(capacity^2 * columns * bins)."""
         self._allocate_derived()
-        _kb.ext_rebuild(self._buffer(), self.config.k, int(self._geo[_ks.GEO_EXCLUSION]))
+        _kb.ext_rebuild(self._buffer(), self.config.k, int(self._geo[_kd.GEO_EXCLUSION]))
 
     # ---- feeding ---------------------------------------------------------------------------
     def learn_one(self, angles_row) -> list:
@@ -358,7 +359,7 @@ class StreamingLOFSegmenter(Stateful):
 
     def _groups(self) -> tuple:
         """The kernel's state arrays in its three groups: frame ring and counts, the LOF
-        buffer (:mod:`streamseg._kernels.lof`), scratch."""
+        buffer (:mod:`streamseg._kernels.lof_buffer`), scratch."""
         return (
             (self._rb, self._rv, self._cur, self._left, self._right),
             self._buffer(),
@@ -375,42 +376,42 @@ class StreamingLOFSegmenter(Stateful):
         out = []
         for i in range(n):
             f, k, e = int(ev_f[i]), int(ev_k[i]), int(ev_e[i])
-            if k == _ks.KIND_CUT or k == _ks.KIND_PENDING:
-                out.append(CutEvent(f, float(ev_s[i]), e, pending=k == _ks.KIND_PENDING))
-            elif k == _ks.KIND_CONFIRM:
+            if k == _kd.KIND_CUT or k == _kd.KIND_PENDING:
+                out.append(CutEvent(f, float(ev_s[i]), e, pending=k == _kd.KIND_PENDING))
+            elif k == _kd.KIND_CONFIRM:
                 out.append(ConfirmEvent(f, float(ev_s[i]), e))
             else:
-                out.append(WithdrawEvent(f, e, moved=k == _ks.KIND_MOVED))
+                out.append(WithdrawEvent(f, e, moved=k == _kd.KIND_MOVED))
         return out
 
     # ---- read-only views (never mutate state) ----------------------------------------------
     @property
     def n_frames_(self) -> int:
         """Frames fed so far (NaN frames included)."""
-        return int(self._st[_ks.ST_FRAMES])
+        return int(self._st[_kd.ST_FRAMES])
 
     @property
     def n_nan_frames_(self) -> int:
         """Frames skipped because an angle was NaN or infinite."""
-        return int(self._st[_ks.ST_NAN_FRAMES])
+        return int(self._st[_kd.ST_NAN_FRAMES])
 
     @property
     def n_dropped_windows_(self) -> int:
         """Windows not inserted because fewer than ``min_valid`` of their frames were valid."""
-        return int(self._st[_ks.ST_DROPPED])
+        return int(self._st[_kd.ST_DROPPED])
 
     @property
     def n_windows_(self) -> int:
         """Windows inserted into the LOF buffer so far (including evicted ones)."""
-        return int(self._st[_ks.ST_NEXT_SEQ])
+        return int(self._st[_kd.ST_NEXT_SEQ])
 
     @property
     def n_lof_updates_(self) -> int:
         """Total LOF recomputations done by the incremental updates (work statistic)."""
-        return int(self._st[_ks.ST_RECOMPUTES])
+        return int(self._st[_kd.ST_RECOMPUTES])
 
     def _order(self) -> np.ndarray:
-        size, nxt = int(self._st[_ks.ST_BUFFERED]), int(self._st[_ks.ST_NEXT_SEQ])
+        size, nxt = int(self._st[_kd.ST_BUFFERED]), int(self._st[_kd.ST_NEXT_SEQ])
         return np.arange(nxt - size, nxt) % self._seqs.shape[0]
 
     def buffer_vectors(self) -> np.ndarray:
