@@ -284,26 +284,22 @@ def _settle(w, c, y, st, p, pend, events, n_ev, emitted_at):
     return n_ev
 
 
+@njit(cache=True, nogil=True, inline="always")
+def decide_stage(w, hi, st, p, geo, frames, lofs, scratch, cache, early):
+    """:func:`_decide` for the final stage (``early`` 0: ``P_DELAY`` windows, the
+    ``ST_LAST_*`` slots) or for the early one (``early`` windows, the ``ST_E_*`` slots)."""
+    ls = ST_E_LAST_CUT_SEQ if early else ST_LAST_CUT_SEQ
+    ld = ST_E_LAST_DECIDED if early else ST_LAST_DECIDED
+    lf = ST_E_LAST_CUT_FRAME if early else ST_LAST_CUT_FRAME
+    delay = early if early else int(p[P_DELAY])
+    return _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache)
+
+
 @njit(cache=True, nogil=True)
 def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
     """Window ``seq`` was inserted on frame ``f``: the decisions it completes."""
-    delay = int(p[P_DELAY])
-    w = seq - delay
-    c, y = _decide(
-        w,
-        seq,
-        st,
-        p,
-        geo,
-        frames,
-        lofs,
-        scratch,
-        delay,
-        ST_LAST_CUT_SEQ,
-        ST_LAST_DECIDED,
-        ST_LAST_CUT_FRAME,
-        cache,
-    )
+    w = seq - int(p[P_DELAY])
+    c, y = decide_stage(w, seq, st, p, geo, frames, lofs, scratch, cache, 0)
     early = int(p[P_EARLY]) if p.shape[0] > P_EARLY else 0
     if early <= 0:
         if c >= 0:
@@ -316,21 +312,7 @@ def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
         st[ST_E_LAST_CUT_SEQ] = st[ST_LAST_CUT_SEQ]
         st[ST_E_LAST_CUT_FRAME] = st[ST_LAST_CUT_FRAME]
     we = seq - early
-    c, y = _decide(
-        we,
-        seq,
-        st,
-        p,
-        geo,
-        frames,
-        lofs,
-        scratch,
-        early,
-        ST_E_LAST_CUT_SEQ,
-        ST_E_LAST_DECIDED,
-        ST_E_LAST_CUT_FRAME,
-        cache,
-    )
+    c, y = decide_stage(we, seq, st, p, geo, frames, lofs, scratch, cache, early)
     if c >= 0:
         n = st[ST_PENDING]
         pend[n, 0] = we

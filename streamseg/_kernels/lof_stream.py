@@ -27,18 +27,15 @@ from streamseg._kernels.lof_decide import (
     ST_BUFFERED,
     ST_DROPPED,
     ST_FRAMES,
-    ST_LAST_CUT_FRAME,
-    ST_LAST_CUT_SEQ,
-    ST_LAST_DECIDED,
     ST_NAN_FRAMES,
     ST_NEXT_SEQ,
     ST_PENDING,
     ST_RECOMPUTES,
     ST_WINDOW_VALID,
-    _decide,
     _emit,
     _settle,
     _step,
+    decide_stage,
 )
 
 
@@ -137,21 +134,7 @@ def stream_finish(st, p, geo, frames, lofs, scratch, events, pend):
     n_ev = 0
     cache = np.full(3, -1.0)
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
-        c, y = _decide(
-            w,
-            last,
-            st,
-            p,
-            geo,
-            frames,
-            lofs,
-            scratch,
-            delay,
-            ST_LAST_CUT_SEQ,
-            ST_LAST_DECIDED,
-            ST_LAST_CUT_FRAME,
-            cache,
-        )
+        c, y = decide_stage(w, last, st, p, geo, frames, lofs, scratch, cache, 0)
         if early > 0:
             n_ev = _settle(w, c, y, st, p, pend, events, n_ev, at)
         elif c >= 0:
