@@ -177,6 +177,7 @@ class StreamingLOFSegmenter(Stateful):
         "_left",
         "_right",
         "_ev",
+        "_kernel_groups",
     )
 
     def _allocate_derived(self) -> None:
@@ -209,6 +210,12 @@ class StreamingLOFSegmenter(Stateful):
         self._curve = np.zeros(n)
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
         self._stack = np.zeros(4 * (2 * g["delay"] + 1) + 4, dtype=np.int64)
+        # the kernel's arrays in its groups, built once: a few microseconds a packet
+        self._kernel_groups = (
+            (self._rb, self._rv, self._cur, self._left, self._right),
+            self._buffer(),
+            (self._work, self._curve, self._keep, self._stack),
+        )
 
     def _restored(self) -> None:
         self._rebuild_derived()
@@ -360,11 +367,7 @@ class StreamingLOFSegmenter(Stateful):
     def _groups(self) -> tuple:
         """The kernel's state arrays in its three groups: frame ring and counts, the LOF
         buffer (:mod:`streamseg._kernels.lof_buffer`), scratch."""
-        return (
-            (self._rb, self._rv, self._cur, self._left, self._right),
-            self._buffer(),
-            (self._work, self._curve, self._keep, self._stack),
-        )
+        return self._kernel_groups
 
     def _buffer(self) -> tuple:
         """The LOF buffer's arrays (:data:`streamseg._kernels.lof_buffer.FIELDS`)."""
