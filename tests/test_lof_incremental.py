@@ -43,7 +43,7 @@ class Buffer:
         self.rev = np.zeros((cap, r), dtype=np.int32)
         self.rev_cnt = np.zeros(cap, dtype=np.int32)
         self.queue = np.zeros(cap + 1, dtype=np.int32)
-        self.gate = np.full(cap, -1.0)
+        self.gate = np.zeros(cap)
         self.next, self.size = 0, 0
 
     def _args(self):

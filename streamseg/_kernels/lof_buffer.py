@@ -23,8 +23,9 @@ State (one set per stream), capacity N slots, candidate lists of length K >= k:
   than ``R`` lists hold ``q`` and its row is not kept (the kernels then scan every list for
   it, as without reverse lists);
 - ``gate`` float64 (N,): a new point enters the list of ``p`` when its distance is below
-  ``gate[p]`` (the last candidate's distance; +inf for a complete list with room; -1 for
-  an empty slot), so an insert looks at one contiguous array to find the lists it enters;
+  ``gate[p]`` (the last candidate's distance; +inf for a complete list with room; 0 for
+  an empty slot: no distance is below it), so an insert finds the lists it enters in one
+  contiguous array;
 - scratch: ``mark`` int64 (N,) zero between calls (1 = A, 2 = B, 3 = C), ``queue`` int32
   (N + 1,): the marked slots in the order marked, their number in ``queue[N]``.
 
@@ -288,7 +289,7 @@ def ext_insert(buf, slot, vec, seq, k, excl):
             trunc[j] = 1
     for j in range(n_slots):
         dj = dist[j]
-        # the lists the new point enters (empty slots never: their gate is -1)
+        # the lists the new point enters (empty slots never: their gate is 0)
         if dj >= gate[j] or j == slot or abs(centres[slot] - centres[j]) < excl:
             continue
         c = nn_cnt[j]
@@ -343,7 +344,7 @@ def ext_evict(buf, slot, k, excl):
         _rev_drop(rev, rev_cnt, nn_idx[slot, t], slot)
     nn_cnt[slot] = 0
     trunc[slot] = 0
-    buf[15][slot] = -1.0
+    buf[15][slot] = 0.0
     lof[slot] = 0.0
     lrd[slot] = 0.0
     c = rev_cnt[slot]
@@ -395,7 +396,7 @@ def ext_rebuild(buf, k, excl):
             _scan(buf, p, excl)
             _mark_changed(buf[10], buf[14], p)
         else:
-            buf[15][p] = -1.0
+            buf[15][p] = 0.0
     return _update(buf, k)
 
 
@@ -416,4 +417,4 @@ def plain_lists(buf, k):
             for t in range(nn_cnt[p]):
                 _rev_add(rev, rev_cnt, nn_idx[p, t], p)
         else:
-            buf[15][p] = -1.0
+            buf[15][p] = 0.0

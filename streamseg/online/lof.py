@@ -205,7 +205,7 @@ class StreamingLOFSegmenter(Stateful):
         self._rev = np.zeros((n, 3 * kk), dtype=np.int16 if n < 1 << 15 else np.int32)
         self._rev_cnt = np.zeros(n, dtype=np.int32)
         self._queue = np.zeros(n + 1, dtype=np.int32)
-        self._gate = np.full(n, -1.0)  # see streamseg._kernels.lof_buffer
+        self._gate = np.zeros(n)  # see streamseg._kernels.lof_buffer
         self._work = np.zeros(n)
         self._curve = np.zeros(n)
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
