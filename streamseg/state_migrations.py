@@ -20,7 +20,7 @@ READS = (5, 6, 7)  # checkpoint row formats restored by this release
 
 
 def _lof_1(fields: dict) -> dict:
-    from streamseg._kernels import lof_stream as ks
+    from streamseg._kernels import lof_decide as ks
 
     # one-stage decision (no pending cuts); the decision's checks read every column
     fields.setdefault("_pend", np.zeros((0, 2), dtype=np.int64))

@@ -6,63 +6,67 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from streamseg._kernels.lof import (
+from streamseg._kernels.lof_buffer import (
+    FIELDS,
     ext_delete,
     ext_evict,
     ext_insert,
     ext_rebuild,
-    inc_delete,
-    inc_insert,
+    plain_lists,
 )
 from streamseg._kernels.peaks import robust_threshold, select_kth
 from tests.naive import naive_cosine_lof, naive_robust_threshold, naive_sorted_neighbours
 
 
 class Buffer:
-    """Thin driver of the incremental kernels over a ring of ``cap`` slots."""
+    """Thin driver of the incremental kernels over a ring of ``cap`` slots, lists of exactly
+    ``k`` neighbours (Pokrajac et al.'s plain lists: :func:`plain_lists` before each update)."""
 
-    def __init__(self, cap, k, d, excl=0):
+    plain = True
+
+    def __init__(self, cap, k, d, excl=0, kk=None, r=None):
+        kk = k if kk is None else kk
+        r = 3 * kk if r is None else r
         self.k, self.excl, self.cap = k, excl, cap
         self.vecs = np.zeros((cap, d), dtype=np.int16)
         self.norms = np.zeros(cap)
         self.seqs = np.full(cap, -1, dtype=np.int64)
-        self.nn_idx = np.zeros((cap, k), dtype=np.int64)
-        self.nn_d = np.zeros((cap, k))
-        self.nn_key = np.zeros((cap, k), dtype=np.int64)
+        self.nn_idx = np.zeros((cap, kk), dtype=np.int32)
+        self.nn_d = np.zeros((cap, kk))
+        self.nn_key = np.zeros((cap, kk), dtype=np.int64)
         self.nn_cnt = np.zeros(cap, dtype=np.int64)
+        self.trunc = np.zeros(cap, dtype=np.uint8)
         self.lrd = np.zeros(cap)
         self.lof = np.zeros(cap)
         self.mark = np.zeros(cap, dtype=np.int64)
         self.centres = np.zeros(cap, dtype=np.int64)
+        self.rev = np.zeros((cap, r), dtype=np.int32)
+        self.rev_cnt = np.zeros(cap, dtype=np.int32)
+        self.queue = np.zeros(cap + 1, dtype=np.int32)
+        self.gate = np.zeros(cap)
         self.next, self.size = 0, 0
 
     def _args(self):
-        return (
-            self.vecs,
-            self.norms,
-            self.seqs,
-            self.nn_idx,
-            self.nn_d,
-            self.nn_key,
-            self.nn_cnt,
-            self.lrd,
-            self.lof,
-            self.mark,
-            self.centres,
-        )
+        if self.plain:
+            plain_lists(self.buf(), self.k)
+        return self.buf()
+
+    def buf(self):
+        return tuple(getattr(self, name) for name in FIELDS)
 
     def insert(self, vec, t):
         slot = self.next % self.cap
         self.centres[slot] = t
-        n = inc_insert(
-            *self._args(), slot, np.asarray(vec, dtype=np.int16), self.next, self.k, self.excl
+        n = ext_insert(
+            self._args(), slot, np.asarray(vec, dtype=np.int16), self.next, self.k, self.excl
         )
         self.next += 1
         self.size += 1
         return n
 
-    def evict(self):
-        n = inc_delete(*self._args(), (self.next - self.size) % self.cap, self.k, self.excl)
+    def evict(self, update=True):
+        kernel = ext_delete if update else ext_evict
+        n = kernel(self._args(), (self.next - self.size) % self.cap, self.k, self.excl)
         self.size -= 1
         return n
 
@@ -121,46 +125,13 @@ def test_incremental_updates_touch_few_points_on_clustered_stream():
 
 
 class ExtBuffer(Buffer):
-    """Driver of the extended-candidate kernels: lists of ``kk >= k`` candidates."""
+    """Driver of the extended-candidate kernels: lists of ``kk >= k`` candidates, kept
+    between updates with their reverse lists (of ``r`` entries: small ones overflow)."""
 
-    def __init__(self, cap, k, kk, d, excl=0):
-        super().__init__(cap, k, d, excl)
-        self.nn_idx = np.zeros((cap, kk), dtype=np.int32)
-        self.nn_d = np.zeros((cap, kk))
-        self.nn_key = np.zeros((cap, kk), dtype=np.int64)
-        self.trunc = np.zeros(cap, dtype=np.uint8)
+    plain = False
 
-    def _args(self):
-        return (
-            self.vecs,
-            self.norms,
-            self.seqs,
-            self.nn_idx,
-            self.nn_d,
-            self.nn_key,
-            self.nn_cnt,
-            self.trunc,
-            self.lrd,
-            self.lof,
-            self.mark,
-            self.centres,
-        )
-
-    def insert(self, vec, t):
-        slot = self.next % self.cap
-        self.centres[slot] = t
-        n = ext_insert(
-            *self._args(), slot, np.asarray(vec, dtype=np.int16), self.next, self.k, self.excl
-        )
-        self.next += 1
-        self.size += 1
-        return n
-
-    def evict(self, update=True):
-        kernel = ext_delete if update else ext_evict
-        n = kernel(*self._args(), (self.next - self.size) % self.cap, self.k, self.excl)
-        self.size -= 1
-        return n
+    def __init__(self, cap, k, kk, d, excl=0, r=None):
+        super().__init__(cap, k, d, excl, kk, r)
 
 
 @settings(max_examples=150, deadline=None)
@@ -172,15 +143,18 @@ class ExtBuffer(Buffer):
     d=st.integers(1, 6),
     alphabet=st.integers(1, 4),
     excl=st.sampled_from([0, 0, 3]),
+    r=st.sampled_from([None, None, 1, 2]),
 )
 def test_extended_candidate_lists_are_exact_and_change_no_value(
-    data, cap, k, extra, d, alphabet, excl
+    data, cap, k, extra, d, alphabet, excl, r
 ):
     """Lists of k + extra candidates: each list is the exact (distance, age) prefix of all
     eligible points, at least k long unless fewer are eligible, complete unless flagged
     truncated; the LOF equals the naive one and, bit for bit, the plain k-list kernels'. An
-    eviction followed by an insert may update lrd/LOF once for both (``ext_evict``)."""
-    ext = ExtBuffer(cap, k, k + extra, d, excl)
+    eviction followed by an insert may update lrd/LOF once for both (``ext_evict``). The
+    reverse lists name exactly the lists holding each point, or are marked overflowed (``r``
+    entries of 1 or 2 overflow often: the kernels then scan every list)."""
+    ext = ExtBuffer(cap, k, k + extra, d, excl, r)
     plain = Buffer(cap, k, d, excl)
     ops = data.draw(
         st.lists(st.sampled_from(["insert", "evict", "replace"]), min_size=1, max_size=40)
@@ -212,16 +186,38 @@ def test_extended_candidate_lists_are_exact_and_change_no_value(
             assert ext.trunc[p] or c == len(nb)
             got = [(ext.nn_d[p, t_], pos[int(ext.nn_idx[p, t_])]) for t_ in range(c)]
             assert got == nb[:c]
+        assert_reverse_lists(ext, o)
+
+
+def assert_reverse_lists(buf, live):
+    """Each live point's reverse list holds exactly the lists that hold it (or overflowed),
+    and its gate is its list's last candidate's distance (infinite with room)."""
+    holders = {int(q): [] for q in live}
+    for p in live:
+        for t_ in range(buf.nn_cnt[p]):
+            holders[int(buf.nn_idx[p, t_])].append(int(p))
+    width = buf.rev.shape[1]
+    for q, want in holders.items():
+        c = buf.rev_cnt[q]
+        if c > width:  # overflowed once: not kept until the point leaves
+            assert c == width + 1
+            continue
+        assert sorted(buf.rev[q, :c].tolist()) == sorted(want)
+    assert not buf.mark.any() and buf.queue[-1] == 0
+    for p in live:  # the gate: where a new point enters the list
+        c, kk = buf.nn_cnt[p], buf.nn_idx.shape[1]
+        closed = c > 0 and (c == kk or buf.trunc[p])
+        assert buf.gate[p] == (buf.nn_d[p, c - 1] if closed else np.inf)
 
 
 def rebuilt(ext):
     """A fresh :class:`ExtBuffer` with only ``vecs``, ``seqs`` and ``centres`` copied from
     ``ext`` and the rest recomputed (what a restored checkpoint does)."""
     kk = ext.nn_idx.shape[1]
-    out = ExtBuffer(ext.cap, ext.k, kk, ext.vecs.shape[1], ext.excl)
+    out = ExtBuffer(ext.cap, ext.k, kk, ext.vecs.shape[1], ext.excl, ext.rev.shape[1])
     out.vecs[:], out.seqs[:], out.centres[:] = ext.vecs, ext.seqs, ext.centres
     out.next, out.size = ext.next, ext.size
-    ext_rebuild(*out._args(), ext.k, ext.excl)
+    ext_rebuild(out.buf(), ext.k, ext.excl)
     return out
 
 

@@ -90,13 +90,17 @@ def window_counts(frame_bins, valid, bins, window, step):
     return counts, n_valid
 
 
-@njit(cache=True, nogil=True)
-def _add_frame(counts, ring, valid, size, g, bins, sign):
-    """Add (``sign=1``) or remove (``-1``) frame ``g`` of a ring to a count vector."""
-    pos = g % size
-    if valid[pos]:
-        for a in range(ring.shape[1]):
-            counts[a * bins + ring[pos, a]] += sign
+@njit(cache=True, nogil=True, inline="always")
+def _add_frames(counts, ring, valid, size, lo, hi, bins):
+    """Add frames ``lo .. hi - 1`` of a ring to a count vector (one modulo, not one a frame)."""
+    pos = lo % size
+    for _ in range(lo, hi):
+        if valid[pos]:
+            for a in range(ring.shape[1]):
+                counts[a * bins + ring[pos, a]] += 1
+        pos += 1
+        if pos == size:
+            pos = 0
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -114,21 +118,6 @@ def _cos_distance(left, right):
     if den == 0.0:
         return UNDEFINED
     return 1.0 - dot / den
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _move_frame(counts, other, ring, valid, size, g, bins, sign, sq, dot):
-    """:func:`_add_frame` that also updates ``sq`` (the sum of squares of ``counts``) and
-    ``dot`` (its dot product with ``other``) exactly, as integers; returns both."""
-    pos = g % size
-    if valid[pos]:
-        for a in range(ring.shape[1]):
-            i = a * bins + ring[pos, a]
-            c = counts[i]
-            sq += 2 * sign * c + 1
-            dot += sign * other[i]
-            counts[i] = c + sign
-    return sq, dot
 
 
 @njit(cache=True, nogil=True)
@@ -174,10 +163,8 @@ def refine_cut(
     for d in range(left.shape[0]):
         left[d] = 0
         right[d] = 0
-    for g in range(lo - window, lo):
-        _add_frame(left, ring, valid, size, g, bins, 1)
-    for g in range(lo, lo + window):
-        _add_frame(right, ring, valid, size, g, bins, 1)
+    _add_frames(left, ring, valid, size, lo - window, lo, bins)
+    _add_frames(right, ring, valid, size, lo, lo + window, bins)
     dot = 0
     nl = 0
     nr = 0
@@ -187,17 +174,49 @@ def refine_cut(
         nr += right[d] * right[d]
     best = -1.0
     at = centre
+    # ring rows of frames g - window (leaves the left side), g (moves from right to left)
+    # and g + window (enters the right side), advanced without a modulo per frame
+    p_out, p_mid, p_in = (lo - window) % size, lo % size, (lo + window) % size
     for g in range(lo, hi + 1):
         den = np.sqrt(float(nl) * float(nr))
         dist = 1.0 - float(dot) / den if den != 0.0 else 1.0  # UNDEFINED counts as 1
         if dist > best:
             best = dist
             at = g
-        if g < hi:
-            nl, dot = _move_frame(left, right, ring, valid, size, g, bins, 1, nl, dot)
-            nl, dot = _move_frame(left, right, ring, valid, size, g - window, bins, -1, nl, dot)
-            nr, dot = _move_frame(right, left, ring, valid, size, g, bins, -1, nr, dot)
-            nr, dot = _move_frame(right, left, ring, valid, size, g + window, bins, 1, nr, dot)
+        if g == hi:
+            break
+        # column by column: each column's bins are its own, so the four moves of a column
+        # may be done together and the integer sums end where frame-by-frame moves end
+        v_mid, v_out, v_in = valid[p_mid], valid[p_out], valid[p_in]
+        for a in range(ring.shape[1]):
+            base = a * bins
+            if v_mid:  # frame g: into the left side, out of the right one
+                i = base + ring[p_mid, a]
+                c = left[i]
+                nl += 2 * c + 1
+                dot += right[i]
+                left[i] = c + 1
+            if v_out:  # frame g - window leaves the left side
+                i = base + ring[p_out, a]
+                c = left[i]
+                nl += 1 - 2 * c
+                dot -= right[i]
+                left[i] = c - 1
+            if v_mid:
+                i = base + ring[p_mid, a]
+                c = right[i]
+                nr += 1 - 2 * c
+                dot -= left[i]
+                right[i] = c - 1
+            if v_in:  # frame g + window enters the right side
+                i = base + ring[p_in, a]
+                c = right[i]
+                nr += 2 * c + 1
+                dot += left[i]
+                right[i] = c + 1
+        p_out = p_out + 1 if p_out + 1 < size else 0
+        p_mid = p_mid + 1 if p_mid + 1 < size else 0
+        p_in = p_in + 1 if p_in + 1 < size else 0
     return at
 
 
@@ -219,10 +238,8 @@ def contrast_at(ring, valid, size, g, window, bins, n_avail, oldest, left, right
     for d in range(left.shape[0]):
         left[d] = 0
         right[d] = 0
-    for f in range(max(oldest, g - window), min(g, n_avail)):
-        _add_frame(left, ring, valid, size, f, bins, 1)
-    for f in range(max(oldest, g), min(g + window, n_avail)):
-        _add_frame(right, ring, valid, size, f, bins, 1)
+    _add_frames(left, ring, valid, size, max(oldest, g - window), min(g, n_avail), bins)
+    _add_frames(right, ring, valid, size, max(oldest, g), min(g + window, n_avail), bins)
     d = _cos_distance(left, right)
     if d == UNDEFINED:
         return -1.0
@@ -247,10 +264,8 @@ def span_contrast(ring, valid, size, lo, g, hi, bins, left, right):
     for d in range(left.shape[0]):
         left[d] = 0
         right[d] = 0
-    for f in range(lo, g):
-        _add_frame(left, ring, valid, size, f, bins, 1)
-    for f in range(g, hi):
-        _add_frame(right, ring, valid, size, f, bins, 1)
+    _add_frames(left, ring, valid, size, lo, g, bins)
+    _add_frames(right, ring, valid, size, g, hi, bins)
     d = _cos_distance(left, right)
     if d == UNDEFINED:
         return -1.0

@@ -1,22 +1,10 @@
 """Streaming LOF cut detector: one block of angle frames in, cut events out (numba). Private.
 
-Scalar state lives in ``st`` (int64), slots named ``ST_*``: frames seen, valid frames in the
-current window, windows in the LOF buffer, next window sequence number, sequence of the last
-emitted cut, NaN frames, windows dropped (too few valid frames), LOF recomputations
-(statistics), last decided window sequence (each window is decided once), frame of the last
-cut; with an early stage (``p[P_EARLY] > 0``) the same three decision slots for it
-(``ST_E_*``) and the number of pending early cuts (``ST_PENDING``). The integer geometry
-``geo`` (``GEO_*``) and float parameters ``p`` (``P_*``) are read-only.
-
-Two stages (``p[P_EARLY] > 0``): window ``w`` is decided twice, ``P_EARLY`` windows after it
-(an early, *pending* cut) and ``P_DELAY`` windows after it (the final decision, exactly the
-single-stage detector's, which never reads the early stage). The final stage settles each
-pending cut: a final cut of a window within ``min_gap`` windows of a pending cut's window
-confirms it when the frames agree (``KIND_CONFIRM``), else withdraws it (``KIND_MOVED``) and
-is emitted as a new cut; a pending cut no final cut matched by the time the final stage has
-decided its window + ``min_gap`` is withdrawn (``KIND_WITHDRAW``); a final cut that matches
-no pending one is a plain cut (``KIND_CUT``, final at once). So the cuts emitted minus the
-withdrawn ones are the single-stage cuts at ``P_DELAY``.
+:func:`stream_block` keeps the sliding window histogram of the frames, inserts each
+completed window into the LOF buffer (:mod:`streamseg._kernels.lof_buffer`, evicting the
+oldest when it is full) and decides the windows it completes
+(:mod:`streamseg._kernels.lof_decide`, which also names the slots of the state ``st``, the
+geometry ``geo`` and the parameters ``p``); :func:`stream_finish` decides the last ones.
 """
 
 from __future__ import annotations
@@ -24,321 +12,31 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from streamseg._kernels.histogram import contrast_at, refine_cut, span_contrast
-from streamseg._kernels.lof import ext_evict, ext_insert
-from streamseg._kernels.peaks import (
-    curve_range,
-    dominates,
-    is_peak,
-    is_vertex_peak,
-    robust_threshold,
+from streamseg._kernels.lof_buffer import ext_evict, ext_insert
+from streamseg._kernels.lof_decide import (
+    GEO_BINS,
+    GEO_EXCLUSION,
+    GEO_K,
+    GEO_MIN_VALID,
+    GEO_STEP,
+    GEO_WINDOW,
+    KIND_CUT,
+    KIND_WITHDRAW,
+    P_DELAY,
+    P_EARLY,
+    ST_BUFFERED,
+    ST_DROPPED,
+    ST_FRAMES,
+    ST_NAN_FRAMES,
+    ST_NEXT_SEQ,
+    ST_PENDING,
+    ST_RECOMPUTES,
+    ST_WINDOW_VALID,
+    _emit,
+    _settle,
+    _step,
+    decide_stage,
 )
-
-# Named slots of the state and parameter arrays (numba reads module constants at compile time)
-ST_FRAMES = 0
-ST_WINDOW_VALID = 1
-ST_BUFFERED = 2
-ST_NEXT_SEQ = 3
-ST_LAST_CUT_SEQ = 4
-ST_NAN_FRAMES = 5
-ST_DROPPED = 6
-ST_RECOMPUTES = 7
-ST_LAST_DECIDED = 8
-ST_LAST_CUT_FRAME = 9
-ST_E_LAST_CUT_SEQ = 10
-ST_E_LAST_DECIDED = 11
-ST_E_LAST_CUT_FRAME = 12
-ST_PENDING = 13
-ST_SIZE = 14
-GEO_BINS = 0
-GEO_WINDOW = 1
-GEO_STEP = 2
-GEO_MIN_VALID = 3
-GEO_K = 4
-GEO_EXCLUSION = 5
-GEO_REFINE = 6
-GEO_CONTRAST = 7
-GEO_CHECK = 8  # the first ring columns the cut's localisation, contrast and novelty read
-GEO_SIZE = 9
-P_DELAY = 0
-P_TOLERANCE = 1
-P_MADS = 2
-P_MIN_SCORE = 3
-P_MIN_GAP = 4
-P_MIN_CONTRAST = 5
-P_NOVELTY = 6
-P_EARLY = 7
-P_SIZE = 8
-# event kinds (the fourth event array)
-KIND_CUT = 0
-KIND_PENDING = 1
-KIND_CONFIRM = 2
-KIND_WITHDRAW = 3
-KIND_MOVED = 4
-
-NO_CUT = -(1 << 40)
-
-
-@njit(cache=True, nogil=True)
-def new_state():
-    st = np.zeros(ST_SIZE, dtype=np.int64)
-    st[ST_LAST_CUT_SEQ] = NO_CUT
-    st[ST_LAST_DECIDED] = -1
-    st[ST_LAST_CUT_FRAME] = NO_CUT
-    st[ST_E_LAST_CUT_SEQ] = NO_CUT
-    st[ST_E_LAST_DECIDED] = -1
-    st[ST_E_LAST_CUT_FRAME] = NO_CUT
-    return st
-
-
-@njit(cache=True, nogil=True)
-def _curve(seqs, lof, st, curve):
-    """Copy buffered LOF values into ``curve`` indexed by ``seq - oldest``; return oldest seq."""
-    n_slots = seqs.shape[0]
-    size = st[ST_BUFFERED]
-    oldest = st[ST_NEXT_SEQ] - size
-    first = oldest % n_slots
-    n1 = min(size, n_slots - first)  # the ring's two contiguous runs, no modulo per value
-    for i in range(n1):
-        curve[i] = lof[first + i]
-    for i in range(n1, size):
-        curve[i] = lof[i - n1]
-    return oldest
-
-
-@njit(cache=True, nogil=True)
-def _decide(w, hi, st, p, geo, frames, lofs, scratch, delay, ls, ld, lf, cache):
-    """Decide window ``w`` with the curve known up to ``hi``, ``delay`` windows on each side;
-    return ``(cut frame, LOF)``, the frame -1 when it is no cut. ``ls``, ``ld``, ``lf``: the
-    ``st`` slots of the stage's last cut window, last decided window and last cut frame;
-    ``cache`` (float64, 3): the ``ST_NEXT_SEQ`` for which ``curve`` was computed, the
-    threshold ``cache[1]`` and the ``ST_NEXT_SEQ`` it was computed for (-1: none yet).
-
-    The cut frame is the peak window's centre moved to the largest before/after histogram
-    contrast within ``geo[GEO_REFINE]`` frames (:func:`refine_cut`, frames seen so far only),
-    at least ``min_gap * step`` frames after the previous cut frame. With
-    ``p[P_MIN_CONTRAST] > 0`` the cut is
-    confirmed only when at least ``window`` frames after it have been seen and the contrast of
-    the ``geo[GEO_CONTRAST]`` frames before (since the previous cut at most) and after it
-    (:func:`contrast_at`) reaches ``p[P_MIN_CONTRAST]``. With ``p[P_NOVELTY] > 0`` the
-    current segment must also differ from what follows: the histograms of the frames since the
-    previous cut (at most the frames the ring still holds) and of the ``geo[GEO_CONTRAST]``
-    frames after the cut (clipped to those seen) differ by at least ``p[P_NOVELTY]``
-    (:func:`span_contrast`). ``p[P_MADS] < 0`` selects the paper's rule: no threshold
-    (``min_score`` unused), and the Douglas-Peucker tolerance is ``tol`` times the range of the
-    whole buffered curve instead of the local one.
-    """
-    rb, rv, _, left, right = frames
-    # the checks read the pose columns only (LOFConfig.check_columns: not the root speeds)
-    rc = rb[:, : geo[GEO_CHECK]]
-    seqs, lof, centres = lofs[2], lofs[9], lofs[11]
-    work, curve, keep, stack = scratch
-    tol, n_mads = p[P_TOLERANCE], p[P_MADS]
-    min_score, min_gap = p[P_MIN_SCORE], p[P_MIN_GAP]
-    oldest = st[ST_NEXT_SEQ] - st[ST_BUFFERED]
-    if w <= st[ld]:
-        return -1, 0.0
-    st[ld] = w
-    if w < oldest or w - st[ls] < min_gap:
-        return -1, 0.0
-    size = st[ST_BUFFERED]
-    if cache[0] != st[ST_NEXT_SEQ]:
-        # the curve once per buffer state: both stages decide on it
-        _curve(seqs, lof, st, curve)
-        cache[0] = st[ST_NEXT_SEQ]
-    yw = curve[w - oldest]
-    # the checks are pure, so their order changes no decision: the cheap ones first, the
-    # threshold (two selections over the buffer, most of a decision's cost) only for a
-    # window that passes them (about one in ten)
-    if n_mads >= 0.0 and yw < min_score:
-        return -1, 0.0
-    lo = max(oldest, w - delay)
-    if not dominates(curve, lo - oldest, hi - oldest, w - oldest, int(min_gap)):
-        return -1, 0.0
-    if n_mads >= 0.0:
-        peak = is_peak(curve, lo - oldest, hi - oldest, w - oldest, tol, keep, stack)
-        if peak:
-            if cache[2] != st[ST_NEXT_SEQ]:  # once per buffer state too
-                cache[1] = robust_threshold(curve, size, n_mads, work)
-                cache[2] = st[ST_NEXT_SEQ]
-            if yw < cache[1]:
-                return -1, 0.0
-    else:
-        # the paper's rule (P_MADS < 0): every peak vertex, no threshold; the tolerance is a
-        # fraction of the range of the whole buffered curve, as the paper simplifies its whole
-        # curve, so the wiggles of a flat stretch are not peaks
-        r = curve_range(curve, 0, size - 1)
-        peak = r > 0.0 and is_vertex_peak(
-            curve, lo - oldest, hi - oldest, w - oldest, tol * r, keep, stack
-        )
-    if peak:
-        c = centres[w % seqs.shape[0]]
-        if geo[GEO_REFINE] > 0:
-            size = rb.shape[0]
-            # cut frames keep the minimum gap too (min_gap windows of step frames)
-            seen = st[ST_FRAMES]
-            c = refine_cut(
-                rc,
-                rv,
-                size,
-                c,
-                geo[GEO_REFINE],
-                geo[GEO_WINDOW],
-                geo[GEO_BINS],
-                seen,
-                max(0, seen - size),
-                st[lf] + int(min_gap) * geo[GEO_STEP],
-                left,
-                right,
-            )
-        if p[P_MIN_CONTRAST] > 0.0:
-            # confirmation needs at least one window of frames after the cut (at the end of a
-            # stream there may be fewer: a few frames make any histogram look different)
-            if st[ST_FRAMES] - c < geo[GEO_WINDOW]:
-                return -1, 0.0
-            size = rb.shape[0]
-            # the before side starts no earlier than the previous cut: the new segment is
-            # compared with the current one, not with a change already reported
-            con = contrast_at(
-                rc,
-                rv,
-                size,
-                c,
-                geo[GEO_CONTRAST],
-                geo[GEO_BINS],
-                st[ST_FRAMES],
-                max(0, st[ST_FRAMES] - size, st[lf]),
-                left,
-                right,
-            )
-            if con < p[P_MIN_CONTRAST]:
-                return -1, 0.0
-        if p[P_NOVELTY] > 0.0:
-            # the whole current segment, not only its last contrast frames: a change that only
-            # undoes a brief excursion inside the segment does not start a new one
-            size = rb.shape[0]
-            seen = st[ST_FRAMES]
-            nov = span_contrast(
-                rc,
-                rv,
-                size,
-                max(0, seen - size, st[lf]),
-                c,
-                min(c + geo[GEO_CONTRAST], seen),
-                geo[GEO_BINS],
-                left,
-                right,
-            )
-            if nov < p[P_NOVELTY]:
-                return -1, 0.0
-        st[lf] = c
-        st[ls] = w
-        return c, yw
-    return -1, 0.0
-
-
-@njit(cache=True, nogil=True)
-def _emit(events, n_ev, kind, frame, score, emitted_at, window):
-    ev_frame, ev_score, ev_emit, ev_kind, ev_win = events
-    ev_frame[n_ev] = frame
-    ev_score[n_ev] = score
-    ev_emit[n_ev] = emitted_at
-    ev_kind[n_ev] = kind
-    ev_win[n_ev] = window
-    return n_ev + 1
-
-
-@njit(cache=True, nogil=True)
-def _settle(w, c, y, st, p, pend, events, n_ev, emitted_at):
-    """The final stage decided window ``w`` (cut frame ``c``, -1: none, LOF ``y``): settle
-    the pending early cuts (``pend[:st[ST_PENDING]]`` rows: window, frame, oldest first)."""
-    tol = int(p[P_MIN_GAP])
-    n = st[ST_PENDING]
-    if c >= 0:
-        j = -1
-        for i in range(n):
-            if abs(pend[i, 0] - w) <= tol:
-                j = i
-                break
-        if j < 0:
-            n_ev = _emit(events, n_ev, KIND_CUT, c, y, emitted_at, w)
-        else:
-            fp = pend[j, 1]
-            if fp == c:
-                n_ev = _emit(events, n_ev, KIND_CONFIRM, c, y, emitted_at, w)
-            else:
-                n_ev = _emit(events, n_ev, KIND_MOVED, fp, 0.0, emitted_at, pend[j, 0])
-                n_ev = _emit(events, n_ev, KIND_CUT, c, y, emitted_at, w)
-            for i in range(j, n - 1):
-                pend[i, 0] = pend[i + 1, 0]
-                pend[i, 1] = pend[i + 1, 1]
-            n -= 1
-    keep = 0
-    for i in range(n):
-        if pend[i, 0] + tol <= w:  # no later final decision can match it
-            n_ev = _emit(events, n_ev, KIND_WITHDRAW, pend[i, 1], 0.0, emitted_at, pend[i, 0])
-        else:
-            pend[keep, 0] = pend[i, 0]
-            pend[keep, 1] = pend[i, 1]
-            keep += 1
-    st[ST_PENDING] = keep
-    return n_ev
-
-
-@njit(cache=True, nogil=True)
-def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
-    """Window ``seq`` was inserted on frame ``f``: the decisions it completes."""
-    delay = int(p[P_DELAY])
-    w = seq - delay
-    c, y = _decide(
-        w,
-        seq,
-        st,
-        p,
-        geo,
-        frames,
-        lofs,
-        scratch,
-        delay,
-        ST_LAST_CUT_SEQ,
-        ST_LAST_DECIDED,
-        ST_LAST_CUT_FRAME,
-        cache,
-    )
-    early = int(p[P_EARLY]) if p.shape[0] > P_EARLY else 0
-    if early <= 0:
-        if c >= 0:
-            n_ev = _emit(events, n_ev, KIND_CUT, c, y, f, w)
-        return n_ev
-    n_ev = _settle(w, c, y, st, p, pend, events, n_ev, f)
-    # the early stage starts from the newest cut of either stage: it adds no pending cut
-    # within the minimum gap of a final one
-    if st[ST_LAST_CUT_SEQ] > st[ST_E_LAST_CUT_SEQ]:
-        st[ST_E_LAST_CUT_SEQ] = st[ST_LAST_CUT_SEQ]
-        st[ST_E_LAST_CUT_FRAME] = st[ST_LAST_CUT_FRAME]
-    we = seq - early
-    c, y = _decide(
-        we,
-        seq,
-        st,
-        p,
-        geo,
-        frames,
-        lofs,
-        scratch,
-        early,
-        ST_E_LAST_CUT_SEQ,
-        ST_E_LAST_DECIDED,
-        ST_E_LAST_CUT_FRAME,
-        cache,
-    )
-    if c >= 0:
-        n = st[ST_PENDING]
-        pend[n, 0] = we
-        pend[n, 1] = c
-        st[ST_PENDING] = n + 1
-        n_ev = _emit(events, n_ev, KIND_PENDING, c, y, f, we)
-    return n_ev
 
 
 @njit(cache=True, nogil=True)
@@ -349,19 +47,19 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     refine radius frames, contrast frames, check columns); ``p`` (float64, slots ``P_*``) =
     (delay, tol, n_mads, min_score, min_gap, min_contrast, novelty, early delay: 0 for one
     stage). The arrays come in groups (tuples):
-    ``frames = (rb, rv, cur, left, right)``, ``lofs = (vecs, norms, seqs, nn_idx, nn_d, nn_key,
-    nn_cnt, trunc, lrd, lof, mark, centres)``, ``scratch = (work, curve, keep, stack)``,
+    ``frames = (rb, rv, cur, left, right)``, ``lofs`` the LOF buffer (the arrays of
+    :data:`streamseg._kernels.lof_buffer.FIELDS`), ``scratch = (work, curve, keep, stack)``,
     ``events = (ev_frame, ev_score, ev_emit, ev_kind, ev_window)``, ``pend`` (int64, rows
     window and frame) the pending early cuts (two stages, ``p[P_EARLY] > 0``). ``rb``/``rv``
     are a ring of
     the last ``len(rb) >= window`` frames' bins and validity (frame ``f`` at ``f % len(rb)``),
     ``cur`` the current window's counts, ``left``/``right`` scratch counts. The LOF state
-    (``vecs`` .. ``centres``) is described in :mod:`streamseg._kernels.lof`; its candidate
+    is described in :mod:`streamseg._kernels.lof_buffer`; its candidate
     lists may hold more than ``k`` entries. Events: cut frame, score (LOF), frame index at
     emission, kind (``KIND_*``), the decided window's sequence number.
     """
     rb, rv, cur, left, right = frames
-    vecs, norms, seqs, nn_idx, nn_d, nn_key, nn_cnt, trunc, lrd, lof, mark, centres = lofs
+    vecs, seqs, centres = lofs[0], lofs[2], lofs[11]
     bins, window, step = geo[GEO_BINS], geo[GEO_WINDOW], geo[GEO_STEP]
     min_valid, k, excl = geo[GEO_MIN_VALID], geo[GEO_K], geo[GEO_EXCLUSION]
     n_slots = seqs.shape[0]
@@ -371,10 +69,15 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
     scale = bins / np.pi
     n_ev = 0
     size = rb.shape[0]
+    # ring rows of the entering frame and of the one leaving the window, advanced without a
+    # modulo per frame
+    pos = st[ST_FRAMES] % size
+    old = (st[ST_FRAMES] - window) % size
     for i in range(angles.shape[0]):
         f = st[ST_FRAMES]
-        pos = f % size
-        old = (f - window) % size
+        if i > 0:
+            pos = pos + 1 if pos + 1 < size else 0
+            old = old + 1 if old + 1 < size else 0
         if f >= window and rv[old]:
             st[ST_WINDOW_VALID] -= 1
             for a in range(n_ang):
@@ -406,48 +109,14 @@ def stream_block(angles, st, geo, p, frames, lofs, scratch, events, pend):
             oldest = st[ST_NEXT_SEQ] - n_slots
             # lrd and LOF are brought up to date once, after the insert below (Pokrajac's
             # update is exact from the marks of both changes)
-            ext_evict(
-                vecs,
-                norms,
-                seqs,
-                nn_idx,
-                nn_d,
-                nn_key,
-                nn_cnt,
-                trunc,
-                lrd,
-                lof,
-                mark,
-                centres,
-                oldest % n_slots,
-                k,
-                excl,
-            )
+            ext_evict(lofs, oldest % n_slots, k, excl)
             st[ST_BUFFERED] -= 1
         seq = st[ST_NEXT_SEQ]
         slot = seq % n_slots
         for d in range(vec.shape[0]):
             vec[d] = cur[d]
         centres[slot] = f - window + 1 + window // 2
-        st[ST_RECOMPUTES] += ext_insert(
-            vecs,
-            norms,
-            seqs,
-            nn_idx,
-            nn_d,
-            nn_key,
-            nn_cnt,
-            trunc,
-            lrd,
-            lof,
-            mark,
-            centres,
-            slot,
-            vec,
-            seq,
-            k,
-            excl,
-        )
+        st[ST_RECOMPUTES] += ext_insert(lofs, slot, vec, seq, k, excl)
         st[ST_BUFFERED] += 1
         st[ST_NEXT_SEQ] = seq + 1
         n_ev = _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache)
@@ -465,21 +134,7 @@ def stream_finish(st, p, geo, frames, lofs, scratch, events, pend):
     n_ev = 0
     cache = np.full(3, -1.0)
     for w in range(max(st[ST_NEXT_SEQ] - st[ST_BUFFERED], last - delay + 1), last + 1):
-        c, y = _decide(
-            w,
-            last,
-            st,
-            p,
-            geo,
-            frames,
-            lofs,
-            scratch,
-            delay,
-            ST_LAST_CUT_SEQ,
-            ST_LAST_DECIDED,
-            ST_LAST_CUT_FRAME,
-            cache,
-        )
+        c, y = decide_stage(w, last, st, p, geo, frames, lofs, scratch, cache, 0)
         if early > 0:
             n_ev = _settle(w, c, y, st, p, pend, events, n_ev, at)
         elif c >= 0:

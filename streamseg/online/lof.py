@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from streamseg._kernels import frames_in
-from streamseg._kernels import lof as _kl
+from streamseg._kernels import lof_buffer as _kb
+from streamseg._kernels import lof_decide as _kd
 from streamseg._kernels import lof_stream as _ks
 from streamseg._kernels import stream_features as _sf
 from streamseg.config import LOFConfig
@@ -29,8 +30,9 @@ class StreamingLOFSegmenter(Stateful):
     ``capacity`` windows (``config.buffer_s`` seconds) whose LOF values are maintained
     incrementally (Pokrajac et al. 2007): on insert and on evicting the oldest window only the
     points whose neighbour list, reachability or lrd change are recomputed (once per window,
-    for the eviction and the insert together). Each window keeps its ``2 * k`` nearest
-    windows as candidates, so an eviction almost never forces an O(capacity) rescan for a
+    for the eviction and the insert together), found through reverse lists (which lists
+    hold each window) instead of passes over the buffer. Each window keeps its ``3 * k``
+    nearest windows as candidates, so an eviction almost never forces an O(capacity) rescan for a
     new k-th neighbour; the median and MAD of the threshold use selection, not sorting.
     Window ``w`` is decided once, when window ``w + delay`` is complete: it is a cut when it is a
     peak vertex of the Douglas-Peucker simplification of the LOF curve over windows ``w - delay ..
@@ -61,13 +63,14 @@ class StreamingLOFSegmenter(Stateful):
     and enters no histogram; it still advances the frame clock. A window with fewer than
     ``min_valid`` valid frames is not inserted (counted in ``n_dropped_windows_``).
 
-    Memory: fixed at construction, ``capacity * (2 * d * bins + 40 * k + 73)`` +
+    Memory: fixed at construction, ``capacity * (2 * d * bins + 78 * k + 89)`` +
     ``(d + 1) * history`` bytes, ``d`` the histogrammed columns (``n_features``, doubled by
     the speed columns of ``config.speed_max``: 38 by default, 34 without the root speeds),
     ``history = delay * step + window + refine + max(window, contrast) + 1`` frames, plus
     ``(lag + 2) * n_features`` floats for the speeds (defaults at 120 Hz: 375 windows and 739
-    frames, 311 kB per stream, 311 MB for 1,000 streams; without the root speeds 289 kB,
-    without any speeds 195 kB; the ``2 * k`` candidates take 30 kB).
+    frames, 388 kB per stream, 388 MB for 1,000 streams; without the root speeds 366 kB,
+    without any speeds 273 kB; the ``3 * k`` candidates take 113 kB, their reverse lists
+    37 kB).
 
     Parameters
     ----------
@@ -123,9 +126,9 @@ class StreamingLOFSegmenter(Stateful):
             ],
             dtype=np.float64,
         )
-        assert self._geo.size == _ks.GEO_SIZE and self._p.size == _ks.P_SIZE
+        assert self._geo.size == _kd.GEO_SIZE and self._p.size == _kd.P_SIZE
         # np.zeros/np.empty are lazily committed by the OS, so creating many streams is cheap
-        self._st = _ks.new_state()
+        self._st = _kd.new_state()
         # frame bins of the last `history` frames: the sliding histogram removes frame f - w,
         # cut localisation reads back to refine + w frames before a peak window's centre
         self._rb = np.zeros((g["history"], self._cols), dtype=np.int8)
@@ -163,6 +166,10 @@ class StreamingLOFSegmenter(Stateful):
         "_lrd",
         "_lof",
         "_mark",
+        "_rev",
+        "_rev_cnt",
+        "_queue",
+        "_gate",
         "_work",
         "_curve",
         "_keep",
@@ -170,6 +177,7 @@ class StreamingLOFSegmenter(Stateful):
         "_left",
         "_right",
         "_ev",
+        "_kernel_groups",
     )
 
     def _allocate_derived(self) -> None:
@@ -179,10 +187,10 @@ class StreamingLOFSegmenter(Stateful):
         self._left = np.zeros(d, dtype=np.int64)
         self._right = np.zeros(d, dtype=np.int64)
         self._norms = np.zeros(n)
-        # 2k nearest candidates per window: an eviction then almost never empties a list below
-        # k, which would force an O(n d) rescan of the buffer (on 86_01, about 9 rescans per
-        # window with k candidates, 0.8 with 1.5k, 0.002 with 2k)
-        kk = 2 * k
+        # 3k nearest candidates per window: an eviction then almost never empties a list
+        # below k, which forces an O(n d) rescan of the buffer (86_01 cycled, full buffer:
+        # 0.46 rescans per eviction with 2k, none with 3k; 3k is 4 % faster in all)
+        kk = 3 * k
         self._nn_idx = np.zeros((n, kk), dtype=np.int32)
         self._nn_d = np.zeros((n, kk))
         self._nn_key = np.zeros((n, kk), dtype=np.int64)
@@ -191,10 +199,23 @@ class StreamingLOFSegmenter(Stateful):
         self._lrd = np.zeros(n)
         self._lof = np.zeros(n)
         self._mark = np.zeros(n, dtype=np.int64)
+        # which lists hold each window: an update visits those instead of every list; a
+        # window held by more than 3 * kk (none on 86_01, 02_01, 02_05: at most 38 of 45) is
+        # looked for in every list
+        self._rev = np.zeros((n, 3 * kk), dtype=np.int16 if n < 1 << 15 else np.int32)
+        self._rev_cnt = np.zeros(n, dtype=np.int32)
+        self._queue = np.zeros(n + 1, dtype=np.int32)
+        self._gate = np.zeros(n)  # see streamseg._kernels.lof_buffer
         self._work = np.zeros(n)
         self._curve = np.zeros(n)
         self._keep = np.zeros(2 * g["delay"] + 1, dtype=np.uint8)
         self._stack = np.zeros(4 * (2 * g["delay"] + 1) + 4, dtype=np.int64)
+        # the kernel's arrays in its groups, built once: a few microseconds a packet
+        self._kernel_groups = (
+            (self._rb, self._rv, self._cur, self._left, self._right),
+            self._buffer(),
+            (self._work, self._curve, self._keep, self._stack),
+        )
 
     def _restored(self) -> None:
         self._rebuild_derived()
@@ -202,24 +223,9 @@ class StreamingLOFSegmenter(Stateful):
     def _rebuild_derived(self) -> None:
         """Recompute :attr:`_transient` from the buffered windows (after a restore):
         the same LOF values and the same later cuts as the state it was saved from
-        (:func:`streamseg._kernels.lof.ext_rebuild`). O(capacity^2 * columns * bins)."""
+        (:func:`streamseg._kernels.lof_buffer.ext_rebuild`). O(capacity^2 * columns * bins)."""
         self._allocate_derived()
-        _kl.ext_rebuild(
-            self._vecs,
-            self._norms,
-            self._seqs,
-            self._nn_idx,
-            self._nn_d,
-            self._nn_key,
-            self._nn_cnt,
-            self._trunc,
-            self._lrd,
-            self._lof,
-            self._mark,
-            self._centres,
-            self.config.k,
-            int(self._geo[_ks.GEO_EXCLUSION]),
-        )
+        _kb.ext_rebuild(self._buffer(), self.config.k, int(self._geo[_kd.GEO_EXCLUSION]))
 
     # ---- feeding ---------------------------------------------------------------------------
     def learn_one(self, angles_row) -> list:
@@ -304,6 +310,10 @@ class StreamingLOFSegmenter(Stateful):
             self._lof,
             self._mark,
             self._centres,
+            self._rev,
+            self._rev_cnt,
+            self._queue,
+            self._gate,
             self._work,
             self._curve,
             self._keep,
@@ -356,25 +366,12 @@ class StreamingLOFSegmenter(Stateful):
 
     def _groups(self) -> tuple:
         """The kernel's state arrays in its three groups: frame ring and counts, the LOF
-        buffer (:mod:`streamseg._kernels.lof`), scratch."""
-        return (
-            (self._rb, self._rv, self._cur, self._left, self._right),
-            (
-                self._vecs,
-                self._norms,
-                self._seqs,
-                self._nn_idx,
-                self._nn_d,
-                self._nn_key,
-                self._nn_cnt,
-                self._trunc,
-                self._lrd,
-                self._lof,
-                self._mark,
-                self._centres,
-            ),
-            (self._work, self._curve, self._keep, self._stack),
-        )
+        buffer (:mod:`streamseg._kernels.lof_buffer`), scratch."""
+        return self._kernel_groups
+
+    def _buffer(self) -> tuple:
+        """The LOF buffer's arrays (:data:`streamseg._kernels.lof_buffer.FIELDS`)."""
+        return tuple(getattr(self, "_" + name) for name in _kb.FIELDS)
 
     @staticmethod
     def _events(n, ev) -> list:
@@ -382,42 +379,42 @@ class StreamingLOFSegmenter(Stateful):
         out = []
         for i in range(n):
             f, k, e = int(ev_f[i]), int(ev_k[i]), int(ev_e[i])
-            if k == _ks.KIND_CUT or k == _ks.KIND_PENDING:
-                out.append(CutEvent(f, float(ev_s[i]), e, pending=k == _ks.KIND_PENDING))
-            elif k == _ks.KIND_CONFIRM:
+            if k == _kd.KIND_CUT or k == _kd.KIND_PENDING:
+                out.append(CutEvent(f, float(ev_s[i]), e, pending=k == _kd.KIND_PENDING))
+            elif k == _kd.KIND_CONFIRM:
                 out.append(ConfirmEvent(f, float(ev_s[i]), e))
             else:
-                out.append(WithdrawEvent(f, e, moved=k == _ks.KIND_MOVED))
+                out.append(WithdrawEvent(f, e, moved=k == _kd.KIND_MOVED))
         return out
 
     # ---- read-only views (never mutate state) ----------------------------------------------
     @property
     def n_frames_(self) -> int:
         """Frames fed so far (NaN frames included)."""
-        return int(self._st[_ks.ST_FRAMES])
+        return int(self._st[_kd.ST_FRAMES])
 
     @property
     def n_nan_frames_(self) -> int:
         """Frames skipped because an angle was NaN or infinite."""
-        return int(self._st[_ks.ST_NAN_FRAMES])
+        return int(self._st[_kd.ST_NAN_FRAMES])
 
     @property
     def n_dropped_windows_(self) -> int:
         """Windows not inserted because fewer than ``min_valid`` of their frames were valid."""
-        return int(self._st[_ks.ST_DROPPED])
+        return int(self._st[_kd.ST_DROPPED])
 
     @property
     def n_windows_(self) -> int:
         """Windows inserted into the LOF buffer so far (including evicted ones)."""
-        return int(self._st[_ks.ST_NEXT_SEQ])
+        return int(self._st[_kd.ST_NEXT_SEQ])
 
     @property
     def n_lof_updates_(self) -> int:
         """Total LOF recomputations done by the incremental updates (work statistic)."""
-        return int(self._st[_ks.ST_RECOMPUTES])
+        return int(self._st[_kd.ST_RECOMPUTES])
 
     def _order(self) -> np.ndarray:
-        size, nxt = int(self._st[_ks.ST_BUFFERED]), int(self._st[_ks.ST_NEXT_SEQ])
+        size, nxt = int(self._st[_kd.ST_BUFFERED]), int(self._st[_kd.ST_NEXT_SEQ])
         return np.arange(nxt - size, nxt) % self._seqs.shape[0]
 
     def buffer_vectors(self) -> np.ndarray:
