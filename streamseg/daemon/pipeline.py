@@ -21,7 +21,6 @@ import math
 
 import numpy as np
 
-from streamseg.daemon.algorithms import Algorithms
 from streamseg.daemon.cut_events import cut_kind
 from streamseg.daemon.relabel_job import segment_triplets
 from streamseg.online.rep_bridge import BRIDGE_S
@@ -59,7 +58,7 @@ class StreamPipeline(Stateful):
         The stream's joints (names select the bones of the angles).
     fps : float
         Frame rate.
-    algorithms : Algorithms
+    algorithms : streamseg.daemon.algorithms.Algorithms
         Shared algorithm factory.
     history : float
         Seconds of features kept for relabelling (the ring's size).
@@ -95,7 +94,9 @@ class StreamPipeline(Stateful):
         "settlement",
     )
 
-    def __init__(self, skeleton: Skeleton, fps: float, algorithms: Algorithms, history: float):
+    # ``algorithms`` is not annotated: its module builds pipelines (the warm-up), so importing
+    # it here would close an import circle
+    def __init__(self, skeleton: Skeleton, fps: float, algorithms, history: float):
         self.skeleton = skeleton  # as announced (its joints are the packets')
         self.plan = algorithms.prepare(skeleton)
         # the joints the features see: a marker map's (plan[3]: its columns), else these
