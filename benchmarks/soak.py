@@ -102,6 +102,18 @@ class Load:
                 continue
             self._count(n)
 
+    def _send(self, push, daemon, parts) -> None:
+        """Send ``parts``; a full queue is the daemon's backpressure: wait while the daemon
+        the take is sent to runs (zmq.Again once it was killed)."""
+        while True:
+            try:
+                return push.send_multipart(parts)
+            except zmq.Again:
+                if self.d.proc is not daemon or daemon.poll() is not None:
+                    raise
+                if self.stopping.is_set():
+                    raise
+
     def raw_sender(self) -> None:
         rng, rec = self.rng, self.rec
         while not self.stopping.is_set():
@@ -115,18 +127,19 @@ class Load:
             packets = max(1, min(20, 24_000 // size))
             # a re-announce half-way starts the stream over (its first take is closed)
             half = packets // 2 if rng.random() < 0.2 else None
+            daemon = self.d.proc  # the daemon this take is sent to
+
             try:
-                push.send_multipart(P.encode(announce_of(rec, stream)))
+                self._send(push, daemon, P.encode(announce_of(rec, stream)))
                 for k in range(packets):
                     if k == half:
-                        push.send_multipart(P.encode(announce_of(rec, stream)))
+                        self._send(push, daemon, P.encode(announce_of(rec, stream)))
                     first = (k - half if half is not None and k >= half else k) * size
                     idx = (np.arange(size) + k * size) % rec.n_frames
-                    push.send_multipart(
-                        P.encode(P.Frames(stream, first, 0.0, rec.positions[idx].astype(dtype)))
-                    )
+                    pos = rec.positions[idx].astype(dtype)
+                    self._send(push, daemon, P.encode(P.Frames(stream, first, 0.0, pos)))
                     self._count(size)
-                push.send_multipart(P.encode(P.End(stream)))
+                self._send(push, daemon, P.encode(P.End(stream)))
             except zmq.Again:  # the daemon is down (killed): a live sender loses these
                 pass
             # the connection ends right after its last packet is handed over (across a

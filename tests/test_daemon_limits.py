@@ -127,46 +127,6 @@ def test_a_killed_senders_stream_is_taken_over_by_this_users_replay(start_daemon
     assert [e.frame for e in events if e.type == "cut" and e.seq > closed[0].seq] == want
 
 
-def test_on_ipc_a_client_is_its_process(start_daemon, rec, tmp_path):
-    """On ipc without CURVE the daemon runs no ZAP handler (libzmq 4.3.5 holds back the last
-    packet of a burst on a reconnected ipc connection behind one) and keeps the small bound:
-    ZeroMQ names the sending process (uid and pid). Another process cannot end a stream; a
-    second socket of the announcing process can."""
-    from streamseg.config import DaemonConfig
-
-    d, ep = start_daemon(ingest=f"ipc://{tmp_path}/ingest")
-    assert d.conn_ids is None and d.ingest.bounds.hwm == DaemonConfig().ingest_hwm
-    sub = subscribe(ep["publish"], ep["control"], stream="mine")
-    own = zmq.Context.instance().socket(zmq.PUSH)
-    own.connect(ep["ingest"])
-    own.send_multipart(P.encode(announce_of(rec, "mine")))
-    own.send_multipart(P.encode(P.Frames("mine", 0, 0.0, rec.positions[:200])))
-    wait_until(lambda: frame_of(ep, "mine") == 200, "the frames taken")
-
-    def stranger(ctx):
-        push = ctx.socket(zmq.PUSH)
-        push.connect(ep["ingest"])
-        push.send_multipart(P.encode(P.End("mine")))
-        push.close(linger=20000)
-        ctx.term()
-        return {}
-
-    assert in_child(stranger, other_user=False) == {}
-    events = []
-    for e in listen(sub.sock, pending=sub.pending, stream="mine", timeout=60):
-        events.append(e)
-        if e.type == "error" and e.reason == "owner":
-            break
-    assert "belongs to the client that announced it" in events[-1].message
-    second = zmq.Context.instance().socket(zmq.PUSH)  # the same process, another socket
-    second.connect(ep["ingest"])
-    second.send_multipart(P.encode(P.End("mine")))
-    second.close(linger=20000)
-    events += listen(sub.sock, stream="mine", until_end=True, timeout=60)
-    assert events[-1].type == "closed" and events[-1].reason == "end"
-    own.close(linger=0)
-
-
 def test_one_process_announce_flood_leaves_room_for_another(start_daemon, rec, want):
     """Without CURVE the quota is per connection: 10,000 announces from one process take its
     10 streams; a stream from another process is still accepted (before, every local sender

@@ -94,12 +94,11 @@ def item_frames(it) -> int:
     return it.positions.shape[0] if type(it) is FramesItem else 0
 
 
-# libzmq 4.3.5 holds back the last packet of a burst on an ipc connection that reconnected
-# (the daemon restarted) and reached its bound while a ZAP handler runs (CURVE's), until the
-# next packet comes: 87 of 88 packets arrived at a bound of 4 or 16, all at 1,000, all on TCP
-# or without ZAP. Without CURVE an ipc ingest has no ZAP handler; with CURVE it keeps at least
-# this many packets per connection, so that a burst does not reach the bound
-# (docs/decisions.md, Ingest memory)
+# libzmq 4.3.5 holds back packets of an ipc connection that reconnected (the daemon
+# restarted) and reached a small bound, until the sender's next packet: a burst's `end` never
+# arrived (87 of 88 packets at a bound of 4 or 16; the soak without a ZAP handler: ~100
+# streams left open at a kill). An ipc ingest therefore keeps at least this many packets per
+# connection, so that a burst does not reach the bound (docs/decisions.md, Ingest memory)
 IPC_MIN_HWM = 1000
 RECV_TIMEOUT_MS = 50  # the receiver's blocking receive returns this often to see a stop
 
@@ -123,7 +122,7 @@ class IngestBounds(NamedTuple):
         # (docs/decisions.md, Ingest memory)
         queue = max(config.ingest_bytes // 2, config.max_message_bytes)
         hwm = config.ingest_hwm
-        if config.ingest.startswith("ipc://") and config.curve_dir:
+        if config.ingest.startswith("ipc://"):
             hwm = max(hwm, IPC_MIN_HWM)
         return cls(hwm, queue, config.drain, config.drain_frames)
 

@@ -166,13 +166,8 @@ class Daemon:
         check_binds(c)
         if c.curve_dir:
             self.security = ServerSecurity(self.ctx, c.curve_dir)
-        else:
-            if not c.ingest.startswith("ipc://"):
-                # no keys: each ingest connection gets a name of its own (quota, stream
-                # owner). On ipc ZeroMQ names the sending process itself (its Peer-Address
-                # holds uid and pid), and a ZAP handler there delays a reconnected sender's
-                # last packet (docs/decisions.md, Ingest memory)
-                self.conn_ids = ConnectionIds(self.ctx)
+        else:  # no keys: each ingest connection gets a name of its own (quota, stream owner)
+            self.conn_ids = ConnectionIds(self.ctx)
             if c.control:
                 self.token, self.token_file = control_token()
         secure = self.security.apply if self.security is not None else (lambda sock: None)
