@@ -59,7 +59,8 @@ def test_every_command_parser_builds_on_its_own(command, capsys):
 
 def test_segment_with_aca_loads_neither_the_cut_detector_nor_the_daemons_parts():
     """What ``segment --method aca`` imports is what it runs: no LOF kernels, no sockets, no
-    Dask, no sklearn, no plotting (each would add to the command's start)."""
+    Dask, no sklearn, no plotting, no scipy.linalg (numba's BLAS check and the spectral
+    embedding's LAPACK call are met without it) (each would add to the command's start)."""
     data = Path(__file__).resolve().parents[1] / "data" / "cmu86"
     loaded = loaded_modules(
         [
@@ -83,5 +84,7 @@ def test_segment_with_aca_loads_neither_the_cut_detector_nor_the_daemons_parts()
         "matplotlib",
         "aiohttp",
         "scipy.sparse",
+        "scipy.linalg",
+        "scipy.optimize",
     } & loaded
     assert not unused
