@@ -178,6 +178,7 @@ class StreamingLOFSegmenter(Stateful):
         "_right",
         "_ev",
         "_kernel_groups",
+        "_kernel_arrays",
     )
 
     def _allocate_derived(self) -> None:
@@ -216,6 +217,8 @@ class StreamingLOFSegmenter(Stateful):
             self._buffer(),
             (self._work, self._curve, self._keep, self._stack),
         )
+        # the same arrays one by one, as push_block takes them
+        self._kernel_arrays = tuple(a for group in self._kernel_groups for a in group)
 
     def _restored(self) -> None:
         self._rebuild_derived()
@@ -293,31 +296,7 @@ class StreamingLOFSegmenter(Stateful):
             self._st,
             self._geo,
             self._p,
-            self._rb,
-            self._rv,
-            self._cur,
-            self._left,
-            self._right,
-            self._vecs,
-            self._norms,
-            self._seqs,
-            self._nn_idx,
-            self._nn_d,
-            self._nn_key,
-            self._nn_cnt,
-            self._trunc,
-            self._lrd,
-            self._lof,
-            self._mark,
-            self._centres,
-            self._rev,
-            self._rev_cnt,
-            self._queue,
-            self._gate,
-            self._work,
-            self._curve,
-            self._keep,
-            self._stack,
+            *self._kernel_arrays,
             *ev,
             self._pend,
         )
