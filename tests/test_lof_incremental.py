@@ -17,6 +17,26 @@ from streamseg._kernels.lof_buffer import (
 from streamseg._kernels.peaks import robust_threshold, select_kth
 from tests.naive import naive_cosine_lof, naive_robust_threshold, naive_sorted_neighbours
 
+#: the buffers of the hypothesis cases: small rings and a small alphabet of counts (``alphabet``),
+#: which make duplicate vectors and distance ties common, with and without an exclusion zone
+BUFFERS = dict(
+    data=st.data(),
+    cap=st.integers(2, 14),
+    k=st.integers(1, 5),
+    d=st.integers(1, 6),
+    alphabet=st.integers(1, 4),
+    excl=st.sampled_from([0, 0, 3]),
+)
+#: candidates beyond k in the extended lists
+EXTRA = st.integers(0, 6)
+
+
+def draw_window(data, d, alphabet, t):
+    """A window's count vector of ``d`` counts up to ``alphabet`` and its centre, 1 to 3
+    frames after ``t``."""
+    vec = data.draw(st.lists(st.integers(0, alphabet), min_size=d, max_size=d))
+    return vec, t + data.draw(st.integers(1, 3))
+
 
 class Buffer:
     """Thin driver of the incremental kernels over a ring of ``cap`` slots, lists of exactly
@@ -75,16 +95,8 @@ class Buffer:
 
 
 @settings(max_examples=150, deadline=None)
-@given(
-    data=st.data(),
-    cap=st.integers(2, 14),
-    k=st.integers(1, 5),
-    d=st.integers(1, 6),
-    alphabet=st.integers(1, 4),
-    excl=st.sampled_from([0, 0, 3]),
-)
+@given(**BUFFERS)
 def test_incremental_lof_equals_naive_after_every_insert_and_evict(data, cap, k, d, alphabet, excl):
-    # a small alphabet of counts makes duplicate vectors and distance ties common
     buf = Buffer(cap, k, d, excl)
     ops = data.draw(st.lists(st.booleans(), min_size=1, max_size=40))
     t = 0
@@ -92,8 +104,7 @@ def test_incremental_lof_equals_naive_after_every_insert_and_evict(data, cap, k,
         if insert or buf.size == 0:
             if buf.size == cap:
                 buf.evict()
-            vec = data.draw(st.lists(st.integers(0, alphabet), min_size=d, max_size=d))
-            t += data.draw(st.integers(1, 3))
+            vec, t = draw_window(data, d, alphabet, t)
             buf.insert(vec, t)
         else:
             buf.evict()
@@ -135,16 +146,7 @@ class ExtBuffer(Buffer):
 
 
 @settings(max_examples=150, deadline=None)
-@given(
-    data=st.data(),
-    cap=st.integers(2, 14),
-    k=st.integers(1, 5),
-    extra=st.integers(0, 6),
-    d=st.integers(1, 6),
-    alphabet=st.integers(1, 4),
-    excl=st.sampled_from([0, 0, 3]),
-    r=st.sampled_from([None, None, 1, 2]),
-)
+@given(**BUFFERS, extra=EXTRA, r=st.sampled_from([None, None, 1, 2]))
 def test_extended_candidate_lists_are_exact_and_change_no_value(
     data, cap, k, extra, d, alphabet, excl, r
 ):
@@ -165,8 +167,7 @@ def test_extended_candidate_lists_are_exact_and_change_no_value(
             ext.evict()
             plain.evict()
         else:
-            vec = data.draw(st.lists(st.integers(0, alphabet), min_size=d, max_size=d))
-            t += data.draw(st.integers(1, 3))
+            vec, t = draw_window(data, d, alphabet, t)
             if ext.size == cap:
                 ext.evict(update=op != "replace")
                 plain.evict()
@@ -222,15 +223,7 @@ def rebuilt(ext):
 
 
 @settings(max_examples=150, deadline=None)
-@given(
-    data=st.data(),
-    cap=st.integers(2, 14),
-    k=st.integers(1, 5),
-    extra=st.integers(0, 6),
-    d=st.integers(1, 6),
-    alphabet=st.integers(1, 4),
-    excl=st.sampled_from([0, 0, 3]),
-)
+@given(**BUFFERS, extra=EXTRA)
 def test_a_rebuilt_buffer_equals_the_incremental_one_now_and_after(
     data, cap, k, extra, d, alphabet, excl
 ):
@@ -250,8 +243,7 @@ def test_a_rebuilt_buffer_equals_the_incremental_one_now_and_after(
                 if b is not None:
                     b.evict()
         else:
-            vec = data.draw(st.lists(st.integers(0, alphabet), min_size=d, max_size=d))
-            t += data.draw(st.integers(1, 3))
+            vec, t = draw_window(data, d, alphabet, t)
             for b in (live, twin):
                 if b is not None:
                     if b.size == cap:

@@ -206,6 +206,31 @@ def test_config_validates_and_paper_preset():
     assert cfg.frames(30)["window"] * 4 == cfg.frames(120)["window"]
 
 
+def tie_angles(n):
+    """Strategy: (n, 8) angles from four values and NaN; with few bins, ties (the earliest
+    maximum wins) are common."""
+    return arrays(
+        np.float64,
+        (n, 8),
+        elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
+    )
+
+
+def binned(a, bins):
+    """The frame bins and validity of angles ``a`` (n, 8), and two scratch count vectors."""
+    fb, valid = frame_bins(a, bins)
+    return fb, valid, np.zeros(8 * bins, dtype=np.int64), np.zeros(8 * bins, dtype=np.int64)
+
+
+def ring_of(fb, valid, size, lo, hi):
+    """Frames ``lo .. hi - 1`` of ``fb``/``valid`` in a ring of ``size`` rows (frame ``f`` at
+    ``f % size``), as the streaming detector keeps them."""
+    ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
+    for f in range(lo, hi):
+        ring[f % size], rv[f % size] = fb[f], valid[f]
+    return ring, rv
+
+
 @settings(max_examples=80, deadline=None)
 @given(
     data=st.data(),
@@ -217,27 +242,17 @@ def test_config_validates_and_paper_preset():
 def test_refine_cut_matches_naive_and_reads_a_ring_like_the_whole_array(
     data, n, window, radius, bins
 ):
-    # few bins and a small angle alphabet make ties (earliest maximum wins) common
-    a = data.draw(
-        arrays(
-            np.float64,
-            (n, 8),
-            elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
-        )
-    )
+    a = data.draw(tie_angles(n))
     centre = data.draw(st.integers(0, n))
     n_avail = data.draw(st.integers(0, n))
     first = data.draw(st.integers(-5, n))
-    fb, valid = frame_bins(a, bins)
-    left, right = np.zeros(8 * bins, dtype=np.int64), np.zeros(8 * bins, dtype=np.int64)
+    fb, valid, left, right = binned(a, bins)
     got = refine_cut(fb, valid, n, centre, radius, window, bins, n_avail, 0, first, left, right)
     assert got == naive_refine_cut(a, bins, centre, radius, window, n_avail, first)
     # the streaming detector keeps only the last `size` frames in a ring (frame g at g % size)
     size = data.draw(st.integers(window, max(window, n)))
     oldest = max(0, n_avail - size)
-    ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
-    for g in range(oldest, n_avail):
-        ring[g % size], rv[g % size] = fb[g], valid[g]
+    ring, rv = ring_of(fb, valid, size, oldest, n_avail)
     assert refine_cut(
         ring, rv, size, centre, radius, window, bins, n_avail, oldest, first, left, right
     ) == refine_cut(fb, valid, n, centre, radius, window, bins, n_avail, oldest, first, left, right)
@@ -266,24 +281,15 @@ def test_refine_finds_an_abrupt_change_and_zero_radius_keeps_the_centre():
 @settings(max_examples=80, deadline=None)
 @given(data=st.data(), n=st.integers(1, 120), window=st.integers(1, 25), bins=st.integers(2, 6))
 def test_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, window, bins):
-    a = data.draw(
-        arrays(
-            np.float64,
-            (n, 8),
-            elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
-        )
-    )
+    a = data.draw(tie_angles(n))
     g = data.draw(st.integers(0, n))
     n_avail = data.draw(st.integers(0, n))
-    fb, valid = frame_bins(a, bins)
-    left, right = np.zeros(8 * bins, dtype=np.int64), np.zeros(8 * bins, dtype=np.int64)
+    fb, valid, left, right = binned(a, bins)
     got = contrast_at(fb, valid, n, g, window, bins, n_avail, 0, left, right)
     assert got == pytest.approx(naive_contrast(a, bins, g, window, n_avail), abs=1e-12)
     size = data.draw(st.integers(max(1, 2 * window), max(2 * window, n)))
     oldest = max(0, n_avail - size)
-    ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
-    for f in range(oldest, n_avail):
-        ring[f % size], rv[f % size] = fb[f], valid[f]
+    ring, rv = ring_of(fb, valid, size, oldest, n_avail)
     assert contrast_at(
         ring, rv, size, g, window, bins, n_avail, oldest, left, right
     ) == contrast_at(fb, valid, n, g, window, bins, n_avail, oldest, left, right)
@@ -293,24 +299,15 @@ def test_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, w
 @given(data=st.data(), n=st.integers(1, 120), bins=st.integers(2, 6))
 def test_span_contrast_matches_naive_and_reads_a_ring_like_the_whole_array(data, n, bins):
     """The novelty check's statistic: sides of any length, as the naive twin computes them."""
-    a = data.draw(
-        arrays(
-            np.float64,
-            (n, 8),
-            elements=st.one_of(st.sampled_from([0.1, 1.0, 2.0, 3.0]), st.just(np.nan)),
-        )
-    )
+    a = data.draw(tie_angles(n))
     hi = data.draw(st.integers(0, n))
     g = data.draw(st.integers(0, hi))
     lo = data.draw(st.integers(0, g))
-    fb, valid = frame_bins(a, bins)
-    left, right = np.zeros(8 * bins, dtype=np.int64), np.zeros(8 * bins, dtype=np.int64)
+    fb, valid, left, right = binned(a, bins)
     got = span_contrast(fb, valid, n, lo, g, hi, bins, left, right)
     assert got == pytest.approx(naive_span_contrast(a, bins, lo, g, hi), abs=1e-12)
     size = data.draw(st.integers(max(1, hi - lo), max(1, n)))
-    ring, rv = np.zeros((size, 8), dtype=np.int8), np.zeros(size, dtype=np.uint8)
-    for f in range(lo, hi):
-        ring[f % size], rv[f % size] = fb[f], valid[f]
+    ring, rv = ring_of(fb, valid, size, lo, hi)
     assert span_contrast(ring, rv, size, lo, g, hi, bins, left, right) == got
 
 

@@ -12,8 +12,8 @@ from streamseg.config import LOFConfig
 from streamseg.daemon.algorithms import Algorithms
 from streamseg.daemon.pipeline import StreamPipeline
 from streamseg.offline.lof import LOFSegmenter, lof_features
-from streamseg.online.lof import StreamingLOFSegmenter, _root_args
-from streamseg.online.root_speed import RootSpeed
+from streamseg.online.lof import StreamingLOFSegmenter
+from streamseg.online.root_speed import NO_ROOT, RootSpeed
 from streamseg.online.speed_features import SpeedColumns
 from streamseg.recording import Recording
 from streamseg.skeleton.bones import angles_at, bone_point_indices, up_vector
@@ -43,7 +43,10 @@ def _fused_in_packets(pos, cfg, skeleton, fps, sizes):
     while a < len(pos):
         b = min(a + sizes[k % len(sizes)], len(pos))
         _, cols, ok = lof_columns(
-            np.ascontiguousarray(pos[a:b]), plan[2], _root_args(root), seg._speed_args()
+            np.ascontiguousarray(pos[a:b]),
+            plan[2],
+            NO_ROOT if root is None else root.kernel_args(),
+            seg._speed_args(),
         )
         out.append(cols)
         a, k = b, k + 1

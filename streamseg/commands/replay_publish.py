@@ -12,7 +12,7 @@ import zmq
 
 from streamseg import protocol
 from streamseg.client import sending_context
-from streamseg.commands.replay_push import announce_of
+from streamseg.commands.replay_push import announce_of, check_pacing, paced_packets
 from streamseg.endpoints import ipv6
 from streamseg.exceptions import ParameterError
 
@@ -41,10 +41,7 @@ def publish(
     subscribes late still opens the stream; ``settle`` seconds pass after binding before the
     first packet, for subscribers to connect.
     """
-    if batch < 1:
-        raise ParameterError(f"--batch {batch} is invalid: expected frames per packet >= 1")
-    if not speed >= 0:
-        raise ParameterError(f"--speed {speed} is invalid: expected times real time >= 0")
+    check_pacing(batch, speed)
     own = sock is None
     delivery = contextlib.ExitStack()
     if own:
@@ -59,19 +56,13 @@ def publish(
     try:
         time.sleep(settle)
         sock.send_multipart(announce)
-        t0 = last = time.perf_counter()
-        for a in range(0, n, batch):
+        last = time.perf_counter()
+        for packet in paced_packets(positions, fps, stream, speed, batch):
             now = time.perf_counter()
             if now - last >= REANNOUNCE_S:
                 sock.send_multipart(announce)
                 last = now
-            if speed > 0:
-                pause = t0 + a / (fps * speed) - now
-                if pause > 0:
-                    time.sleep(pause)
-            sock.send_multipart(
-                protocol.encode(protocol.Frames(stream, a, time.time(), positions[a : a + batch]))
-            )
+            sock.send_multipart(packet)
         if end:
             sock.send_multipart(protocol.encode(protocol.End(stream)))
     finally:

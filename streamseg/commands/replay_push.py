@@ -46,6 +46,30 @@ def announce_of(
     )
 
 
+def check_pacing(batch: int, speed: float, zero: str = "") -> None:
+    """Raise :class:`ParameterError` for a ``--batch`` below 1 or a ``--speed`` below 0 (or
+    NaN); ``zero`` says in the message what a speed of 0 does."""
+    if batch < 1:
+        raise ParameterError(f"--batch {batch} is invalid: expected frames per packet >= 1")
+    if not speed >= 0:
+        raise ParameterError(
+            f"--speed {speed} is invalid: expected times real time >= 0" + (zero and f" ({zero})")
+        )
+
+
+def paced_packets(positions, fps: float, stream: str, speed: float, batch: int):
+    """Yield the encoded :class:`protocol.Frames` packets of ``positions`` (n, J, 3), ``batch``
+    frames each, each once it is due at ``speed`` times real time from the first (0: at
+    once); a packet's time stamp is when it is yielded."""
+    t0 = time.perf_counter()
+    for a in range(0, positions.shape[0], batch):
+        if speed > 0:
+            pause = t0 + a / (fps * speed) - time.perf_counter()
+            if pause > 0:
+                time.sleep(pause)
+        yield protocol.encode(protocol.Frames(stream, a, time.time(), positions[a : a + batch]))
+
+
 class NoDaemon(TimeoutError):
     """No daemon took a packet within the wait."""
 
@@ -117,13 +141,7 @@ def replay(
     On KeyboardInterrupt the ``end`` message is sent (best effort, 1 s) and :class:`Interrupted`
     raised.
     """
-    if batch < 1:
-        raise ParameterError(f"--batch {batch} is invalid: expected frames per packet >= 1")
-    if not speed >= 0:
-        raise ParameterError(
-            f"--speed {speed} is invalid: expected times real time >= 0 "
-            "(0: as fast as the daemon takes the frames)"
-        )
+    check_pacing(batch, speed, "0: as fast as the daemon takes the frames")
     own = sock is None
     delivery = contextlib.ExitStack()  # a private context: leaving waits for the queue
     if own:
@@ -153,18 +171,8 @@ def replay(
             endpoint,
             on_wait,
         )
-        t0 = time.perf_counter()
-        for a in range(0, n, batch):
-            if speed > 0:
-                pause = t0 + a / (fps * speed) - time.perf_counter()
-                if pause > 0:
-                    time.sleep(pause)
-            _send(
-                sock,
-                protocol.encode(protocol.Frames(stream, a, time.time(), positions[a : a + batch])),
-                wait,
-                endpoint,
-            )
+        for packet in paced_packets(positions, fps, stream, speed, batch):
+            _send(sock, packet, wait, endpoint)
         if end:
             _send(sock, protocol.encode(protocol.End(stream, auth)), wait, endpoint)
     except KeyboardInterrupt:

@@ -12,8 +12,9 @@ from streamseg._kernels import stream_features as _sf
 from streamseg.config import LOFConfig
 from streamseg.config.lof import feature_width, width_message
 from streamseg.exceptions import ParameterError
-from streamseg.online.events import ConfirmEvent, CutEvent, WithdrawEvent
-from streamseg.online.speed_features import SpeedColumns
+from streamseg.online.lof_events import event_room, kernel_events, new_event_arrays
+from streamseg.online.root_speed import NO_ROOT
+from streamseg.online.speed_features import NO_SPEEDS, SpeedColumns
 from streamseg.state import Stateful
 
 
@@ -178,6 +179,7 @@ class StreamingLOFSegmenter(Stateful):
         "_right",
         "_ev",
         "_kernel_groups",
+        "_kernel_arrays",
     )
 
     def _allocate_derived(self) -> None:
@@ -216,6 +218,8 @@ class StreamingLOFSegmenter(Stateful):
             self._buffer(),
             (self._work, self._curve, self._keep, self._stack),
         )
+        # the same arrays one by one, as push_block takes them
+        self._kernel_arrays = tuple(a for group in self._kernel_groups for a in group)
 
     def _restored(self) -> None:
         self._rebuild_derived()
@@ -288,78 +292,41 @@ class StreamingLOFSegmenter(Stateful):
         angles, ok, n = _sf.push_block(
             pos,
             *bones,
-            *_root_args(root),
+            *(NO_ROOT if root is None else root.kernel_args()),
             *self._speed_args(),
             self._st,
             self._geo,
             self._p,
-            self._rb,
-            self._rv,
-            self._cur,
-            self._left,
-            self._right,
-            self._vecs,
-            self._norms,
-            self._seqs,
-            self._nn_idx,
-            self._nn_d,
-            self._nn_key,
-            self._nn_cnt,
-            self._trunc,
-            self._lrd,
-            self._lof,
-            self._mark,
-            self._centres,
-            self._rev,
-            self._rev_cnt,
-            self._queue,
-            self._gate,
-            self._work,
-            self._curve,
-            self._keep,
-            self._stack,
+            *self._kernel_arrays,
             *ev,
             self._pend,
         )
-        return angles, ok, self._events(n, ev)
+        return angles, ok, kernel_events(n, ev)
 
     def _speed_args(self) -> tuple:
-        s = self._speeds
-        if s is None:
-            return _NO_SPEEDS
-        order = getattr(s, "_order", None)  # None in checkpoints made before the order
-        if order is None:
-            order = np.arange(2 * s.d)
-        return (s._st, s._ring, s._ref, s._first, s.scale, np.asarray(order, dtype=np.int64))
+        return NO_SPEEDS if self._speeds is None else self._speeds.kernel_args()
 
     def finish(self) -> list:
         """End of stream: decide the windows still waiting for ``delay`` future windows (and
         settle every pending cut)."""
         ev = self._event_arrays(self.geometry["delay"] + 1)
         n = _ks.stream_finish(self._st, self._p, self._geo, *self._groups(), ev, self._pend)
-        return self._events(n, ev)
+        return kernel_events(n, ev)
 
     def _run(self, a: np.ndarray) -> list:
         if self._speeds is not None:
             a = self._speeds(a)
         ev = self._event_arrays(a.shape[0] // self.geometry["step"] + 2)
         n = _ks.stream_block(a, self._st, self._geo, self._p, *self._groups(), ev, self._pend)
-        return self._events(n, ev)
+        return kernel_events(n, ev)
 
     def _event_arrays(self, windows: int) -> tuple:
-        """Room for the events of ``windows`` decided windows: one each, with two stages up to
-        three (a withdraw, a cut, a pending cut) and each pending cut withdrawn."""
-        m = windows if not self.geometry["early"] else 4 * windows + self._pend.shape[0]
+        """Event arrays with room for the events of ``windows`` decided windows."""
+        m = event_room(windows, self.geometry["early"], self._pend.shape[0])
         ev = self._ev
         if ev is not None and ev[0].shape[0] >= m:  # read into events before the next call
             return ev
-        ev = (
-            np.empty(m, dtype=np.int64),
-            np.empty(m),
-            np.empty(m, dtype=np.int64),
-            np.empty(m, dtype=np.int64),
-            np.empty(m, dtype=np.int64),
-        )
+        ev = new_event_arrays(m)
         if m <= 64:  # kept for the next packets (a few frames each, live); not a huge one's
             self._ev = ev
         return ev
@@ -372,20 +339,6 @@ class StreamingLOFSegmenter(Stateful):
     def _buffer(self) -> tuple:
         """The LOF buffer's arrays (:data:`streamseg._kernels.lof_buffer.FIELDS`)."""
         return tuple(getattr(self, "_" + name) for name in _kb.FIELDS)
-
-    @staticmethod
-    def _events(n, ev) -> list:
-        ev_f, ev_s, ev_e, ev_k = ev[:4]
-        out = []
-        for i in range(n):
-            f, k, e = int(ev_f[i]), int(ev_k[i]), int(ev_e[i])
-            if k == _kd.KIND_CUT or k == _kd.KIND_PENDING:
-                out.append(CutEvent(f, float(ev_s[i]), e, pending=k == _kd.KIND_PENDING))
-            elif k == _kd.KIND_CONFIRM:
-                out.append(ConfirmEvent(f, float(ev_s[i]), e))
-            else:
-                out.append(WithdrawEvent(f, e, moved=k == _kd.KIND_MOVED))
-        return out
 
     # ---- read-only views (never mutate state) ----------------------------------------------
     @property
@@ -438,45 +391,6 @@ class StreamingLOFSegmenter(Stateful):
     def latency_frames(self) -> int:
         """Worst-case latency (frames) from a cut frame to its emission, without NaN drops."""
         return self.decision_lag_frames() + self.geometry["refine"]
-
-
-_NO_SPEEDS = (
-    np.zeros(3, dtype=np.int64),
-    np.zeros((0, 1)),
-    np.zeros(1),
-    np.zeros(1),
-    1.0,
-    np.zeros(0, dtype=np.int64),
-)
-_NO_ROOT = (
-    0,
-    np.zeros((0, 2), dtype=np.int64),
-    np.zeros(3),
-    np.zeros(2, dtype=np.int64),
-    np.zeros((1, 3)),
-    np.zeros(3),
-    0.0,
-    0.0,
-    1.0,
-)
-
-
-def _root_args(root) -> tuple:
-    """The arguments of the root-speed kernel for :meth:`StreamingLOFSegmenter.
-    learn_positions` (``root``: a :class:`streamseg.online.root_speed.RootSpeed` or None)."""
-    if root is None:
-        return _NO_ROOT
-    return (
-        root.root,
-        root.limbs,
-        root.up,
-        root._st,
-        root._ring,
-        root._prev,
-        root.jump,
-        root.fps / root.lag,
-        root.v_max,
-    )
 
 
 def warmup() -> None:

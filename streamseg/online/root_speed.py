@@ -16,7 +16,7 @@ from streamseg.config import LOFConfig
 from streamseg.skeleton.bones import bone_point_indices, up_vector
 from streamseg.state import Stateful
 
-__all__ = ["RootSpeed", "body_scale", "root_speed_columns"]
+__all__ = ["NO_ROOT", "RootSpeed", "body_scale", "root_speed_columns"]
 
 
 def body_scale(positions: np.ndarray, bones: np.ndarray) -> np.ndarray:
@@ -82,8 +82,14 @@ class RootSpeed(Stateful):
     def __call__(self, positions: np.ndarray) -> np.ndarray:
         p = np.ascontiguousarray(positions, dtype=np.float64)
         out = np.empty((p.shape[0], 2))
-        _kr.root_speeds(
-            p,
+        _kr.root_speeds(p, *self.kernel_args(), out)
+        return out
+
+    def kernel_args(self) -> tuple:
+        """``(joint, limbs, up, st, ring, prev, jump, rate, v_max)``: the arguments of
+        :func:`streamseg._kernels.root_speed.root_speeds` between the positions and the
+        output; the kernel advances ``st``, ``ring`` and ``prev``, this object's state."""
+        return (
             self.root,
             self.limbs,
             self.up,
@@ -93,9 +99,21 @@ class RootSpeed(Stateful):
             self.jump,
             self.fps / self.lag,
             self.v_max,
-            out,
         )
-        return out
+
+
+#: :meth:`RootSpeed.kernel_args` of a stream without root speeds: ``limbs`` with no row
+NO_ROOT = (
+    0,
+    np.zeros((0, 2), dtype=np.int64),
+    np.zeros(3),
+    np.zeros(2, dtype=np.int64),
+    np.zeros((1, 3)),
+    np.zeros(3),
+    0.0,
+    0.0,
+    1.0,
+)
 
 
 def root_speed_columns(

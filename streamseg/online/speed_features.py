@@ -48,6 +48,31 @@ class SpeedColumns(Stateful):
         _ks.append_speeds(block, out, self._st, self._ring, self._ref, self._first, self.scale)
         return out if self._order is None else np.ascontiguousarray(out[:, self._order])
 
+    def kernel_args(self) -> tuple:
+        """``(st, ring, ref, first, scale, order)``: the arguments of
+        :func:`streamseg._kernels.speeds.append_speeds` after the block and its output, and
+        the column order of the result (an index into the output's columns)."""
+        order = np.arange(2 * self.d) if self._order is None else self._order
+        return (
+            self._st,
+            self._ring,
+            self._ref,
+            self._first,
+            self.scale,
+            np.asarray(order, dtype=np.int64),
+        )
+
+
+#: :meth:`SpeedColumns.kernel_args` of a detector without speed columns: ``ring`` with no row
+NO_SPEEDS = (
+    np.zeros(3, dtype=np.int64),
+    np.zeros((0, 1)),
+    np.zeros(1),
+    np.zeros(1),
+    1.0,
+    np.zeros(0, dtype=np.int64),
+)
+
 
 def lof_columns(angles: np.ndarray, config: LOFConfig, fps: float) -> np.ndarray:
     """The columns the LOF histograms are made of for a whole array (n, d): the features,
