@@ -5,8 +5,9 @@ A consumer's view at stream time ``t`` is built from the events published by the
 order (docs/protocol.md): a ``cut`` adds its frame, a ``withdraw`` removes it, a ``confirm``
 with a ``settled`` frame moves it there, and a ``segments`` revision ``[start, end)`` replaces
 the revision boundaries inside ``(start, end)`` by its own (where the action label changes)
-and supersedes the provisional cuts inside it published before it (cuts settled by a relabel,
-confirmed or announced with ``provisional: false``, stay). The view is the union of both.
+and every cut inside it published before it, settled or not (docs/protocol.md, Settled cuts:
+a consumer that applies revisions takes theirs; a cut settled after the revision, or announced
+after it, is in the view until the next revision covering it). The view is the union of both.
 
 Scores, a boundary counting as known when one of the view lies within ``--tolerance`` (1.5 s)
 of the true one:
@@ -436,7 +437,8 @@ class Views:
 def view_at(events, t: float, cuts_only: bool = False) -> list:
     """The consumer's boundaries after the events published at or before ``t`` (with
     ``cuts_only``: of the ``cut``, ``confirm`` and ``withdraw`` events alone)."""
-    cuts: dict = {}  # frame -> settled (True: confirmed by a relabel or not provisional)
+    cuts: dict = {}  # frame -> settled (True: confirmed by a relabel or not provisional);
+    # a revision supersedes both kinds inside its range, as a consumer applying it does
     revision: list = []  # sorted boundaries of the revisions
     for when, ev in events:
         if when > t:
