@@ -250,3 +250,33 @@ def test_a_live_stream_places_lost_markers_from_the_past_alone(renamed):
         np.median(mirrored),
     )
     assert len(notes) == 1  # one note a marker
+
+
+def test_a_live_stream_without_a_pairs_marker_gets_it_mirrored(renamed, tmp_path):
+    """As the reader does for a file: a pair's marker absent from the stream's names is added
+    (lost in every frame) so that the map applies, and mirrored from its twin."""
+    from streamseg.skeleton.marker_fill import LiveMarkerFill, live_layout
+    from streamseg.skeleton.marker_map import joints_of_markers, marker_columns, stream_markers
+
+    _, labels, xyz = renamed
+    pelvis = ["LASIS", "RASIS", "LBackAsis", "RBackAsis"]
+    text = "".join(f"{j} = {json.dumps(ms)}\n" for j, ms in {**MAP, "pelvis": pelvis}.items())
+    (tmp_path / "pairs.toml").write_text(
+        f"pairs = {json.dumps([[pelvis[:2], pelvis[2:]]])}\n" + text
+    )
+    mset = load_marker_map(tmp_path / "pairs.toml")
+    keep = [i for i, m in enumerate(labels) if m != "LASIS"]
+    names = [labels[i] for i in keep]
+    assert stream_markers(mset, names) == (*names, "LASIS")
+    columns, missing = marker_columns(mset, names)
+    assert not missing
+    fill = LiveMarkerFill(live_layout(mset, stream_markers(mset, names)))
+    placed, notes = fill.fill(xyz[:, keep])
+    p = joints_of_markers(placed, columns)[:, JOINTS.index("pelvis")]
+    truth = xyz[:, [labels.index(m) for m in pelvis]].mean(axis=1)
+    seen = np.isfinite(truth).all(axis=1)
+    err = np.linalg.norm(p[seen] - truth[seen], axis=1)
+    assert np.median(err) < 15.0 and len(notes) == 1 and "mirrored" in notes[0]
+    # without pairs in the map the stream lacks the pelvis (the daemon's `skeleton` error)
+    (tmp_path / "plain.toml").write_text(text)
+    assert marker_columns(load_marker_map(tmp_path / "plain.toml"), names)[0] is None

@@ -117,8 +117,9 @@ class Algorithms:
         layout = None
         if columns is not None:
             from streamseg.skeleton.marker_fill import live_layout
+            from streamseg.skeleton.marker_map import stream_markers
 
-            layout = live_layout(self.markers, names)
+            layout = live_layout(self.markers, stream_markers(self.markers, names))
         return points, up, _bone_args(points, up), columns, layout
 
     def joints_of(self, skeleton: Skeleton):

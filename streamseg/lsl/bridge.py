@@ -159,8 +159,9 @@ class Feeder(threading.Thread):
                 raise ParameterError(f"LSL stream {self.meta['name']!r}: {err}") from None
             if self.marker_columns is not None:
                 from streamseg.skeleton.marker_fill import LiveMarkerFill, live_layout
+                from streamseg.skeleton.marker_map import stream_markers
 
-                layout = live_layout(self.markers, names)
+                layout = live_layout(self.markers, stream_markers(self.markers, names))
                 self.marker_fill = None if layout is None else LiveMarkerFill(layout)
                 names = JOINTS
         probe = np.zeros((1, len(names), 3))

@@ -222,6 +222,9 @@ def live_layout(mset, labels):
 class LiveMarkerFill:
     """Lost markers of a live stream placed as frames come, from the past only.
 
+    Frames with fewer markers than the layout's labels get NaN columns for the others (a
+    pair's marker the stream leaves out: :func:`streamseg.skeleton.marker_map.stream_markers`).
+
     The rule of :func:`fill_from_clusters` without hindsight: a marker lost in a frame where
     at least three others of its cluster are seen is carried by the rigid motion of those
     from the last frame before where it was seen with them (the offline filler also blends in
@@ -254,6 +257,9 @@ class LiveMarkerFill:
         """``(markers, notes)``: frames ``(n, M, 3)`` with the lost markers placed (the input
         when none is), and one note per marker placed for the first time."""
         X = np.asarray(markers, dtype=np.float64)
+        if X.shape[1] < len(self.labels):  # a pair's marker the stream leaves out
+            pad = np.full((X.shape[0], len(self.labels) - X.shape[1], 3), np.nan)
+            X = markers = np.concatenate([X, pad], axis=1)
         refs, seen, told = self.state
         present = _present(X)
         if present.all():
