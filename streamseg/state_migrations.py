@@ -36,6 +36,12 @@ def _pipeline_1(fields: dict) -> dict:
     return fields
 
 
+def _pipeline_2(fields: dict) -> dict:
+    # lost markers of a marker map were not placed live: none placed yet (nothing seen)
+    fields.setdefault("marker_fill", None)
+    return fields
+
+
 def _counter_1(fields: dict) -> dict:
     fields.setdefault("near_misses_", {})
     fields.setdefault("_unliked", None)  # no ended set waiting to resume
@@ -88,6 +94,7 @@ SPEEDS = "streamseg.online.speed_features:SpeedColumns"
 MIGRATIONS = {
     (LOF, 1): _lof_1,
     (PIPELINE, 1): _pipeline_1,
+    (PIPELINE, 2): _pipeline_2,
     (COUNTER, 1): _counter_1,
     (COUNTER, 2): _counter_2,
     (COUNTER, 3): _counter_3,

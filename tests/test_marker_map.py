@@ -191,3 +191,92 @@ def test_a_maps_clusters_and_pairs_place_lost_markers(renamed, tmp_path):
     err = np.linalg.norm(p[seen] - truth[seen], axis=1)
     assert np.median(err) < 15.0, np.median(err)  # mm, 9.6: a mirror image, not the marker
     assert any("LASIS" in w and "mirrored" in w for w in rec.metadata["warnings"])
+
+
+def test_a_live_stream_places_lost_markers_from_the_past_alone(renamed):
+    """The live placement (:class:`LiveMarkerFill`, the daemon's and the LSL input's): LASIS
+    lost for a third of the take is carried by the rigid motion of the other pelvis markers
+    from the last frame it was seen with them, in any packet size; never seen, it is RASIS
+    mirrored (the offline reader also blends the first frame after a loss: 1.8 mm median)."""
+    from streamseg.skeleton.marker_fill import LiveMarkerFill, live_layout
+    from streamseg.skeleton.marker_sets import MarkerSet
+
+    _, labels, xyz = renamed
+    pelvis = ["LASIS", "RASIS", "LBackAsis", "RBackAsis"]
+    mset = MarkerSet(
+        "map", "", {}, clusters=(tuple(pelvis),), pairs=((tuple(pelvis[:2]), tuple(pelvis[2:])),)
+    )
+    layout = live_layout(mset, labels)
+    cols = [labels.index(m) for m in pelvis]
+    truth = xyz[:, cols].mean(axis=1)
+    seen = np.isfinite(truth).all(axis=1)
+
+    def live(frames, step):
+        fill, out, notes = LiveMarkerFill(layout), [], []
+        for i in range(0, frames.shape[0], step):
+            placed, said = fill.fill(frames[i : i + step])
+            out.append(placed)
+            notes += said
+        return np.concatenate(out)[:, cols].mean(axis=1), notes
+
+    lost = xyz.copy()
+    a = xyz.shape[0] // 3
+    lost[a : 2 * a, labels.index("LASIS")] = np.nan
+    p, notes = live(lost, 1)
+    for step in (7, 40, xyz.shape[0]):
+        np.testing.assert_array_equal(live(lost, step)[0], p)
+    assert notes == [
+        "marker LASIS lost: placed from the markers of its segment (RASIS LBackAsis RBackAsis)"
+    ]
+    ok = seen[a : 2 * a]
+    err = np.linalg.norm(p[a : 2 * a][ok] - truth[a : 2 * a][ok], axis=1)
+    assert np.median(err) < 5.0 and err.max() < 6.0, (np.median(err), err.max())  # 3.6, 4.6
+
+    gone = xyz.copy()
+    gone[:, labels.index("LASIS")] = np.nan
+    p, notes = live(gone, 10)
+    err = np.linalg.norm(p[seen] - truth[seen], axis=1)
+    assert np.median(err) < 15.0, np.median(err)  # mm, 9.6 (as offline)
+    assert len(notes) == 1 and "RASIS mirrored" in notes[0]
+    # once seen, a marker is not mirrored again: lost then, it is placed from the cluster
+    back = gone.copy()
+    back[40:50, labels.index("LASIS")] = xyz[40:50, labels.index("LASIS")]
+    after = np.arange(xyz.shape[0]) >= 50
+    mirrored = np.linalg.norm(live(gone, 10)[0] - truth, axis=1)[seen & after]
+    p, notes = live(back, 10)
+    err = np.linalg.norm(p - truth, axis=1)[seen & after]
+    assert np.isfinite(err).all() and np.median(err) < 0.5 * np.median(mirrored), (
+        np.median(err),
+        np.median(mirrored),
+    )
+    assert len(notes) == 1  # one note a marker
+
+
+def test_a_live_stream_without_a_pairs_marker_gets_it_mirrored(renamed, tmp_path):
+    """As the reader does for a file: a pair's marker absent from the stream's names is added
+    (lost in every frame) so that the map applies, and mirrored from its twin."""
+    from streamseg.skeleton.marker_fill import LiveMarkerFill, live_layout
+    from streamseg.skeleton.marker_map import joints_of_markers, marker_columns, stream_markers
+
+    _, labels, xyz = renamed
+    pelvis = ["LASIS", "RASIS", "LBackAsis", "RBackAsis"]
+    text = "".join(f"{j} = {json.dumps(ms)}\n" for j, ms in {**MAP, "pelvis": pelvis}.items())
+    (tmp_path / "pairs.toml").write_text(
+        f"pairs = {json.dumps([[pelvis[:2], pelvis[2:]]])}\n" + text
+    )
+    mset = load_marker_map(tmp_path / "pairs.toml")
+    keep = [i for i, m in enumerate(labels) if m != "LASIS"]
+    names = [labels[i] for i in keep]
+    assert stream_markers(mset, names) == (*names, "LASIS")
+    columns, missing = marker_columns(mset, names)
+    assert not missing
+    fill = LiveMarkerFill(live_layout(mset, stream_markers(mset, names)))
+    placed, notes = fill.fill(xyz[:, keep])
+    p = joints_of_markers(placed, columns)[:, JOINTS.index("pelvis")]
+    truth = xyz[:, [labels.index(m) for m in pelvis]].mean(axis=1)
+    seen = np.isfinite(truth).all(axis=1)
+    err = np.linalg.norm(p[seen] - truth[seen], axis=1)
+    assert np.median(err) < 15.0 and len(notes) == 1 and "mirrored" in notes[0]
+    # without pairs in the map the stream lacks the pelvis (the daemon's `skeleton` error)
+    (tmp_path / "plain.toml").write_text(text)
+    assert marker_columns(load_marker_map(tmp_path / "plain.toml"), names)[0] is None

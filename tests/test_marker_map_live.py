@@ -202,3 +202,51 @@ def test_eval_all_reads_the_folders_markers_through_the_map(rec, data_dir, tmp_p
         == 0
     )
     assert json.loads(capsys.readouterr().out)["cuts"] == want and len(want) >= 5
+
+
+def pelvis_cluster_take(rec):
+    """``(joints, marker names, markers, map TOML)`` as :func:`marker_take`, the pelvis sent as
+    four markers ``P0``-``P3`` fixed to the pelvis (lateral from the right to the left hip,
+    up the lower back) whose mean is the pelvis joint: a cluster of the map."""
+    joints, names, markers, toml = marker_take(rec)
+    pel, lhip, rhip, spine = (
+        joints[:, JOINTS.index(j)] for j in ("pelvis", "l_hip", "r_hip", "spine")
+    )
+    lat = lhip - rhip
+    lat /= np.linalg.norm(lat, axis=1, keepdims=True)
+    up = spine - pel
+    up -= np.sum(up * lat, axis=1, keepdims=True) * lat
+    up /= np.linalg.norm(up, axis=1, keepdims=True)
+    fwd = np.cross(up, lat)
+    offsets = ((0.12, 0.08, 0.02), (-0.12, 0.08, 0.02), (0.09, -0.08, -0.02), (-0.09, -0.08, -0.02))
+    cluster = [pel + a * lat + b * fwd + c * up for a, b, c in offsets]
+    pelvis = toml.split('"')[1]
+    keep = [i for i, n in enumerate(names) if n != pelvis]
+    names = [names[i] for i in keep] + [f"P{k}" for k in range(4)]
+    markers = np.concatenate([markers[:, keep], np.stack(cluster, axis=1)], axis=1)
+    toml = toml.replace(f'"{pelvis}"', '["P0", "P1", "P2", "P3"]')
+    return joints, names, markers, toml
+
+
+def test_the_daemon_places_a_lost_marker_from_its_cluster(start_daemon, rec, tmp_path):
+    joints, names, markers, toml = pelvis_cluster_take(rec)
+    lost = markers.copy()
+    lost[300:900, names.index("P0")] = np.nan  # 5 s: much longer than the gap filler's 0.25 s
+    (tmp_path / "map.toml").write_text(toml)
+    d, ep = start_daemon(markers=str(tmp_path / "map.toml"), relabel_interval=0)
+    subs = {s: subscribe(ep["publish"], ep["control"], stream=s) for s in ("m", "j")}
+    send(ep, "m", names, lost, rec.fps)
+    send(ep, "j", JOINTS, joints, rec.fps)
+    got_m, got_j = events_of(subs["m"], "m"), events_of(subs["j"], "j")
+    said = [e for e in got_m if e["type"] == "error" and e["reason"] == "markers"]
+    assert (
+        len(said) == 1
+        and "marker P0 lost: placed from the markers of its segment" in (said[0]["message"])
+    )
+    got_m = [e for e in got_m if e not in said]
+    # the pelvis placed by the rigid motion of P1-P3: no gap, the cuts of the joints' stream
+    assert not any(e["type"] == "gap" for e in got_m)
+    assert [(e["type"], e.get("frame")) for e in got_m] == [
+        (e["type"], e.get("frame")) for e in got_j
+    ]
+    assert sum(e["type"] == "cut" for e in got_j) >= 5

@@ -33,7 +33,7 @@ from tests.motion import lof_input
 
 STORED = {
     "streamseg.daemon.pipeline:StreamPipeline": (
-        2,
+        3,
         {
             "_cap",
             "_feat",
@@ -48,6 +48,7 @@ STORED = {
             "fps",
             "gaps",
             "learned",
+            "marker_fill",
             "next_frame",
             "notices",
             "offset",

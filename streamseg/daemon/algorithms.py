@@ -102,16 +102,25 @@ class Algorithms:
         """Per-stream feature plan: bone end-point indices, resolved once (raises
         SkeletonError when the skeleton lacks a joint the 8 angles need), the skeleton's
         up vector when the cut detector uses inclinations (else None), both as the
-        arguments of the angle kernel (:meth:`StreamingLOFSegmenter.learn_positions`), and
-        the marker map's columns when it applies (:meth:`joints_of`; else None)."""
+        arguments of the angle kernel (:meth:`StreamingLOFSegmenter.learn_positions`), the
+        marker map's columns when it applies (:meth:`joints_of`; else None) and then how
+        its lost markers are placed (:func:`streamseg.skeleton.marker_fill.live_layout`;
+        None: no clusters or pairs among the stream's markers)."""
         from streamseg.config import LOFConfig
         from streamseg.skeleton.bones import bone_point_indices, up_vector
 
+        names = skeleton.names
         skeleton, columns = self.joints_of(skeleton)
         inclinations = (self.lof_config or LOFConfig()).inclinations
         points = bone_point_indices(skeleton)
         up = up_vector(skeleton.up) if inclinations else None
-        return points, up, _bone_args(points, up), columns
+        layout = None
+        if columns is not None:
+            from streamseg.skeleton.marker_fill import live_layout
+            from streamseg.skeleton.marker_map import stream_markers
+
+            layout = live_layout(self.markers, stream_markers(self.markers, names))
+        return points, up, _bone_args(points, up), columns, layout
 
     def joints_of(self, skeleton: Skeleton):
         """``(skeleton, columns)``: the skeleton a stream's features are computed on and the

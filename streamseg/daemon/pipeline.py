@@ -64,7 +64,7 @@ class StreamPipeline(Stateful):
         Seconds of features kept for relabelling (the ring's size).
     """
 
-    STATE_VERSION = 2  # 2: root speeds, settlement
+    STATE_VERSION = 3  # 2: root speeds, settlement; 3: marker_fill
     _transient = ("algorithms", "plan")  # shared by the daemon's streams: given back at restore
     __slots__ = (
         "skeleton",
@@ -92,6 +92,7 @@ class StreamPipeline(Stateful):
         "final_bad",
         "final_reps",
         "settlement",
+        "marker_fill",
     )
 
     # ``algorithms`` is not annotated: its module builds pipelines (the warm-up), so importing
@@ -137,6 +138,9 @@ class StreamPipeline(Stateful):
         self.final_reps = []  # repetitions completed by the frames released at finish()
         # the provisional cuts the relabels settle, and the relabel they make due
         self.settlement = algorithms.settlement(self.fps)
+        # a marker map's lost markers placed from their segments (the state of a
+        # LiveMarkerFill; None: no map, or no clusters or pairs among the stream's markers)
+        self.marker_fill = None
 
     @property
     def fill_frames(self) -> int:
@@ -209,6 +213,8 @@ class StreamPipeline(Stateful):
         if self.plan[3] is not None:  # markers: the joints of the map
             from streamseg.skeleton.marker_map import joints_of_markers
 
+            if self.plan[4] is not None:
+                positions = self._place_lost_markers(positions)
             positions = joints_of_markers(positions, self.plan[3])
         gap = first_frame - self.next_frame
         lost = None
@@ -231,6 +237,18 @@ class StreamPipeline(Stateful):
         c, r, b = self._learn(released, start, self.filler.released_lost)
         self._take_gaps()
         return out + c, reps + r, n_bad + b
+
+    def _place_lost_markers(self, positions: np.ndarray) -> np.ndarray:
+        """Markers of the map lost in ``positions`` placed from the others of their segment
+        (:class:`streamseg.skeleton.marker_fill.LiveMarkerFill`, as the offline readers do,
+        from the past only); the first placement of each marker is a ``markers`` notice."""
+        from streamseg.skeleton.marker_fill import LiveMarkerFill
+
+        fill = LiveMarkerFill(self.plan[4], self.marker_fill)
+        positions, notes = fill.fill(positions)
+        self.marker_fill = fill.state
+        self.notices += [("markers", n) for n in notes]
+        return positions
 
     def _learn(self, positions: np.ndarray, first_frame: int, lost=None):
         """:meth:`push` on frames the gap filler released (contiguous from ``first_frame``)."""

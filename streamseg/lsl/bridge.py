@@ -94,6 +94,7 @@ class Feeder(threading.Thread):
         self.ctx = ctx  # None: the thread's own, which ends once its queue is out
         self.markers = markers
         self.marker_columns = None  # the map's columns, when it applies (_plan)
+        self.marker_fill = None  # its lost markers placed (LiveMarkerFill), when it can
         self.stopping = threading.Event()
         self.frames_sent = 0
         self.error = None
@@ -157,6 +158,11 @@ class Feeder(threading.Thread):
             except SkeletonError as err:
                 raise ParameterError(f"LSL stream {self.meta['name']!r}: {err}") from None
             if self.marker_columns is not None:
+                from streamseg.skeleton.marker_fill import LiveMarkerFill, live_layout
+                from streamseg.skeleton.marker_map import stream_markers
+
+                layout = live_layout(self.markers, stream_markers(self.markers, names))
+                self.marker_fill = None if layout is None else LiveMarkerFill(layout)
                 names = JOINTS
         probe = np.zeros((1, len(names), 3))
         self.names, _ = complete(names, probe)  # pose models: trunk points added
@@ -170,6 +176,10 @@ class Feeder(threading.Thread):
         if self.marker_columns is not None:
             from streamseg.skeleton.marker_map import joints_of_markers
 
+            if self.marker_fill is not None:  # lost markers placed as the daemon does
+                pos, notes = self.marker_fill.fill(pos)
+                for note in notes:
+                    log.warning("LSL stream %r: %s", self.meta["name"], note)
             pos = joints_of_markers(pos, self.marker_columns)
         return complete(self.raw_names, pos)[1]
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fill_from_clusters", "with_absent_pair_markers"]
+__all__ = ["LiveMarkerFill", "fill_from_clusters", "live_layout", "with_absent_pair_markers"]
 
 #: a marker is reported when it is lost in at least this share of the frames
 REPORT_SHARE = 0.1
@@ -193,3 +193,136 @@ def with_absent_pair_markers(labels, markers, msets=None):
     X = np.asarray(markers, dtype=np.float64)
     pad = np.full(X.shape[:1] + (len(add), 3), np.nan)
     return list(labels) + add, np.concatenate([X, pad], axis=1)
+
+
+# --- live streams: the same placement, from the past only -----------------------------------
+
+
+def live_layout(mset, labels):
+    """``(clusters, pairs, labels)`` of a marker set for a live stream's marker names, as
+    columns (the clusters' markers the stream has; the pairs whose four markers it has), for
+    :class:`LiveMarkerFill`; None when there is nothing to place from."""
+    from streamseg.skeleton.marker_sets import _index
+
+    index = _index(labels)
+    clusters = []
+    for cluster in mset.clusters:
+        cols = tuple(dict.fromkeys(index[c.upper()] for c in cluster if c.upper() in index))
+        if len(cols) >= 4:  # a lost one needs three others
+            clusters.append(cols)
+    pairs = []
+    for (a, b), (c, d) in mset.pairs:
+        if all(x.upper() in index for x in (a, b, c, d)):
+            pairs.append(tuple(tuple(index[x.upper()] for x in q) for q in ((a, b), (c, d))))
+    if not clusters and not pairs:
+        return None
+    return tuple(clusters), tuple(pairs), tuple(str(n) for n in labels)
+
+
+class LiveMarkerFill:
+    """Lost markers of a live stream placed as frames come, from the past only.
+
+    Frames with fewer markers than the layout's labels get NaN columns for the others (a
+    pair's marker the stream leaves out: :func:`streamseg.skeleton.marker_map.stream_markers`).
+
+    The rule of :func:`fill_from_clusters` without hindsight: a marker lost in a frame where
+    at least three others of its cluster are seen is carried by the rigid motion of those
+    from the last frame before where it was seen with them (the offline filler also blends in
+    the first frame after, which a stream has not sent yet); a marker of a pair not seen yet
+    in the stream is its twin mirrored across the other pair's mid-plane (offline: one lost
+    in every frame of the take). The stored state is ``(refs, seen, told)``, plain arrays a
+    stream's checkpoint holds (:attr:`state`): per cluster the cluster's markers at the last
+    frame each member was seen with three others, the markers seen so far, the markers
+    already reported (:meth:`fill` returns a note the first time one is placed).
+
+    Parameters
+    ----------
+    layout : tuple
+        :func:`live_layout`.
+    state : tuple, optional
+        A :attr:`state` to go on from (None: a stream's start).
+    """
+
+    __slots__ = ("clusters", "pairs", "labels", "state")
+
+    def __init__(self, layout, state=None):
+        self.clusters, self.pairs, self.labels = layout
+        if state is None:
+            refs = [np.full((len(c), len(c), 3), np.nan) for c in self.clusters]
+            n = len(self.labels)
+            state = (refs, np.zeros(n, dtype=bool), np.zeros(n, dtype=bool))
+        self.state = state
+
+    def fill(self, markers: np.ndarray):
+        """``(markers, notes)``: frames ``(n, M, 3)`` with the lost markers placed (the input
+        when none is), and one note per marker placed for the first time."""
+        X = np.asarray(markers, dtype=np.float64)
+        if X.shape[1] < len(self.labels):  # a pair's marker the stream leaves out
+            pad = np.full((X.shape[0], len(self.labels) - X.shape[1], 3), np.nan)
+            X = markers = np.concatenate([X, pad], axis=1)
+        refs, seen, told = self.state
+        present = _present(X)
+        if present.all():
+            for cols, R in zip(self.clusters, refs):
+                R[:] = X[-1, list(cols)][None]
+            seen[:] = True
+            return markers, []
+        out = X.copy()
+        how = {}
+        for cols, R in zip(self.clusters, refs):
+            self._from_cluster(X, out, list(cols), R, how)
+        for (a, b), (c, d) in list(self.pairs) + [(q, p) for p, q in self.pairs]:
+            for m, twin in ((a, b), (b, a)):
+                if seen[m]:
+                    continue
+                hit = present[:, m]
+                before = np.arange(X.shape[0]) < (np.argmax(hit) if hit.any() else X.shape[0])
+                ok = before & _present(out[:, [twin, c, d]]).all(axis=1) & ~_present(out[:, m])
+                if ok.any():
+                    out[ok, m] = _mirror(out[ok], out[ok, twin], (out[ok, c], out[ok, d]))
+                    how.setdefault(
+                        m,
+                        f"placed as {self.labels[twin]} mirrored across the mid-plane of "
+                        f"{self.labels[c]} and {self.labels[d]} until it is seen",
+                    )
+        seen |= present.any(axis=0)
+        notes = []
+        for m, text in how.items():
+            if not told[m]:
+                told[m] = True
+                notes.append(f"marker {self.labels[m]} lost: {text}")
+        return out, notes
+
+    def _from_cluster(self, X, out, cols, R, how):
+        P = X[:, cols]
+        pres = _present(P)
+        n_seen = pres.sum(axis=1)
+        for i, m in enumerate(cols):
+            good = np.flatnonzero(pres[:, i] & (n_seen - 1 >= 3))
+            lost = np.flatnonzero(~pres[:, i] & ~_present(out[:, m]))
+            if lost.size:
+                # each lost frame's reference: the last frame before it that saw it with
+                # three others, this packet's or an earlier one's (R)
+                j = np.searchsorted(good, lost) - 1
+                ref = np.repeat(R[i][None], lost.size, axis=0)
+                ref[j >= 0] = P[good[j[j >= 0]]]
+                use = pres[lost] & _present(ref)
+                use[:, i] = False
+                ok = (use.sum(axis=1) >= 3) & _present(ref[:, i])
+                patterns = {}
+                for k in np.flatnonzero(ok):
+                    patterns.setdefault(tuple(np.flatnonzero(use[k])), []).append(k)
+                for key, ks in patterns.items():
+                    ks = np.asarray(ks)
+                    sel = list(key)
+                    out[lost[ks], m] = _kabsch_place(
+                        ref[ks][:, sel], P[lost[ks]][:, sel], ref[ks, i]
+                    )
+                    how.setdefault(
+                        m,
+                        "placed from the markers of its segment ("
+                        + " ".join(self.labels[cols[s]] for s in sel)
+                        + ")",
+                    )
+            if good.size:
+                R[i] = P[good[-1]]

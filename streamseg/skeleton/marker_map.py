@@ -125,13 +125,32 @@ def template(markers) -> str:
     return "\n".join(lines)
 
 
-def marker_columns(mset: MarkerSet, names):
-    """``(columns, missing)`` of a marker map for a live stream's joint names (the daemon,
-    the LSL input): ``columns[j]``, the indices of the names whose mean is joint ``j`` of
-    :data:`JOINTS` (None when some are absent), and ``missing``, joint -> the markers of the
-    map the names lack."""
+def stream_markers(mset: MarkerSet, names) -> tuple:
+    """A live stream's marker names, with a pair's marker it leaves out added last when the
+    map then has every joint (as the readers add it: lost in every frame, mirrored from its
+    twin; :class:`streamseg.skeleton.marker_fill.LiveMarkerFill` adds its NaN column)."""
     from streamseg.skeleton.marker_sets import plan
 
+    names = tuple(names)
+    if mset.pairs and plan(mset, names)[1]:
+        import numpy as np
+
+        from streamseg.skeleton.marker_fill import with_absent_pair_markers
+
+        more = tuple(with_absent_pair_markers(names, np.zeros((0, len(names), 3)), (mset,))[0])
+        if len(more) > len(names) and not plan(mset, more)[1]:
+            return more
+    return names
+
+
+def marker_columns(mset: MarkerSet, names):
+    """``(columns, missing)`` of a marker map for a live stream's joint names (the daemon,
+    the LSL input): ``columns[j]``, the indices of the names (:func:`stream_markers`: a
+    pair's absent marker added last) whose mean is joint ``j`` of :data:`JOINTS` (None when
+    some are absent), and ``missing``, joint -> the markers of the map the names lack."""
+    from streamseg.skeleton.marker_sets import plan
+
+    names = stream_markers(mset, names)
     chosen, missing = plan(mset, names)
     if missing:
         return None, missing
