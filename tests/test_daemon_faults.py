@@ -127,7 +127,9 @@ def test_fps_and_clock_limits(start_daemon, rec):
 
 
 def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want):
-    d, ep = start_daemon(gap_events_per_s=5, stray_errors_per_s=5, heartbeat=0.1)
+    # rates so low that the bursts' event counts do not depend on how fast this machine
+    # takes them: one event each (the bucket's burst), then one per 1,000 s
+    d, ep = start_daemon(gap_events_per_s=1e-3, stray_errors_per_s=1e-3, heartbeat=0.1)
     s = subscribe(ep["publish"], ep["control"])
     sock = push(ep)
     n_ids = 2000
@@ -145,8 +147,8 @@ def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want)
         if e.type == "closed" and e.stream == "good":
             break
     assert cuts(events) == want
-    ghosts = [e for e in events if e.type == "error" and e.reason == "unknown_stream"]
-    assert len(ghosts) < 50  # not one per id
+    ghosts = [e for e in events if e.type == "error" and e.reason == "unknown_stream" and e.stream]
+    assert len(ghosts) == 1  # not one per id
     totals = request(ep["control"], "stats")["totals"]
     assert totals["errors_by_reason"]["unknown_stream"] == n_ids  # every one counted
 
@@ -162,7 +164,7 @@ def test_gap_and_unknown_stream_floods_are_rate_limited(start_daemon, rec, want)
         summed = max(summed, e.count) if pooled(e) else summed
     assert summed >= n_ids - len(ghosts)
     gaps = [e for e in events if e.type == "gap" and e.stream == "holes"]
-    assert 1 <= len(gaps) < 119
+    assert len(gaps) == 1  # the rest counted in the `gap` error below
     gap_err = [e for e in events if e.type == "error" and e.stream == "holes" and e.reason == "gap"]
     assert gap_err and gap_err[-1].count == 119  # counted, summarised before `closed`
 
@@ -290,3 +292,24 @@ def test_a_full_state_dir_is_reported_and_the_stream_goes_on(start_daemon, rec):
     events = list(listen(s, stream="full", until_end=True, timeout=30))
     assert events[-1].type == "closed" and events[-1].reason == "end"
     assert sum(e.type == "gap" for e in events) > 100
+
+
+def test_a_busy_loop_holds_frames_for_fewer_pipeline_steps(start_daemon, rec, want):
+    """With ``coalesce_load = 0`` the loop counts as busy from the start: each stream's frames
+    wait until it holds ``coalesce_frames`` (the wait bound is out of reach here), and every
+    frame still gives the cuts of a run without waiting."""
+    d, ep = start_daemon(coalesce_load=0, coalesce_frames=48, coalesce_wait=3600.0)
+    s = subscribe(ep["publish"], ep["control"])
+    sock = push(ep)
+    good_stream(sock, rec, step=4)
+    events = []
+    for e in listen(s, timeout=60):
+        events.append(e)
+        if e.type == "closed" and e.stream == "good":
+            break
+    assert cuts(events) == want
+    totals = request(ep["control"], "stats")["totals"]
+    assert totals["frames"] == rec.n_frames
+    # each step but the last (the end's) holds at least 48 frames: 4-frame packets alone
+    # would be n_frames / 4 steps
+    assert totals["steps"] <= rec.n_frames // 48 + 1

@@ -33,6 +33,11 @@ class DaemonConfig:
         Largest frame count accepted in one packet (bounds memory per message).
     drain, drain_frames : int
         Most packets, and frames, taken from the socket before one vectorised pipeline step.
+    coalesce_frames, coalesce_wait, coalesce_load : int, float, float
+        While the loop is busy more than ``coalesce_load`` of its time (0: always), a stream's
+        frames wait for more of its own until it holds ``coalesce_frames`` or its oldest
+        waited ``coalesce_wait`` seconds (0: never wait); one pipeline step then takes them
+        all. Below that load nothing waits.
     subscribe : tuple of str
         Publishers of frame packets to subscribe to (SUB), beside the PULL ``ingest``: no
         backpressure; a packet the publisher dropped shows as a ``gap``.
@@ -105,6 +110,9 @@ class DaemonConfig:
     max_packet_frames: int = 12000
     drain: int = 16000
     drain_frames: int = 32768
+    coalesce_frames: int = 24
+    coalesce_wait: float = 0.2
+    coalesce_load: float = 0.5
     ingest_hwm: int = 4
     subscribe: tuple = ()
     subscribe_hwm: int = 64
@@ -182,6 +190,14 @@ class DaemonConfig:
             'a scheduler address like tcp://127.0.0.1:8786, or "" (a local cluster)',
         )
         _check(
+            "coalesce_load",
+            self.coalesce_load,
+            isinstance(self.coalesce_load, (int, float))
+            and not isinstance(self.coalesce_load, bool)
+            and 0 <= self.coalesce_load <= 1,
+            "a fraction in [0, 1]",
+        )
+        _check(
             "relabel_share",
             self.relabel_share,
             isinstance(self.relabel_share, (int, float)) and 0 < self.relabel_share <= 1,
@@ -192,6 +208,7 @@ class DaemonConfig:
             "max_packet_frames",
             "drain",
             "drain_frames",
+            "coalesce_frames",
             "hwm",
             "ingest_hwm",
             "subscribe_hwm",
@@ -211,7 +228,7 @@ class DaemonConfig:
                 isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0,
                 "a number > 0 (seconds or Hz)",
             )
-        for name in ("relabel_interval", "heartbeat", "shutdown_relabel"):
+        for name in ("relabel_interval", "heartbeat", "shutdown_relabel", "coalesce_wait"):
             v = getattr(self, name)
             _check(
                 name,

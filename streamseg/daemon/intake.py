@@ -2,9 +2,10 @@
 
 :class:`Intake` takes the receiver's queue (:mod:`streamseg.daemon.ingest`), handles
 announce and ``end``, keeps the open streams (who owns each, the per-client quota), sequences
-frames (gaps, duplicates, limits) and runs each stream's pipeline once per drain on what it
-got (the vectorised path). What it publishes, and a stream's closing (the final relabel),
-go through an :class:`Outbox`, the daemon.
+frames (gaps, duplicates, limits) and runs each stream's pipeline on what it got, several
+packets in one step (the vectorised path; while the loop is busy, a stream's frames wait for
+more of their own, bounded in frames and time). What it publishes, and a stream's closing
+(the final relabel), go through an :class:`Outbox`, the daemon.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ log = logging.getLogger("streamseg.daemon")
 
 
 SLICE_S = 0.02  # s: the longest the loop spends on ingest before it serves the rest
+LOAD_WINDOW_S = 0.25  # s: the loop's load is judged over windows this long
 
 
 class Outbox(Protocol):
@@ -91,10 +93,13 @@ class Intake:
         self.joined: set = set()  # (stream, gen) opened by a subscription, no frame yet
         self.latency = LatencyRing()
         self.n_packets = self.n_frames = 0  # plain ints: updated per packet
+        self.n_steps = 0  # pipeline steps (each on one stream's frames held till then)
         self.gen = 0  # the last take's generation
         self.curve = False  # CURVE authenticates clients (their key owns a stream)
         self.token = None  # without CURVE, the control token may end any stream
-        self._dirty: dict = {}  # streams with frames received in this drain
+        self._dirty: dict = {}  # streams holding frames their pipeline has not had (ordered)
+        self._loaded = config.coalesce_load == 0  # busy in the last LOAD_WINDOW_S
+        self._window, self._busy = time.perf_counter(), 0.0  # the current window's start, work
         self._sender = None  # topic frame of the message being handled (its identity)
 
     def owners(self, curve: bool, token: str | None) -> None:
@@ -109,7 +114,8 @@ class Intake:
         c = self.config
         # packets that each run a pipeline (a gap in every one) can cost a millisecond each:
         # the loop answers control requests and beats between slices of them
-        until = time.perf_counter() + SLICE_S
+        started = time.perf_counter()
+        until = started + SLICE_S
         for it in self.ingest.take(c.drain, c.drain_frames, until):
             self.n_packets += 1
             try:
@@ -133,9 +139,47 @@ class Intake:
                 self.out.error(
                     None, "decode", f"packet could not be handled ({type(err).__name__}: {err})"
                 )
-        for st in self._dirty:
-            self.flush(st)
-        self._dirty.clear()
+        self._flush_due(started)
+
+    def _flush_due(self, started: float) -> None:
+        """Run the pipeline of each stream whose frames should not wait longer.
+
+        A stream's pipeline step costs about as much for one packet as for ten
+        (docs/decisions.md, Coalescing). While the loop has room, every stream's frames go on
+        at once; once it was busy more than ``coalesce_load`` of the last
+        :data:`LOAD_WINDOW_S`, a stream's frames wait for more of their own,
+        ``coalesce_frames`` or ``coalesce_wait`` seconds at most, so more streams cost fewer
+        steps.
+        """
+        c = self.config
+        if self._dirty:
+            if self._loaded and c.coalesce_wait > 0:
+                oldest = time.perf_counter() - c.coalesce_wait
+                due = [
+                    st
+                    for st in self._dirty
+                    if st.arrivals[0] <= oldest
+                    or sum(a.shape[0] for a in st.pending) >= c.coalesce_frames
+                ]
+            else:
+                due = list(self._dirty)
+            for st in due:
+                self.flush(st)
+        end = time.perf_counter()
+        self._busy += end - started
+        if end - self._window >= LOAD_WINDOW_S:
+            self._loaded = self._busy >= c.coalesce_load * (end - self._window)
+            self._window, self._busy = end, 0.0
+
+    def wait_ms(self, longest: int) -> int:
+        """Milliseconds the loop may wait for messages before frames held back are due
+        (at most ``longest``)."""
+        if not self._dirty:
+            return longest
+        # streams enter _dirty in the order of their oldest held frame: the first is due first
+        first = next(iter(self._dirty)).arrivals[0]
+        due = first + self.config.coalesce_wait - time.perf_counter()
+        return max(0, min(longest, int(due * 1e3) + 1))
 
     def take_queued(self) -> None:
         """Stop reading and process every message already received."""
@@ -146,7 +190,6 @@ class Intake:
     def remove(self, st: StreamState) -> None:
         """``st`` leaves the table (it is closing): its pending frames processed first."""
         self.flush(st)
-        self._dirty.pop(st, None)
         del self.streams[st.stream]
         self._release(st)
 
@@ -385,12 +428,15 @@ class Intake:
         st.pipeline.gaps.clear()
 
     def flush(self, st: StreamState) -> None:
+        """Run ``st``'s pipeline on the frames it holds and publish what it found."""
+        self._dirty.pop(st, None)
         if not st.pending:
             return
         arrays, arrivals = st.pending, st.arrivals
         st.pending, st.arrivals = [], []
         pos = arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
         first = st.next_seq - pos.shape[0]
+        self.n_steps += 1
         try:
             cuts, reps, bad = st.pipeline.push(pos, first)
         except Exception as err:  # never die on input: report and drop these frames

@@ -265,7 +265,7 @@ class Daemon:
                         else 100
                     )
                 )
-                events = dict(self.poller.poll(timeout))
+                events = dict(self.poller.poll(self.intake.wait_ms(timeout)))
                 now = time.monotonic()
                 if self.ingest.wake in events:
                     self.ingest.clear_wake()
@@ -505,7 +505,9 @@ class Daemon:
 
     def _totals(self) -> dict:
         intake = self.intake
-        out = dict(self.totals, packets=intake.n_packets, frames=intake.n_frames)
+        out = dict(
+            self.totals, packets=intake.n_packets, frames=intake.n_frames, steps=intake.n_steps
+        )
         p50, p99 = intake.latency.percentiles()
         out.update(
             streams=len(self.streams),

@@ -77,7 +77,7 @@ class StreamState(Stateful):
         self.reps = 0
         self.next_relabel = 0
         self.relabel_time = 0.0
-        self.pending = []  # Frames packets received in this drain, contiguous
+        self.pending = []  # Frames packets its pipeline has not had yet, contiguous
         self.arrivals = []  # perf_counter() at which each pending packet was received
         self.labels = None  # {"path", "sequence"} of human labels the announce named
         self.gap_limit = None  # limits.RateLimit of published gap events
