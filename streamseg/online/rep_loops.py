@@ -183,9 +183,10 @@ class PoseRing(Stateful):
         got = self.edge_piece_before(first, origin, share)
         return None if got is None else got[:2]
 
-    def edge_piece_before(self, first, origin, share=None):
+    def edge_piece_before(self, first, origin, share=None, amplitude=True):
         """(piece, dissimilarity, share) as :meth:`edge_before`, with the share of ``first``'s
-        moving frames the piece's aligned part moves."""
+        moving frames the piece's aligned part moves (``amplitude`` False: the piece is not
+        held to the amplitude test)."""
         a, b = first[0], first[1]
         L = self.length(first)
         need = (self.config.edge_ratio if share is None else share) * L
@@ -196,7 +197,8 @@ class PoseRing(Stateful):
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(first), S)
         amp = float(np.linalg.norm(S[j:] - S[-1], axis=1).max())
-        return self._edge_ok((int(idx[j]), a, amp), first, cost, L, idx.size - 1 - int(j), need)
+        piece = (int(idx[j]), a, amp)
+        return self._edge_ok(piece, first, cost, L, idx.size - 1 - int(j), need, amplitude)
 
     def edge_after(self, last, a, t, share=None):
         """(piece, dissimilarity) after loop ``last`` from frame ``a`` to at most ``t`` that
@@ -214,9 +216,9 @@ class PoseRing(Stateful):
         got = self._edge_ok((a, int(idx[end]), amp), last, cost, L, end, need)
         return None if got is None else got[:2]
 
-    def _edge_ok(self, piece, ref, cost, L, n, need):
+    def _edge_ok(self, piece, ref, cost, L, n, need, amplitude=True):
         cfg = self.config
-        if n < max(need, 1) or piece[2] < cfg.amplitude_ratio * ref[2]:
+        if n < max(need, 1) or (amplitude and piece[2] < cfg.amplitude_ratio * ref[2]):
             return None
         r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
         return (piece, r, n / max(L, 1)) if r <= cfg.max_dissimilarity else None

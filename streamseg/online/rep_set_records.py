@@ -44,8 +44,12 @@ class SetRecords:
             dis.insert(0, None)
         lead = 0.0
         if cfg.extend_edges:
-            piece = self._ring.edge_piece_before(loops[0], self._origin, 0.0)
-            if piece is not None and piece[2] >= cfg.edge_ratio:
+            piece = self._ring.edge_piece_before(loops[0], self._origin, 0.0, False)
+            if (
+                piece is not None
+                and piece[2] >= cfg.edge_ratio
+                and piece[0][2] >= cfg.amplitude_ratio * loops[0][2]
+            ):
                 loops.insert(0, piece[0])
                 dis[0] = piece[1]
                 dis.insert(0, None)

@@ -81,10 +81,10 @@ class StreamEnd:
                     prev = self._cands[e]
                     if prev is None:
                         continue
-                    piece = self._ring.edge_piece_before(prev, self._origin, 0.0)
+                    piece = self._ring.edge_piece_before(prev, self._origin, 0.0, False)
                     if piece is None:
                         continue
-                    if piece[2] >= cfg.edge_ratio:
+                    if piece[2] >= cfg.edge_ratio and piece[0][2] >= cfg.amplitude_ratio * prev[2]:
                         if self._alike_pair(piece[0], prev, tempo=False):
                             self._start_set(piece[0], prev, piece[1])
                             break
