@@ -80,6 +80,12 @@ def _counter_4(fields: dict) -> dict:
     return fields
 
 
+def _counter_5(fields: dict) -> dict:
+    # a set under way had no lead-in measured: its piece at the stream's end stands alone
+    fields.setdefault("_lead", 0.0)
+    return fields
+
+
 def _speeds_1(fields: dict) -> dict:
     fields.setdefault("_order", None)  # columns in the order they are computed
     return fields
@@ -99,6 +105,7 @@ MIGRATIONS = {
     (COUNTER, 2): _counter_2,
     (COUNTER, 3): _counter_3,
     (COUNTER, 4): _counter_4,
+    (COUNTER, 5): _counter_5,
     (SPEEDS, 1): _speeds_1,
 }
 

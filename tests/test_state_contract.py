@@ -156,7 +156,7 @@ STORED = {
         {"C", "SP", "Z", "_sos", "_state", "config", "cutoff", "dec", "k"},
     ),
     "streamseg.online.repetition:RepetitionCounter": (
-        5,
+        6,
         {
             "_Mm",
             "_bridge",
@@ -169,6 +169,7 @@ STORED = {
             "_idx",
             "_init",
             "_lag",
+            "_lead",
             "_na",
             "_names",
             "_now",

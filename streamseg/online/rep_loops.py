@@ -176,36 +176,49 @@ class PoseRing(Stateful):
     def _oldest(self) -> int:
         return max(0, self.k - self.C + 1)
 
-    def edge_before(self, first, origin):
+    def edge_before(self, first, origin, share=None):
         """(piece, dissimilarity) before loop ``first``, from frame ``origin`` at the earliest,
-        that aligns with it, or None."""
+        that aligns with it and moves at least ``share`` (default ``edge_ratio``) as long, or
+        None."""
+        got = self.edge_piece_before(first, origin, share)
+        return None if got is None else got[:2]
+
+    def edge_piece_before(self, first, origin, share=None, amplitude=True):
+        """(piece, dissimilarity, share) as :meth:`edge_before`, with the share of ``first``'s
+        moving frames the piece's aligned part moves (``amplitude`` False: the piece is not
+        held to the amplitude test)."""
         a, b = first[0], first[1]
         L = self.length(first)
+        need = (self.config.edge_ratio if share is None else share) * L
         lo = max(origin, a - 2 * (b - a), self._oldest())
         idx = self._moving((lo, a), self._vmax(first))
-        if idx.size - 1 < self.config.edge_ratio * L:
+        if idx.size - 1 < max(need, 1):
             return None
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(first), S)
         amp = float(np.linalg.norm(S[j:] - S[-1], axis=1).max())
-        return self._edge_ok((int(idx[j]), a, amp), first, cost, L, idx.size - 1 - int(j))
+        piece = (int(idx[j]), a, amp)
+        return self._edge_ok(piece, first, cost, L, idx.size - 1 - int(j), need, amplitude)
 
-    def edge_after(self, last, a, t):
+    def edge_after(self, last, a, t, share=None):
         """(piece, dissimilarity) after loop ``last`` from frame ``a`` to at most ``t`` that
-        aligns with it, or None."""
+        aligns with it and moves at least ``share`` (default ``edge_ratio``) as long, or
+        None."""
         L = self.length(last)
+        need = (self.config.edge_ratio if share is None else share) * L
         idx = self._moving((a, min(t, a + 2 * (last[1] - last[0]))), self._vmax(last))
-        if idx.size - 1 < self.config.edge_ratio * L:
+        if idx.size - 1 < max(need, 1):
             return None
         S = self.Z[idx % self.C]
         cost, j = K.edge_dtw(self._mrows(last)[::-1].copy(), S[::-1].copy())
         end = S.shape[0] - 1 - int(j)
         amp = float(np.linalg.norm(S[: end + 1] - S[0], axis=1).max())
-        return self._edge_ok((a, int(idx[end]), amp), last, cost, L, end)
+        got = self._edge_ok((a, int(idx[end]), amp), last, cost, L, end, need)
+        return None if got is None else got[:2]
 
-    def _edge_ok(self, piece, ref, cost, L, n):
+    def _edge_ok(self, piece, ref, cost, L, n, need, amplitude=True):
         cfg = self.config
-        if n < cfg.edge_ratio * L or piece[2] < cfg.amplitude_ratio * ref[2]:
+        if n < max(need, 1) or (amplitude and piece[2] < cfg.amplitude_ratio * ref[2]):
             return None
         r = float(cost / max(0.5 * (piece[2] + ref[2]), 1e-12))
-        return (piece, r) if r <= cfg.max_dissimilarity else None
+        return (piece, r, n / max(L, 1)) if r <= cfg.max_dissimilarity else None

@@ -46,7 +46,10 @@ class StreamEnd:
             if r is not None and r <= cfg.max_dissimilarity:
                 self._add(loop, r)
             elif cfg.extend_edges:
-                piece = self._ring.edge_after(self._last(), int(self._st[0, 0]), t)
+                # with the set's uncounted lead-in, the piece makes one repetition the
+                # counter's phase cut in two
+                share = max(0.0, cfg.edge_ratio - self._lead) if self._lead else None
+                piece = self._ring.edge_after(self._last(), int(self._st[0, 0]), t, share)
                 if piece is not None:
                     self._add(*piece)
             self._end_set("end")
@@ -78,9 +81,18 @@ class StreamEnd:
                     prev = self._cands[e]
                     if prev is None:
                         continue
-                    piece = self._ring.edge_before(prev, self._origin)
-                    if piece is not None and self._alike_pair(piece[0], prev, tempo=False):
-                        self._start_set(piece[0], prev, piece[1])
+                    piece = self._ring.edge_piece_before(prev, self._origin, 0.0, False)
+                    if piece is None:
+                        continue
+                    if piece[2] >= cfg.edge_ratio and piece[0][2] >= cfg.amplitude_ratio * prev[2]:
+                        if self._alike_pair(piece[0], prev, tempo=False):
+                            self._start_set(piece[0], prev, piece[1])
+                            break
+                        continue
+                    # too short alone: with the piece after the loop, one repetition
+                    after = self._ring.edge_after(prev, e, t, cfg.edge_ratio - piece[2])
+                    if after is not None and self._alike_pair(prev, after[0], tempo=False):
+                        self._start_set(prev, *after)
                         break
             self._end_set("end")
         return flushed + self._events
