@@ -17,6 +17,7 @@ Exit code 1 when any did. Tests never depend on these timings.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import subprocess
@@ -107,6 +108,13 @@ def main(argv=None) -> int:
     commit = subprocess.run(
         ["git", "rev-parse", "HEAD"], cwd=HERE, check=True, capture_output=True, text=True
     ).stdout.strip()
+    if not args.no_run and importlib.util.find_spec("asv") is None:
+        print(
+            "speed.py: asv is not installed in this environment: pip install -e '.[bench]' "
+            "(or pip install asv), or --no-run to compare the recorded results only",
+            file=sys.stderr,
+        )
+        return 2
     if not args.no_run:
         asv("machine", "--machine", MACHINE, "--yes")
         asv(

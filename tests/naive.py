@@ -778,3 +778,73 @@ def naive_identical_merged(starts, ends, labels, frame_ids):
             counts[at] += 1
     keep = np.asarray(keep, dtype=np.int64)
     return starts[keep], ends[keep], labels[keep], np.asarray(counts, dtype=np.int64)
+
+
+# --- AMC reading ------------------------------------------------------------------
+
+
+def naive_amc_values(body: bytes, layout):
+    """The frames of an AMC body by ``str.split`` and ``float``: ``(n_frames, n_values)``,
+    or None unless every frame is its number then each ``(bone, n)`` of ``layout`` with n
+    numbers, the numbers counting up by one."""
+    tokens = body.decode("latin-1").split()
+    width = 1 + sum(1 + n for _, n in layout)
+    if not tokens or len(tokens) % width:
+        return None
+    rows, previous = [], None
+    for f in range(len(tokens) // width):
+        frame = tokens[f * width : (f + 1) * width]
+        try:
+            number = int(frame[0])
+        except ValueError:
+            return None
+        if previous is not None and number != previous + 1:
+            return None
+        previous, row, pos = number, [], 1
+        for name, n in layout:
+            if frame[pos] != name:
+                return None
+            try:
+                row += [float(w) for w in frame[pos + 1 : pos + 1 + n]]
+            except ValueError:
+                return None
+            pos += 1 + n
+        rows.append(row)
+    return np.array(rows, dtype=float).reshape(len(rows), width - 1 - len(layout))
+
+
+def naive_acclaim_pose(skel, layout, values, unit):
+    """Acclaim forward kinematics with numpy matrix products, bone by bone:
+    ``R = R_parent @ C @ M @ C.T`` (``M`` the dof rotations, first listed applied first),
+    end point = parent's end point + ``R @ (direction * length)``; the root at its ASF
+    position plus its translations (inches / length scale, as metres)."""
+    from streamseg.skeleton.rotations import euler_to_matrix
+
+    n = values.shape[0]
+    to_rad = np.pi / 180.0 if unit == "deg" else 1.0
+    channels, col = {}, 0
+    for name, width in layout:
+        channels[name] = values[:, col : col + width]
+        col += width
+    positions = np.zeros((n, len(skel.bones), 3))
+    rotations = np.zeros((n, len(skel.bones), 3, 3))
+    for i, bone in enumerate(skel.bones):
+        vals = channels.get(bone.name)
+        axes, angles, trans = "", [], np.zeros((n, 3))
+        for c, dof in enumerate(bone.dof if vals is not None else ()):
+            if dof[0] == "r":
+                axes += dof[1]
+                angles.append(vals[:, c] * to_rad)
+            elif dof[0] == "t":
+                trans[:, "xyz".index(dof[1])] = vals[:, c] / skel.length_scale * 0.0254
+        m = euler_to_matrix(np.stack(angles, axis=1), axes) if axes else np.eye(3)
+        c_mat = euler_to_matrix(bone.axis[None, :], bone.axis_order)[0]
+        local = c_mat @ m @ c_mat.T
+        p = skel.parents[i]
+        if p < 0:
+            rotations[:, i] = local
+            positions[:, i] = trans + skel.root_position
+        else:
+            rotations[:, i] = rotations[:, p] @ local
+            positions[:, i] = positions[:, p] + rotations[:, i] @ (bone.direction * bone.length)
+    return positions, rotations

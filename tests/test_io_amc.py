@@ -181,3 +181,77 @@ def test_compressed_npz_reads_eagerly(tmp_path, cmu86):
     assert not isinstance(back.rotations, np.memmap)
     np.testing.assert_array_equal(back.rotations, cmu86.rotations[:50])
     np.testing.assert_array_equal(back.positions, cmu86.positions[:50])
+
+
+def _body_and_layout(path, asf):
+    """An AMC file's text from its first frame number on, and its bone layout."""
+    from streamseg.io import amc
+    from streamseg.io._text import read_text
+
+    skel = read_asf(asf)
+    lines = read_text(path).split("\n")
+    first, _ = amc._header_end(lines)
+    known = {b.name: len(b.dof) for b in skel.bones}
+    layout = []
+    for line in lines[first + 1 :]:
+        words = line.split()
+        if len(words) == 1 and words[0].isdigit():
+            break
+        if words and words[0] in known and words[0] not in dict(layout):
+            layout.append((words[0], known[words[0]]))
+    return "\n".join(lines[first:]).encode("latin-1"), layout, skel
+
+
+@pytest.mark.parametrize(
+    "take, asf",
+    [
+        ("cmu86/86_01.amc.gz", "cmu86/86.asf"),
+        ("hdm05_reps/squat1Reps/HDM_bd_squat1Reps_001_120.amc.gz", "hdm05_reps/asf/HDM_bd.asf"),
+    ],
+)
+def test_frame_kernel_and_pose_kernel_equal_their_naive_twins(data_dir, take, asf):
+    """The one-pass parse gives the very doubles ``float`` gives; the pose kernel the numpy
+    matrix products (to rounding: numpy's products are BLAS calls)."""
+    from streamseg.io import amc
+    from tests.naive import naive_acclaim_pose, naive_amc_values
+
+    body, layout, skel = _body_and_layout(data_dir / take, data_dir / asf)
+    values = amc._parse_fast(body, layout)
+    np.testing.assert_array_equal(values, naive_amc_values(body, layout))
+    pos, rot = amc.pose(skel, layout, values, skel.angle_unit)
+    want_pos, want_rot = naive_acclaim_pose(skel, layout, values, skel.angle_unit)
+    np.testing.assert_allclose(pos, want_pos, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rot, want_rot, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        (b" 17.3866 ", b" 1.73866e+001 "),  # an exponent
+        (b" 17.3866 ", b" +17.38660 "),  # a sign, a trailing zero
+        (b" 17.3866 ", b" 1.7386600000000001e1 "),  # 17 digits: float's own rounding
+        (b" 17.3866 ", b" 1.73866e-30 "),  # beyond an exact power of ten
+        (b" 17.3866 ", b" nan "),  # float reads it; the one-pass parse does not
+        (b"\n2\n", b"\n+2\n"),  # a signed frame number
+        (b" 17.3866 ", b"\t17.3866\xa0"),  # a Latin-1 no-break space
+    ],
+)
+def test_every_spelling_of_a_number_reads_as_float_reads_it(tmp_path, data_dir, old, new):
+    """Whether the one-pass parse takes a file or leaves it to the line-by-line reader, the
+    frames are the numbers ``float`` reads."""
+    from streamseg.io import amc
+    from tests.naive import naive_amc_values
+
+    raw = gzip.decompress((data_dir / "cmu86/86_01.amc.gz").read_bytes()).replace(b"\r\n", b"\n")
+    head = b"\n".join(raw.split(b"\n")[: 3 + 30 * 3]) + b"\n"
+    assert old in head
+    changed = head.replace(old, new, 1)
+    f = tmp_path / "x.amc"
+    f.write_bytes(changed)
+    body, layout, skel = _body_and_layout(f, data_dir / "cmu86/86.asf")
+    want = naive_amc_values(body.replace(b"\xa0", b" "), layout)
+    assert want is not None and want.shape == (3, 62)
+    rec = read(f, skeleton=data_dir / "cmu86/86.asf")
+    np.testing.assert_array_equal(
+        rec.positions, amc.pose(skel, layout, want, skel.angle_unit)[0], strict=True
+    )

@@ -81,3 +81,20 @@ def test_nothing_recorded_flags_nothing(tmp_path):
     new = speed.load(_result(tmp_path / "b.json", "bbb", 2, {"misc.track_help": 0.1}))
     rows, worse = speed.compare(new, None, {"misc.track_help": "s"})
     assert worse == [] and rows[0][4] is None
+
+
+def test_without_asv_it_says_how_to_install_it_in_one_line():
+    """An interpreter without site-packages (``-S``) has no asv: one line, no traceback."""
+    import subprocess
+    import sys
+
+    run = subprocess.run(
+        [sys.executable, "-I", "-S", str(SPEED), "--bench", "nothing"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2
+    assert "Traceback" not in run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "pip install" in lines[0] and "asv" in lines[0]

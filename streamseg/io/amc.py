@@ -33,32 +33,65 @@ def _header_end(lines: list[str]) -> tuple[int, str | None]:
     return len(lines), unit
 
 
-def _parse_fast(body: str, layout: list[tuple[str, int]]) -> np.ndarray | None:
+#: lines split off a file's text to find its header's end and its first frame's layout
+_HEAD_LINES = 4096
+
+
+def _head(lines: list[str], known: dict) -> tuple[int, str | None, list, bool]:
+    """The first frame-number line, the header's angle unit, the first frame's layout
+    ``[(bone, n_values)]``, and whether the next frame-number line (or the end) was seen."""
+    first, unit = _header_end(lines)
+    layout = []
+    for idx in range(first + 1, len(lines)):
+        words = lines[idx].split()
+        if not words:
+            continue
+        if len(words) == 1 and words[0].isdigit():
+            return first, unit, layout, True
+        if words[0] in known and words[0] not in dict(layout):
+            layout.append((words[0], len(known[words[0]])))
+    return first, unit, layout, False
+
+
+def _parse_fast(body: bytes, layout: list[tuple[str, int]]) -> np.ndarray | None:
     """All frames at once when every frame follows ``layout``; None when anything is off.
+
+    One pass over the bytes (:mod:`streamseg._kernels.amc_text`): plain ASCII whose tokens
+    sit where ``layout`` puts them, frame numbers counting up by one, every value a decimal
+    number it converts exactly as ``float`` does. Anything else (non-ASCII bytes, ``nan``,
+    more than 15 significant digits, a misplaced or misspelt bone) is left to the
+    line-by-line reader, which gives the same numbers or names the line.
 
     Returns
     -------
     ndarray, shape (n_frames, n_values) or None
     """
-    tokens = body.split()
-    width = 1 + sum(1 + n for _, n in layout)
-    if not tokens or len(tokens) % width:
-        return None
-    n_frames = len(tokens) // width
-    pos, value_cols = 1, []
+    from streamseg._kernels import amc_text
+
+    buf = np.frombuffer(body, dtype=np.uint8)
+    kinds, starts, lengths, names = [amc_text.FRAME], [0], [0], b""
     for name, n in layout:
-        if tokens[pos::width] != [name] * n_frames:
-            return None
-        value_cols.extend(range(pos + 1, pos + 1 + n))
-        pos += 1 + n
-    try:
-        numbers = np.array(tokens[0::width], dtype=np.int64)
-        values = np.array([tokens[c::width] for c in value_cols], dtype=np.float64).T
-    except ValueError:
+        word = name.encode("latin-1")
+        kinds += [amc_text.NAME] + [amc_text.VALUE] * n
+        starts += [len(names)] + [0] * n
+        lengths += [len(word)] + [0] * n
+        names += word
+    width = len(kinds)
+    n_tokens = amc_text.count_tokens(buf)
+    if n_tokens <= 0 or n_tokens % width:
         return None
-    if np.any(np.diff(numbers) != 1):
-        return None
-    return values.reshape(n_frames, len(value_cols))
+    n_frames = n_tokens // width
+    out = np.empty((n_frames, width - 1 - len(layout)))
+    failed = amc_text.parse_frames(
+        buf,
+        np.array(kinds, dtype=np.int64),
+        np.array(starts, dtype=np.int64),
+        np.array(lengths, dtype=np.int64),
+        np.frombuffer(names, dtype=np.uint8),
+        n_frames,
+        out,
+    )
+    return out if failed < 0 else None
 
 
 def _parse_checked(path, lines, first, layout, known):
@@ -168,47 +201,58 @@ def pose(skel: AcclaimSkeleton, layout, values: np.ndarray, unit: str):
 
     Each bone's world rotation is ``R_parent @ C @ M @ C.T`` with ``C`` the ASF ``axis``
     frame and ``M`` the frame's dof rotation (channels applied in the order listed); its end
-    point is the parent's end point plus ``R @ (direction * length)``.
+    point is the parent's end point plus ``R @ (direction * length)``. The root's end point
+    is the ASF root position plus its translation channels. Bones the file gives no values
+    for keep ``M = I``.
 
     Returns
     -------
     positions : ndarray, shape (n_frames, n_bones, 3), metres
     rotations : ndarray, shape (n_frames, n_bones, 3, 3)
     """
-    n = values.shape[0]
-    to_rad = np.pi / 180.0 if unit == "deg" else 1.0
-    channels, col = {}, 0
+    from streamseg._kernels.kinematics import IGNORED, TRANSLATION, pose_frames
+
+    n, n_bones = values.shape[0], len(skel.bones)
+    start, col = {}, 0
     for name, width in layout:
-        channels[name] = values[:, col : col + width]
+        start[name] = col
         col += width
-    n_bones = len(skel.bones)
-    positions = np.zeros((n, n_bones, 3))
-    rotations = np.zeros((n, n_bones, 3, 3))
+    if values.shape[1] != col:
+        raise ValueError(f"values of {values.shape[1]} channels for a layout of {col}")
+    most = max([len(bone.dof) for bone in skel.bones] + [1])
+    kinds = np.full((n_bones, most), -1, dtype=np.int64)
+    cols = np.zeros((n_bones, most), dtype=np.int64)
     for i, bone in enumerate(skel.bones):
-        vals = channels.get(bone.name)
-        rot_axes, rot_cols, trans = [], [], np.zeros((n, 3))
+        if bone.name not in start:
+            continue
         for c, dof in enumerate(bone.dof):
-            if vals is None:
-                break
             if dof[0] == "r":
-                rot_axes.append(dof[1])
-                rot_cols.append(vals[:, c] * to_rad)
+                kinds[i, c] = "xyz".index(dof[1])
             elif dof[0] == "t":
-                trans[:, "xyz".index(dof[1])] = vals[:, c] / skel.length_scale * INCH_M
-        m = (
-            euler_to_matrix(np.stack(rot_cols, axis=1), "".join(rot_axes))
-            if rot_axes
-            else np.broadcast_to(np.eye(3), (n, 3, 3))
-        )
-        c_mat = euler_to_matrix(bone.axis[None, :], bone.axis_order)[0]
-        local = c_mat @ m @ c_mat.T
-        p = skel.parents[i]
-        if p < 0:
-            rotations[:, i] = local
-            positions[:, i] = trans + skel.root_position
-        else:
-            rotations[:, i] = rotations[:, p] @ local
-            positions[:, i] = positions[:, p] + rotations[:, i] @ (bone.direction * bone.length)
+                kinds[i, c] = TRANSLATION + "xyz".index(dof[1])
+            else:
+                kinds[i, c] = IGNORED
+            cols[i, c] = start[bone.name] + c
+    frames = np.array(
+        [euler_to_matrix(bone.axis[None, :], bone.axis_order)[0] for bone in skel.bones]
+    ).reshape(n_bones, 3, 3)
+    offsets = np.array([bone.direction * bone.length for bone in skel.bones]).reshape(n_bones, 3)
+    positions = np.empty((n, n_bones, 3))
+    rotations = np.empty((n, n_bones, 3, 3))
+    pose_frames(
+        np.ascontiguousarray(values, dtype=np.float64),
+        np.array(skel.parents, dtype=np.int64),
+        kinds,
+        cols,
+        frames,
+        offsets,
+        np.asarray(skel.root_position, dtype=np.float64),
+        np.pi / 180.0 if unit == "deg" else 1.0,
+        float(skel.length_scale),
+        INCH_M,
+        positions,
+        rotations,
+    )
     return positions, rotations
 
 
@@ -242,26 +286,24 @@ def read_amc(path, skeleton=None, *, lenient: bool = False, fps: float | None = 
             "the subject's ASF: pass --skeleton FILE.asf (e.g. data/cmu86/86.asf)",
         )
     skel = skeleton if isinstance(skeleton, AcclaimSkeleton) else read_asf(skeleton)
-    lines = read_text(path).split("\n")
-    first, unit = _header_end(lines)
-    unit = unit or skel.angle_unit
+    text = read_text(path)
     known = {b.name: b.dof for b in skel.bones}
-    layout = []
-    for idx in range(first + 1, len(lines)):
-        words = lines[idx].split()
-        if not words:
-            continue
-        if len(words) == 1 and words[0].isdigit():
-            break
-        if words[0] in known and words[0] not in dict(layout):
-            layout.append((words[0], len(known[words[0]])))
+    # the header and the first frame are all the one-pass parse needs as lines
+    lines = text.split("\n", _HEAD_LINES)
+    first, unit, layout, ended = _head(lines, known)
+    if not ended and len(lines) > _HEAD_LINES:
+        lines = text.split("\n")
+        first, unit, layout, ended = _head(lines, known)
+    unit = unit or skel.angle_unit
     if first >= len(lines) or not layout:
         raise RecordingError(
             path, first + 1, "no frames", "a frame number line followed by one line per bone"
         )
-    values = _parse_fast("\n".join(lines[first:]), layout)
+    offset = sum(len(line) + 1 for line in lines[:first])
+    values = _parse_fast(text[offset:].encode("latin-1"), layout)
     if values is not None:
         return _recording(path, skel, layout, values, unit, fps, [])
+    lines = text.split("\n")
     try:
         values = _parse_checked(path, lines, first, layout, known)
     except TruncatedRecordingError as err:

@@ -34,7 +34,7 @@ ACA_SEGMENTS = (
 )
 
 
-def local_rotations(rotations: np.ndarray, parents) -> np.ndarray:
+def local_rotations(rotations: np.ndarray, parents, joints=None) -> np.ndarray:
     """Rotation of each joint relative to its parent: ``R_parent.T @ R_joint``.
 
     Parameters
@@ -42,15 +42,19 @@ def local_rotations(rotations: np.ndarray, parents) -> np.ndarray:
     rotations : ndarray, shape (n_frames, n_joints, 3, 3)
         Global rotations.
     parents : ndarray of int, shape (n_joints,)
+    joints : sequence of int, optional
+        The joints wanted (default: all); only their products are computed.
 
     Returns
     -------
-    ndarray, shape (n_frames, n_joints, 3, 3); the root keeps its global rotation.
+    ndarray, shape (n_frames, len(joints), 3, 3); the root keeps its global rotation.
     """
     parents = np.asarray(parents)
-    out = rotations.copy()
-    child = np.flatnonzero(parents >= 0)
-    out[:, child] = np.swapaxes(rotations[:, parents[child]], -1, -2) @ rotations[:, child]
+    joints = np.arange(rotations.shape[1]) if joints is None else np.asarray(joints)
+    out = rotations[:, joints]  # fancy indexing: a copy
+    of = parents[joints]
+    child = np.flatnonzero(of >= 0)
+    out[:, child] = np.swapaxes(rotations[:, of[child]], -1, -2) @ rotations[:, joints[child]]
     return out
 
 
@@ -68,7 +72,7 @@ def joint_quaternions(recording, segments=ACA_SEGMENTS) -> np.ndarray:
             "use streamseg.skeleton.body_features for position-only streams"
         )
     idx = resolve(recording.skeleton.names, segments, SEGMENTS)
-    local = local_rotations(recording.rotations, recording.skeleton.parents)[:, idx]
+    local = local_rotations(recording.rotations, recording.skeleton.parents, idx)
     return continuous_hemisphere(matrix_to_quaternion(local))
 
 
