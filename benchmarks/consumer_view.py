@@ -21,7 +21,12 @@ of the true one:
 
 F1 per recording from these, then the mean over recordings per set. ``latency``: per true
 boundary that a cut event (any ``cut``, provisional or not) matched within the tolerance, the
-stream time from the true boundary to the first such cut's emission; median over all.
+stream time from the true boundary to the first such cut's emission (negative when the cut
+came before the labelled frame), median over all; ``lag``: that cut's decision lag, from its
+frame to its emission (``emitted_at - frame``). ``pending``: the detector's pending cuts
+(two-stage decision or onset rule), and in brackets those within the tolerance of a true
+boundary; ``near``: the share of the take's frames within the tolerance of one (the share
+of pending cuts a detector placing them at random would have there).
 
 The events come from the daemon's own per-stream code run in this process on stream time,
 without sockets or a wall clock (``--source sim``, the default): the recording goes in
@@ -43,7 +48,6 @@ Run: .venv/bin/python benchmarks/consumer_view.py [--sets cmu,cmu02,hdm,heldout]
 from __future__ import annotations
 
 import argparse
-import bisect
 import json
 import statistics
 import sys
@@ -51,11 +55,10 @@ import threading
 import time
 from types import SimpleNamespace
 
-import numpy as np
 from _common import labelled, markdown_table
 
-DELAYS = (1.0, 3.0, 10.0)
-
+# the view and its scores; view_tradeoff and view_breakdown read them through this module
+from view_scores import DELAYS, _triples, score_view, view_at  # noqa: F401
 
 # --- the events -------------------------------------------------------------------------------
 
@@ -82,11 +85,22 @@ LOF_OPTIONS = {
     "refine": "refine_s",
     "step": "step_s",
     "k": "k",
+    "onset": "onset_mads",
+    "onset-rises": "onset_rises",
+    "onset-lead": "onset_lead_s",
+    "onset-gap": "onset_gap_s",
 }
 
 
 def _lof_overrides(args) -> dict:
-    return {f: getattr(args, o) for o, f in LOF_OPTIONS.items() if getattr(args, o) is not None}
+    over = {
+        f: getattr(args, o.replace("-", "_"))
+        for o, f in LOF_OPTIONS.items()
+        if getattr(args, o.replace("-", "_")) is not None
+    }
+    if over.get("onset_mads") == 0:  # `--onset 0`: no onset rule (one stage)
+        over["onset_mads"] = None
+    return over
 
 
 def _settle_kw(args) -> dict:
@@ -411,129 +425,6 @@ def _serve_flags(args) -> list:
     return flags
 
 
-# --- the view ---------------------------------------------------------------------------------
-
-
-class Views:
-    """The view after each event, looked up by time (``events`` sorted by time)."""
-
-    def __init__(self, events, cuts_only=False):
-        self.times = [t for t, _ in events]
-        self.views = [frozenset()]
-        for i in range(len(events)):
-            if i + 1 == len(events) or self.times[i + 1] != self.times[i]:
-                self.views.append(frozenset(view_at(events[: i + 1], float("inf"), cuts_only)))
-            else:
-                self.views.append(None)
-        # the view after the last event published at or before each time
-        self.keys = [t for i, t in enumerate(self.times) if self.views[i + 1] is not None]
-        self.vals = [v for v in self.views[1:] if v is not None]
-
-    def at(self, t: float) -> frozenset:
-        i = bisect.bisect_right(self.keys, t)
-        return self.vals[i - 1] if i else frozenset()
-
-
-def view_at(events, t: float, cuts_only: bool = False) -> list:
-    """The consumer's boundaries after the events published at or before ``t`` (with
-    ``cuts_only``: of the ``cut``, ``confirm`` and ``withdraw`` events alone)."""
-    cuts: dict = {}  # frame -> settled (True: confirmed by a relabel or not provisional);
-    # a revision supersedes both kinds inside its range, as a consumer applying it does
-    revision: list = []  # sorted boundaries of the revisions
-    for when, ev in events:
-        if when > t:
-            break
-        kind = ev.type
-        if kind == "cut":
-            cuts[ev.frame] = not ev.provisional
-        elif kind == "withdraw":
-            cuts.pop(ev.frame, None)
-        elif kind == "confirm":
-            settled = getattr(ev, "settled", None)
-            if settled is not None and ev.frame in cuts:
-                del cuts[ev.frame]
-                cuts[settled] = True
-        elif kind == "segments" and not cuts_only:
-            a, b = ev.start, ev.end
-            for f in [f for f in cuts if a < f < b]:
-                del cuts[f]
-            lo, hi = bisect.bisect_right(revision, a), bisect.bisect_left(revision, b)
-            segs = _triples(ev.segments)
-            new = [int(s[0]) for p, s in zip(segs[:-1], segs[1:]) if p[2] != s[2]]
-            revision[lo:hi] = [f for f in new if a < f < b]
-    return sorted(set(revision) | set(cuts))
-
-
-def _triples(segments) -> list:
-    """``(start, end, label)`` of a ``segments`` event's list (``listen --jsonl`` writes each
-    as a map)."""
-    return [
-        (s["start"], s["end"], s["label"]) if isinstance(s, dict) else tuple(s) for s in segments
-    ]
-
-
-def _near(frames, targets, tol) -> np.ndarray:
-    """For each of ``frames``: whether one of ``targets`` lies within ``tol``."""
-    if not len(frames):
-        return np.zeros(0, dtype=bool)
-    if not len(targets):
-        return np.zeros(len(frames), dtype=bool)
-    t = np.sort(np.asarray(targets))
-    f = np.asarray(frames)
-    i = np.clip(np.searchsorted(t, f), 1, len(t) - 1) if len(t) > 1 else np.zeros(len(f), int)
-    d = np.minimum(np.abs(t[i] - f), np.abs(t[np.maximum(i - 1, 0)] - f))
-    return d <= tol
-
-
-def _f1(p, r) -> float:
-    return 0.0 if p + r == 0 else 2 * p * r / (p + r)
-
-
-def score_view(events, n, truth, fps, tol_s=1.5, cuts_only=False) -> dict:
-    """Recall, precision and F1 at each of :data:`DELAYS` and at the end; first-cut latency."""
-    events = sorted(events, key=lambda e: e[0])  # stable: publication order within a frame
-    tol = tol_s * fps
-    out = {}
-    views = Views(events, cuts_only)
-    for d in DELAYS:
-        dt = d * fps
-        rec, prec = [], []
-        for b in truth:
-            seen = sorted(views.at(b + dt))
-            rec.append(bool(_near([b], seen, tol)[0]))
-            if seen:
-                prec.append(float(np.mean(_near(seen, truth, tol))))
-        r = float(np.mean(rec)) if truth else 1.0
-        p = float(np.mean(prec)) if prec else 1.0
-        out[d] = (r, p, _f1(p, r))
-    final = view_at(events, float("inf"), cuts_only)
-    r = float(np.mean(_near(truth, final, tol))) if truth else 1.0
-    p = float(np.mean(_near(final, truth, tol))) if final else 1.0
-    out["end"] = (r, p, _f1(p, r))
-    lat = []
-    for b in truth:
-        first = [t for t, ev in events if ev.type == "cut" and abs(ev.frame - b) <= tol]
-        if first:
-            lat.append((min(first) - b) / fps)
-    out["latency"] = lat
-    out["unresolved"] = unresolved(events)
-    return out
-
-
-def unresolved(events) -> int:
-    """Provisional cuts no relabel confirmed or withdrew (a detector's own confirm of a
-    pending cut does not settle it)."""
-    open_ = set()
-    for _, ev in events:
-        if ev.type == "cut" and ev.provisional:
-            open_.add(ev.frame)
-        elif ev.type == "withdraw":
-            open_.discard(ev.frame)
-        elif ev.type == "confirm" and getattr(ev, "revision", None) is not None:
-            open_.discard(ev.frame)
-    return len(open_)
-
-
 # --- the table --------------------------------------------------------------------------------
 
 
@@ -594,7 +485,7 @@ def run(args) -> list:
         if args.verbose:
             print(
                 item.name,
-                {k: v for k, v in res.items() if k != "latency"},
+                {k: v for k, v in res.items() if k not in ("latency", "lag")},
                 file=sys.stderr,
                 flush=True,
             )
@@ -618,7 +509,7 @@ def table(rows, chosen=()) -> str:
     header = (
         ["set", "recordings"]
         + [f"{lab} {m}" for lab in ("1 s", "3 s", "10 s", "end") for m in ("R", "P", "F1")]
-        + ["latency med s", "unresolved"]
+        + ["latency med s", "lag med s", "unresolved", "pending (near a boundary)", "near"]
     )
     work = any(r["name"] in WORK for r in rows)
     if work:
@@ -638,7 +529,12 @@ def table(rows, chosen=()) -> str:
                 cells.append(f"{statistics.mean(r[key][j] for r in rs):.3f}")
         lat = [x for r in rs for x in r["latency"]]
         cells.append(f"{statistics.median(lat):.2f}" if lat else "-")
+        lag = [x for r in rs for x in r["lag"]]
+        cells.append(f"{statistics.median(lag):.2f}" if lag else "-")
         cells.append(sum(r["unresolved"] for r in rs))
+        pend = [r["pending"] for r in rs]
+        cells.append(f"{sum(p[0] for p in pend)} ({sum(p[1] for p in pend)})")
+        cells.append(f"{statistics.mean(r['near'] for r in rs):.2f}")
         if work:
             w = [WORK.get(r["name"], [[0, 0.0], [0, 0.0]]) for r in rs]
             cells.append(f"{sum(x[0][0] + x[1][0] for x in w)} ({sum(x[1][0] for x in w)})")
@@ -670,7 +566,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--interval", type=float, default=5.0)
     p.add_argument("--tolerance", type=float, default=1.5)
     for opt, field in LOF_OPTIONS.items():
-        kind = int if field == "k" else float
+        kind = int if field in ("k", "onset_rises") else float
         p.add_argument(f"--{opt}", type=kind, default=None, help=f"LOFConfig.{field}")
     p.add_argument("--settle", type=float, default=None)
     p.add_argument("--focus", type=float, default=None)

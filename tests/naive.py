@@ -452,7 +452,7 @@ def naive_lloyd(X, centres, n_iter):
     return labels, centres
 
 
-def naive_settle(pending, finals, g, n_frames):
+def naive_settle(pending, finals, g, n_frames, onset=False):
     """The two-stage detector's live events (``streamseg.daemon.cut_events.cut_kind`` kinds)
     rebuilt from its pending cuts and the one-stage detector's cuts at the confirming delay,
     each ``(frame, score, emitted_at)`` (no NaN frames: window ``s`` completes on frame
@@ -460,7 +460,9 @@ def naive_settle(pending, finals, g, n_frames):
     stage decides window ``w``, its cut confirms (same frame) or moves (another frame) the
     oldest pending cut whose window is within ``min_gap`` of ``w``, else it is a plain cut;
     then every pending cut whose window + ``min_gap`` <= ``w`` is withdrawn; then the early
-    stage's cut of window ``s - early`` is pending. Returns ``(kind, frame, emitted_at)``."""
+    stage's cut of window ``s - early`` is pending. With ``onset`` (``LOFConfig.onset_mads``)
+    a pending cut emitted on window ``s`` counts as window ``s + onset_lead``. Returns
+    ``(kind, frame, emitted_at)``."""
     win, step, delay, early, tol = (g["window"], g["step"], g["delay"], g["early"], g["min_gap"])
 
     def seq_of(f):
@@ -468,7 +470,8 @@ def naive_settle(pending, finals, g, n_frames):
         return (f - (win - 1)) // step
 
     final = {seq_of(e) - delay: f for f, _, e in finals}
-    pend = {seq_of(e) - early: f for f, _, e in pending}
+    shift = g["onset_lead"] if onset else -early
+    pend = {seq_of(e): (seq_of(e) + shift, f) for f, _, e in pending}
     out, open_ = [], []
     for s in range((n_frames - win) // step + 1):
         at, w = s * step + win - 1, s - delay
@@ -487,9 +490,48 @@ def naive_settle(pending, finals, g, n_frames):
         for p in [p for p in open_ if p[0] + tol <= w]:
             open_.remove(p)
             out.append(("withdraw", p[1], at))
-        if s - early in pend:
-            open_.append((s - early, pend[s - early]))
-            out.append(("pending", pend[s - early], at))
+        if s in pend:
+            open_.append(pend[s])
+            out.append(("pending", pend[s][1], at))
+    return out
+
+
+def naive_onset(snapshots, finals, cfg, g):
+    """The onset rule (``LOFConfig.onset_mads``) replayed on the LOF curves: ``snapshots``
+    holds, after each window ``s`` was inserted, ``(s, frames seen, curve, centres)`` (the
+    buffered windows' LOF values and centre frames, oldest first), ``finals`` the one-stage
+    cuts ``(frame, score, emitted_at)`` (no NaN frames). A pending cut on window ``s`` when
+    its LOF is at least ``min_score``, rose in each of the last ``onset_rises`` windows
+    (strictly) and reaches the median + ``onset_mads`` * 1.4826 * MAD of the curve, at least
+    ``early`` windows after the last onset and after the last final cut's window, its window
+    ``s + onset_lead`` at least ``min_gap`` after that cut's; placed at the centre of ``s`` +
+    ``onset_lead`` windows, at most the last frame seen and at least ``min_gap`` windows of
+    frames after the last final cut. Returns ``(frame, score, emitted_at)``."""
+    win, step, delay, gap, lead = g["window"], g["step"], g["delay"], g["early"], g["onset_lead"]
+    decided = [((e - (win - 1)) // step, f) for f, _, e in finals]
+    by_decision = {s: (f, s - delay) for s, f in decided}
+    none = -(1 << 40)
+    last_onset, last_w, last_f = none, none, none
+    out = []
+    for s, seen, curve, centres in snapshots:
+        if s in by_decision:  # the final stage decides first
+            last_f, last_w = by_decision[s]
+        r = cfg.onset_rises
+        if len(curve) < r + 1:
+            continue
+        if s - max(last_onset, last_w) < gap or s + lead - last_w < g["min_gap"]:
+            continue
+        y = curve[-1]
+        if y < cfg.min_score or any(curve[-1 - j] <= curve[-2 - j] for j in range(r)):
+            continue
+        if y < naive_robust_threshold(curve, cfg.onset_mads):
+            continue
+        c = min(int(centres[-1]) + lead * step, seen - 1)
+        c = max(c, last_f + g["min_gap"] * step)
+        if c >= seen:
+            continue
+        last_onset = s
+        out.append((c, float(y), s * step + win - 1))
     return out
 
 

@@ -10,7 +10,12 @@ cut; with an early stage (``p[P_EARLY] > 0``) the same three decision slots for 
 
 Two stages (``p[P_EARLY] > 0``): window ``w`` is decided twice, ``P_EARLY`` windows after it
 (an early, *pending* cut) and ``P_DELAY`` windows after it (the final decision, exactly the
-single-stage detector's, which never reads the early stage). The final stage settles each
+single-stage detector's, which never reads the early stage). With ``p[P_ONSET] > 0`` the
+early stage is the onset rule instead (:func:`_onset`): a pending cut as soon as the newest
+window's LOF has risen ``P_ONSET_RISES`` windows in a row past ``median + P_ONSET * 1.4826 *
+MAD`` of the buffered curve, before its peak is known, placed ``P_ONSET_LEAD`` windows after
+the newest window's centre (where the peak window's centre is expected); ``P_EARLY`` is then
+the number of windows after an onset before the next one. The final stage settles each
 pending cut: a final cut of a window within ``min_gap`` windows of a pending cut's window
 confirms it when the frames agree (``KIND_CONFIRM``), else withdraws it (``KIND_MOVED``) and
 is emitted as a new cut; a pending cut no final cut matched by the time the final stage has
@@ -67,7 +72,10 @@ P_MIN_GAP = 4
 P_MIN_CONTRAST = 5
 P_NOVELTY = 6
 P_EARLY = 7
-P_SIZE = 8
+P_ONSET = 8  # the onset rule's threshold, MADs (0: the early stage, if any, is the peak rule)
+P_ONSET_RISES = 9  # windows the newest LOF must have risen in a row
+P_ONSET_LEAD = 10  # windows from the newest window's centre to where the onset places its cut
+P_SIZE = 11
 # event kinds (the fourth event array)
 KIND_CUT = 0
 KIND_PENDING = 1
@@ -296,6 +304,48 @@ def decide_stage(w, hi, st, p, geo, frames, lofs, scratch, cache, early):
 
 
 @njit(cache=True, nogil=True)
+def _onset(seq, st, p, geo, lofs, scratch, cache):
+    """The onset rule on window ``seq``, just inserted: ``(cut frame, LOF, window)`` of a
+    pending cut, the frame -1 when there is none (docstring of the module). The frame is the
+    newest window's centre plus ``P_ONSET_LEAD`` windows, clipped to the frames seen, at least
+    ``min_gap`` windows of frames after the last cut of either stage; its window number
+    (``seq + lead``) is what the final stage matches it by."""
+    seqs, lof, centres = lofs[2], lofs[9], lofs[11]
+    work, curve = scratch[0], scratch[1]
+    rises, lead = int(p[P_ONSET_RISES]), int(p[P_ONSET_LEAD])
+    oldest = st[ST_NEXT_SEQ] - st[ST_BUFFERED]
+    i = seq - oldest
+    if i < rises:
+        return -1, 0.0, 0
+    # one onset per rise: the next one at least P_EARLY windows later, and none within the
+    # minimum gap of a final cut
+    last = max(st[ST_E_LAST_CUT_SEQ], st[ST_LAST_CUT_SEQ])
+    if seq - last < int(p[P_EARLY]) or seq + lead - st[ST_LAST_CUT_SEQ] < int(p[P_MIN_GAP]):
+        return -1, 0.0, 0
+    if cache[0] != st[ST_NEXT_SEQ]:
+        _curve(seqs, lof, st, curve)
+        cache[0] = st[ST_NEXT_SEQ]
+    y = curve[i]
+    if y < p[P_MIN_SCORE]:
+        return -1, 0.0, 0
+    for j in range(rises):
+        if curve[i - j] <= curve[i - j - 1]:
+            return -1, 0.0, 0
+    # the threshold last (two selections over the buffer), for the few windows still rising
+    if y < robust_threshold(curve, st[ST_BUFFERED], p[P_ONSET], work):
+        return -1, 0.0, 0
+    step = geo[GEO_STEP]
+    c = centres[seq % seqs.shape[0]] + lead * step
+    c = min(c, st[ST_FRAMES] - 1)
+    c = max(c, st[ST_LAST_CUT_FRAME] + int(p[P_MIN_GAP]) * step)
+    if c >= st[ST_FRAMES]:
+        return -1, 0.0, 0
+    st[ST_E_LAST_CUT_SEQ] = seq
+    st[ST_E_LAST_CUT_FRAME] = c
+    return c, y, seq + lead
+
+
+@njit(cache=True, nogil=True)
 def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
     """Window ``seq`` was inserted on frame ``f``: the decisions it completes."""
     w = seq - int(p[P_DELAY])
@@ -306,6 +356,15 @@ def _step(seq, st, p, geo, frames, lofs, scratch, events, pend, n_ev, f, cache):
             n_ev = _emit(events, n_ev, KIND_CUT, c, y, f, w)
         return n_ev
     n_ev = _settle(w, c, y, st, p, pend, events, n_ev, f)
+    if p.shape[0] > P_ONSET and p[P_ONSET] > 0.0:
+        c, y, we = _onset(seq, st, p, geo, lofs, scratch, cache)
+        n = st[ST_PENDING]
+        if c >= 0 and n < pend.shape[0]:
+            pend[n, 0] = we
+            pend[n, 1] = c
+            st[ST_PENDING] = n + 1
+            n_ev = _emit(events, n_ev, KIND_PENDING, c, y, f, we)
+        return n_ev
     # the early stage starts from the newest cut of either stage: it adds no pending cut
     # within the minimum gap of a final one
     if st[ST_LAST_CUT_SEQ] > st[ST_E_LAST_CUT_SEQ]:

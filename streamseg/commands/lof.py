@@ -37,6 +37,7 @@ _FIELDS = {
     "contrast": "contrast_s",
     "novelty": "novelty",
     "early_delay": "early_delay_s",
+    "onset": "onset_mads",
     "root_speed": "root_speed_max",
 }
 
@@ -89,7 +90,15 @@ def add_arguments(group) -> None:
         "its cut at once as pending, confirmed or withdrawn at --delay "
         "(the final cuts stay --delay's; with --online the JSON gives "
         "each cut's first-emission latency; default off; "
-        "benchmarks/lof_latency.py shows the trade-off)",
+        "benchmarks/lof_latency.py shows the trade-off; replaces --onset's rule)",
+    )
+    group.add_argument(
+        "--onset",
+        type=float,
+        metavar="MADS",
+        help="the onset rule: a pending cut as soon as the newest window's LOF has risen "
+        f"{_D.onset_rises} windows in a row past the median + MADS MADs, confirmed or "
+        "withdrawn at --delay (e.g. 4; default off: one stage)",
     )
     group.add_argument(
         "--threshold",
@@ -167,6 +176,8 @@ def config_from_args(args) -> LOFConfig:
     over = {f: getattr(args, o) for o, f in _FIELDS.items() if getattr(args, o, None) is not None}
     if "inclinations" in over:
         over["inclinations"] = over["inclinations"] == "on"
+    if over.get("onset_mads") == 0:
+        over["onset_mads"] = None
     if getattr(args, "preset", "default") == "paper":
         return LOFConfig.paper(**over)
     return LOFConfig(**over)
@@ -298,7 +309,7 @@ def segment(args) -> dict:
     if args.online:
         extra["cut_latency_frames"] = res["latency"]
         extra["cut_latency_s"] = [round(v / fps, 4) for v in res["latency"]]
-        if config.early_delay_s:
+        if config.two_stage:
             extra["cut_first_latency_frames"] = res["first_latency"]
             extra["cut_first_latency_s"] = [round(v / fps, 4) for v in res["first_latency"]]
             extra["withdrawn_cuts"] = res["withdrawn"]
@@ -355,7 +366,7 @@ def evaluate(args) -> dict:
             latency_max_frames=lat["max"],
             latency_median_s=lat["median"] / fps,
         )
-        if config.early_delay_s:
+        if config.two_stage:
             first = latency_stats(res["first_latency"])
             out.update(
                 first_latency_median_frames=first["median"],

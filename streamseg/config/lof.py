@@ -69,6 +69,19 @@ class LOFConfig:
         "adaptive": the threshold above; "paper": every peak vertex of the simplified curve.
     early_delay_s : float or None
         Also decide each window this early, emitted pending, settled at ``delay_s`` (None: off).
+    onset_mads : float or None
+        The onset rule (None: off; unused when ``early_delay_s`` is set, whose early stage
+        is the peak rule at that delay instead): a pending cut as soon as the
+        newest window's LOF has risen ``onset_rises`` windows in a row past the buffered
+        curve's median + ``onset_mads`` scaled MADs, before its peak is known; settled at
+        ``delay_s`` like the early stage's.
+    onset_rises : int
+        Consecutive rises of the newest window's LOF the onset rule needs.
+    onset_lead_s : float
+        Seconds after the newest window's centre where the onset rule places its cut (where
+        the peak window's centre is expected).
+    onset_gap_s : float
+        Seconds from one onset to the next.
     root_speed_max : float
         Root speed, body scales/s, mapped to the last bin of the 2 root-speed columns (0: none).
     root_jump : float
@@ -96,6 +109,10 @@ class LOFConfig:
     novelty: float = 0.15
     peak_rule: str = "adaptive"
     early_delay_s: float | None = None
+    onset_mads: float | None = None
+    onset_rises: int = 3
+    onset_lead_s: float = 0.4
+    onset_gap_s: float = 1.0
     root_speed_max: float = 3.0
     root_jump: float = 20.0
 
@@ -176,6 +193,23 @@ class LOFConfig:
             or (isinstance(e, numbers.Real) and not isinstance(e, bool) and 0 <= e < self.delay_s),
             "None or 0 (one stage) or a delay >= 0 and < delay_s seconds",
         )
+        o = self.onset_mads
+        _check(
+            "onset_mads",
+            o,
+            o is None or (isinstance(o, numbers.Real) and not isinstance(o, bool) and 0 < o < 100),
+            "None (off) or a number of MADs > 0",
+        )
+        _check(
+            "onset_rises",
+            self.onset_rises,
+            isinstance(self.onset_rises, int)
+            and not isinstance(self.onset_rises, bool)
+            and 1 <= self.onset_rises <= 20,
+            "an integer number of windows in [1, 20]",
+        )
+        _check("onset_lead_s", self.onset_lead_s, 0 <= self.onset_lead_s <= 5, "0-5 seconds")
+        _check("onset_gap_s", self.onset_gap_s, 0 < self.onset_gap_s <= 10, "0-10 seconds")
 
     @property
     def n_features(self) -> int:
@@ -197,6 +231,17 @@ class LOFConfig:
         all but the root speeds and their speeds (see :func:`streamseg.online.speed_features.
         lof_columns` for the order)."""
         return self.histogram_columns(n_features - self.root_columns)
+
+    @property
+    def onset_on(self) -> bool:
+        """Whether the early stage is the onset rule (``onset_mads`` set, no
+        ``early_delay_s``)."""
+        return self.onset_mads is not None and not self.early_delay_s
+
+    @property
+    def two_stage(self) -> bool:
+        """Whether the detector emits pending cuts (the early stage or the onset rule)."""
+        return bool(self.early_delay_s) or self.onset_on
 
     @classmethod
     def paper(cls, **overrides) -> LOFConfig:
@@ -222,6 +267,7 @@ class LOFConfig:
             k=20,
             exclusion=0.0,
             refine_s=0.0,
+            onset_mads=None,
             inclinations=False,
             min_contrast=0.0,
             speed_max=0.0,
@@ -261,6 +307,10 @@ class LOFConfig:
                 f"early_delay_s={self.early_delay_s!r} is {early} windows at {fps:g} Hz, not "
                 f"fewer than delay_s's {delay}: lower early_delay_s or raise delay_s"
             )
+        onset_lead = 0
+        if self.onset_on:  # the onset rule: early is the windows between onsets
+            early = max(1, int(round(self.onset_gap_s * fps / step)))
+            onset_lead = int(round(self.onset_lead_s * fps / step))
         # the peak rule needs delay windows on both sides of the window it decides
         capacity = max(self.k + 2, 2 * delay + 1, int(round(self.buffer_s * fps / step)))
         refine = int(round(self.refine_s * fps))
@@ -295,6 +345,7 @@ class LOFConfig:
             capacity=capacity,
             delay=delay,
             early=early,
+            onset_lead=onset_lead,
             min_gap=int(round(self.min_gap_s * fps / step)),
             exclusion=int(round(self.exclusion * window)),
             min_valid=max(1, math.ceil(self.min_valid * window - 1e-9)),

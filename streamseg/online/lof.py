@@ -124,6 +124,9 @@ class StreamingLOFSegmenter(Stateful):
                 c.min_contrast,
                 c.novelty,
                 g["early"],
+                c.onset_mads if c.onset_on else 0.0,
+                c.onset_rises,
+                g["onset_lead"],
             ],
             dtype=np.float64,
         )
@@ -149,7 +152,8 @@ class StreamingLOFSegmenter(Stateful):
         # the pending early cuts (window, frame): they lie within delay - early + min_gap
         # windows of the window the final stage decides next
         self._pend = np.zeros(
-            (g["delay"] + g["min_gap"] + 2 if g["early"] else 0, 2), dtype=np.int64
+            (g["delay"] + g["min_gap"] + g["onset_lead"] + 2 if g["early"] else 0, 2),
+            dtype=np.int64,
         )
         self._allocate_derived()
 
